@@ -1,0 +1,41 @@
+//! # videt-hal — device capabilities of the VIDET haptic interface
+//!
+//! One module per device capability. Each capability is a trait over an [`ErrorType`] whose
+//! error exposes an [`ErrorKind`] the caller can act on (the embedded-hal 1.0 pattern). This crate
+//! holds traits and plain data only: no I/O, no allocation in the real-time methods' contracts.
+//!
+//! Units are SI everywhere (metres, newtons, newton-metres, seconds, radians); names carry the
+//! unit (`tension_n`, `torque_nm`, `position_counts`).
+//!
+//! Real-time contract: methods marked **RT** may be called from the control thread every cycle.
+//! They must not allocate, lock, log with formatting or block (bus I/O excepted). Methods marked
+//! **non-RT** may block and allocate.
+#![forbid(unsafe_code)]
+#![no_std]
+#![warn(missing_docs)]
+
+extern crate alloc;
+
+pub mod camera;
+pub mod clock;
+pub mod drive;
+pub mod error;
+pub mod estop;
+pub mod lifecycle;
+pub mod tension;
+pub mod vibro;
+
+pub use camera::{GrayFrame, RgbFrame, StereoCamera, StereoFrame};
+pub use clock::{Clock, MonoTime};
+pub use drive::{DriveSample, DriveState, Transmission, WireDrives};
+pub use error::{Error, ErrorKind, ErrorType};
+pub use estop::EStop;
+pub use lifecycle::{Lifecycle, LifecycleState};
+pub use tension::TensionSensors;
+pub use vibro::Vibrotactors;
+
+/// Number of wires of the device (three wires converging on the thimble).
+pub const WIRES: usize = 3;
+
+/// Number of vibrotactors (one per colour channel: red, green, blue).
+pub const VIBROTACTORS: usize = 3;
