@@ -53,8 +53,9 @@ pub fn find_chessboard(
     {
         return None;
     }
-    let raw = FloatImage::from_gray(width, height, pixels);
-    let smooth = raw.smoothed();
+    // Corners are located and refined on the lightly smoothed image: the [1 2 1] kernel makes
+    // the central-difference gradients of the refinement less sensitive to edge orientation.
+    let smooth = FloatImage::from_gray(width, height, pixels).smoothed();
     for radius in RESPONSE_RADII {
         let response = chess_response(&smooth, radius);
         let max = response.iter().copied().fold(0.0f32, f32::max);
@@ -64,7 +65,7 @@ pub fn find_chessboard(
         let mut candidates = local_maxima(&response, width, height, 3, 0.02 * max);
         candidates.truncate(MAX_CANDIDATES);
         if let Some(corners) = find_grid(&smooth, &candidates, size) {
-            return Some(refine_all(&raw, corners, size));
+            return Some(refine_all(&smooth, corners, size));
         }
     }
     None
@@ -382,4 +383,127 @@ fn canonical_order(img: &FloatImage, pts: Vec<[f64; 2]>, size: BoardSize) -> Cor
         options.sort_by(|a, b| (a[0][0] + a[0][1]).total_cmp(&(b[0][0] + b[0][1])));
     }
     options.into_iter().next().unwrap_or(pts)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::calib::geometry::apply_homography;
+    use nalgebra::Matrix3;
+
+    /// Render a chessboard of `size` inner corners, one unit per square, through the plane-to-image
+    /// homography `h` (3x3 supersampling). Board squares: the square between inner corners
+    /// (0,0)..(1,1) is dark. A one-square white margin, grey background.
+    pub(crate) fn render_board(
+        size: BoardSize,
+        h: &Matrix3<f64>,
+        width: usize,
+        height: usize,
+    ) -> Vec<u8> {
+        let h_inv = h.try_inverse().expect("invertible");
+        let mut px = vec![0u8; width * height];
+        for y in 0..height {
+            for x in 0..width {
+                let mut acc = 0.0f64;
+                for sy in 0..3 {
+                    for sx in 0..3 {
+                        let u = x as f64 + (sx as f64 + 0.5) / 3.0 - 0.5;
+                        let v = y as f64 + (sy as f64 + 0.5) / 3.0 - 0.5;
+                        let [bx, by] = apply_homography(&h_inv, [u, v]);
+                        // Squares span [-1, cols] x [-1, rows]; margin of one more square.
+                        let (c, r) = ((bx + 1.0).floor(), (by + 1.0).floor());
+                        let inside_squares =
+                            c >= 0.0 && r >= 0.0 && c <= size.cols as f64 && r <= size.rows as f64;
+                        let inside_margin = bx > -2.0
+                            && by > -2.0
+                            && bx < size.cols as f64 + 1.0
+                            && by < size.rows as f64 + 1.0;
+                        acc += if inside_squares {
+                            if (c + r) as i64 % 2 == 0 {
+                                35.0
+                            } else {
+                                215.0
+                            }
+                        } else if inside_margin {
+                            215.0
+                        } else {
+                            120.0
+                        };
+                    }
+                }
+                px[y * width + x] = (acc / 9.0).round() as u8;
+            }
+        }
+        px
+    }
+
+    fn perspective() -> Matrix3<f64> {
+        // Squares of about 24 px, tilted and in perspective.
+        Matrix3::new(24.0, 5.0, 110.0, -4.0, 25.0, 100.0, 0.0005, 0.0007, 1.0)
+    }
+
+    #[test]
+    fn synthetic_board_corners_are_found_in_order_within_a_tenth_of_a_pixel() {
+        let size = BoardSize { cols: 9, rows: 6 };
+        let h = perspective();
+        let (w, hgt) = (400, 330);
+        let img = render_board(size, &h, w, hgt);
+        let corners = find_chessboard(w, hgt, &img, size).expect("board found");
+        assert_eq!(corners.len(), 54);
+        let mut worst: f64 = 0.0;
+        for r in 0..size.rows {
+            for c in 0..size.cols {
+                let truth = apply_homography(&h, [c as f64, r as f64]);
+                worst = worst.max(dist(corners[r * size.cols + c], truth));
+            }
+        }
+        eprintln!("synthetic board: worst corner error {worst:.4} px");
+        assert!(worst < 0.1, "worst corner error {worst} px");
+    }
+
+    #[test]
+    fn ordering_is_canonical_under_rotation_of_the_board() {
+        // The same board turned by 180° in the image: the first corner must still be the one next
+        // to the dark corner square, i.e. the labels follow the board, not the image.
+        let size = BoardSize { cols: 9, rows: 6 };
+        let turn = Matrix3::new(-1.0, 0.0, 8.0, 0.0, -1.0, 5.0, 0.0, 0.0, 1.0);
+        let h = perspective() * turn;
+        let img = render_board(size, &h, 400, 330);
+        let corners = find_chessboard(400, 330, &img, size).expect("board found");
+        // Board point (c, r) of the turned rendering is plane point (8 - c, 5 - r); the dark first
+        // square of the rendering is at plane (0,0)..(1,1) again, so labels are plane labels.
+        let first = apply_homography(&h, [0.0, 0.0]);
+        assert!(
+            dist(corners[0], first) < 0.1,
+            "{:?} vs {first:?}",
+            corners[0]
+        );
+    }
+
+    #[test]
+    fn no_board_gives_none() {
+        let size = BoardSize { cols: 9, rows: 6 };
+        let flat = vec![128u8; 320 * 240];
+        assert!(find_chessboard(320, 240, &flat, size).is_none());
+        // Pseudo-random texture.
+        let mut state = 12345u32;
+        let noise: Vec<u8> = (0..320 * 240)
+            .map(|_| {
+                state = state.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                (state >> 24) as u8
+            })
+            .collect();
+        assert!(find_chessboard(320, 240, &noise, size).is_none());
+        // Wrong buffer length and tiny images are rejected, not indexed out of bounds.
+        assert!(find_chessboard(320, 240, &flat[..100], size).is_none());
+        assert!(find_chessboard(4, 4, &flat[..16], size).is_none());
+    }
+
+    #[test]
+    fn board_with_other_corner_count_is_not_reported_as_9x6() {
+        let h = perspective();
+        let img = render_board(BoardSize { cols: 7, rows: 5 }, &h, 400, 330);
+        assert!(find_chessboard(400, 330, &img, BoardSize { cols: 9, rows: 6 }).is_none());
+        assert!(find_chessboard(400, 330, &img, BoardSize { cols: 7, rows: 5 }).is_some());
+    }
 }

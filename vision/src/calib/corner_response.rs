@@ -106,28 +106,36 @@ pub fn chess_response(img: &FloatImage, radius: usize) -> Vec<f32> {
     if w <= 2 * radius + 1 || h <= 2 * radius + 1 {
         return out;
     }
+    let flat: [isize; 16] = std::array::from_fn(|k| offsets[k].1 * w as isize + offsets[k].0);
+    let data = &img.data;
     let mut s = [0.0f32; 16];
     for y in radius..h - radius {
+        let row = y * w;
         for x in radius..w - radius {
-            for (k, &(dx, dy)) in offsets.iter().enumerate() {
-                s[k] = img.at((x as isize + dx) as usize, (y as isize + dy) as usize);
+            let centre = row + x;
+            for (sk, off) in s.iter_mut().zip(flat) {
+                *sk = data[(centre as isize + off) as usize];
             }
-            let mut sum_resp = 0.0;
-            for n in 0..4 {
-                sum_resp += (s[n] + s[n + 8] - s[n + 4] - s[n + 12]).abs();
-            }
-            let mut diff_resp = 0.0;
-            for n in 0..8 {
-                diff_resp += (s[n] - s[n + 8]).abs();
-            }
-            let ring_mean = s.iter().sum::<f32>() / 16.0;
-            let local_mean = (img.at(x, y)
-                + img.at(x - 1, y)
-                + img.at(x + 1, y)
-                + img.at(x, y - 1)
-                + img.at(x, y + 1))
-                / 5.0;
-            out[y * w + x] = sum_resp - diff_resp - 16.0 * (ring_mean - local_mean).abs();
+            let sum_resp = (s[0] + s[8] - s[4] - s[12]).abs()
+                + (s[1] + s[9] - s[5] - s[13]).abs()
+                + (s[2] + s[10] - s[6] - s[14]).abs()
+                + (s[3] + s[11] - s[7] - s[15]).abs();
+            let diff_resp = (s[0] - s[8]).abs()
+                + (s[1] - s[9]).abs()
+                + (s[2] - s[10]).abs()
+                + (s[3] - s[11]).abs()
+                + (s[4] - s[12]).abs()
+                + (s[5] - s[13]).abs()
+                + (s[6] - s[14]).abs()
+                + (s[7] - s[15]).abs();
+            let ring_mean = s.iter().sum::<f32>() * (1.0 / 16.0);
+            let local_mean = (data[centre]
+                + data[centre - 1]
+                + data[centre + 1]
+                + data[centre - w]
+                + data[centre + w])
+                * 0.2;
+            out[centre] = sum_resp - diff_resp - 16.0 * (ring_mean - local_mean).abs();
         }
     }
     out

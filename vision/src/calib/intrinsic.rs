@@ -336,6 +336,19 @@ impl Residuals for MonoProblem<'_> {
         let n2 = 2 * self.object.len();
         Some(n2 * v..n2 * (v + 1))
     }
+    fn evaluate_rows(&self, params: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+        let n2 = 2 * self.object.len();
+        if rows.len() != n2 || rows.start % n2 != 0 {
+            let mut all = vec![0.0; self.num_residuals()];
+            self.evaluate(params, &mut all);
+            out.copy_from_slice(&all[rows]);
+            return;
+        }
+        let v = rows.start / n2;
+        let cam = CameraIntrinsics::from_params(&params[..9]);
+        let pose = Pose::from_params(&params[9 + 6 * v..15 + 6 * v]);
+        project_residuals(&cam, &pose, self.object, &self.views[v], out);
+    }
 }
 
 /// One pose with fixed intrinsics.

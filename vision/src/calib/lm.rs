@@ -19,6 +19,13 @@ pub trait Residuals {
     fn affected_rows(&self, _index: usize) -> Option<std::ops::Range<usize>> {
         None
     }
+    /// Evaluate only the residual rows `rows` (as returned by [`Self::affected_rows`]) into
+    /// `out` (length `rows.len()`). The default evaluates everything and copies.
+    fn evaluate_rows(&self, params: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+        let mut all = vec![0.0; self.num_residuals()];
+        self.evaluate(params, &mut all);
+        out.copy_from_slice(&all[rows]);
+    }
 }
 
 /// Solver settings.
@@ -51,28 +58,83 @@ pub struct LmOutcome {
     pub iterations: usize,
 }
 
-/// Central-difference Jacobian of `problem` at `params`.
-pub fn numeric_jacobian<P: Residuals>(problem: &P, params: &[f64]) -> DMatrix<f64> {
+/// A Jacobian stored by column, each column only over the rows its parameter can change.
+pub struct SparseColumns {
+    /// Number of residual rows.
+    pub rows: usize,
+    /// Per parameter: the first row and the derivative values of the rows that follow.
+    pub columns: Vec<(usize, Vec<f64>)>,
+}
+
+impl SparseColumns {
+    /// `J^T J` and `J^T r`.
+    pub fn normal_equations(&self, r: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
+        let n = self.columns.len();
+        let mut jtj = DMatrix::<f64>::zeros(n, n);
+        let mut g = DVector::<f64>::zeros(n);
+        for a in 0..n {
+            let (sa, ca) = (&self.columns[a].0, &self.columns[a].1);
+            g[a] = ca
+                .iter()
+                .zip(&r[*sa..sa + ca.len()])
+                .map(|(x, y)| x * y)
+                .sum();
+            for b in a..n {
+                let (sb, cb) = (&self.columns[b].0, &self.columns[b].1);
+                let lo = (*sa).max(*sb);
+                let hi = (sa + ca.len()).min(sb + cb.len());
+                if lo >= hi {
+                    continue;
+                }
+                let dot: f64 = ca[lo - sa..hi - sa]
+                    .iter()
+                    .zip(&cb[lo - sb..hi - sb])
+                    .map(|(x, y)| x * y)
+                    .sum();
+                jtj[(a, b)] = dot;
+                jtj[(b, a)] = dot;
+            }
+        }
+        (jtj, g)
+    }
+
+    /// The dense matrix (for tests and diagnostics).
+    pub fn to_dense(&self) -> DMatrix<f64> {
+        let mut m = DMatrix::<f64>::zeros(self.rows, self.columns.len());
+        for (j, (start, col)) in self.columns.iter().enumerate() {
+            for (k, v) in col.iter().enumerate() {
+                m[(start + k, j)] = *v;
+            }
+        }
+        m
+    }
+}
+
+/// Central-difference Jacobian of `problem` at `params`; each parameter is stepped by
+/// `1e-6 * max(|p|, 0.01)`.
+pub fn numeric_jacobian<P: Residuals>(problem: &P, params: &[f64]) -> SparseColumns {
     let m = problem.num_residuals();
     let n = problem.num_params();
-    let mut jac = DMatrix::<f64>::zeros(m, n);
     let mut p = params.to_vec();
-    let mut plus = vec![0.0; m];
-    let mut minus = vec![0.0; m];
+    let mut columns = Vec::with_capacity(n);
     for j in 0..n {
+        let rows = problem.affected_rows(j).unwrap_or(0..m);
+        let mut plus = vec![0.0; rows.len()];
+        let mut minus = vec![0.0; rows.len()];
         let h = 1e-6 * params[j].abs().max(1e-2);
         let orig = p[j];
         p[j] = orig + h;
-        problem.evaluate(&p, &mut plus);
+        problem.evaluate_rows(&p, rows.clone(), &mut plus);
         p[j] = orig - h;
-        problem.evaluate(&p, &mut minus);
+        problem.evaluate_rows(&p, rows.clone(), &mut minus);
         p[j] = orig;
-        let rows = problem.affected_rows(j).unwrap_or(0..m);
-        for i in rows {
-            jac[(i, j)] = (plus[i] - minus[i]) / (2.0 * h);
+        let inv = 1.0 / (2.0 * h);
+        for (a, b) in plus.iter_mut().zip(&minus) {
+            *a = (*a - b) * inv;
         }
+        columns.push((rows.start, plus));
     }
-    jac
+    SparseColumns { rows: m, columns }
 }
 
 /// Minimise `problem` from `params` (updated in place). Fails when the residuals are not finite
@@ -95,10 +157,7 @@ pub fn solve<P: Residuals>(
     let mut trial_r = vec![0.0; m];
     let mut iterations = 0;
     'outer: while iterations < settings.max_iterations {
-        let jac = numeric_jacobian(problem, params);
-        let jt = jac.transpose();
-        let jtj = &jt * &jac;
-        let g = &jt * DVector::from_column_slice(&r);
+        let (jtj, g) = numeric_jacobian(problem, params).normal_equations(&r);
         loop {
             iterations += 1;
             let mut a = jtj.clone();
