@@ -33,7 +33,7 @@ impl Plane {
     /// normal is zero or not finite.
     pub fn new(point_m: Vec3, normal: Vec3) -> Option<Plane> {
         let n = normal.norm();
-        if !(n.is_finite() && n > 1e-12) || !point_m.iter().all(|c| c.is_finite()) {
+        if !(n.is_finite() && n > 1e-12 && point_m.iter().all(|c| c.is_finite())) {
             return None;
         }
         Some(Plane {
