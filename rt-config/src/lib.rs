@@ -43,7 +43,7 @@ pub enum ConfigError {
 }
 
 /// The whole configuration.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
     /// Rig geometry.
@@ -159,17 +159,6 @@ impl Default for RealtimeConfig {
             control_priority: 80,
             control_cpu: 1,
             lock_memory: true,
-        }
-    }
-}
-
-impl Default for Config {
-    fn default() -> Self {
-        Config {
-            rig: RigConfig::default(),
-            transmission: TransmissionConfig::default(),
-            control: ControlConfig::default(),
-            realtime: RealtimeConfig::default(),
         }
     }
 }
