@@ -370,3 +370,122 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), CalibError> {
     }
     result
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::calib::geometry::rodrigues_to_matrix;
+    use crate::calib::rectification::stereo_rectify;
+
+    /// A calibration shaped like the real rig's.
+    pub(crate) fn sample() -> StereoCalibration {
+        let left = CameraIntrinsics {
+            fx: 536.0,
+            fy: 536.0,
+            cx: 342.4,
+            cy: 235.5,
+            dist: [-0.265, -0.047, 0.0018, -0.0003, 0.252],
+        };
+        let right = CameraIntrinsics {
+            fx: 542.3,
+            fy: 541.6,
+            cx: 328.3,
+            cy: 247.0,
+            dist: [-0.281, 0.104, -0.0006, 0.0013, -0.024],
+        };
+        let r = rodrigues_to_matrix(&Vector3::new(0.0003, 0.0035, -0.0041));
+        let t = Vector3::new(-3.344, 0.0417, 0.0528);
+        let rect = stereo_rectify(&left, &right, &r, &t, 640, 480, 1.0);
+        let q = QualityFigures {
+            rms_left_px: 0.2,
+            rms_right_px: 0.21,
+            rms_stereo_px: 0.22,
+            epipolar_error_px: 0.08,
+        };
+        StereoCalibration::new(640, 480, &left, &right, &r, &t, &rect, q)
+    }
+
+    #[test]
+    fn save_then_load_round_trips_and_keeps_a_backup() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("stereo.json");
+        let first = sample();
+        first.save(&path).unwrap();
+        assert_eq!(StereoCalibration::load(&path).unwrap(), first);
+        assert!(!backup_path(&path).exists());
+
+        let mut second = sample();
+        second.rms_stereo_px = 0.3;
+        second.save(&path).unwrap();
+        assert_eq!(StereoCalibration::load(&path).unwrap(), second);
+        assert_eq!(StereoCalibration::load(&backup_path(&path)).unwrap(), first);
+        // No temporary files left behind.
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+    }
+
+    #[test]
+    fn truncated_or_corrupt_file_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("stereo.json");
+        sample().save(&path).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        for cut in [0, 1, text.len() / 3, text.len() - 2] {
+            std::fs::write(&path, &text[..cut]).unwrap();
+            let err = StereoCalibration::load(&path).unwrap_err();
+            assert!(
+                matches!(err, CalibError::CorruptFile { .. }),
+                "cut {cut}: {err}"
+            );
+        }
+        std::fs::write(&path, text.replace("\"m1\"", "\"m_one\"")).unwrap();
+        assert!(matches!(
+            StereoCalibration::load(&path).unwrap_err(),
+            CalibError::CorruptFile { .. }
+        ));
+        let err = StereoCalibration::load(&dir.path().join("missing.json")).unwrap_err();
+        assert!(matches!(err, CalibError::Io { .. }), "{err}");
+    }
+
+    #[test]
+    fn invalid_values_are_rejected_naming_the_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("stereo.json");
+        type Corruption = Box<dyn Fn(&mut StereoCalibration)>;
+        let cases: Vec<(&str, Corruption)> = vec![
+            ("m1[0][0] (fx)", Box::new(|c| c.m1[0][0] = -5.0)),
+            ("m2[1][1] (fy)", Box::new(|c| c.m2[1][1] = 0.0)),
+            ("m1[0][2] (cx)", Box::new(|c| c.m1[0][2] = 900.0)),
+            ("image_width", Box::new(|c| c.image_width = 0)),
+            ("r1", Box::new(|c| c.r1[0][0] = 2.0)),
+            ("rms_stereo_px", Box::new(|c| c.rms_stereo_px = -1.0)),
+            ("t_m", Box::new(|c| c.t_m = [0.0; 3])),
+        ];
+        for (field, corrupt) in cases {
+            let mut cal = sample();
+            corrupt(&mut cal);
+            match cal.validate().unwrap_err() {
+                CalibError::InvalidCalibration { field: f, .. } => assert_eq!(f, field),
+                other => panic!("{field}: unexpected {other}"),
+            }
+            // A file holding the bad value is refused on load, too.
+            let json = serde_json::to_string(&cal).unwrap();
+            std::fs::write(&path, json).unwrap();
+            assert!(matches!(
+                StereoCalibration::load(&path).unwrap_err(),
+                CalibError::InvalidCalibration { .. }
+            ));
+            // And the writer refuses to write it.
+            assert!(cal.save(&dir.path().join("other.json")).is_err());
+        }
+        // Non-finite numbers cannot even be written as JSON numbers; `null` is refused on load.
+        let json = serde_json::to_string(&sample())
+            .unwrap()
+            .replacen("536.0", "null", 1);
+        std::fs::write(&path, json).unwrap();
+        assert!(StereoCalibration::load(&path).is_err());
+    }
+}
