@@ -19,12 +19,15 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Calibrate the stereo camera pair from chessboard image pairs and write the calibration.
+    CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
     };
     match result {
         Ok(code) => code,
