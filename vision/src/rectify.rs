@@ -114,9 +114,9 @@ impl RectifyMap {
             }
             let o = e.offset as usize;
             let (wx, wy) = (u32::from(e.weight_x), u32::from(e.weight_y));
-            let top = u32::from(pixels[o]) * (WEIGHT_ONE - wx) + u32::from(pixels[o + 1]) * wx;
-            let bottom = u32::from(pixels[o + stride]) * (WEIGHT_ONE - wx)
-                + u32::from(pixels[o + stride + 1]) * wx;
+            let (upper, lower) = (&pixels[o..o + 2], &pixels[o + stride..o + stride + 2]);
+            let top = u32::from(upper[0]) * (WEIGHT_ONE - wx) + u32::from(upper[1]) * wx;
+            let bottom = u32::from(lower[0]) * (WEIGHT_ONE - wx) + u32::from(lower[1]) * wx;
             *out =
                 ((top * (WEIGHT_ONE - wy) + bottom * wy + WEIGHT_ONE * WEIGHT_ONE / 2) >> 16) as u8;
         }

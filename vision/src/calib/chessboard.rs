@@ -41,6 +41,16 @@ const ACCEPT_FRACTION: f64 = 0.3;
 
 type Grid = BTreeMap<(i32, i32), usize>;
 
+/// [`find_chessboard`] on a camera frame.
+pub fn find_chessboard_in_frame(frame: &videt_hal::GrayFrame, size: BoardSize) -> Option<Corners> {
+    find_chessboard(
+        frame.width as usize,
+        frame.height as usize,
+        &frame.data,
+        size,
+    )
+}
+
 /// Find the `size` inner corners of a chessboard in a grey image (`width * height` pixels,
 /// row-major). `None` when no complete board is found (never panics on any input).
 pub fn find_chessboard(

@@ -98,6 +98,10 @@ fn ring(radius: f64) -> [(isize, isize); 16] {
     out
 }
 
+/// Below this "sum response" (grey levels) a pixel cannot be a usable corner: the remaining terms
+/// are skipped and its response stays 0.
+const MIN_SUM_RESPONSE: f32 = 40.0;
+
 /// ChESS response map at ring radius `radius` pixels (0 within `radius` of the border).
 pub fn chess_response(img: &FloatImage, radius: usize) -> Vec<f32> {
     let (w, h) = (img.width, img.height);
@@ -120,6 +124,10 @@ pub fn chess_response(img: &FloatImage, radius: usize) -> Vec<f32> {
                 + (s[1] + s[9] - s[5] - s[13]).abs()
                 + (s[2] + s[10] - s[6] - s[14]).abs()
                 + (s[3] + s[11] - s[7] - s[15]).abs();
+            if sum_resp < MIN_SUM_RESPONSE {
+                // Flat or low-contrast neighbourhood: not a corner (response left at 0).
+                continue;
+            }
             let diff_resp = (s[0] - s[8]).abs()
                 + (s[1] - s[9]).abs()
                 + (s[2] - s[10]).abs()

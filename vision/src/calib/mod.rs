@@ -20,7 +20,7 @@ pub mod subpixel;
 pub mod workflow;
 
 pub use camera_model::CameraIntrinsics;
-pub use chessboard::{find_chessboard, BoardSize};
+pub use chessboard::{find_chessboard, find_chessboard_in_frame, BoardSize};
 pub use error::CalibError;
 pub use file::StereoCalibration;
 pub use intrinsic::{calibrate_camera, MonoCalibration, Pose};

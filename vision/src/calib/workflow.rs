@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
-use super::chessboard::{find_chessboard, BoardSize, Corners};
+use super::chessboard::{find_chessboard_in_frame, BoardSize, Corners};
 use super::error::CalibError;
 use super::file::{QualityFigures, StereoCalibration};
 use super::image_io::load_gray;
@@ -180,12 +180,7 @@ pub fn calibrate_stereo_dir(
                 }
                 Some(_) => {}
             }
-            found[k] = find_chessboard(
-                frame.width as usize,
-                frame.height as usize,
-                &frame.data,
-                size,
-            );
+            found[k] = find_chessboard_in_frame(&frame, size);
         }
         let [l, r] = found;
         detections.push((l, r));
