@@ -1,4 +1,5 @@
-//! `videt calibrate-stereo --images DIR --board COLSxROWS --square M --out FILE`: calibrate the
+//! `videt calibrate-stereo --images DIR --board COLSxROWS --square M --out FILE [--alpha A]`:
+//! calibrate the
 //! stereo camera pair from chessboard image pairs (`leftNN.<png|jpg|pgm>` with `rightNN.<ext>`),
 //! print the per-view and overall reprojection errors and the rectified epipolar error, and write
 //! the calibration atomically (the previous file kept as `FILE.bak`).
@@ -7,7 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use videt_vision::calib::{calibrate_stereo_dir, CalibrationReport};
+use videt_vision::calib::{calibrate_stereo_dir_with_alpha, CalibrationReport};
 
 use super::ToolResult;
 
@@ -26,6 +27,10 @@ pub struct CalibrateStereoArgs {
     /// Calibration file to write (JSON).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+    /// Rectification free scaling in [0, 1]: 0 keeps only valid pixels, 1 keeps every source
+    /// pixel (black borders).
+    #[arg(long, value_name = "A", default_value_t = videt_vision::calib::workflow::RECTIFY_ALPHA)]
+    pub alpha: f64,
 }
 
 /// Inner-corner counts given on the command line.
@@ -61,8 +66,13 @@ pub fn run(args: &CalibrateStereoArgs) -> ToolResult {
         )
         .into());
     }
-    let (calibration, report) =
-        calibrate_stereo_dir(&args.images, args.board.cols, args.board.rows, args.square)?;
+    let (calibration, report) = calibrate_stereo_dir_with_alpha(
+        &args.images,
+        args.board.cols,
+        args.board.rows,
+        args.square,
+        args.alpha,
+    )?;
     print_report(&report);
     calibration.save(&args.out)?;
     println!("calibration written to {}", args.out.display());

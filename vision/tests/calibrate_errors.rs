@@ -94,3 +94,23 @@ fn bad_board_description_is_rejected() {
         }
     }
 }
+
+#[test]
+fn rectification_alpha_out_of_range_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    for alpha in [-0.1, 1.5, f64::NAN] {
+        let err =
+            videt_vision::calib::calibrate_stereo_dir_with_alpha(dir.path(), 9, 6, 0.025, alpha)
+                .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                CalibError::InvalidOption {
+                    field: "rectify_alpha",
+                    ..
+                }
+            ),
+            "{err:?}"
+        );
+    }
+}

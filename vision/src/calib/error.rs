@@ -59,6 +59,16 @@ pub enum CalibError {
         /// The allowed range.
         allowed: &'static str,
     },
+    /// A calibration option is out of range.
+    #[error("invalid option: {field} = {value} ({allowed})")]
+    InvalidOption {
+        /// The option at fault.
+        field: &'static str,
+        /// Its value as given.
+        value: String,
+        /// The allowed range.
+        allowed: &'static str,
+    },
     /// Too few views with a detected board to calibrate.
     #[error("{what}: the board was found in {found} view(s), at least {needed} are needed")]
     TooFewViews {

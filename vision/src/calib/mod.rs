@@ -26,4 +26,6 @@ pub use file::StereoCalibration;
 pub use intrinsic::{calibrate_camera, MonoCalibration, Pose};
 pub use rectification::{stereo_rectify, Rectification};
 pub use stereo::{calibrate_stereo, StereoExtrinsics};
-pub use workflow::{calibrate_stereo_dir, CalibrationReport, ViewReport};
+pub use workflow::{
+    calibrate_stereo_dir, calibrate_stereo_dir_with_alpha, CalibrationReport, ViewReport,
+};

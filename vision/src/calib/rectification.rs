@@ -261,4 +261,65 @@ mod tests {
         assert!((rect.r1.determinant() - 1.0).abs() < 1e-12);
         assert!(rect.p2[(0, 3)] < 0.0);
     }
+
+    #[test]
+    fn alpha_zero_keeps_only_valid_pixels_and_alpha_one_keeps_all_source_pixels() {
+        use crate::rectify::RectifyMap;
+        let left = CameraIntrinsics {
+            fx: 536.0,
+            fy: 536.0,
+            cx: 342.0,
+            cy: 235.0,
+            dist: [-0.26, -0.05, 0.002, 0.0, 0.25],
+        };
+        let right = CameraIntrinsics {
+            fx: 542.0,
+            fy: 541.0,
+            cx: 328.0,
+            cy: 247.0,
+            dist: [-0.28, 0.1, 0.0, 0.001, -0.02],
+        };
+        let r = rodrigues_to_matrix(&Vector3::new(0.0003, 0.0035, -0.0041));
+        let t = Vector3::new(-3.34, 0.04, 0.05);
+        let (w, h) = (160u32, 120u32);
+        let scale = |c: &CameraIntrinsics| CameraIntrinsics {
+            fx: c.fx / 4.0,
+            fy: c.fy / 4.0,
+            cx: c.cx / 4.0,
+            cy: c.cy / 4.0,
+            dist: c.dist,
+        };
+        let (left, right) = (scale(&left), scale(&right));
+        let crop = stereo_rectify(&left, &right, &r, &t, w, h, 0.0);
+        let full = stereo_rectify(&left, &right, &r, &t, w, h, 1.0);
+        assert!(crop.p1[(0, 0)] > full.p1[(0, 0)], "cropping zooms in");
+        let cases = [
+            (&left, &crop.r1, &crop.p1, &full.r1, &full.p1),
+            (&right, &crop.r2, &crop.p2, &full.r2, &full.p2),
+        ];
+        for (cam, rot, p_crop, rot_full, p_full) in cases {
+            let valid = RectifyMap::new(cam, rot, p_crop, w, h).valid_fraction();
+            assert!(
+                valid > 0.995,
+                "alpha 0: {valid} of the rectified pixels valid"
+            );
+            let valid_full = RectifyMap::new(cam, rot_full, p_full, w, h).valid_fraction();
+            assert!(valid_full < 0.97, "alpha 1 shows a border: {valid_full}");
+            // Every source pixel stays in view with alpha 1 (half a pixel of slack).
+            for px in [
+                [0.0, 0.0],
+                [159.0, 0.0],
+                [0.0, 119.0],
+                [159.0, 119.0],
+                [80.0, 0.0],
+                [0.0, 60.0],
+            ] {
+                let q = rectify_point(cam, rot_full, p_full, px);
+                assert!(
+                    q[0] > -0.5 && q[1] > -0.5 && q[0] < 159.5 && q[1] < 119.5,
+                    "{px:?} -> {q:?}"
+                );
+            }
+        }
+    }
 }

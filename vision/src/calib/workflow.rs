@@ -155,7 +155,26 @@ pub fn calibrate_stereo_dir(
     board_rows: usize,
     square_m: f64,
 ) -> Result<(StereoCalibration, CalibrationReport), CalibError> {
+    calibrate_stereo_dir_with_alpha(dir, board_cols, board_rows, square_m, RECTIFY_ALPHA)
+}
+
+/// [`calibrate_stereo_dir`] with the rectification's free-scaling parameter `rectify_alpha` in
+/// [0, 1]: 0 keeps only valid pixels (no black border), 1 keeps every source pixel.
+pub fn calibrate_stereo_dir_with_alpha(
+    dir: &Path,
+    board_cols: usize,
+    board_rows: usize,
+    square_m: f64,
+    rectify_alpha: f64,
+) -> Result<(StereoCalibration, CalibrationReport), CalibError> {
     validate_board(board_cols, board_rows, square_m)?;
+    if !(0.0..=1.0).contains(&rectify_alpha) {
+        return Err(CalibError::InvalidOption {
+            field: "rectify_alpha",
+            value: rectify_alpha.to_string(),
+            allowed: "0..=1 (0: valid pixels only, 1: all source pixels)",
+        });
+    }
     let pairs = find_image_pairs(dir)?;
     let size = BoardSize {
         cols: board_cols,
@@ -265,7 +284,7 @@ pub fn calibrate_stereo_dir(
         &stereo.t,
         width,
         height,
-        RECTIFY_ALPHA,
+        rectify_alpha,
     );
     let (epi_mean, epi_max) = epipolar_error(
         &left_cal.intrinsics,
