@@ -24,8 +24,8 @@ use crate::control_loop::ControlCommand;
 use crate::status::StatusSnapshot;
 
 /// A request from a client.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(tag = "cmd", rename_all = "kebab-case", deny_unknown_fields)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "cmd", rename_all = "kebab-case")]
 pub enum Request {
     /// The service's status.
     Status,
@@ -40,6 +40,39 @@ pub enum Request {
     Resume,
     /// Clear latched faults that do not need a restart.
     ResetFaults,
+}
+
+/// The wire form of a request, parsed strictly (unknown fields rejected).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WireRequest {
+    cmd: String,
+    #[serde(default)]
+    wire: Option<u8>,
+}
+
+impl Request {
+    /// Parse one request line; the error says what is wrong.
+    pub fn parse(line: &[u8]) -> Result<Request, String> {
+        let raw: WireRequest = serde_json::from_slice(line).map_err(|e| e.to_string())?;
+        let no_wire = |r: Request| match raw.wire {
+            None => Ok(r),
+            Some(_) => Err(format!("`{}` takes no `wire`", raw.cmd)),
+        };
+        match raw.cmd.as_str() {
+            "status" => no_wire(Request::Status),
+            "stop" => no_wire(Request::Stop),
+            "resume" => no_wire(Request::Resume),
+            "reset-faults" => no_wire(Request::ResetFaults),
+            "release" => raw
+                .wire
+                .map(|wire| Request::Release { wire })
+                .ok_or_else(|| "`release` needs `wire`".to_string()),
+            other => Err(format!(
+                "unknown command `{other}` (status, stop, release, resume, reset-faults)"
+            )),
+        }
+    }
 }
 
 /// The status part of a reply.
@@ -344,7 +377,7 @@ fn serve_client(
 
 /// Answer one request line.
 pub fn handle(line: &[u8], shared: &ServerShared) -> Response {
-    let request: Request = match serde_json::from_slice(line) {
+    let request = match Request::parse(line) {
         Ok(r) => r,
         Err(e) => return Response::error(format!("malformed request: {e}")),
     };
@@ -416,7 +449,22 @@ mod tests {
         assert!(!r.ok && r.error.unwrap().contains("malformed"));
         assert!(!handle(br#"{"cmd":"launch-rockets"}"#, &s).ok);
         assert!(!handle(br#"{"cmd":"status","extra":1}"#, &s).ok);
+        assert!(!handle(br#"{"cmd":"stop","wire":1}"#, &s).ok);
+        assert!(!handle(br#"{"cmd":"release"}"#, &s).ok);
         assert!(handle(br#"{"cmd":"status"}"#, &s).status.is_some());
+        for r in [
+            Request::Status,
+            Request::Stop,
+            Request::Release { wire: 1 },
+            Request::Resume,
+            Request::ResetFaults,
+        ] {
+            assert_eq!(
+                Request::parse(&serde_json::to_vec(&r).unwrap()),
+                Ok(r),
+                "the client's encoding parses"
+            );
+        }
         for _ in 0..4 {
             assert!(handle(br#"{"cmd":"resume"}"#, &s).ok);
         }
