@@ -13,7 +13,7 @@ interval_us=$((1000000 / rate))
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-cyclictest -m -n -t1 -a"$cpu" -p"$prio" -i"$interval_us" -D"$seconds" -q -h20000 \
+cyclictest -m -t1 -a"$cpu" -p"$prio" -i"$interval_us" -D"$seconds" -q -h20000 \
   --histfile="$tmp/ct.txt" >/dev/null
 "$videt" bench-rt --rate "$rate" --seconds "$seconds" --cpu "$cpu" --priority "$prio" --json >"$tmp/videt.json"
 

@@ -56,6 +56,48 @@ pub struct CycleRecord {
     pub released_wire: i8,
 }
 
+impl CycleRecord {
+    /// Names of the record's 3-vectors, in the order of [`CycleRecord::vectors`].
+    pub const VECTOR_NAMES: [&'static str; 8] = [
+        "lengths_m",
+        "tension_setpoint_n",
+        "tension_measured_n",
+        "torque_nm",
+        "position_m",
+        "velocity_m_s",
+        "desired_force_n",
+        "rendered_force_n",
+    ];
+
+    /// The record's 3-vectors, in a fixed order (telemetry and CSV columns use it).
+    pub fn vectors(&self) -> [&[f64; 3]; 8] {
+        [
+            &self.lengths_m,
+            &self.tension_setpoint_n,
+            &self.tension_measured_n,
+            &self.torque_nm,
+            &self.position_m,
+            &self.velocity_m_s,
+            &self.desired_force_n,
+            &self.rendered_force_n,
+        ]
+    }
+
+    /// The record's 3-vectors, mutably, in the order of [`CycleRecord::vectors`].
+    pub fn vectors_mut(&mut self) -> [&mut [f64; 3]; 8] {
+        [
+            &mut self.lengths_m,
+            &mut self.tension_setpoint_n,
+            &mut self.tension_measured_n,
+            &mut self.torque_nm,
+            &mut self.position_m,
+            &mut self.velocity_m_s,
+            &mut self.desired_force_n,
+            &mut self.rendered_force_n,
+        ]
+    }
+}
+
 /// How the encoder counts become wire lengths: `length = length_at_zero_m - counts * m/count`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WireZero {

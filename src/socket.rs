@@ -23,15 +23,15 @@ use serde::{Deserialize, Serialize};
 use crate::control_loop::ControlCommand;
 use crate::status::StatusSnapshot;
 
-/// A request from a client.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+/// A request from a client (also the `videt service` subcommands).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, clap::Subcommand)]
 #[serde(tag = "cmd", rename_all = "kebab-case")]
 pub enum Request {
-    /// The service's status.
+    /// Loop rate, safety state, thimble, tensions, contact.
     Status,
-    /// Ramp the forces out and stop the service.
+    /// Ramp the forces out, power the drives off and stop the service.
     Stop,
-    /// Release wire N (0..=2) for replacement.
+    /// Release wire N (0, 1 or 2) so it can be pulled out and replaced.
     Release {
         /// Wire index.
         wire: u8,

@@ -204,16 +204,7 @@ pub fn encode_record(r: &CycleRecord, b: &mut [u8; RECORD_BYTES]) {
     put(&r.time.0.to_le_bytes());
     put(&r.wake_latency_ns.to_le_bytes());
     put(&r.compute_ns.to_le_bytes());
-    for arr in [
-        &r.lengths_m,
-        &r.tension_setpoint_n,
-        &r.tension_measured_n,
-        &r.torque_nm,
-        &r.position_m,
-        &r.velocity_m_s,
-        &r.desired_force_n,
-        &r.rendered_force_n,
-    ] {
+    for arr in r.vectors() {
         for v in arr {
             put(&v.to_le_bytes());
         }
@@ -243,22 +234,11 @@ pub fn decode_record(b: &[u8; RECORD_BYTES]) -> CycleRecord {
         compute_ns: u64::from_le_bytes(take8()),
         ..CycleRecord::default()
     };
-    let mut arrays = [[0.0f64; 3]; 8];
-    for arr in arrays.iter_mut() {
+    for arr in r.vectors_mut() {
         for v in arr.iter_mut() {
             *v = f64::from_le_bytes(take8());
         }
     }
-    [
-        r.lengths_m,
-        r.tension_setpoint_n,
-        r.tension_measured_n,
-        r.torque_nm,
-        r.position_m,
-        r.velocity_m_s,
-        r.desired_force_n,
-        r.rendered_force_n,
-    ] = arrays;
     r.contact_depth_m = f64::from_le_bytes(take8());
     r.force_scale = f64::from_le_bytes(take8());
     r.surface_version = u64::from_le_bytes(take8());

@@ -255,6 +255,7 @@ fn videtd_speaks_the_notify_protocol_and_answers_the_control_socket() {
 fn sigterm_ramps_the_forces_out_and_exits_zero() {
     let dir = tempfile::tempdir().unwrap();
     let mut daemon = spawn_videtd(dir.path(), &["--no-socket"], None);
+    // Long enough for the operator to reach the wall (the demo presses after ~1 s).
     std::thread::sleep(Duration::from_millis(2500));
     // SAFETY: plain kill(2) on our own child.
     assert_eq!(

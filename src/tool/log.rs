@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
+use crate::cycle::CycleRecord;
 use crate::histogram::Histogram;
 use crate::telemetry::read_log;
 
@@ -118,12 +119,16 @@ pub fn summarise(args: &LogArgs) -> Result<(LogSummary, crate::telemetry::Log), 
 
 /// Write the records as CSV.
 pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::Result<()> {
-    writeln!(
-        out,
-        "cycle,time_s,wake_latency_us,compute_us,l0_m,l1_m,l2_m,tsp0_n,tsp1_n,tsp2_n,t0_n,t1_n,t2_n,\
-         torque0_nm,torque1_nm,torque2_nm,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,fdx_n,fdy_n,fdz_n,fx_n,fy_n,fz_n,\
-         contact,depth_m,force_scale,surface_version,surface_stale,safety,released_wire"
-    )?;
+    let mut header = String::from("cycle,time_s,wake_latency_us,compute_us");
+    for name in CycleRecord::VECTOR_NAMES {
+        for axis in 0..3 {
+            header.push_str(&format!(",{name}_{axis}"));
+        }
+    }
+    header.push_str(
+        ",contact,depth_m,force_scale,surface_version,surface_stale,safety,released_wire",
+    );
+    writeln!(out, "{header}")?;
     for r in &log.records {
         write!(
             out,
@@ -133,16 +138,7 @@ pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::R
             r.wake_latency_ns as f64 * 1e-3,
             r.compute_ns as f64 * 1e-3
         )?;
-        for arr in [
-            &r.lengths_m,
-            &r.tension_setpoint_n,
-            &r.tension_measured_n,
-            &r.torque_nm,
-            &r.position_m,
-            &r.velocity_m_s,
-            &r.desired_force_n,
-            &r.rendered_force_n,
-        ] {
+        for arr in r.vectors() {
             for v in arr {
                 write!(out, ",{v:.6e}")?;
             }

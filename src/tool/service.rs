@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use clap::{Args, Subcommand};
+use clap::Args;
 
 use crate::socket::{request, Request, Response};
 
@@ -21,42 +21,18 @@ pub struct ServiceArgs {
     pub json: bool,
     /// What to ask.
     #[command(subcommand)]
-    pub command: ServiceCommand,
-}
-
-/// Requests to the service.
-#[derive(Debug, Subcommand)]
-pub enum ServiceCommand {
-    /// Loop rate, safety state, thimble, tensions, contact.
-    Status,
-    /// Ramp the forces out and stop the service.
-    Stop,
-    /// Release wire N (0, 1 or 2) so it can be pulled out and replaced.
-    Release {
-        /// Wire index.
-        wire: u8,
-    },
-    /// Leave the released-wire mode.
-    Resume,
-    /// Clear latched faults that do not need a restart.
-    ResetFaults,
+    pub command: Request,
 }
 
 /// Run `videt service`.
 pub fn run(args: &ServiceArgs) -> ToolResult {
-    let req = match args.command {
-        ServiceCommand::Status => Request::Status,
-        ServiceCommand::Stop => Request::Stop,
-        ServiceCommand::Release { wire } => Request::Release { wire },
-        ServiceCommand::Resume => Request::Resume,
-        ServiceCommand::ResetFaults => Request::ResetFaults,
-    };
-    let reply: Response = request(&args.socket, &req, Duration::from_secs(3)).map_err(|e| {
-        format!(
-            "cannot reach videtd at {}: {e} (is the service running?)",
-            args.socket.display()
-        )
-    })?;
+    let reply: Response =
+        request(&args.socket, &args.command, Duration::from_secs(3)).map_err(|e| {
+            format!(
+                "cannot reach videtd at {}: {e} (is the service running?)",
+                args.socket.display()
+            )
+        })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&reply)?);
     } else if let Some(s) = &reply.status {
