@@ -19,6 +19,12 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Summarise a telemetry session log and export it as CSV.
+    Log(tool::log::LogArgs),
+    /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
+    Service(tool::service::ServiceArgs),
+    /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
+    BenchRt(tool::bench_rt::BenchRtArgs),
     /// Calibrate the stereo camera pair from chessboard image pairs and write the calibration.
     CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
 }
@@ -27,6 +33,9 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Log(a) => tool::log::run(a),
+        Command::Service(a) => tool::service::run(a),
+        Command::BenchRt(a) => tool::bench_rt::run(a),
         Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
     };
     match result {
