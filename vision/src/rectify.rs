@@ -5,6 +5,8 @@
 //! [`StereoCalibration`] (undistortion, rectifying rotation, new projection). Applying a table is
 //! a pure integer loop that does not allocate when the destination frame already has the right
 //! size, so the vision thread can rectify every captured pair into preallocated frames.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 use nalgebra::{Matrix3, Matrix3x4, Vector3};
 use videt_hal::{GrayFrame, StereoFrame};

@@ -4,6 +4,8 @@
 //! Pure math ([`geometry`], [`camera_model`], [`lm`], [`intrinsic`], [`stereo`],
 //! [`rectification`], [`chessboard`]) is kept apart from I/O ([`image_io`], [`file`],
 //! [`workflow`]).
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod camera_model;
 pub mod chessboard;
