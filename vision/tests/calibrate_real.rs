@@ -49,6 +49,13 @@ fn real_rig_calibrates_close_to_the_opencv_reference() {
             "{name} RMS {o} px is implausibly small for real corners"
         );
     }
+    // Every left corner sits on its right twin's rectified row: the left and right orderings agree
+    // corner by corner (a swapped or flipped labelling would be off by whole squares).
+    assert!(
+        report.epipolar_error_max_px < 2.0,
+        "max epipolar {}",
+        report.epipolar_error_max_px
+    );
     assert!(
         report.epipolar_error_mean_px < EPIPOLAR_BOUND_PX,
         "epipolar error {}",

@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt) and stereo calibration, Bouguet rectification, and the calibration file.
 //!
 //! Pure math ([`geometry`], [`camera_model`], [`lm`], [`intrinsic`], [`stereo`],
-//! [`rectification`], [`chessboard`]) is kept apart from I/O ([`image_io`], [`file`],
+//! [`rectification`], [`chessboard`]) is kept apart from I/O ([`image_io`], [`file`](mod@file),
 //! [`workflow`]).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
