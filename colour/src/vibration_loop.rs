@@ -212,6 +212,13 @@ impl<V: Vibrotactors, C: Clock> VibrationLoop<V, C> {
             self.jitter.record_period(woke.nanos_since(previous));
         }
         self.last_wake = Some(woke);
+        // Woken after later ticks' deadlines (the thread was held up): render the tick that is
+        // due now rather than replaying the missed ones.
+        let due = self.tick_at_offset(woke.nanos_since(origin));
+        if due > self.tick {
+            self.jitter.record_missed(due - self.tick);
+            self.tick = due;
+        }
 
         if self.inputs.shutdown_requested() {
             self.write([false; VIBROTACTORS])?;
@@ -227,10 +234,7 @@ impl<V: Vibrotactors, C: Clock> VibrationLoop<V, C> {
         };
         self.write(outputs)?;
 
-        let due = self.tick_at_offset(self.clock.now().nanos_since(origin));
-        let next = (self.tick + 1).max(due + 1);
-        self.jitter.record_missed(next - self.tick - 1);
-        self.tick = next;
+        self.tick += 1;
         Ok(true)
     }
 
