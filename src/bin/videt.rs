@@ -19,12 +19,15 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
+    Colour(tool::colour::ColourArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Colour(a) => tool::colour::run(a),
     };
     match result {
         Ok(code) => code,
