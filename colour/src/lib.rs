@@ -30,6 +30,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod host_clock;
 pub mod jitter;
 pub mod level;
 pub mod pattern;
@@ -40,6 +41,7 @@ pub mod training;
 pub mod twin;
 pub mod vibration_loop;
 
+pub use host_clock::HostClock;
 pub use jitter::PeriodJitter;
 pub use level::{Level, LevelTriple};
 pub use pattern::{Pattern, PatternConfig};
