@@ -5,4 +5,10 @@
 //! `videt-sim`; this crate wires them together for the `videtd` service and the `videt` tool.
 #![warn(missing_docs)]
 
+pub mod control_loop;
+pub mod cycle;
+pub mod rt;
+pub mod setup;
+pub mod status;
 pub mod tool;
+pub mod twin_rt;
