@@ -64,12 +64,12 @@ fn main() {
     }
     let j = lp.jitter();
     println!(
-        "  loop period: min {} ns, max {} ns, mean {:.0} ns; |period - nominal| p50 <= {} ns, p99 <= {} ns; max lateness {} ns; missed ticks {}; dropped edges {}",
+        "  loop period: min {} ns, max {} ns, mean {:.0} ns; |period - nominal| p50 {}, p99 {}; max lateness {} ns; missed ticks {}; dropped edges {}",
         j.min_period_ns().unwrap_or(0),
         j.max_period_ns().unwrap_or(0),
         j.mean_period_ns().unwrap_or(0.0),
-        j.deviation_quantile_ns(0.5).map_or("> 2 ms".into(), |v| v.to_string()),
-        j.p99_deviation_ns().map_or("> 2 ms".into(), |v| v.to_string()),
+        j.deviation_quantile_ns(0.5).map_or("> 2 ms".into(), |v| format!("<= {v} ns")),
+        j.p99_deviation_ns().map_or("> 2 ms".into(), |v| format!("<= {v} ns")),
         j.max_lateness_ns(),
         j.missed_ticks(),
         lp.vibrotactors().dropped_edges()
