@@ -60,6 +60,12 @@ pub fn load_rgb(path: &Path) -> Result<RgbFrame, ImageFileError> {
         path: path.to_path_buf(),
         source,
     })?;
+    decode_rgb(bytes, path)
+}
+
+/// Decode an image held in memory (e.g. one built into the binary); `name` appears in errors.
+pub fn decode_rgb(bytes: Vec<u8>, name: &Path) -> Result<RgbFrame, ImageFileError> {
+    let path = name;
     let decoded = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| ImageFileError::Decode {

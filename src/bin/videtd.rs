@@ -12,11 +12,16 @@ use std::time::Duration;
 
 use clap::{Parser, ValueEnum};
 use tracing::{error, info, warn};
+use videt::colour_thread::{
+    colour_frame_channel, demo_colour, spawn_colour_thread, thimble_channel,
+};
 use videt::control_loop::{run_control_loop, start_hardware, LoopSettings};
 use videt::cycle::WireZero;
+use videt::rt::SystemClock;
 use videt::status::status_channel;
 use videt::twin_rt::RealTimeTwin;
 use videt::{rt, setup};
+use videt_colour::RecordingVibrotactors;
 use videt_rt_config::Config;
 
 /// Which twin `--sim` runs on.
@@ -114,7 +119,33 @@ fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
         duration_ns: duration_s.map(|d| (d * 1e9) as u64),
         max_consecutive_overruns: 10,
     };
-    let (mut publisher, mut reader) = status_channel();
+    let (publisher, mut reader) = status_channel();
+    let (thimble_publisher, thimble_reader) = thimble_channel();
+    let mut observers = (publisher, thimble_publisher);
+    // Colour under the finger: the demo image over the explored area, rendered on the twin's
+    // recording vibrotactors by the colour thread.
+    let (demo_frame, colour_settings) = match demo_colour(&config.rig.guides_m, scene.wall_z_m) {
+        Ok(c) => c,
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let (_frame_publisher, frame_reader) = colour_frame_channel(&demo_frame);
+    let vibrotactors = RecordingVibrotactors::new(SystemClock, 200_000);
+    let (colour, colour_thread) = match spawn_colour_thread(
+        vibrotactors,
+        SystemClock,
+        colour_settings,
+        thimble_reader,
+        frame_reader,
+    ) {
+        Ok(c) => c,
+        Err(e) => {
+            error!("cannot start the colour thread: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
     let priority = config.realtime.control_priority;
     let cpu = usize::try_from(config.realtime.control_cpu).ok();
     let thread_stop = Arc::clone(&stop);
@@ -138,7 +169,7 @@ fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
                 &mut cycle,
                 &settings,
                 &thread_stop,
-                &mut publisher,
+                &mut observers,
             ))
         });
     let control = match control {
@@ -152,15 +183,35 @@ fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
     let mut last_print = std::time::Instant::now();
     while !control.is_finished() {
         std::thread::sleep(Duration::from_millis(20));
+        if stop.load(Ordering::Relaxed) {
+            colour.inputs.request_shutdown();
+        }
         if last_print.elapsed() >= Duration::from_secs(1) {
             last_print = std::time::Instant::now();
-            println!("{}", reader.latest().line());
+            println!("{}  {}", reader.latest().line(), colour.status_text());
         }
+    }
+    let colour_text = colour.status_text();
+    colour.inputs.request_shutdown();
+    match colour_thread.join() {
+        Ok(Ok((jitter, vibro))) => info!(
+            ticks = jitter.count() + 1,
+            p99_period_deviation_us = jitter
+                .p99_deviation_ns()
+                .map_or(f64::NAN, |v| v as f64 * 1e-3),
+            max_lateness_us = jitter.max_lateness_ns() as f64 * 1e-3,
+            missed_ticks = jitter.missed_ticks(),
+            edges = vibro.edges().len(),
+            dropped_edges = vibro.dropped_edges(),
+            "colour thread stopped: vibrotactors off"
+        ),
+        Ok(Err(e)) => error!("colour thread: {e}"),
+        Err(_) => error!("the colour thread panicked"),
     }
     match control.join() {
         Ok(Ok(report)) => {
             let s = reader.latest();
-            println!("{}", s.line());
+            println!("{}  {}", s.line(), colour_text);
             info!(
                 cycles = report.cycles,
                 overruns = report.overruns,
