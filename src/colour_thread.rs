@@ -275,13 +275,15 @@ impl From<videt_colour::vibration_loop::LoopConfigError> for ColourThreadError {
 pub type ColourJoin<V> = JoinHandle<Result<(PeriodJitter, V), ColourThreadError>>;
 
 /// Start the colour thread (named `videt-colour`); set `handles.inputs.request_shutdown()` to
-/// stop it.
+/// stop it. With `fifo_priority` the thread asks for SCHED_FIFO at that priority (below the
+/// control thread's); if refused it warns and runs with normal scheduling.
 pub fn spawn_colour_thread<V, C>(
     vibrotactors: V,
     clock: C,
     settings: ColourSettings,
     thimble: ThimbleReader,
     frames: ColourFrameReader,
+    fifo_priority: Option<u8>,
 ) -> std::io::Result<(ColourHandles, ColourJoin<V>)>
 where
     V: Vibrotactors + Send + 'static,
@@ -295,6 +297,14 @@ where
     let join = std::thread::Builder::new()
         .name("videt-colour".into())
         .spawn(move || {
+            if let Some(priority) = fifo_priority {
+                if let Err(e) = crate::rt::set_fifo(priority) {
+                    tracing::warn!(
+                        "colour thread stays SCHED_OTHER: SCHED_FIFO {priority} refused ({e}); vibration timing will be worse"
+                    );
+                }
+            }
+            crate::rt::prefault_stack(64 * 1024);
             run_colour(
                 vibrotactors,
                 clock,

@@ -38,8 +38,15 @@ fn colour_under_the_thimble_drives_the_vibrotactors_and_safe_state_silences_them
     let (_frames, frame_reader) = colour_frame_channel(&frame);
     let clock = SimulatedClock::new(MonoTime(1_000_000_000));
     let vibro = RecordingVibrotactors::new(clock.clone(), 100_000);
-    let (handles, join) =
-        spawn_colour_thread(vibro, clock.clone(), settings, thimble_reader, frame_reader).unwrap();
+    let (handles, join) = spawn_colour_thread(
+        vibro,
+        clock.clone(),
+        settings,
+        thimble_reader,
+        frame_reader,
+        None,
+    )
+    .unwrap();
 
     let mut publish = |u: f64, v: f64, safety: SafetyState| {
         let [x, y] = map.image_to_workspace(u, v);

@@ -139,6 +139,7 @@ fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
         colour_settings,
         thimble_reader,
         frame_reader,
+        Some(config.realtime.control_priority.saturating_sub(10).max(1)),
     ) {
         Ok(c) => c,
         Err(e) => {
