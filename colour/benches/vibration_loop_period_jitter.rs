@@ -3,8 +3,8 @@
 //! own period jitter (min / max / p99 of |period - nominal|, missed ticks).
 //!
 //! `cargo bench -p videt-colour --bench vibration_loop_period_jitter [-- SECONDS]` (default 3 s).
-//! The figures depend on the machine's load and scheduling policy (this runs as an ordinary
-//! thread; `videtd` runs the loop with its real-time settings).
+//! The figures depend on the machine's load and scheduling policy: the bench asks for
+//! SCHED_FIFO 70 (as `videtd`'s colour thread does) and says whether it got it.
 
 use std::sync::Arc;
 
@@ -14,7 +14,25 @@ use videt_colour::{
 };
 use videt_hal::Clock;
 
+/// Ask for SCHED_FIFO at `priority` for the calling thread.
+fn set_fifo(priority: i32) -> Result<(), std::io::Error> {
+    let param = libc::sched_param {
+        sched_priority: priority,
+    };
+    // SAFETY: `param` is a valid sched_param; 0 means the calling thread.
+    let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+    if rc == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error())
+    }
+}
+
 fn main() {
+    let scheduling = match set_fifo(70) {
+        Ok(()) => "SCHED_FIFO 70".to_string(),
+        Err(e) => format!("SCHED_OTHER (SCHED_FIFO refused: {e})"),
+    };
     let seconds: f64 = std::env::args()
         .skip(1)
         .find_map(|a| a.parse().ok())
@@ -38,7 +56,7 @@ fn main() {
         (end.nanos_since(start) / pattern.period_ns()).saturating_sub(1) * pattern.period_ns(),
     );
     println!(
-        "vibration loop on the host clock: {:.2} s, {} ticks of nominal {} ns ({:.0} Hz)",
+        "vibration loop on the host clock, {scheduling}: {:.2} s, {} ticks of nominal {} ns ({:.0} Hz)",
         end.nanos_since(start) as f64 * 1e-9,
         periods * u64::from(ticks_per_period),
         lp.tick_period_ns(),
