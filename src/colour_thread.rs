@@ -2,29 +2,32 @@
 //! (paper §6.1).
 //!
 //! One thread runs the [`VibrationLoop`] at its tick (1.5 kHz by default, absolute-time sleeps)
-//! and, every few ticks, reads the latest thimble position (published by the control thread
-//! through a wait-free snapshot) and the latest colour frame, samples the colour under the
+//! and, every [`TICKS_PER_READING`] ticks, reads the latest thimble state (the control thread's
+//! wait-free snapshot) and the latest colour frame (a snapshot too), samples the colour under the
 //! thimble through the [`SceneMap`], quantizes it with hysteresis and hands the level triple to
-//! the loop. The vibrotactors are silent whenever the control loop is not in its normal state,
-//! the finger is outside the image, or no frame has arrived; on shutdown they are switched off.
-//! Nothing on this thread allocates after start-up.
+//! the loop. The supervisor switches rendering off whenever the control loop is not in its normal
+//! state or the service is stopping ([`ColourRuntime::supervise`]); the thread is silent too when
+//! the finger is outside the image or no frame has arrived, and leaves every output off when it
+//! stops. Nothing on this thread allocates after start-up.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
+use tracing::{error, info, warn};
 use videt_colour::level::triple_letters;
 use videt_colour::vibration_loop::VibrationError;
 use videt_colour::{
-    ColourReader, LevelTriple, Pattern, PatternConfig, PeriodJitter, QuantizerConfig,
+    ColourReader, Pattern, PatternConfig, PeriodJitter, QuantizerConfig, RecordingVibrotactors,
     SamplerConfig, VibrationInputs, VibrationLoop,
 };
 use videt_control::safety::SafetyState;
 use videt_control::SceneMap;
 use videt_hal::{Clock, RgbFrame, Vibrotactors};
 
-use crate::control_loop::{CycleObserver, WindowStats};
 use crate::cycle::CycleRecord;
+use crate::rt::SystemClock;
+use crate::snapshot::{snapshot_channel, SnapshotReader, SnapshotWriter, ThimbleState};
 
 /// The demonstration image `videtd --sim` renders: a crop of the Middlebury "cones" left image
 /// (attribution in `assets/colour-demo/ATTRIBUTION.md`).
@@ -33,85 +36,10 @@ pub const DEMO_IMAGE_PNG: &[u8] = include_bytes!("../assets/colour-demo/cones-le
 /// Vibration ticks between two colour readings (1.5 kHz / 25 = 60 readings per second).
 pub const TICKS_PER_READING: u64 = 25;
 
-/// What the colour thread needs of the control thread's state.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ThimbleSnapshot {
-    /// Thimble position, metres (device frame).
-    pub position_m: [f64; 3],
-    /// The control loop is in its normal state (not in a safe state) and has published.
-    pub rendering: bool,
-}
+/// Edges the twin's recording vibrotactors keep (about 7 minutes of three busy channels).
+pub const TWIN_EDGE_CAPACITY: usize = 200_000;
 
-/// Publishes the thimble snapshot from the control thread (wait-free, no allocation).
-pub struct ThimblePublisher {
-    input: triple_buffer::Input<ThimbleSnapshot>,
-}
-
-/// Reads the latest thimble snapshot.
-pub struct ThimbleReader {
-    output: triple_buffer::Output<ThimbleSnapshot>,
-}
-
-/// A connected thimble publisher/reader pair.
-pub fn thimble_channel() -> (ThimblePublisher, ThimbleReader) {
-    let (input, output) = triple_buffer::triple_buffer(&ThimbleSnapshot::default());
-    (ThimblePublisher { input }, ThimbleReader { output })
-}
-
-impl CycleObserver for ThimblePublisher {
-    fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
-        self.input.write(ThimbleSnapshot {
-            position_m: record.position_m,
-            rendering: matches!(record.safety, SafetyState::Normal),
-        });
-    }
-}
-
-impl ThimbleReader {
-    /// The latest snapshot.
-    pub fn latest(&mut self) -> ThimbleSnapshot {
-        *self.output.read()
-    }
-}
-
-/// Two observers of the control loop, both called every period.
-impl<A: CycleObserver, B: CycleObserver> CycleObserver for (A, B) {
-    fn observe(&mut self, record: &CycleRecord, window: &WindowStats) {
-        self.0.observe(record, window);
-        self.1.observe(record, window);
-    }
-}
-
-/// Publishes colour frames to the colour thread. The frame buffers are reused: write into
-/// [`ColourFramePublisher::frame_mut`], then [`ColourFramePublisher::publish`].
-pub struct ColourFramePublisher {
-    input: triple_buffer::Input<RgbFrame>,
-}
-
-/// The colour thread's end of the frame channel.
-pub struct ColourFrameReader {
-    output: triple_buffer::Output<RgbFrame>,
-}
-
-/// A connected frame publisher/reader pair; the three buffers start as copies of `initial`
-/// (allocate them at the camera's size so publishing never reallocates).
-pub fn colour_frame_channel(initial: &RgbFrame) -> (ColourFramePublisher, ColourFrameReader) {
-    let (input, output) = triple_buffer::triple_buffer(initial);
-    (ColourFramePublisher { input }, ColourFrameReader { output })
-}
-
-impl ColourFramePublisher {
-    /// The back buffer to fill.
-    pub fn frame_mut(&mut self) -> &mut RgbFrame {
-        self.input.input_buffer_mut()
-    }
-    /// Make the back buffer the latest frame.
-    pub fn publish(&mut self) {
-        self.input.publish();
-    }
-}
-
-/// What the status line shows: the current levels and the colour they came from.
+/// What the status line shows: the colour the current levels came from.
 #[derive(Debug, Default)]
 pub struct ColourStatus {
     /// Bit 31: valid; bits 0..24: RGB.
@@ -137,18 +65,22 @@ impl ColourStatus {
 pub struct ColourHandles {
     /// The vibration loop's inputs (levels, active, shutdown).
     pub inputs: Arc<VibrationInputs>,
-    /// The colour under the thimble for the status line.
+    /// The colour under the thimble, for the status line.
     pub status: Arc<ColourStatus>,
 }
 
 impl ColourHandles {
-    /// `colour HLL rgb(230, 39, 59)`, `colour quiet (off-image)`, or `colour quiet (safe state)`.
+    /// `colour HLL rgb(230,  39,  59)`, `colour quiet (off-image)` or
+    /// `colour quiet (not rendering)`.
     pub fn status_text(&self) -> String {
-        let levels: Option<LevelTriple> = self.inputs.levels();
-        match (self.inputs.is_active(), levels, self.status.rgb()) {
-            (true, Some(l), Some([r, g, b])) => {
-                let [a, b2, c] = triple_letters(l);
-                format!("colour {a}{b2}{c} rgb({r:3}, {g:3}, {b:3})")
+        match (
+            self.inputs.is_active(),
+            self.inputs.levels(),
+            self.status.rgb(),
+        ) {
+            (true, Some(levels), Some([r, g, b])) => {
+                let [lr, lg, lb] = triple_letters(levels);
+                format!("colour {lr}{lg}{lb} rgb({r:3}, {g:3}, {b:3})")
             }
             (false, _, _) => "colour quiet (not rendering)".to_string(),
             _ => "colour quiet (off-image)".to_string(),
@@ -169,6 +101,21 @@ pub struct ColourSettings {
     pub pattern: PatternConfig,
     /// Vibration ticks per carrier period.
     pub ticks_per_period: u32,
+}
+
+/// Why the colour thread could not start or stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum ColourThreadError {
+    /// A setting or the demo image was rejected.
+    #[error("colour settings: {0}")]
+    Config(String),
+    /// A vibrotactor write failed (outputs were switched off).
+    #[error(transparent)]
+    Output(#[from] VibrationError),
+}
+
+fn config_error(e: impl std::fmt::Display) -> ColourThreadError {
+    ColourThreadError::Config(e.to_string())
 }
 
 /// The scene map the twin's demonstration uses: a 0.20 m x 0.15 m area centred under the guide
@@ -192,47 +139,79 @@ pub fn demo_scene_map(
     )
 }
 
-/// The colour thread's body: runs until `inputs.request_shutdown()`, then leaves every output
-/// off and returns the loop's period statistics.
+/// What the colour thread renders from: the initial frame and the settings.
+#[derive(Debug, Clone)]
+pub struct ColourSource {
+    /// The frame until a newer one is published (for the twin: the demo image).
+    pub frame: RgbFrame,
+    /// Sampling, quantization, pattern, mapping.
+    pub settings: ColourSettings,
+}
+
+/// The twin's colour source for `videtd --sim`: the demo image over the explored area, default
+/// sampling, quantization and pattern.
+pub fn demo_colour(
+    guides_m: &[[f64; 2]; 3],
+    wall_z_m: f64,
+) -> Result<ColourSource, ColourThreadError> {
+    let frame = videt_colour::training::decode_rgb(
+        DEMO_IMAGE_PNG.to_vec(),
+        std::path::Path::new("assets/colour-demo/cones-left-crop.png"),
+    )
+    .map_err(config_error)?;
+    let map =
+        demo_scene_map(guides_m, wall_z_m, [frame.width, frame.height]).map_err(config_error)?;
+    Ok(ColourSource {
+        frame,
+        settings: ColourSettings {
+            map,
+            sampler: SamplerConfig::default(),
+            quantizer: QuantizerConfig::default(),
+            pattern: PatternConfig::default(),
+            ticks_per_period: 20,
+        },
+    })
+}
+
+/// The colour thread's body: runs until `handles.inputs.request_shutdown()`, then leaves every
+/// output off and returns the loop's period statistics and the device.
 pub fn run_colour<V, C>(
     vibrotactors: V,
     clock: C,
     settings: &ColourSettings,
     handles: &ColourHandles,
-    mut thimble: ThimbleReader,
-    mut frames: ColourFrameReader,
+    mut thimble: SnapshotReader<ThimbleState>,
+    mut frames: SnapshotReader<RgbFrame>,
 ) -> Result<(PeriodJitter, V), ColourThreadError>
 where
     V: Vibrotactors,
     C: Clock,
 {
-    let pattern = Pattern::new(settings.pattern)?;
-    let mut reader = ColourReader::new(settings.sampler, settings.quantizer)?;
+    let pattern = Pattern::new(settings.pattern).map_err(config_error)?;
+    let mut reader =
+        ColourReader::new(settings.sampler, settings.quantizer).map_err(config_error)?;
     let mut vibration = VibrationLoop::new(
         vibrotactors,
         clock,
         pattern,
         settings.ticks_per_period,
         Arc::clone(&handles.inputs),
-    )?;
+    )
+    .map_err(config_error)?;
     let inputs = &handles.inputs;
     let mut tick = 0u64;
     loop {
         if tick % TICKS_PER_READING == 0 {
-            let snapshot = thimble.latest();
-            let frame = frames.output.read();
-            let [x, y, _] = snapshot.position_m;
-            match reader.read_workspace(frame, &settings.map, x, y) {
-                Ok(reading) => {
-                    inputs.set_levels(Some(reading.levels));
-                    handles.status.set(Some(reading.rgb));
-                }
-                Err(_) => {
-                    inputs.set_levels(None);
-                    handles.status.set(None);
-                }
-            }
-            inputs.set_active(snapshot.rendering);
+            let state = thimble.latest();
+            let (version, [x, y, _]) = (state.version, state.value.position_m);
+            let frame = &frames.latest().value;
+            let reading = if version == 0 {
+                None // the control loop has not published a position yet
+            } else {
+                reader.read_workspace(frame, &settings.map, x, y).ok()
+            };
+            inputs.set_levels(reading.map(|r| r.levels));
+            handles.status.set(reading.map(|r| r.rgb));
         }
         tick += 1;
         if !vibration.step()? {
@@ -244,45 +223,18 @@ where
     Ok((jitter, vibrotactors))
 }
 
-/// Why the colour thread stopped with an error.
-#[derive(Debug, thiserror::Error)]
-pub enum ColourThreadError {
-    /// A configuration was rejected.
-    #[error("colour settings: {0}")]
-    Config(String),
-    /// A vibrotactor write failed (outputs were switched off).
-    #[error(transparent)]
-    Output(#[from] VibrationError),
-}
-
-impl From<videt_colour::pattern::PatternConfigError> for ColourThreadError {
-    fn from(e: videt_colour::pattern::PatternConfigError) -> Self {
-        ColourThreadError::Config(e.to_string())
-    }
-}
-impl From<videt_colour::reader::ReaderConfigError> for ColourThreadError {
-    fn from(e: videt_colour::reader::ReaderConfigError) -> Self {
-        ColourThreadError::Config(e.to_string())
-    }
-}
-impl From<videt_colour::vibration_loop::LoopConfigError> for ColourThreadError {
-    fn from(e: videt_colour::vibration_loop::LoopConfigError) -> Self {
-        ColourThreadError::Config(e.to_string())
-    }
-}
-
 /// The colour thread's result: its period statistics and the vibrotactors handed back.
 pub type ColourJoin<V> = JoinHandle<Result<(PeriodJitter, V), ColourThreadError>>;
 
-/// Start the colour thread (named `videt-colour`); set `handles.inputs.request_shutdown()` to
-/// stop it. With `fifo_priority` the thread asks for SCHED_FIFO at that priority (below the
-/// control thread's); if refused it warns and runs with normal scheduling.
+/// Start the colour thread (named `videt-colour`); `handles.inputs.request_shutdown()` stops
+/// it. With `fifo_priority` the thread asks for SCHED_FIFO at that priority (below the control
+/// thread's); if refused it warns and runs with normal scheduling.
 pub fn spawn_colour_thread<V, C>(
     vibrotactors: V,
     clock: C,
     settings: ColourSettings,
-    thimble: ThimbleReader,
-    frames: ColourFrameReader,
+    thimble: SnapshotReader<ThimbleState>,
+    frames: SnapshotReader<RgbFrame>,
     fifo_priority: Option<u8>,
 ) -> std::io::Result<(ColourHandles, ColourJoin<V>)>
 where
@@ -299,7 +251,7 @@ where
         .spawn(move || {
             if let Some(priority) = fifo_priority {
                 if let Err(e) = crate::rt::set_fifo(priority) {
-                    tracing::warn!(
+                    warn!(
                         "colour thread stays SCHED_OTHER: SCHED_FIFO {priority} refused ({e}); vibration timing will be worse"
                     );
                 }
@@ -317,25 +269,75 @@ where
     Ok((handles, join))
 }
 
-/// The twin's colour set-up for `videtd --sim`: the demo image, its scene map over the rig, and
-/// default sampling, quantization and pattern.
-pub fn demo_colour(
-    guides_m: &[[f64; 2]; 3],
-    wall_z_m: f64,
-) -> Result<(RgbFrame, ColourSettings), ColourThreadError> {
-    let frame = videt_colour::training::decode_rgb(
-        DEMO_IMAGE_PNG.to_vec(),
-        std::path::Path::new("assets/colour-demo/cones-left-crop.png"),
-    )
-    .map_err(|e| ColourThreadError::Config(e.to_string()))?;
-    let map = demo_scene_map(guides_m, wall_z_m, [frame.width, frame.height])
-        .map_err(|e| ColourThreadError::Config(e.to_string()))?;
-    let settings = ColourSettings {
-        map,
-        sampler: SamplerConfig::default(),
-        quantizer: QuantizerConfig::default(),
-        pattern: PatternConfig::default(),
-        ticks_per_period: 20,
-    };
-    Ok((frame, settings))
+/// The colour thread as the service runs it: on the twin's recording vibrotactors and the
+/// system clock.
+pub struct ColourRuntime {
+    handles: ColourHandles,
+    join: ColourJoin<RecordingVibrotactors<SystemClock>>,
+    /// Where a camera publishes newer frames (kept so the channel lives as long as the thread).
+    pub frames: SnapshotWriter<RgbFrame>,
+}
+
+impl ColourRuntime {
+    /// Start the colour thread for `source`, reading thimble states from `thimble`.
+    pub fn start(
+        source: &ColourSource,
+        thimble: SnapshotReader<ThimbleState>,
+        fifo_priority: Option<u8>,
+    ) -> Result<ColourRuntime, ColourThreadError> {
+        let (frames, frame_reader) = snapshot_channel(source.frame.clone());
+        let vibrotactors = RecordingVibrotactors::new(SystemClock, TWIN_EDGE_CAPACITY);
+        let (handles, join) = spawn_colour_thread(
+            vibrotactors,
+            SystemClock,
+            source.settings,
+            thimble,
+            frame_reader,
+            fifo_priority,
+        )
+        .map_err(|e| ColourThreadError::Config(format!("cannot start the colour thread: {e}")))?;
+        Ok(ColourRuntime {
+            handles,
+            join,
+            frames,
+        })
+    }
+
+    /// The shared state (levels, status).
+    pub fn handles(&self) -> &ColourHandles {
+        &self.handles
+    }
+
+    /// Called by the supervisor with the latest control record: render only while the control
+    /// loop runs in its normal state and the service is not stopping.
+    pub fn supervise(&self, record: &CycleRecord, stopping: bool) {
+        let rendering = record.cycle > 0 && record.safety == SafetyState::Normal && !stopping;
+        self.handles.inputs.set_active(rendering);
+    }
+
+    /// The status-line text.
+    pub fn status_text(&self) -> String {
+        self.handles.status_text()
+    }
+
+    /// Switch everything off, stop the thread and log its timing.
+    pub fn finish(self) {
+        self.handles.inputs.set_active(false);
+        self.handles.inputs.request_shutdown();
+        match self.join.join() {
+            Ok(Ok((jitter, vibro))) => info!(
+                ticks = jitter.count() + 1,
+                p99_period_deviation_us = jitter
+                    .p99_deviation_ns()
+                    .map_or(f64::NAN, |v| v as f64 * 1e-3),
+                max_lateness_us = jitter.max_lateness_ns() as f64 * 1e-3,
+                missed_ticks = jitter.missed_ticks(),
+                edges = vibro.edges().len(),
+                dropped_edges = vibro.dropped_edges(),
+                "colour thread stopped: vibrotactors off"
+            ),
+            Ok(Err(e)) => error!("colour thread: {e}"),
+            Err(_) => error!("the colour thread panicked"),
+        }
+    }
 }

@@ -4,11 +4,10 @@
 
 use std::time::{Duration, Instant};
 
-use videt::colour_thread::{
-    colour_frame_channel, demo_colour, spawn_colour_thread, thimble_channel, ColourHandles,
-};
+use videt::colour_thread::{demo_colour, spawn_colour_thread, ColourHandles};
 use videt::control_loop::{CycleObserver, WindowStats};
 use videt::cycle::CycleRecord;
+use videt::snapshot::{snapshot_channel, thimble_channel};
 use videt_colour::level::Level::{High, Low};
 use videt_colour::{RecordingVibrotactors, SimulatedClock};
 use videt_control::safety::{SafetyReason, SafetyState};
@@ -32,10 +31,10 @@ fn wait_for(handles: &ColourHandles, want: impl Fn(&ColourHandles) -> bool) {
 fn colour_under_the_thimble_drives_the_vibrotactors_and_safe_state_silences_them() {
     let config = Config::default();
     let wall_z_m = 0.33;
-    let (frame, settings) = demo_colour(&config.rig.guides_m, wall_z_m).unwrap();
-    let map = settings.map;
+    let source = demo_colour(&config.rig.guides_m, wall_z_m).unwrap();
+    let (settings, map) = (source.settings, source.settings.map);
     let (mut thimble_pub, thimble_reader) = thimble_channel();
-    let (_frames, frame_reader) = colour_frame_channel(&frame);
+    let (_frames, frame_reader) = snapshot_channel(source.frame.clone());
     let clock = SimulatedClock::new(MonoTime(1_000_000_000));
     let vibro = RecordingVibrotactors::new(clock.clone(), 100_000);
     let (handles, join) = spawn_colour_thread(
@@ -48,19 +47,24 @@ fn colour_under_the_thimble_drives_the_vibrotactors_and_safe_state_silences_them
     )
     .unwrap();
 
+    // The control loop publishes the thimble state; the supervisor allows rendering only in the
+    // normal state (as `ColourRuntime::supervise` does in the service).
     let mut publish = |u: f64, v: f64, safety: SafetyState| {
         let [x, y] = map.image_to_workspace(u, v);
         let record = CycleRecord {
+            cycle: 1,
             position_m: [x, y, wall_z_m],
             safety,
             ..CycleRecord::default()
         };
         thimble_pub.observe(&record, &WindowStats::default());
+        handles.inputs.set_active(safety == SafetyState::Normal);
     };
 
     // Before the control loop publishes anything: quiet.
     std::thread::sleep(Duration::from_millis(5));
     assert!(!handles.inputs.is_active());
+    assert_eq!(handles.inputs.levels(), None);
 
     // Red cone of the demo crop (pixel 185, 75): red High, green and blue Low.
     publish(185.5, 75.5, SafetyState::Normal);
@@ -123,7 +127,13 @@ fn colour_under_the_thimble_drives_the_vibrotactors_and_safe_state_silences_them
 #[test]
 fn videtd_sim_status_line_shows_the_colour() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_videtd"))
-        .args(["--sim", "--duration", "2.5"])
+        .args([
+            "--sim",
+            "--duration",
+            "2.5",
+            "--no-socket",
+            "--no-telemetry",
+        ])
         .output()
         .unwrap();
     assert!(

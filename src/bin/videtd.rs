@@ -2,26 +2,20 @@
 //!
 //! `videtd --sim` runs the real runtime and control code on the digital twin (a virtual wall and
 //! a virtual operator who touches it and slides along it). One status line per second; Ctrl-C or
-//! SIGTERM ramps the forces out, powers the drives off and exits 0.
+//! SIGTERM ramps the forces out, powers the drives off and exits 0. Under systemd
+//! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
+//! control loop is healthy.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
 
 use clap::{Parser, ValueEnum};
-use tracing::{error, info, warn};
-use videt::colour_thread::{
-    colour_frame_channel, demo_colour, spawn_colour_thread, thimble_channel,
-};
-use videt::control_loop::{run_control_loop, start_hardware, LoopSettings};
+use tracing::error;
 use videt::cycle::WireZero;
-use videt::rt::SystemClock;
-use videt::status::status_channel;
+use videt::service::{run_service, ServiceOptions};
+use videt::setup;
+use videt::snapshot::FixedSurface;
 use videt::twin_rt::RealTimeTwin;
-use videt::{rt, setup};
-use videt_colour::RecordingVibrotactors;
 use videt_rt_config::Config;
 
 /// Which twin `--sim` runs on.
@@ -38,13 +32,25 @@ struct Args {
     /// Run on the digital twin instead of the device.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "hal")]
     sim: Option<SimMode>,
-    /// Configuration file (default: /etc/videt/videt.toml when present, else built-in defaults
-    /// with --sim).
+    /// Configuration file (default: /etc/videt/videt.toml when present; with --sim, built-in
+    /// defaults otherwise).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Stop cleanly after this many seconds.
     #[arg(long, value_name = "SECS")]
     duration: Option<f64>,
+    /// Control socket path (overrides socket.path).
+    #[arg(long, value_name = "PATH")]
+    socket: Option<PathBuf>,
+    /// Run without the control socket.
+    #[arg(long, conflicts_with = "socket")]
+    no_socket: bool,
+    /// Directory of the session log (overrides telemetry.directory).
+    #[arg(long, value_name = "DIR")]
+    telemetry_dir: Option<PathBuf>,
+    /// Run without the per-period telemetry log.
+    #[arg(long, conflicts_with = "telemetry_dir")]
+    no_telemetry: bool,
 }
 
 const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -83,154 +89,51 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    if args.sim.is_none() {
-        error!("no device backend is built into this videtd: run with --sim for the digital twin");
-        return ExitCode::from(2);
+    let mut options = ServiceOptions::from_config(config.clone());
+    options.duration_s = args.duration;
+    if args.no_socket {
+        options.socket_path = None;
+    } else if let Some(p) = &args.socket {
+        options.socket_path = Some(p.clone());
     }
-    run_on_twin(&config, args.duration)
-}
-
-fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
-    let rig = match setup::rig(config) {
+    if args.no_telemetry {
+        options.telemetry_dir = None;
+    } else if let Some(d) = &args.telemetry_dir {
+        options.telemetry_dir = Some(d.clone());
+    }
+    let rig = match setup::rig(&config) {
         Ok(r) => r,
         Err(e) => {
             error!("rig geometry: {e}");
             return ExitCode::from(2);
         }
     };
-    if config.realtime.lock_memory {
-        if let Err(e) = rt::lock_memory() {
-            warn!("memory not locked (mlockall: {e}); page faults may delay the control loop");
-        }
-    }
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        if let Err(e) = signal_hook::flag::register(signal, Arc::clone(&stop)) {
-            error!("cannot install the handler for signal {signal}: {e}");
-            return ExitCode::FAILURE;
-        }
-    }
-
-    let scene = setup::demo_scene(config, 1);
-    let wall = scene.wall;
-    let mut cycle = setup::control_cycle(config, rig, WireZero::default(), true);
-    let settings = LoopSettings {
-        rate_hz: config.control.rate_hz,
-        duration_ns: duration_s.map(|d| (d * 1e9) as u64),
-        max_consecutive_overruns: 10,
-    };
-    let (publisher, mut reader) = status_channel();
-    let (thimble_publisher, thimble_reader) = thimble_channel();
-    let mut observers = (publisher, thimble_publisher);
-    // Colour under the finger: the demo image over the explored area, rendered on the twin's
-    // recording vibrotactors by the colour thread.
-    let (demo_frame, colour_settings) = match demo_colour(&config.rig.guides_m, scene.wall_z_m) {
-        Ok(c) => c,
-        Err(e) => {
-            error!("{e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    let (_frame_publisher, frame_reader) = colour_frame_channel(&demo_frame);
-    let vibrotactors = RecordingVibrotactors::new(SystemClock, 200_000);
-    let (colour, colour_thread) = match spawn_colour_thread(
-        vibrotactors,
-        SystemClock,
-        colour_settings,
-        thimble_reader,
-        frame_reader,
-        Some(config.realtime.control_priority.saturating_sub(10).max(1)),
-    ) {
-        Ok(c) => c,
-        Err(e) => {
-            error!("cannot start the colour thread: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    let priority = config.realtime.control_priority;
-    let cpu = usize::try_from(config.realtime.control_cpu).ok();
-    let thread_stop = Arc::clone(&stop);
-    info!(
-        rate_hz = settings.rate_hz,
-        wall_z_m = scene.wall_z_m,
-        "starting the control loop on the digital twin (virtual wall, virtual operator)"
-    );
-    let control = std::thread::Builder::new()
-        .name("videt-control".into())
-        .spawn(move || {
-            let report = rt::setup_control_thread(priority, cpu);
-            for w in &report.warnings {
-                warn!("{w}");
-            }
-            let mut hw = RealTimeTwin::new(scene.twin);
-            start_hardware(&mut hw).map_err(|e| e.to_string())?;
-            Ok::<_, String>(run_control_loop(
-                &mut hw,
-                &wall,
-                &mut cycle,
-                &settings,
-                &thread_stop,
-                &mut observers,
-            ))
-        });
-    let control = match control {
-        Ok(handle) => handle,
-        Err(e) => {
-            error!("cannot start the control thread: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-
-    let mut last_print = std::time::Instant::now();
-    while !control.is_finished() {
-        std::thread::sleep(Duration::from_millis(20));
-        if stop.load(Ordering::Relaxed) {
-            colour.inputs.request_shutdown();
-        }
-        if last_print.elapsed() >= Duration::from_secs(1) {
-            last_print = std::time::Instant::now();
-            println!("{}  {}", reader.latest().line(), colour.status_text());
-        }
-    }
-    let colour_text = colour.status_text();
-    colour.inputs.request_shutdown();
-    match colour_thread.join() {
-        Ok(Ok((jitter, vibro))) => info!(
-            ticks = jitter.count() + 1,
-            p99_period_deviation_us = jitter
-                .p99_deviation_ns()
-                .map_or(f64::NAN, |v| v as f64 * 1e-3),
-            max_lateness_us = jitter.max_lateness_ns() as f64 * 1e-3,
-            missed_ticks = jitter.missed_ticks(),
-            edges = vibro.edges().len(),
-            dropped_edges = vibro.dropped_edges(),
-            "colour thread stopped: vibrotactors off"
-        ),
-        Ok(Err(e)) => error!("colour thread: {e}"),
-        Err(_) => error!("the colour thread panicked"),
-    }
-    match control.join() {
-        Ok(Ok(report)) => {
-            let s = reader.latest();
-            println!("{}  {}", s.line(), colour_text);
-            info!(
-                cycles = report.cycles,
-                overruns = report.overruns,
-                safety = report.final_safety.as_str(),
-                "control loop stopped: forces ramped out, drives off"
+    match args.sim {
+        Some(SimMode::Hal) => {
+            let scene = setup::demo_scene(&config, 1);
+            tracing::info!(
+                rate_hz = config.control.rate_hz,
+                wall_z_m = scene.wall_z_m,
+                "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
             );
-            if stop.load(Ordering::Relaxed) {
-                info!("stopped by signal");
+            let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+            // Colour under the finger: a demo image over the explored area.
+            match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
+                Ok(source) => options.colour = Some(source),
+                Err(e) => tracing::warn!("colour rendering disabled: {e}"),
             }
-            ExitCode::SUCCESS
+            run_service(
+                RealTimeTwin::new(scene.twin),
+                FixedSurface(scene.wall),
+                cycle,
+                &options,
+            )
         }
-        Ok(Err(e)) => {
-            error!("{e}");
-            ExitCode::FAILURE
-        }
-        Err(_) => {
-            error!("the control thread panicked; the drives were left to their communication-loss stop");
-            ExitCode::from(70)
+        None => {
+            error!(
+                "no device backend is built into this videtd: run with --sim for the digital twin"
+            );
+            ExitCode::from(2)
         }
     }
 }
