@@ -50,6 +50,12 @@ fn frequency_and_duty_per_level_on_simulated_time() {
     for (channel, duty) in [(1, 0.2), (2, 0.5)] {
         let s = rec.channel_summary(channel, from, to);
         let f = s.frequency_hz.expect("a carrier");
+        println!(
+            "channel {channel}: {f:.6} Hz, duty {:.4} %, {} pulses, period range {:?} ns",
+            100.0 * s.duty,
+            s.rising_edges,
+            s.period_range_ns
+        );
         assert!(within(f, 75.0, 0.01), "channel {channel}: {f} Hz");
         assert!(
             (s.duty - duty).abs() < 0.005,
@@ -81,6 +87,13 @@ fn late_wakeups_are_measured_and_the_carrier_holds() {
         assert!((s.duty - duty).abs() < 0.006, "{s:?}");
     }
     let j = lp.jitter();
+    println!(
+        "with 0..60 µs wake-up latency: period {}..{} ns, p99 |deviation| <= {:?} ns, max lateness {} ns",
+        j.min_period_ns().unwrap(),
+        j.max_period_ns().unwrap(),
+        j.p99_deviation_ns(),
+        j.max_lateness_ns()
+    );
     assert!(j.max_lateness_ns() <= 60_000 && j.max_lateness_ns() > 30_000);
     let p99 = j.p99_deviation_ns().unwrap();
     assert!(p99 > 10_000 && p99 <= 61_000, "p99 {p99}");
