@@ -205,6 +205,47 @@ impl WindowSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0x5A3E),
+            ..ProptestConfig::with_cases(200)
+        })]
+
+        /// Any point inside any frame, any odd window: no panic, and each channel of the result
+        /// lies between the smallest and largest value of the clipped window.
+        #[test]
+        fn window_statistics_stay_within_the_window(
+            w in 1u32..12, h in 1u32..12, seed in any::<u64>(),
+            fu in 0.0f64..1.0, fv in 0.0f64..1.0,
+            half in 0u32..6, median in any::<bool>(),
+        ) {
+            let mut x = seed | 1;
+            let data: Vec<u8> = (0..3 * w * h).map(|_| {
+                x ^= x << 13; x ^= x >> 7; x ^= x << 17;
+                (x >> 24) as u8
+            }).collect();
+            let frame = RgbFrame { width: w, height: h, data };
+            let statistic = if median { WindowStatistic::Median } else { WindowStatistic::Mean };
+            let mut s = WindowSampler::new(SamplerConfig { window_px: 2 * half + 1, statistic }).unwrap();
+            let (u, v) = (fu * f64::from(w), fv * f64::from(h));
+            let got = s.sample_pixel(&frame, u, v).unwrap();
+            let (cu, cv) = (u as u32, v as u32);
+            for c in 0..3 {
+                let mut lo = 255u8;
+                let mut hi = 0u8;
+                for j in cv.saturating_sub(half)..=(cv + half).min(h - 1) {
+                    for i in cu.saturating_sub(half)..=(cu + half).min(w - 1) {
+                        let p = frame.data[(3 * (j * w + i)) as usize + c];
+                        lo = lo.min(p);
+                        hi = hi.max(p);
+                    }
+                }
+                prop_assert!(lo <= got[c] && got[c] <= hi, "channel {c}: {} not in {lo}..={hi}", got[c]);
+            }
+        }
+    }
 
     /// A 5x4 frame whose pixel (u, v) is (10u, 10v, 7).
     fn ramp() -> RgbFrame {

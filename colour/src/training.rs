@@ -277,6 +277,27 @@ mod tests {
         assert!(!dir.path().join(".levels.png.tmp").exists());
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0xB17E5),
+            ..proptest::prelude::ProptestConfig::with_cases(300)
+        })]
+
+        /// Arbitrary bytes, and PPM headers with arbitrary sizes and truncated bodies, decode to
+        /// an error or a consistent frame; never a panic.
+        #[test]
+        fn arbitrary_bytes_never_panic(
+            body in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..200),
+            w in 0u32..70_000, h in 0u32..70_000, ppm in proptest::prelude::any::<bool>(),
+        ) {
+            let mut bytes = if ppm { format!("P6\n{w} {h}\n255\n").into_bytes() } else { Vec::new() };
+            bytes.extend_from_slice(&body);
+            if let Ok(f) = decode_rgb(bytes, Path::new("fuzz")) {
+                proptest::prop_assert!(crate::sample::check_frame(&f).is_ok());
+            }
+        }
+    }
+
     #[test]
     fn bad_files_give_clear_errors() {
         let dir = tempfile::tempdir().unwrap();
