@@ -11,23 +11,40 @@
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// Small fixed-size numeric kernels read best with explicit indices.
+#![allow(clippy::needless_range_loop)]
 
 #[cfg(any(test, feature = "std"))]
 extern crate std;
 
+pub mod analysis;
+pub mod contact;
 pub mod distribution;
+pub mod field;
 pub mod kinematics;
+pub mod measures;
+pub mod planar;
+pub mod polar;
 pub mod scene_map;
 pub mod step;
 pub mod surface;
 pub mod tension_pi;
+pub mod wire_map;
 
-pub use distribution::{Algorithm, Distribution, ForceLimits};
+pub use contact::{contact_force, ContactModel};
+pub use distribution::{
+    distribute, project, Algorithm, Distribution, FieldRule, ForceLimits, LimitsError, Projection,
+};
+pub use field::{field_force, free_space_force, ForceField};
 pub use kinematics::{ForwardSolution, Rig3, RigError};
+pub use measures::{isotropic_force_limit_n, v_index};
+pub use planar::{PlanarForward, RigPlanar, Vec2};
+pub use polar::{one_wire_distribute, polar_forward, polar_inverse, PolarCoordinates};
 pub use scene_map::SceneMap;
 pub use step::{ControlParams, ControlStep, StepInput, StepOutput};
 pub use surface::{Contact, FreeSpace, Plane, Surface};
 pub use tension_pi::{TensionPi, TensionPiGains};
+pub use wire_map::WireMap;
 
 /// 3-vector of `f64` (positions in metres, forces in newtons).
 pub type Vec3 = nalgebra::Vector3<f64>;
