@@ -301,63 +301,145 @@ const MAX_KKT: usize = 4;
 
 /// Normal-first nearest: among the tensions in the box, those whose force along `n` equals
 /// `clamp(|f|, r_min, r_max)` (the most of `|f|` the box allows), the one whose force is closest
-/// to `f`. Strictly convex (V is invertible), so the optimum is the feasible candidate of least
-/// cost among the stationary points of all `3^N` patterns (each wire free, at `t_min` or at
-/// `t_max`). `None` if no candidate was found (not expected; the caller falls back to P2).
+/// to `f`. Strictly convex (V is invertible), so the optimum is the stationary point of one of
+/// the `3^N` bound patterns (each wire free, at `t_min` or at `t_max`), and a stationary point
+/// that satisfies the KKT sign conditions is that optimum. The likely patterns are tried first
+/// (the one of the raw tensions, then the paper's P2 one) and the first certified candidate
+/// returned; otherwise every pattern is evaluated and the least-cost feasible one kept (at most
+/// `3^N + 2` small solves). `None` if no candidate was found (not expected; the caller falls
+/// back to P2).
 fn normal_first_nearest<const N: usize>(
     map: &WireMap<N>,
     target_n: &SVector<f64, N>,
     limits: &ForceLimits,
 ) -> Option<[f64; N]> {
-    let (lo, hi) = (limits.t_min_n, limits.t_max_n.max(limits.t_min_n));
+    let lo = limits.t_min_n;
+    let hi = limits.t_max_n.max(lo);
     let magnitude = target_n.norm();
     let constrained = magnitude > 1e-12;
-    let mut along = [0.0; N];
-    let mut pulls = [SVector::<f64, N>::zeros(); N];
+    let raw = map.tensions(target_n);
+    let mut problem = NearestProblem {
+        pulls: [SVector::<f64, N>::zeros(); N],
+        gram: [[0.0; N]; N],
+        along: [0.0; N],
+        target: *target_n,
+        goal: 0.0,
+        lo,
+        hi,
+        constrained,
+        tol: 1e-9 * (1.0 + magnitude + hi),
+    };
     let (mut r_min, mut r_max) = (0.0, 0.0);
     for i in 0..N {
-        pulls[i] = map.pull_direction(i);
+        problem.pulls[i] = map.pull_direction(i);
         if constrained {
-            along[i] = pulls[i].dot(target_n) / magnitude;
+            problem.along[i] = problem.pulls[i].dot(target_n) / magnitude;
         }
-        let (a, b) = (along[i] * lo, along[i] * hi);
+        let (a, b) = (problem.along[i] * lo, problem.along[i] * hi);
         r_min += a.min(b);
         r_max += a.max(b);
     }
-    let normal_goal = magnitude.max(r_min).min(r_max);
-    let tol = 1e-9 * (1.0 + magnitude + hi);
-
-    let mut patterns = 1usize;
-    for _ in 0..N {
-        patterns *= 3;
+    for i in 0..N {
+        for j in 0..N {
+            problem.gram[i][j] = problem.pulls[i].dot(&problem.pulls[j]);
+        }
     }
+    problem.goal = magnitude.max(r_min).min(r_max);
+
+    // Likely patterns: from the raw tensions, and the paper's P2 (wires that cannot share the
+    // normal force at the floor).
+    let mut raw_guess = 0usize;
+    let mut p2_guess = 0usize;
+    let mut place = 1usize;
+    for i in 0..N {
+        let digit = if raw[i] < lo {
+            1
+        } else if raw[i] > hi {
+            2
+        } else {
+            0
+        };
+        raw_guess += digit * place;
+        if !(raw[i] > 0.0 && problem.along[i] > 0.0) {
+            p2_guess += place;
+        }
+        place *= 3;
+    }
+    let patterns = place;
     let mut best: Option<([f64; N], f64)> = None;
-    for pattern in 0..patterns {
-        // Digit i of the pattern: 0 free, 1 at t_min, 2 at t_max.
+    for k in 0..patterns + 2 {
+        let pattern = match k {
+            0 => raw_guess,
+            1 if p2_guess != raw_guess => p2_guess,
+            1 => continue,
+            _ if k - 2 == raw_guess || k - 2 == p2_guess => continue,
+            _ => k - 2,
+        };
+        if let Some(candidate) = problem.solve_pattern(pattern) {
+            if candidate.certified {
+                return Some(candidate.tensions);
+            }
+            if best.is_none_or(|(_, c)| candidate.cost < c) {
+                best = Some((candidate.tensions, candidate.cost));
+            }
+        }
+    }
+    best.map(|(t, _)| t)
+}
+
+/// The data of the normal-first nearest problem.
+struct NearestProblem<const N: usize> {
+    pulls: [SVector<f64, N>; N],
+    gram: [[f64; N]; N],
+    along: [f64; N],
+    target: SVector<f64, N>,
+    goal: f64,
+    lo: f64,
+    hi: f64,
+    constrained: bool,
+    tol: f64,
+}
+
+/// A feasible stationary point of one bound pattern.
+struct Candidate<const N: usize> {
+    tensions: [f64; N],
+    cost: f64,
+    /// The KKT sign conditions hold: this is the optimum.
+    certified: bool,
+}
+
+impl<const N: usize> NearestProblem<N> {
+    /// The stationary point of `pattern` (base-3 digit per wire: 0 free, 1 at `t_min`, 2 at
+    /// `t_max`), if it is feasible.
+    fn solve_pattern(&self, pattern: usize) -> Option<Candidate<N>> {
         let mut code = pattern;
+        let mut state = [0u8; N];
         let mut tensions = [0.0; N];
         let mut free = [0usize; N];
         let mut free_count = 0;
-        let mut residual = *target_n;
-        let mut goal = normal_goal;
+        let mut residual = self.target;
+        let mut goal = self.goal;
         for i in 0..N {
-            match code % 3 {
-                0 => {
-                    free[free_count] = i;
-                    free_count += 1;
-                }
-                digit => {
-                    let t = if digit == 1 { lo } else { hi };
-                    tensions[i] = t;
-                    residual -= pulls[i] * t;
-                    goal -= along[i] * t;
-                }
-            }
+            state[i] = (code % 3) as u8;
             code /= 3;
+            if state[i] == 0 {
+                free[free_count] = i;
+                free_count += 1;
+            } else {
+                let t = if state[i] == 1 { self.lo } else { self.hi };
+                tensions[i] = t;
+                residual -= self.pulls[i] * t;
+                goal -= self.along[i] * t;
+            }
         }
-        let use_constraint = constrained && (0..free_count).any(|k| along[free[k]].abs() > 1e-9);
-        if constrained && !use_constraint && goal.abs() > tol {
-            continue;
+        let use_constraint =
+            self.constrained && (0..free_count).any(|k| self.along[free[k]].abs() > 1e-9);
+        if self.constrained && !use_constraint && goal.abs() > self.tol {
+            return None;
+        }
+        let mut multiplier = None;
+        if !self.constrained {
+            multiplier = Some(0.0);
         }
         if free_count > 0 {
             // Stationary point of |sum_k u_k t_k - residual|² (+ lambda (a·t - goal)).
@@ -365,42 +447,51 @@ fn normal_first_nearest<const N: usize>(
             let mut m = [[0.0; MAX_KKT + 1]; MAX_KKT];
             for r in 0..free_count {
                 for c in 0..free_count {
-                    m[r][c] = pulls[free[r]].dot(&pulls[free[c]]);
+                    m[r][c] = self.gram[free[r]][free[c]];
                 }
-                m[r][size] = pulls[free[r]].dot(&residual);
+                m[r][size] = self.pulls[free[r]].dot(&residual);
                 if use_constraint {
-                    m[r][free_count] = along[free[r]];
-                    m[free_count][r] = along[free[r]];
+                    m[r][free_count] = self.along[free[r]];
+                    m[free_count][r] = self.along[free[r]];
                 }
             }
             if use_constraint {
                 m[free_count][size] = goal;
             }
-            let Some(solution) = solve_in_place(&mut m, size) else {
-                continue;
-            };
-            let mut feasible = true;
+            let solution = solve_in_place(&mut m, size)?;
             for k in 0..free_count {
                 let t = solution[k];
-                if !(t >= lo - tol && t <= hi + tol) {
-                    feasible = false;
+                if !(t >= self.lo - self.tol && t <= self.hi + self.tol) {
+                    return None;
                 }
-                tensions[free[k]] = t.max(lo).min(hi);
+                tensions[free[k]] = t.max(self.lo).min(self.hi);
             }
-            if !feasible {
-                continue;
+            if use_constraint {
+                multiplier = Some(solution[free_count]);
             }
         }
-        let mut err = -*target_n;
+        let mut err = -self.target;
         for i in 0..N {
-            err += pulls[i] * tensions[i];
+            err += self.pulls[i] * tensions[i];
         }
-        let cost = err.norm_squared();
-        if best.is_none_or(|(_, c)| cost < c) {
-            best = Some((tensions, cost));
-        }
+        // KKT signs of the fixed wires: at t_min the Lagrangian must not decrease with t_i, at
+        // t_max it must not increase.
+        let certified = multiplier.is_some_and(|lambda| {
+            (0..N).all(|i| {
+                let slope = self.pulls[i].dot(&err) + lambda * self.along[i];
+                match state[i] {
+                    1 => slope >= -self.tol,
+                    2 => slope <= self.tol,
+                    _ => true,
+                }
+            })
+        });
+        Some(Candidate {
+            tensions,
+            cost: err.norm_squared(),
+            certified,
+        })
     }
-    best.map(|(t, _)| t)
 }
 
 /// Gaussian elimination with partial pivoting on an augmented `size x (size+1)` system stored
