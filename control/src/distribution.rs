@@ -313,6 +313,17 @@ fn normal_first_nearest<const N: usize>(
     target_n: &SVector<f64, N>,
     limits: &ForceLimits,
 ) -> Option<[f64; N]> {
+    normal_first_nearest_search(map, target_n, limits, true)
+}
+
+/// [`normal_first_nearest`], optionally without the early return on a certified candidate
+/// (tests compare the two).
+fn normal_first_nearest_search<const N: usize>(
+    map: &WireMap<N>,
+    target_n: &SVector<f64, N>,
+    limits: &ForceLimits,
+    early_exit: bool,
+) -> Option<[f64; N]> {
     let lo = limits.t_min_n;
     let hi = limits.t_max_n.max(lo);
     let magnitude = target_n.norm();
@@ -376,7 +387,7 @@ fn normal_first_nearest<const N: usize>(
             _ => k - 2,
         };
         if let Some(candidate) = problem.solve_pattern(pattern) {
-            if candidate.certified {
+            if candidate.certified && early_exit {
                 return Some(candidate.tensions);
             }
             if best.is_none_or(|(_, c)| candidate.cost < c) {
@@ -476,16 +487,41 @@ impl<const N: usize> NearestProblem<N> {
         }
         // KKT signs of the fixed wires: at t_min the Lagrangian must not decrease with t_i, at
         // t_max it must not increase.
-        let certified = multiplier.is_some_and(|lambda| {
-            (0..N).all(|i| {
+        let certified = match multiplier {
+            Some(lambda) => (0..N).all(|i| {
                 let slope = self.pulls[i].dot(&err) + lambda * self.along[i];
                 match state[i] {
                     1 => slope >= -self.tol,
                     2 => slope <= self.tol,
                     _ => true,
                 }
-            })
-        });
+            }),
+            // The equality holds without a free wire to carry it: its multiplier is any value
+            // that satisfies every sign condition, if one exists.
+            None => {
+                let (mut lambda_lo, mut lambda_hi) = (f64::NEG_INFINITY, f64::INFINITY);
+                let mut possible = true;
+                for i in 0..N {
+                    let g = self.pulls[i].dot(&err);
+                    let a = self.along[i];
+                    // At t_min: g + lambda a >= 0; at t_max: g + lambda a <= 0.
+                    let sign = match state[i] {
+                        1 => 1.0,
+                        2 => -1.0,
+                        _ => continue,
+                    };
+                    let (g, a) = (sign * g, sign * a);
+                    if a.abs() <= 1e-12 {
+                        possible &= g >= -self.tol;
+                    } else if a > 0.0 {
+                        lambda_lo = lambda_lo.max((-self.tol - g) / a);
+                    } else {
+                        lambda_hi = lambda_hi.min((-self.tol - g) / a);
+                    }
+                }
+                possible && lambda_lo <= lambda_hi
+            }
+        };
         Some(Candidate {
             tensions,
             cost: err.norm_squared(),
@@ -742,6 +778,23 @@ mod tests {
             prop_assert!(!d.saturated);
             prop_assert!((d.rendered_n.dot(&n) - f.norm()).abs() < 1e-9 * (1.0 + f.norm()),
                 "along n {} vs {}", d.rendered_n.dot(&n), f.norm());
+        }
+
+        #[test]
+        fn qp_certificate_returns_the_exhaustive_optimum(
+            x in -0.2f64..0.6, y in -0.2f64..0.5, z in 0.05f64..0.6,
+            fx in -20.0f64..20.0, fy in -20.0f64..20.0, fz in -20.0f64..20.0,
+            limits in limits_strategy(),
+        ) {
+            let p = Vec3::new(x, y, z);
+            let f = Vec3::new(fx, fy, fz);
+            let map = rig().wire_map(&p).unwrap();
+            let fast = normal_first_nearest_search(&map, &f, &limits, true).unwrap();
+            let full = normal_first_nearest_search(&map, &f, &limits, false).unwrap();
+            let cost = |t: &[f64; 3]| (map.force(t) - f).norm();
+            prop_assert!(cost(&fast) <= cost(&full) + 1e-7, "{fast:?} vs {full:?}");
+            let n = f.normalize();
+            prop_assert!((map.force(&fast).dot(&n) - map.force(&full).dot(&n)).abs() < 1e-7);
         }
 
         #[test]
