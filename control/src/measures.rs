@@ -48,8 +48,9 @@ pub fn isotropic_force_limit_n<const N: usize>(
             .min((t - limits.t_min_n) / gain)
             .min((limits.t_max_n - t) / gain);
     }
-    if radius.is_finite() {
-        radius.max(0.0)
+    // (`> 0.0` also maps -0.0 and NaN to 0.)
+    if radius.is_finite() && radius > 0.0 {
+        radius
     } else {
         0.0
     }

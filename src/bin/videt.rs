@@ -19,12 +19,16 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
+    /// limit, plots (paper section 6).
+    Analyze(tool::analyze::AnalyzeArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Analyze(a) => tool::analyze::run(a),
     };
     match result {
         Ok(code) => code,

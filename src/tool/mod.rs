@@ -1,6 +1,7 @@
 //! Subcommands of the `videt` tool, one module each. Each exposes its clap arguments and a `run`
 //! function returning the process exit code or an error to print.
 
+pub mod analyze;
 pub mod config;
 
 /// The error a subcommand reports to the user (printed as `videt: <message>`).
