@@ -781,6 +781,26 @@ mod tests {
         }
 
         #[test]
+        fn p2_without_floor_is_exact_whenever_a_wire_has_positive_tension(
+            x in -0.3f64..0.7, y in -0.3f64..0.6, z in 0.02f64..0.8,
+            fx in -10.0f64..10.0, fy in -10.0f64..10.0, fz in -10.0f64..10.0,
+        ) {
+            let p = Vec3::new(x, y, z);
+            let f = Vec3::new(fx, fy, fz);
+            prop_assume!(f.norm() > 1e-3);
+            let Some(map) = rig().wire_map(&p) else { return Ok(()) };
+            let raw = map.tensions(&f);
+            let n = f.normalize();
+            // A positive wire must also pull along n: at (0, -0.26, 0.02) a force along -y has
+            // two positive raw tensions, yet no wire can pull along -y at all.
+            prop_assume!((0..3).any(|i| raw[i] > 0.0 && n.dot(&map.pull_direction(i)) > 0.0));
+            let d = project(&map, &f, Projection::ExactAlongNormal, &ForceLimits { t_min_n: 0.0, t_max_n: 1e9 });
+            prop_assert!(!d.saturated);
+            prop_assert!((d.rendered_n.dot(&n) - f.norm()).abs() < 1e-9 * (1.0 + f.norm()),
+                "along n {} vs {} raw {raw:?}", d.rendered_n.dot(&n), f.norm());
+        }
+
+        #[test]
         fn qp_certificate_returns_the_exhaustive_optimum(
             x in -0.2f64..0.6, y in -0.2f64..0.5, z in 0.05f64..0.6,
             fx in -20.0f64..20.0, fy in -20.0f64..20.0, fz in -20.0f64..20.0,

@@ -310,6 +310,27 @@ mod tests {
         }
 
         #[test]
+        fn forward_never_gives_nan(l0 in -2.0f64..2.0, l1 in -2.0f64..2.0, l2 in -2.0f64..2.0, scale in prop_oneof![Just(1.0), Just(1e-200), Just(1e200)]) {
+            let s = paper_rig().forward(&[l0 * scale, l1 * scale, l2 * scale]);
+            prop_assert!(s.position_m.iter().all(|c| c.is_finite()));
+            prop_assert!(s.position_m.z >= 0.0);
+        }
+
+        #[test]
+        fn noisy_lengths_near_the_plane_clamp_and_say_so(x in 0.0f64..0.37, y in 0.0f64..0.3, noise in -2e-3f64..2e-3) {
+            let rig = paper_rig();
+            let mut l = rig.inverse(&Vec3::new(x, y, 1e-4));
+            l[0] += noise;
+            let s = rig.forward(&l);
+            prop_assert!(s.position_m.iter().all(|c| c.is_finite()));
+            if s.clamped {
+                prop_assert_eq!(s.position_m.z, 0.0);
+            } else {
+                prop_assert!(s.position_m.z >= 0.0);
+            }
+        }
+
+        #[test]
         fn velocity_map_matches_finite_difference(x in 0.0f64..0.4, y in 0.0f64..0.3, z in 0.1f64..0.5,
                                                    vx in -0.5f64..0.5, vy in -0.5f64..0.5, vz in -0.5f64..0.5) {
             let rig = paper_rig();

@@ -8,6 +8,14 @@
 //!
 //! Frame (the paper's): the guide points lie in the `z = 0` plane; the thimble works at `z > 0`
 //! in front of the frame. SI units everywhere.
+//!
+//! - Devices: [`Rig3`] (three wires, guides anywhere in `z = 0`), [`RigPlanar`] (the two-wire
+//!   x-z device of the paper's experiments), [`polar`] (the one-wire device, eq. 7). Each gives a
+//!   [`WireMap`] (`V = J^-T`, `J^T`) at a position.
+//! - Force: [`contact`] (spring-damper along the normal), [`field`] (constant-direction and
+//!   bisector fields, free-space pull), [`distribution`] (P1, P2, F1, F2 and QP projections onto
+//!   `F = { V t : t_min <= t_i <= t_max }`), [`measures`] (index V, isotropic force limit).
+//! - [`step`]: one control period; [`analysis`]: the designer's sweeps behind `videt analyze`.
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

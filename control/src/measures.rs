@@ -105,6 +105,32 @@ mod tests {
     }
 
     #[test]
+    fn the_bisector_field_maximises_the_isotropic_limit() {
+        // An asymmetric spatial cone: the equal-angle bisector beats the mean wire direction and
+        // any other nearby direction of the same magnitude.
+        let rig = crate::Rig3::new([
+            crate::Vec3::zeros(),
+            crate::Vec3::new(0.4, 0.0, 0.0),
+            crate::Vec3::new(0.05, 0.3, 0.0),
+        ])
+        .unwrap();
+        let map = rig.wire_map(&crate::Vec3::new(0.3, 0.25, 0.2)).unwrap();
+        let limits = ForceLimits {
+            t_min_n: 0.0,
+            t_max_n: 15.0,
+        };
+        let radius =
+            |d: crate::Vec3| isotropic_force_limit_n(&map, &(d.normalize() * 2.0), &limits);
+        let best = radius(map.bisector());
+        assert!(best > radius(map.mean_pull_direction()) + 1e-3);
+        for k in 0..200 {
+            let a = k as f64 * 0.7;
+            let wobble = crate::Vec3::new(a.cos(), a.sin(), (1.3 * a).cos()) * 0.05;
+            assert!(radius(map.bisector() + wobble) <= best + 1e-12);
+        }
+    }
+
+    #[test]
     fn v_index_cases() {
         let f = Vec2::new(1.0, 0.0);
         assert_eq!(v_index(&f, &f), 1.0);
