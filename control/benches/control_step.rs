@@ -25,6 +25,7 @@ fn bench_control_step(c: &mut Criterion) {
         measured_tension_n: [1.0, 2.0, 0.5],
         dt_s: 1e-3,
         render_forces: true,
+        force_scale: 1.0,
     };
     let mut group = c.benchmark_group("control_step");
     for algorithm in Algorithm::ALL {

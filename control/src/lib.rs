@@ -19,8 +19,6 @@
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
-// Small fixed-size numeric kernels read best with explicit indices.
-#![allow(clippy::needless_range_loop)]
 
 #[cfg(any(test, feature = "std"))]
 extern crate std;
@@ -33,6 +31,7 @@ pub mod kinematics;
 pub mod measures;
 pub mod planar;
 pub mod polar;
+pub mod safety;
 pub mod scene_map;
 pub mod step;
 pub mod surface;
@@ -48,6 +47,7 @@ pub use kinematics::{ForwardSolution, Rig3, RigError};
 pub use measures::{isotropic_force_limit_n, v_index};
 pub use planar::{PlanarForward, RigPlanar, Vec2};
 pub use polar::{one_wire_distribute, polar_forward, polar_inverse, PolarCoordinates};
+pub use safety::{SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor};
 pub use scene_map::SceneMap;
 pub use step::{ControlParams, ControlStep, StepInput, StepOutput};
 pub use surface::{Contact, FreeSpace, Plane, Surface};

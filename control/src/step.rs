@@ -63,6 +63,8 @@ pub struct StepInput {
     pub dt_s: f64,
     /// False in the safe state: no force is rendered and every wire is held at `t_min`.
     pub render_forces: bool,
+    /// Scale in `[0, 1]` applied to the desired force (ramps on start-up and shutdown).
+    pub force_scale: f64,
 }
 
 /// What the step produces each period.
@@ -172,6 +174,14 @@ impl ControlStep {
                 } else {
                     field
                 };
+                // Start-up and shutdown ramps scale everything rendered above the tension floor.
+                let scale = if input.force_scale.is_nan() {
+                    0.0
+                } else {
+                    input.force_scale.clamp(0.0, 1.0)
+                };
+                out.desired_force_n *= scale;
+                out.field_force_n *= scale;
                 out.target_force_n = out.desired_force_n + out.field_force_n;
                 out.distribution = project(
                     &map,
@@ -227,6 +237,7 @@ mod tests {
             lengths_m: step.rig().inverse(&p),
             dt_s: 1e-3,
             render_forces: true,
+            force_scale: 1.0,
             ..StepInput::default()
         }
     }
@@ -312,6 +323,7 @@ mod tests {
                 measured_tension_n: [0.0; 3],
                 dt_s: 1e-3,
                 render_forces: true,
+                force_scale: 1.0,
             };
             s.update(&input, &wall, &mut out);
             assert!(out.position_m.iter().all(|c| c.is_finite()));

@@ -67,6 +67,7 @@ fn control_step_does_not_allocate() {
                 measured_tension_n: [1.0, 2.0, 0.5],
                 dt_s: 1e-3,
                 render_forces: k % 50 != 0,
+                force_scale: 1.0,
             }
         })
         .collect();

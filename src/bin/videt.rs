@@ -22,6 +22,12 @@ enum Command {
     /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
     /// limit, plots (paper section 6).
     Analyze(tool::analyze::AnalyzeArgs),
+    /// Summarise a telemetry session log and export it as CSV.
+    Log(tool::log::LogArgs),
+    /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
+    Service(tool::service::ServiceArgs),
+    /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
+    BenchRt(tool::bench_rt::BenchRtArgs),
 }
 
 fn main() -> ExitCode {
@@ -29,6 +35,9 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
         Command::Analyze(a) => tool::analyze::run(a),
+        Command::Log(a) => tool::log::run(a),
+        Command::Service(a) => tool::service::run(a),
+        Command::BenchRt(a) => tool::bench_rt::run(a),
     };
     match result {
         Ok(code) => code,
