@@ -5,8 +5,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use videt_control::{
-    Algorithm, ControlParams, ControlStep, ForceField, FreeSpace, Plane, Rig3, StepInput,
-    StepOutput, TensionPiGains, Vec3,
+    project, Algorithm, ControlParams, ControlStep, ForceField, ForceLimits, FreeSpace, Plane,
+    Projection, Rig3, StepInput, StepOutput, TensionPiGains, Vec3, WireMap,
 };
 
 fn bench_control_step(c: &mut Criterion) {
@@ -59,5 +59,58 @@ fn bench_control_step(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_control_step);
+/// The projections alone over 256 mixed cases (positions over and beside the guide triangle,
+/// targets in every direction, some beyond t_max): the average cost per call including the
+/// harder cases of the QP search. Reported per batch of 256 calls.
+fn bench_projection_mix(c: &mut Criterion) {
+    let rig = Rig3::new([
+        Vec3::zeros(),
+        Vec3::new(0.37, 0.0, 0.0),
+        Vec3::new(0.185, 0.30, 0.0),
+    ])
+    .unwrap();
+    // Deterministic pseudo-random cases (xorshift), fixed seed.
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut cases: Vec<(WireMap<3>, Vec3)> = Vec::new();
+    while cases.len() < 256 {
+        let p = Vec3::new(
+            -0.2 + 0.8 * next(),
+            -0.2 + 0.7 * next(),
+            0.05 + 0.5 * next(),
+        );
+        let f = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 40.0;
+        if let Some(map) = rig.wire_map(&p) {
+            cases.push((map, f));
+        }
+    }
+    let limits = ForceLimits {
+        t_min_n: 0.3,
+        t_max_n: 15.0,
+    };
+    let mut group = c.benchmark_group("projection_mix_256");
+    for (name, projection) in [
+        ("P1", Projection::ClampNegative),
+        ("P2", Projection::ExactAlongNormal),
+        ("QP", Projection::NormalFirstNearest),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let mut sum = 0.0;
+                for (map, f) in &cases {
+                    sum += project(black_box(map), black_box(f), projection, &limits).tensions_n[0];
+                }
+                black_box(sum)
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_control_step, bench_projection_mix);
 criterion_main!(benches);

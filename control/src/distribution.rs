@@ -303,11 +303,14 @@ const MAX_KKT: usize = 4;
 /// `clamp(|f|, r_min, r_max)` (the most of `|f|` the box allows), the one whose force is closest
 /// to `f`. Strictly convex (V is invertible), so the optimum is the stationary point of one of
 /// the `3^N` bound patterns (each wire free, at `t_min` or at `t_max`), and a stationary point
-/// that satisfies the KKT sign conditions is that optimum. The likely patterns are tried first
-/// (the one of the raw tensions, then the paper's P2 one) and the first certified candidate
-/// returned; otherwise every pattern is evaluated and the least-cost feasible one kept (at most
-/// `3^N + 2` small solves). `None` if no candidate was found (not expected; the caller falls
-/// back to P2).
+/// that satisfies the KKT sign conditions is that optimum.
+///
+/// Phase 1 starts from three likely patterns (the raw tensions', the paper's P2 one, the vertex
+/// attaining a clamped normal goal) and pivots one wire at a time along the KKT violations, at
+/// most `2N + 2` steps each; on random cases it certifies the optimum after about three small
+/// solves. Phase 2, if ever needed, evaluates all `3^N` patterns and keeps the least-cost
+/// feasible one. Bounded either way. `None` if no candidate was found (not expected; the caller
+/// falls back to P2).
 fn normal_first_nearest<const N: usize>(
     map: &WireMap<N>,
     target_n: &SVector<f64, N>,
@@ -357,10 +360,14 @@ fn normal_first_nearest_search<const N: usize>(
     }
     problem.goal = magnitude.max(r_min).min(r_max);
 
-    // Likely patterns: from the raw tensions, and the paper's P2 (wires that cannot share the
-    // normal force at the floor).
+    // Likely patterns: from the raw tensions; the paper's P2 one (wires that cannot share the
+    // normal force at the floor); and, when the normal goal is clamped, the vertex of the box
+    // that attains it.
     let mut raw_guess = 0usize;
     let mut p2_guess = 0usize;
+    let mut vertex_guess = 0usize;
+    let at_max = constrained && problem.goal >= r_max - problem.tol;
+    let at_min = constrained && problem.goal <= r_min + problem.tol;
     let mut place = 1usize;
     for i in 0..N {
         let digit = if raw[i] < lo {
@@ -374,19 +381,38 @@ fn normal_first_nearest_search<const N: usize>(
         if !(raw[i] > 0.0 && problem.along[i] > 0.0) {
             p2_guess += place;
         }
+        let pulls_along = problem.along[i] > 0.0;
+        let vertex_digit = if at_max == pulls_along { 2 } else { 1 };
+        vertex_guess += if at_max || at_min {
+            vertex_digit
+        } else {
+            digit
+        } * place;
         place *= 3;
     }
     let patterns = place;
+    // Phase 1: from each guess, move wires along the KKT violations (a bounded number of steps).
+    if early_exit {
+        for start in [raw_guess, p2_guess, vertex_guess] {
+            let mut pattern = start;
+            for _step in 0..2 * N + 2 {
+                let (candidate, next) = problem.solve_pattern(pattern);
+                if let Some(candidate) = candidate {
+                    if candidate.certified {
+                        return Some(candidate.tensions);
+                    }
+                }
+                if next == pattern {
+                    break;
+                }
+                pattern = next;
+            }
+        }
+    }
+    // Phase 2: every pattern; the least-cost feasible candidate is the optimum.
     let mut best: Option<([f64; N], f64)> = None;
-    for k in 0..patterns + 2 {
-        let pattern = match k {
-            0 => raw_guess,
-            1 if p2_guess != raw_guess => p2_guess,
-            1 => continue,
-            _ if k - 2 == raw_guess || k - 2 == p2_guess => continue,
-            _ => k - 2,
-        };
-        if let Some(candidate) = problem.solve_pattern(pattern) {
+    for pattern in 0..patterns {
+        if let (Some(candidate), _) = problem.solve_pattern(pattern) {
             if candidate.certified && early_exit {
                 return Some(candidate.tensions);
             }
@@ -421,8 +447,10 @@ struct Candidate<const N: usize> {
 
 impl<const N: usize> NearestProblem<N> {
     /// The stationary point of `pattern` (base-3 digit per wire: 0 free, 1 at `t_min`, 2 at
-    /// `t_max`), if it is feasible.
-    fn solve_pattern(&self, pattern: usize) -> Option<Candidate<N>> {
+    /// `t_max`) if it is feasible, and the pattern the KKT violations point to (free wires out of
+    /// bounds fixed at the bound they crossed, fixed wires with the wrong multiplier sign freed;
+    /// `pattern` itself when there is nothing to change).
+    fn solve_pattern(&self, pattern: usize) -> (Option<Candidate<N>>, usize) {
         let mut code = pattern;
         let mut state = [0u8; N];
         let mut tensions = [0.0; N];
@@ -446,7 +474,22 @@ impl<const N: usize> NearestProblem<N> {
         let use_constraint =
             self.constrained && (0..free_count).any(|k| self.along[free[k]].abs() > 1e-9);
         if self.constrained && !use_constraint && goal.abs() > self.tol {
-            return None;
+            // The fixed wires miss the normal goal and no free wire can help: free the fixed wire
+            // that moves the normal force most towards the goal.
+            let mut next = pattern;
+            let mut best_along = 1e-9;
+            for i in 0..N {
+                let helps = match state[i] {
+                    1 => self.along[i] * goal,
+                    2 => -self.along[i] * goal,
+                    _ => continue,
+                };
+                if helps > 0.0 && self.along[i].abs() > best_along {
+                    best_along = self.along[i].abs();
+                    next = pattern - usize::from(state[i]) * pow3(i);
+                }
+            }
+            return (None, next);
         }
         let mut multiplier = None;
         if !self.constrained {
@@ -469,13 +512,31 @@ impl<const N: usize> NearestProblem<N> {
             if use_constraint {
                 m[free_count][size] = goal;
             }
-            let solution = solve_in_place(&mut m, size)?;
+            let Some(solution) = solve_in_place(&mut m, size) else {
+                return (None, pattern);
+            };
+            // One pivot at a time (the free wire furthest out of its bounds), which avoids the
+            // cycling of fixing every violator at once.
+            let mut next = pattern;
+            let mut worst = self.tol;
             for k in 0..free_count {
                 let t = solution[k];
-                if !(t >= self.lo - self.tol && t <= self.hi + self.tol) {
-                    return None;
+                if t.is_nan() {
+                    return (None, pattern);
+                }
+                let (excess, digit) = if t < self.lo {
+                    (self.lo - t, 1)
+                } else {
+                    (t - self.hi, 2)
+                };
+                if excess > worst {
+                    worst = excess;
+                    next = pattern + digit * pow3(free[k]);
                 }
                 tensions[free[k]] = t.max(self.lo).min(self.hi);
+            }
+            if next != pattern {
+                return (None, next);
             }
             if use_constraint {
                 multiplier = Some(solution[free_count]);
@@ -487,47 +548,69 @@ impl<const N: usize> NearestProblem<N> {
         }
         // KKT signs of the fixed wires: at t_min the Lagrangian must not decrease with t_i, at
         // t_max it must not increase.
-        let certified = match multiplier {
-            Some(lambda) => (0..N).all(|i| {
-                let slope = self.pulls[i].dot(&err) + lambda * self.along[i];
-                match state[i] {
-                    1 => slope >= -self.tol,
-                    2 => slope <= self.tol,
-                    _ => true,
-                }
-            }),
-            // The equality holds without a free wire to carry it: its multiplier is any value
-            // that satisfies every sign condition, if one exists.
+        // KKT signs of the fixed wires: at t_min the Lagrangian must not decrease with t_i, at
+        // t_max it must not increase. Without a free wire carrying the normal goal the multiplier
+        // is any value that satisfies every sign condition, if one exists.
+        let lambda = match multiplier {
+            Some(lambda) => lambda,
             None => {
                 let (mut lambda_lo, mut lambda_hi) = (f64::NEG_INFINITY, f64::INFINITY);
-                let mut possible = true;
                 for i in 0..N {
-                    let g = self.pulls[i].dot(&err);
-                    let a = self.along[i];
-                    // At t_min: g + lambda a >= 0; at t_max: g + lambda a <= 0.
                     let sign = match state[i] {
                         1 => 1.0,
                         2 => -1.0,
                         _ => continue,
                     };
-                    let (g, a) = (sign * g, sign * a);
-                    if a.abs() <= 1e-12 {
-                        possible &= g >= -self.tol;
-                    } else if a > 0.0 {
+                    // sign (g + lambda a) >= 0
+                    let (g, a) = (sign * self.pulls[i].dot(&err), sign * self.along[i]);
+                    if a > 1e-12 {
                         lambda_lo = lambda_lo.max((-self.tol - g) / a);
-                    } else {
+                    } else if a < -1e-12 {
                         lambda_hi = lambda_hi.min((-self.tol - g) / a);
                     }
                 }
-                possible && lambda_lo <= lambda_hi
+                match (lambda_lo.is_finite(), lambda_hi.is_finite()) {
+                    (true, true) => 0.5 * (lambda_lo + lambda_hi),
+                    (true, false) => lambda_lo,
+                    (false, true) => lambda_hi,
+                    (false, false) => 0.0,
+                }
             }
         };
-        Some(Candidate {
-            tensions,
-            cost: err.norm_squared(),
-            certified,
-        })
+        // Free the fixed wire whose multiplier has the most wrong sign.
+        let mut next = pattern;
+        let mut worst = self.tol;
+        for i in 0..N {
+            let slope = self.pulls[i].dot(&err) + lambda * self.along[i];
+            let wrong = match state[i] {
+                1 => -slope,
+                2 => slope,
+                _ => continue,
+            };
+            if wrong > worst {
+                worst = wrong;
+                next = pattern - usize::from(state[i]) * pow3(i);
+            }
+        }
+        let certified = next == pattern;
+        (
+            Some(Candidate {
+                tensions,
+                cost: err.norm_squared(),
+                certified,
+            }),
+            next,
+        )
     }
+}
+
+/// `3^i`.
+fn pow3(i: usize) -> usize {
+    let mut p = 1;
+    for _ in 0..i {
+        p *= 3;
+    }
+    p
 }
 
 /// Gaussian elimination with partial pivoting on an augmented `size x (size+1)` system stored
