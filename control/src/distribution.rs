@@ -561,12 +561,13 @@ impl<const N: usize> NearestProblem<N> {
                         2 => -1.0,
                         _ => continue,
                     };
-                    // sign (g + lambda a) >= 0
+                    // sign (g + lambda a) >= 0; the bounds make the slope exactly 0, the sign
+                    // check below allows the tolerance.
                     let (g, a) = (sign * self.pulls[i].dot(&err), sign * self.along[i]);
                     if a > 1e-12 {
-                        lambda_lo = lambda_lo.max((-self.tol - g) / a);
+                        lambda_lo = lambda_lo.max(-g / a);
                     } else if a < -1e-12 {
-                        lambda_hi = lambda_hi.min((-self.tol - g) / a);
+                        lambda_hi = lambda_hi.min(-g / a);
                     }
                 }
                 match (lambda_lo.is_finite(), lambda_hi.is_finite()) {
