@@ -15,6 +15,8 @@
 //! - Directions: planar, every 1 degree in the x-z plane from +x towards +z; 3 wires, an
 //!   equirectangular grid every 5 degrees (azimuth in the x-y plane from +x towards +y,
 //!   elevation from the x-y plane towards +z; the poles once), 2522 directions.
+//! - A target `f_e + f_c` of zero (the contact force cancelling the field) has V = 1 by
+//!   convention (nothing asked, nothing missed).
 //! - The analysed workspace: at least 1 cm in front of the guide plane (z >= 0.01 m) and every
 //!   wire at most 1.5 m long.
 
@@ -70,8 +72,10 @@ pub struct AnalyzeArgs {
     /// Print the result as JSON instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Directory for the plots (v_polar.png or v_sphere.png, v_compare.png,
-    /// isotropic_heatmap.png); created if missing.
+    /// Directory for the plots, created if missing: planar v_polar.png (V over direction for
+    /// |f_c| from 0 to --fc) and v_compare.png (every algorithm); 3 wires v_sphere.png (V over
+    /// azimuth and elevation); both isotropic_heatmap.png (isotropic force limit over the
+    /// workspace: x-z plane, or the x-y slice at the thimble's height).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
 }
