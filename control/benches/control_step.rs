@@ -29,12 +29,8 @@ fn bench_control_step(c: &mut Criterion) {
     };
     let mut group = c.benchmark_group("control_step");
     for algorithm in Algorithm::ALL {
-        let mut params = ControlParams::paper_defaults(TensionPiGains {
-            feedforward_nm_per_n: 0.0008,
-            kp_nm_per_n: 0.0005,
-            ki_nm_per_n_s: 0.02,
-            torque_limit_nm: 0.02,
-        });
+        let mut params =
+            ControlParams::paper_defaults(TensionPiGains::pi_only(0.0008, 0.0005, 0.02, 0.02));
         params.algorithm = algorithm;
         if matches!(algorithm, Algorithm::F1 | Algorithm::F2 | Algorithm::Qp) {
             params.field = ForceField::towards_frame(1.0);

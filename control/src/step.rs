@@ -201,9 +201,11 @@ impl ControlStep {
             }
         }
         out.v_index = v_index(&out.distribution.rendered_n, &out.target_force_n);
-        self.pi.update(
+        let winding_speed_m_s: [f64; WIRES] = core::array::from_fn(|i| -input.length_rates_m_s[i]);
+        self.pi.update_with_speed(
             &out.distribution.tensions_n,
             &input.measured_tension_n,
+            &winding_speed_m_s,
             input.dt_s,
             &mut out.torque_nm,
         );
@@ -222,12 +224,8 @@ mod tests {
             Vec3::new(0.185, 0.30, 0.0),
         ])
         .unwrap();
-        let mut params = ControlParams::paper_defaults(TensionPiGains {
-            feedforward_nm_per_n: 0.0008,
-            kp_nm_per_n: 0.0005,
-            ki_nm_per_n_s: 0.02,
-            torque_limit_nm: 0.02,
-        });
+        let mut params =
+            ControlParams::paper_defaults(TensionPiGains::pi_only(0.0008, 0.0005, 0.02, 0.02));
         params.algorithm = algorithm;
         ControlStep::new(rig, params)
     }

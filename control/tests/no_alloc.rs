@@ -79,6 +79,10 @@ fn control_step_does_not_allocate() {
                 kp_nm_per_n: 0.0005,
                 ki_nm_per_n_s: 0.02,
                 torque_limit_nm: 0.02,
+                speed_gain_nm_s_per_m: 0.005,
+                slack_tension_n: 0.15,
+                takeup_speed_m_s: 0.15,
+                max_winding_speed_m_s: 0.6,
             });
             params.algorithm = algorithm;
             params.damping_n_s_per_m = 2.0;

@@ -22,6 +22,8 @@ enum Command {
     /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
     /// limit, plots (paper section 6).
     Analyze(tool::analyze::AnalyzeArgs),
+    /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
+    Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
     Log(tool::log::LogArgs),
     /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
@@ -35,6 +37,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
         Command::Analyze(a) => tool::analyze::run(a),
+        Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),

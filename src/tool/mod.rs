@@ -3,6 +3,7 @@
 
 pub mod analyze;
 pub mod bench_rt;
+pub mod colour;
 pub mod config;
 pub mod log;
 pub mod service;
