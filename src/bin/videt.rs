@@ -30,6 +30,8 @@ enum Command {
     Service(tool::service::ServiceArgs),
     /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
     BenchRt(tool::bench_rt::BenchRtArgs),
+    /// Calibrate the stereo camera pair from chessboard image pairs and write the calibration.
+    CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
 }
 
 fn main() -> ExitCode {
@@ -41,6 +43,7 @@ fn main() -> ExitCode {
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),
+        Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
     };
     match result {
         Ok(code) => code,

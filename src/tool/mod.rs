@@ -3,6 +3,7 @@
 
 pub mod analyze;
 pub mod bench_rt;
+pub mod calibrate_stereo;
 pub mod colour;
 pub mod config;
 pub mod log;
