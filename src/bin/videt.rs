@@ -19,6 +19,9 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
+    /// limit, plots (paper section 6).
+    Analyze(tool::analyze::AnalyzeArgs),
     /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
     Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
@@ -35,6 +38,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Analyze(a) => tool::analyze::run(a),
         Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
