@@ -230,8 +230,14 @@ pub struct ControlConfig {
     pub stiffness_n_per_m: f64,
     /// Contact damping, N·s/m.
     pub damping_n_s_per_m: f64,
-    /// Projection algorithm name (`P1`, `P2`, ...).
+    /// Control algorithm: `P1`, `P2` (the paper's projections), `F1`, `F2` (with a force field
+    /// `field_n`), `QP` (bisector field, then the closest reachable force).
     pub algorithm: String,
+    /// Magnitude of the force field `f_c` of F1, F2 and QP, N (0 for P1 and P2).
+    pub field_n: f64,
+    /// Gravity-like pull in free space when the algorithm has no field, N (keeps every wire
+    /// taut while the finger moves freely; 0 = wires simply held at `t_min`).
+    pub free_space_field_n: f64,
     /// Minimum wire tension, N.
     pub t_min_n: f64,
     /// Maximum wire tension, N (the device's limit is 15 N).
@@ -294,6 +300,8 @@ impl Default for ControlConfig {
             stiffness_n_per_m: 800.0,
             damping_n_s_per_m: 2.0,
             algorithm: "P2".to_string(),
+            field_n: 0.0,
+            free_space_field_n: 0.5,
             t_min_n: 0.3,
             t_max_n: 15.0,
             max_wire_speed_m_s: 0.8,
@@ -383,15 +391,24 @@ impl Config {
             20000.0,
         )?;
         in_range("control.damping_n_s_per_m", c.damping_n_s_per_m, 0.0, 100.0)?;
-        if !["P1", "P2"].contains(&c.algorithm.as_str()) {
+        if !["P1", "P2", "F1", "F2", "QP"].contains(&c.algorithm.as_str()) {
             return Err(ConfigError::Invalid {
                 field: "control.algorithm".into(),
                 value: c.algorithm.clone(),
-                allowed: "one of P1, P2".into(),
+                allowed: "one of P1, P2, F1, F2, QP".into(),
             });
         }
+        in_range("control.field_n", c.field_n, 0.0, c.t_max_n)?;
+        in_range(
+            "control.free_space_field_n",
+            c.free_space_field_n,
+            0.0,
+            c.t_max_n,
+        )?;
         in_range("control.t_max_n", c.t_max_n, 0.5, 15.0)?;
         in_range("control.t_min_n", c.t_min_n, 0.05, c.t_max_n)?;
+        in_range("control.field_n", c.field_n, 0.0, c.t_max_n)?;
+        in_range("control.free_space_field_n", c.free_space_field_n, 0.0, c.t_max_n)?;
         in_range(
             "control.max_wire_speed_m_s",
             c.max_wire_speed_m_s,
