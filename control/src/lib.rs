@@ -15,6 +15,7 @@
 #[cfg(any(test, feature = "std"))]
 extern crate std;
 
+pub mod autoinit;
 pub mod distribution;
 pub mod kinematics;
 pub mod safety;

@@ -63,6 +63,19 @@ impl VirtualOperator {
         )
     }
 
+    /// No hand on the thimble (auto-initialization with an empty thimble): no spring, only a
+    /// light drag of `drag_n_s_per_m` (air, the dangling terminal) against the thimble's motion.
+    pub fn absent(drag_n_s_per_m: f64) -> VirtualOperator {
+        VirtualOperator::new(
+            vec![Waypoint {
+                time_s: 0.0,
+                target_m: Vec3::zeros(),
+            }],
+            0.0,
+            drag_n_s_per_m.max(0.0),
+        )
+    }
+
     /// Touch-and-slide: approach a wall at `wall_z_m` (solid beyond it, towards `+z`) from
     /// `start_m`, press `press_depth_m` past it, then slide `slide_m` along `x` and back, over
     /// about `duration_s` seconds, pressing all the while.
