@@ -8,7 +8,10 @@
 //! **Auto-initialization.** With the three wires connected to the empty thimble, each wire in
 //! turn is wound (speed-limited, tension-capped) while the other two pay out at low tension, until
 //! the thimble stops against that wire's guide ring. The other two wire lengths are then two sides
-//! of the base triangle, so three windings measure each side twice. The sides are combined by
+//! of the base triangle, so three windings measure each side twice. A wound wire stopped with the
+//! thimble at its ring has its end at the ring, exactly as when homed, so each winding also homes
+//! its own wire: the procedure needs no encoder zero beforehand, and the lengths of every stop are
+//! computed once the three zeros are known. The sides are combined by
 //! least squares (for two equally weighted measurements of one side: their mean) and the
 //! residuals reported; the guide points follow in the paper's frame (`x0` at the origin, `x1` on
 //! the `+x` axis, `x2` in the `z = 0` plane with `y > 0`).
@@ -51,14 +54,12 @@ pub struct ProcedureParams {
     pub stage_timeout_s: f64,
     /// A winding wire shorter than this travel never moved: not connected, metres.
     pub min_travel_m: f64,
-    /// A winding wire that goes this far past its homed zero never met its ring: broken or
-    /// slipping, metres. Homing uses `max_home_travel_m` instead.
-    pub overwind_m: f64,
-    /// Longest winding travel of a homing before the wire counts as broken or slipping, metres.
-    pub max_home_travel_m: f64,
+    /// Longest travel of one homing or winding before the wire counts as broken or slipping
+    /// (its tension never rose), metres.
+    pub max_wind_travel_m: f64,
     /// Shortest base-triangle side accepted, metres (a shorter paying-out wire is not connected).
     pub min_side_m: f64,
-    /// Longest wire length allowed during the procedure, metres.
+    /// Longest a wire may pay out during the procedure, metres.
     pub max_length_m: f64,
     /// Largest disagreement between the two measurements of one side, metres.
     pub side_tolerance_m: f64,
@@ -90,11 +91,9 @@ pub enum Plan {
         /// Which wires to home.
         wires: [bool; WIRES],
     },
-    /// Measure the base triangle with the wires connected to the thimble, from homed zeros.
-    Initialize {
-        /// Encoder count of each wire at free length zero (from homing).
-        zero_counts: [i64; WIRES],
-    },
+    /// Measure the base triangle with the wires connected to the thimble (each winding also
+    /// homes its wire).
+    Initialize,
 }
 
 /// Which limit was hit.
@@ -110,9 +109,9 @@ pub enum Limit {
         /// The speed measured, m/s.
         measured_m_s: f64,
     },
-    /// Wire length above the limit, metres.
+    /// Wire paid out beyond the limit since the procedure started, metres.
     Length {
-        /// The length measured, metres.
+        /// The length paid out, metres.
         measured_m: f64,
     },
 }
@@ -534,6 +533,8 @@ pub struct Procedure {
     speed_integral_n: [f64; WIRES],
     last_time_s: f64,
     start_counts: [i64; WIRES],
+    first_counts: [i64; WIRES],
+    counts_at_stop: [[f64; WIRES]; WIRES],
     over_tension_s: [f64; WIRES],
     home_counts: [i64; WIRES],
     lengths_at_stop_m: [[f64; WIRES]; WIRES],
@@ -554,6 +555,8 @@ impl Procedure {
             speed_integral_n: [0.0; WIRES],
             last_time_s: 0.0,
             start_counts: [0; WIRES],
+            first_counts: [0; WIRES],
+            counts_at_stop: [[0.0; WIRES]; WIRES],
             over_tension_s: [0.0; WIRES],
             home_counts: [0; WIRES],
             lengths_at_stop_m: [[0.0; WIRES]; WIRES],
@@ -572,8 +575,8 @@ impl Procedure {
         self.plan
     }
 
-    /// After a successful homing: the encoder count of each homed wire at free length zero
-    /// (the others are 0).
+    /// After a successful homing or initialization: the encoder count of each homed wire at
+    /// free length zero (wires not homed: 0).
     pub fn homed_zero_counts(&self) -> [i64; WIRES] {
         self.home_counts
     }
@@ -611,15 +614,9 @@ impl Procedure {
         }
     }
 
-    fn length_m(&self, wire: usize, counts: i64) -> f64 {
-        match self.plan {
-            Plan::Initialize { zero_counts } => {
-                (zero_counts[wire] - counts) as f64 * self.params.metres_per_count
-            }
-            Plan::Home { .. } => {
-                (self.start_counts[wire] - counts) as f64 * self.params.metres_per_count
-            }
-        }
+    /// Wire `wire`'s travel since the stage began, metres (positive = wound in).
+    fn travel_m(&self, wire: usize, counts: i64) -> f64 {
+        (counts - self.start_counts[wire]) as f64 * self.params.metres_per_count
     }
 
     fn enter(&mut self, stage: Stage, input: &ProcedureInput) {
@@ -645,6 +642,7 @@ impl Procedure {
         if !self.started {
             self.started = true;
             self.last_time_s = input.time_s;
+            self.first_counts = input.counts;
             self.enter(Stage::Settle, input);
         }
         let dt = (input.time_s - self.last_time_s).max(0.0);
@@ -679,12 +677,12 @@ impl Procedure {
                 };
                 return self.fail(Failure::LimitHit { wire, limit }, setpoint_n);
             }
-            if let Plan::Initialize { .. } = self.plan {
-                let length = self.length_m(i, input.counts[i]);
-                if length > p.max_length_m {
-                    let limit = Limit::Length { measured_m: length };
-                    return self.fail(Failure::LimitHit { wire, limit }, setpoint_n);
-                }
+            let paid_out = (self.first_counts[i] - input.counts[i]) as f64 * p.metres_per_count;
+            if paid_out > p.max_length_m {
+                let limit = Limit::Length {
+                    measured_m: paid_out,
+                };
+                return self.fail(Failure::LimitHit { wire, limit }, setpoint_n);
             }
         }
 
@@ -695,7 +693,7 @@ impl Procedure {
                 if elapsed >= p.settle_s {
                     let next = match self.plan {
                         Plan::Home { .. } => Stage::Homing,
-                        Plan::Initialize { .. } => Stage::Winding(0),
+                        Plan::Initialize => Stage::Winding(0),
                     };
                     self.enter(next, input);
                 }
@@ -781,13 +779,13 @@ impl Procedure {
                 setpoint_n[i] = p.pay_out_tension_n;
                 continue;
             }
-            let travel = -self.length_m(i, input.counts[i]);
+            let travel = self.travel_m(i, input.counts[i]);
             if self.detect_stop(i, input) {
                 setpoint_n[i] = p.pay_out_tension_n;
                 continue;
             }
             all_done = false;
-            if travel > p.max_home_travel_m {
+            if travel > p.max_wind_travel_m {
                 let wire = i as u8;
                 return self.fail(
                     Failure::TensionNeverRose {
@@ -832,13 +830,12 @@ impl Procedure {
         let p = self.params;
         *setpoint_n = [p.pay_out_tension_n; WIRES];
         let wire = w as u8;
-        let start_length = self.length_m(w, self.start_counts[w]);
-        let length = self.length_m(w, input.counts[w]);
-        if length < -p.overwind_m {
+        let travel = self.travel_m(w, input.counts[w]);
+        if travel > p.max_wind_travel_m {
             return self.fail(
                 Failure::TensionNeverRose {
                     wire,
-                    travel_m: start_length - length,
+                    travel_m: travel,
                 },
                 setpoint_n,
             );
@@ -856,18 +853,11 @@ impl Procedure {
             setpoint_n[w] = self.wind_setpoint(w, input, dt);
             return Status::Running;
         }
-        // Stopped at ring `w`: the lengths of the other two wires are sides.
-        let mut lengths = [0.0; WIRES];
+        // Stopped with the thimble at ring `w`: wire `w` is homed, the other two give sides.
         for j in 0..WIRES {
-            let counts = self.mean_counts(w, j);
-            lengths[j] = match self.plan {
-                Plan::Initialize { zero_counts } => {
-                    (zero_counts[j] as f64 - counts) * p.metres_per_count
-                }
-                Plan::Home { .. } => 0.0,
-            };
+            self.counts_at_stop[w][j] = self.mean_counts(w, j);
         }
-        let travel = start_length - lengths[w];
+        let travel = (self.counts_at_stop[w][w] - self.start_counts[w] as f64) * p.metres_per_count;
         if travel < p.min_travel_m {
             return self.fail(
                 Failure::NotConnected {
@@ -877,21 +867,29 @@ impl Procedure {
                 setpoint_n,
             );
         }
-        for j in 0..WIRES {
-            if j != w && lengths[j] < p.min_side_m {
-                return self.fail(
-                    Failure::NotConnected {
-                        wire: j as u8,
-                        measured_m: lengths[j],
-                    },
-                    setpoint_n,
-                );
-            }
-        }
-        self.lengths_at_stop_m[w] = lengths;
         if w + 1 < WIRES {
             self.enter(Stage::Winding(wire + 1), input);
             return Status::Running;
+        }
+        for i in 0..WIRES {
+            self.home_counts[i] = libm_round(self.counts_at_stop[i][i]);
+            for j in 0..WIRES {
+                self.lengths_at_stop_m[i][j] =
+                    (self.counts_at_stop[j][j] - self.counts_at_stop[i][j]) * p.metres_per_count;
+            }
+        }
+        for i in 0..WIRES {
+            for j in 0..WIRES {
+                if i != j && self.lengths_at_stop_m[i][j] < p.min_side_m {
+                    return self.fail(
+                        Failure::NotConnected {
+                            wire: j as u8,
+                            measured_m: self.lengths_at_stop_m[i][j],
+                        },
+                        setpoint_n,
+                    );
+                }
+            }
         }
         match solve_base_triangle(&self.lengths_at_stop_m, p.side_tolerance_m) {
             Ok(t) => {
@@ -1027,8 +1025,7 @@ mod tests {
             measure_s: 0.1,
             stage_timeout_s: 10.0,
             min_travel_m: 0.02,
-            overwind_m: 0.03,
-            max_home_travel_m: 1.0,
+            max_wind_travel_m: 1.0,
             min_side_m: 0.05,
             max_length_m: 1.5,
             side_tolerance_m: 2e-3,
@@ -1086,12 +1083,7 @@ mod tests {
 
     #[test]
     fn estop_and_limits_end_at_the_pay_out_tension() {
-        let mut proc = Procedure::new(
-            params(),
-            Plan::Initialize {
-                zero_counts: [0; 3],
-            },
-        );
+        let mut proc = Procedure::new(params(), Plan::Initialize);
         let mut sp = [9.0; 3];
         let input = ProcedureInput {
             estop_pressed: true,
@@ -1103,12 +1095,7 @@ mod tests {
             Status::Failed(Failure::EmergencyStop)
         );
         assert_eq!(sp, [0.4; 3]);
-        let mut proc = Procedure::new(
-            params(),
-            Plan::Initialize {
-                zero_counts: [0; 3],
-            },
-        );
+        let mut proc = Procedure::new(params(), Plan::Initialize);
         let mut input = ProcedureInput {
             tension_n: [0.4; 3],
             ..ProcedureInput::default()

@@ -76,12 +76,12 @@ pub struct AutoInitConfig {
     pub side_tolerance_m: f64,
     /// Shortest base-triangle side accepted, metres.
     pub min_side_m: f64,
-    /// Longest wire length allowed during the procedure, metres.
+    /// Longest a wire may pay out during the procedure, metres.
     pub max_length_m: f64,
     /// Shortest winding that counts as movement (a connected wire), metres.
     pub min_travel_m: f64,
-    /// Longest travel of a homing before the wire counts as broken or slipping, metres.
-    pub max_home_travel_m: f64,
+    /// Longest travel of one homing or winding before the wire counts as broken or slipping, metres.
+    pub max_wind_travel_m: f64,
     /// Longest a homing or one winding may take, seconds.
     pub stage_timeout_s: f64,
     /// Workspace: force the wires must render towards the frame, N.
@@ -106,7 +106,7 @@ impl Default for AutoInitConfig {
             min_side_m: 0.05,
             max_length_m: 1.2,
             min_travel_m: 0.02,
-            max_home_travel_m: 2.0,
+            max_wind_travel_m: 2.0,
             stage_timeout_s: 30.0,
             workspace_force_n: 3.0,
             workspace_max_condition: 20.0,
@@ -391,7 +391,7 @@ impl Config {
         in_range("autoinit.min_side_m", a.min_side_m, 0.01, 1.0)?;
         in_range("autoinit.max_length_m", a.max_length_m, 0.1, 5.0)?;
         in_range("autoinit.min_travel_m", a.min_travel_m, 0.001, 0.2)?;
-        in_range("autoinit.max_home_travel_m", a.max_home_travel_m, 0.01, 5.0)?;
+        in_range("autoinit.max_wind_travel_m", a.max_wind_travel_m, 0.01, 5.0)?;
         in_range("autoinit.stage_timeout_s", a.stage_timeout_s, 1.0, 600.0)?;
         in_range(
             "autoinit.workspace_force_n",
