@@ -7,6 +7,7 @@
 
 pub mod control_loop;
 pub mod cycle;
+pub mod init;
 pub mod rt;
 pub mod setup;
 pub mod status;

@@ -17,8 +17,12 @@
 //! the `+x` axis, `x2` in the `z = 0` plane with `y > 0`).
 //!
 //! [`Procedure`] is a per-period state machine: pure, allocation-free, time as an argument. Each
-//! period it reads encoder counts, wire speeds, tensions and the fault inputs and writes a tension
-//! set-point per wire; the runtime's tension loop turns them into torques. Any failure ends it
+//! period it reads encoder counts, wire speeds, tensions and the fault inputs and writes a
+//! set-point per wire: the force the motor applies to the wire (the runtime turns it into a
+//! torque through the transmission, without tension feedback). A wire against its stop is a very
+//! stiff load, and the empty thimble pinned at a ring makes the paying-out wires stiff too; a
+//! force source is stable on such loads where a tension loop rings. The measured tensions serve
+//! to detect the stops and the limits. Any failure ends it
 //! with every set-point at the minimum tension and a [`Failure`] that says what went wrong.
 //!
 //! Lengths here are *free* (unstretched) lengths from the encoders. At the paying-out tension the
@@ -72,9 +76,10 @@ pub struct ProcedureParams {
 }
 
 impl ProcedureParams {
-    /// Tension above which a stopped winding wire counts as against its stop, N.
+    /// Tension above which a stopped winding wire counts as against its stop, N (well below
+    /// the cap, so a transmission less efficient than configured still gets there).
     pub fn stop_tension_n(&self) -> f64 {
-        self.pay_out_tension_n + 0.7 * (self.wind_tension_max_n - self.pay_out_tension_n)
+        self.pay_out_tension_n + 0.4 * (self.wind_tension_max_n - self.pay_out_tension_n)
     }
     /// Speed below which a wire counts as stopped, m/s.
     pub fn stop_speed_m_s(&self) -> f64 {
@@ -182,6 +187,8 @@ pub enum Failure {
         /// Its area, m².
         area_m2: f64,
     },
+    /// Stopped from outside (an operator's stop, a signal).
+    Cancelled,
 }
 
 impl Failure {
@@ -198,6 +205,7 @@ impl Failure {
             Failure::SidesDisagree { .. } => "sides-disagree",
             Failure::TriangleInequality { .. } => "triangle-inequality",
             Failure::DegenerateTriangle { .. } => "degenerate-triangle",
+            Failure::Cancelled => "cancelled",
         }
     }
 }
@@ -260,6 +268,7 @@ impl core::fmt::Display for Failure {
                 sides_m[1] * 1e3,
                 sides_m[2] * 1e3
             ),
+            Failure::Cancelled => f.write_str("stopped before the end"),
             Failure::DegenerateTriangle { area_m2 } => write!(
                 f,
                 "the guide triangle is degenerate (area {:.1} cm²): guides collinear or too close",
@@ -414,7 +423,7 @@ pub fn workspace(rig: &Rig3, spec: &WorkspaceSpec) -> Workspace {
     }
     let step = spec.step_m.max(1e-3);
     let count = |a: f64, b: f64| -> u32 {
-        let n = ((b - a) / step).floor();
+        let n = nalgebra::ComplexField::floor((b - a) / step);
         if n.is_finite() && n >= 0.0 {
             (n as u32 + 1).min(200)
         } else {
@@ -540,6 +549,7 @@ pub struct Procedure {
     lengths_at_stop_m: [[f64; WIRES]; WIRES],
     result: Option<BaseTriangle>,
     failure: Option<Failure>,
+    open_loop: [bool; WIRES],
 }
 
 impl Procedure {
@@ -562,7 +572,14 @@ impl Procedure {
             lengths_at_stop_m: [[0.0; WIRES]; WIRES],
             result: None,
             failure: None,
+            open_loop: [false; WIRES],
         }
+    }
+
+    /// Which wires the last period is winding under the procedure's own speed loop (their
+    /// set-point may reach the winding cap); the others hold the pay-out tension.
+    pub fn winding_wires(&self) -> [bool; WIRES] {
+        self.open_loop
     }
 
     /// The current stage.
@@ -608,6 +625,7 @@ impl Procedure {
             self.stage = Stage::Failed;
         }
         *setpoint_n = [self.params.pay_out_tension_n; WIRES];
+        self.open_loop = [false; WIRES];
         match self.failure {
             Some(f) => Status::Failed(f),
             None => Status::Finished,
@@ -630,7 +648,33 @@ impl Procedure {
     /// Run one period: read `input`, write the tension set-points, say where the procedure is.
     /// Once finished or failed it keeps every set-point at the pay-out tension.
     pub fn update(&mut self, input: &ProcedureInput, setpoint_n: &mut [f64; WIRES]) -> Status {
+        let status = self.step(input, setpoint_n);
+        if status == Status::Running {
+            self.govern(input, setpoint_n);
+        }
+        status
+    }
+
+    /// Speed governor of the tension-controlled wires: nothing holds an empty thimble, so wires
+    /// at the pay-out tension could gather it (and themselves) fast. A wire winding faster than
+    /// half the winding speed has its set-point lowered, to zero at the winding speed.
+    fn govern(&self, input: &ProcedureInput, setpoint_n: &mut [f64; WIRES]) {
+        let v = self.params.wind_speed_m_s;
+        for i in 0..WIRES {
+            if self.open_loop[i] {
+                continue;
+            }
+            // (Only the wires holding the pay-out tension are governed.)
+            let excess = (input.wind_speed_m_s[i] - 0.5 * v) / (0.5 * v);
+            if excess > 0.0 {
+                setpoint_n[i] *= (1.0 - excess).clamp(0.0, 1.0);
+            }
+        }
+    }
+
+    fn step(&mut self, input: &ProcedureInput, setpoint_n: &mut [f64; WIRES]) -> Status {
         let p = self.params;
+        self.open_loop = [false; WIRES];
         match self.stage {
             Stage::Finished => {
                 *setpoint_n = [p.pay_out_tension_n; WIRES];
@@ -706,16 +750,16 @@ impl Procedure {
         }
     }
 
-    /// The speed-limited winding set-point of wire `i`: a PI loop on the winding speed whose
-    /// output is a tension between the pay-out tension and the winding cap.
+    /// The speed-limited winding command of wire `i` (open-loop, see [`Self::open_loop`]): a
+    /// PI loop on the winding speed whose output is a motor force between zero and the winding
+    /// cap, so a stopped wire pulls with at most `wind_tension_max_n`.
     fn wind_setpoint(&mut self, i: usize, input: &ProcedureInput, dt: f64) -> f64 {
         let p = &self.params;
+        self.open_loop[i] = true;
         let error = p.wind_speed_m_s - input.wind_speed_m_s[i];
-        let span = p.wind_tension_max_n - p.pay_out_tension_n;
-        self.speed_integral_n[i] =
-            (self.speed_integral_n[i] + p.speed_ki_n_per_m * error * dt).clamp(0.0, span);
-        (p.pay_out_tension_n + self.speed_integral_n[i] + p.speed_kp_n_per_m_s * error)
-            .clamp(p.pay_out_tension_n, p.wind_tension_max_n)
+        self.speed_integral_n[i] = (self.speed_integral_n[i] + p.speed_ki_n_per_m * error * dt)
+            .clamp(0.0, p.wind_tension_max_n);
+        (self.speed_integral_n[i] + p.speed_kp_n_per_m_s * error).clamp(0.0, p.wind_tension_max_n)
     }
 
     /// Feed wire `i`'s stop detector; true once the stop held and the window is averaged.

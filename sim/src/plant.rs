@@ -85,6 +85,11 @@ pub struct Plant {
     modules: WireModules,
 }
 
+/// Stiffness of the frame's contact with the thimble, N/m.
+const FRAME_STIFFNESS_N_PER_M: f64 = 2.0e4;
+/// Damping of the frame's contact, N·s/m.
+const FRAME_DAMPING_N_S_PER_M: f64 = 20.0;
+
 /// Standard gravity, m/s².
 pub const GRAVITY_M_S2: f64 = 9.806_65;
 
@@ -106,6 +111,9 @@ pub struct WireModules {
     /// Largest free length the yarn allows before its end, knotted on the pulley, stops the
     /// pulley, metres.
     pub usable_length_m: [f64; WIRES],
+    /// The frame (and the wearer's back behind it) stops the thimble at the guide plane `z = 0`:
+    /// an empty thimble pulled by its wires comes to rest against it instead of swinging through.
+    pub frame_stop: bool,
 }
 
 impl Default for WireModules {
@@ -115,6 +123,7 @@ impl Default for WireModules {
             attached: [true; WIRES],
             hanging_mass_kg: [0.0; WIRES],
             usable_length_m: [f64::INFINITY; WIRES],
+            frame_stop: false,
         }
     }
 }
@@ -125,6 +134,7 @@ impl WireModules {
         WireModules {
             inside_length_m: [0.12; WIRES],
             usable_length_m: [1.5; WIRES],
+            frame_stop: true,
             ..WireModules::default()
         }
     }
@@ -343,6 +353,12 @@ impl Plant {
             wire_force += force;
         }
         self.hand_force_n = operator.force_n(self.time_s, &self.position_m, &self.velocity_m_s);
+        if self.modules.frame_stop && self.position_m.z < 0.0 {
+            // A stiff, damped contact that only pushes.
+            let push = -FRAME_STIFFNESS_N_PER_M * self.position_m.z
+                - FRAME_DAMPING_N_S_PER_M * self.velocity_m_s.z;
+            wire_force.z += push.max(0.0);
+        }
         let accel = (wire_force + self.hand_force_n) / self.params.thimble_mass_kg;
         self.velocity_m_s += accel * h;
         self.position_m += self.velocity_m_s * h;
