@@ -21,6 +21,7 @@ fn setup(guides: [[f64; 2]; 3], seed: u64) -> TwinSetup {
             ..SensorModel::default()
         },
         new_wire_length_m: 1.5,
+        faults: Vec::new(),
     }
 }
 

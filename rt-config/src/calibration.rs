@@ -239,6 +239,109 @@ impl Calibration {
     }
 }
 
+/// The two-point calibration of the wire-tension sensors (`videt tension-calibrate`), in its own
+/// file beside the rig calibration (`tension-calibration.toml`), checksummed and written the
+/// same way. A corrected tension is `(reading - offset_n) * gain`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TensionCalibration {
+    /// Format version ([`FORMAT_VERSION`]).
+    pub format: u32,
+    /// Reading of each sensor with its wire unloaded, N.
+    pub offset_n: [f64; 3],
+    /// Gain correction of each sensor (known load / reading change).
+    pub gain: [f64; 3],
+    /// When each wire was last calibrated, seconds since the Unix epoch (0: never).
+    pub calibrated_unix_s: [u64; 3],
+}
+
+impl Default for TensionCalibration {
+    fn default() -> Self {
+        TensionCalibration {
+            format: FORMAT_VERSION,
+            offset_n: [0.0; 3],
+            gain: [1.0; 3],
+            calibrated_unix_s: [0; 3],
+        }
+    }
+}
+
+impl TensionCalibration {
+    /// The file beside a rig calibration file.
+    pub fn path_beside(calibration: &Path) -> PathBuf {
+        calibration.with_file_name("tension-calibration.toml")
+    }
+
+    /// The corrected tension of wire `i` from a reading, N.
+    pub fn correct(&self, i: usize, reading_n: f64) -> f64 {
+        (reading_n - self.offset_n[i]) * self.gain[i]
+    }
+
+    /// Check every value.
+    pub fn validate(&self, path: &str) -> Result<(), CalibrationError> {
+        let invalid = |field: String, value: f64, allowed: &str| CalibrationError::Invalid {
+            path: path.to_string(),
+            field,
+            value: value.to_string(),
+            allowed: allowed.to_string(),
+        };
+        for i in 0..3 {
+            if !(self.offset_n[i].is_finite() && self.offset_n[i].abs() <= 5.0) {
+                return Err(invalid(
+                    format!("offset_n[{i}]"),
+                    self.offset_n[i],
+                    "in [-5, 5] N",
+                ));
+            }
+            if !(self.gain[i].is_finite() && (0.5..=2.0).contains(&self.gain[i])) {
+                return Err(invalid(format!("gain[{i}]"), self.gain[i], "in [0.5, 2]"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Read and check the file.
+    pub fn load(path: &Path) -> Result<TensionCalibration, CalibrationError> {
+        let shown = path.display().to_string();
+        let text = match fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => {
+                return Err(CalibrationError::Missing { path: shown })
+            }
+            Err(source) => {
+                return Err(CalibrationError::Io {
+                    path: shown,
+                    source,
+                })
+            }
+        };
+        let body = verified_body(&text, &shown)?;
+        let c: TensionCalibration =
+            toml::from_str(body).map_err(|e| CalibrationError::Corrupt {
+                path: shown.clone(),
+                reason: e.to_string(),
+            })?;
+        c.validate(&shown)?;
+        Ok(c)
+    }
+
+    /// Write atomically, keeping the previous file as `<name>.bak`.
+    pub fn save(&self, path: &Path) -> Result<(), CalibrationError> {
+        let shown = path.display().to_string();
+        self.validate(&shown)?;
+        let body = toml::to_string(self).map_err(|e| CalibrationError::Corrupt {
+            path: shown.clone(),
+            reason: e.to_string(),
+        })?;
+        let body = format!("# VIDET tension-sensor calibration, written by `videt tension-calibrate`. The last line is a checksum.\n{body}");
+        let text = format!("{body}{}", checksum_line(body.as_bytes()));
+        write_atomically(path, text.as_bytes()).map_err(|source| CalibrationError::Io {
+            path: shown,
+            source,
+        })
+    }
+}
+
 /// FNV-1a, 64 bits.
 fn fnv1a64(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -424,6 +527,23 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names.len(), 2, "no temporary file left: {names:?}");
+    }
+
+    #[test]
+    fn tension_calibration_round_trips_and_rejects_corruption() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = TensionCalibration::path_beside(&dir.path().join("calibration.toml"));
+        let mut t = TensionCalibration::default();
+        t.offset_n[1] = -0.03;
+        t.gain[1] = 1.0 / 0.985;
+        t.save(&path).unwrap();
+        assert_eq!(TensionCalibration::load(&path).unwrap(), t);
+        let text = fs::read_to_string(&path).unwrap();
+        fs::write(&path, &text[..text.len() - 5]).unwrap();
+        assert!(matches!(
+            TensionCalibration::load(&path),
+            Err(CalibrationError::Corrupt { .. })
+        ));
     }
 
     #[test]

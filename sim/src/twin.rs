@@ -73,6 +73,19 @@ impl SensorModel {
     }
 }
 
+/// A fault the twin injects at a chosen simulated time (rehearsing failures end to end).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ScheduledFault {
+    /// The e-stop button is pressed (and released: the press latches).
+    EStop,
+    /// Wire `0` breaks.
+    BreakWire(usize),
+    /// Wire `0`'s end comes off the thimble.
+    DetachWire(usize),
+    /// Tension sensor `0` fails.
+    FailTensionSensor(usize),
+}
+
 /// How the twin's clock runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ClockMode {
@@ -104,6 +117,8 @@ pub struct Twin {
     step_ns: u64,
     /// Encoder count at free length zero (an incremental encoder starts anywhere at power-up).
     encoder_offset_counts: [i64; WIRES],
+    /// Faults still to inject, with their times.
+    scheduled: Vec<(MonoTime, ScheduledFault)>,
 }
 
 impl Twin {
@@ -137,6 +152,33 @@ impl Twin {
             steps_done: 0,
             step_ns,
             encoder_offset_counts: [0; WIRES],
+            scheduled: Vec::new(),
+        }
+    }
+
+    /// Inject `fault` once the simulated time reaches `at`.
+    pub fn schedule_fault(&mut self, at: MonoTime, fault: ScheduledFault) {
+        self.scheduled.push((at, fault));
+    }
+
+    fn inject_due_faults(&mut self) {
+        let now = self.sim_time();
+        let mut k = 0;
+        while k < self.scheduled.len() {
+            if self.scheduled[k].0 <= now {
+                let (_, fault) = self.scheduled.swap_remove(k);
+                match fault {
+                    ScheduledFault::EStop => {
+                        self.set_estop_button(true);
+                        self.set_estop_button(false);
+                    }
+                    ScheduledFault::BreakWire(w) => self.plant.break_wire(w),
+                    ScheduledFault::DetachWire(w) => self.plant.detach_wire(w),
+                    ScheduledFault::FailTensionSensor(w) => self.fail_tension_sensor(Some(w)),
+                }
+            } else {
+                k += 1;
+            }
         }
     }
 
@@ -215,6 +257,9 @@ impl Twin {
     /// Allocation-free; cost is one plant step per integration step.
     pub fn advance_to(&mut self, t: MonoTime) {
         while self.sim_time() < t {
+            if !self.scheduled.is_empty() {
+                self.inject_due_faults();
+            }
             let torque = self.applied_torque_nm();
             self.plant.step(&torque, &self.operator);
             self.steps_done += 1;

@@ -10,6 +10,7 @@ pub mod lock;
 pub mod params;
 pub mod runner;
 pub mod session;
+pub mod tension;
 pub mod twin;
 
 pub use lock::{LockError, MotorsLock};

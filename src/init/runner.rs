@@ -146,6 +146,19 @@ impl Runner {
         hw.write_torques(&self.torque_nm).is_ok()
     }
 
+    /// One period with these motor forces (a `released` wire gets no torque); returns the
+    /// readings it started with. False in the second field when the drives refused the torques.
+    pub fn period<H: InitHardware>(
+        &mut self,
+        hw: &mut H,
+        force_n: &[f64; WIRES],
+        released: Option<usize>,
+    ) -> (Readings, bool) {
+        self.read(hw);
+        let ok = self.write(hw, force_n, released);
+        (self.readings, ok)
+    }
+
     /// Run `procedure` to its end, then hold every wire at the pay-out tension for
     /// `hold_after_s` (drives off instead after an e-stop or a drive fault). `stop` cancels it.
     /// `progress` is told each new stage.

@@ -12,7 +12,9 @@ use rand_chacha::ChaCha8Rng;
 use videt_control::autoinit::Failure;
 use videt_hal::WIRES;
 use videt_rt_config::Config;
-use videt_sim::{PlantParams, SensorModel, Twin, Vec3, VirtualOperator, WireModules};
+use videt_sim::{
+    PlantParams, ScheduledFault, SensorModel, Twin, Vec3, VirtualOperator, WireModules,
+};
 
 use super::runner::Runner;
 use super::session::{Request, Technician};
@@ -29,6 +31,48 @@ pub struct TwinSetup {
     pub sensors: SensorModel,
     /// Usable length of a newly fitted yarn, metres.
     pub new_wire_length_m: f64,
+    /// Faults to rehearse.
+    pub faults: Vec<SimFault>,
+}
+
+/// A fault to rehearse on the twin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SimFault {
+    /// Wire `0` is left unconnected (its end stays at its ring).
+    Disconnected(usize),
+    /// A fault injected this many seconds after the wires were connected.
+    After(f64, ScheduledFault),
+}
+
+/// Parse `--sim-fault`: `disconnected:N`, `estop:SECS`, `break:N:SECS`, `detach:N:SECS`,
+/// `sensor:N:SECS` (SECS after the wires are connected).
+pub fn parse_fault(text: &str) -> Result<SimFault, String> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let wire = |s: &str| {
+        s.parse::<usize>()
+            .ok()
+            .filter(|w| *w < WIRES)
+            .ok_or_else(|| format!("--sim-fault {text:?}: wire {s:?} must be 0, 1 or 2"))
+    };
+    let secs = |s: &str| {
+        s.parse::<f64>()
+            .ok()
+            .filter(|t| t.is_finite() && *t >= 0.0 && *t <= 600.0)
+            .ok_or_else(|| format!("--sim-fault {text:?}: time {s:?} must be seconds in [0, 600]"))
+    };
+    match parts.as_slice() {
+        ["disconnected", n] => Ok(SimFault::Disconnected(wire(n)?)),
+        ["estop", t] => Ok(SimFault::After(secs(t)?, ScheduledFault::EStop)),
+        ["break", n, t] => Ok(SimFault::After(secs(t)?, ScheduledFault::BreakWire(wire(n)?))),
+        ["detach", n, t] => Ok(SimFault::After(secs(t)?, ScheduledFault::DetachWire(wire(n)?))),
+        ["sensor", n, t] => Ok(SimFault::After(
+            secs(t)?,
+            ScheduledFault::FailTensionSensor(wire(n)?),
+        )),
+        _ => Err(format!(
+            "--sim-fault {text:?}: must be disconnected:N, estop:SECS, break:N:SECS, detach:N:SECS or sensor:N:SECS"
+        )),
+    }
 }
 
 impl TwinSetup {
@@ -43,6 +87,7 @@ impl TwinSetup {
                 ..SensorModel::default()
             },
             new_wire_length_m: 1.5,
+            faults: Vec::new(),
         }
     }
 }
@@ -109,6 +154,7 @@ pub fn rest_twin(config: &Config, setup: &TwinSetup) -> Twin {
 pub struct SimTechnician {
     rng: ChaCha8Rng,
     new_wire_length_m: f64,
+    faults: Vec<SimFault>,
     /// Messages received (the tool prints them).
     pub log: Vec<String>,
     /// Print messages to stderr as they come.
@@ -116,11 +162,17 @@ pub struct SimTechnician {
 }
 
 impl SimTechnician {
+    /// The usable length of the yarns this technician fits from now on, metres.
+    pub fn set_new_wire_length_m(&mut self, length_m: f64) {
+        self.new_wire_length_m = length_m;
+    }
+
     /// A technician for `setup`.
     pub fn new(setup: &TwinSetup) -> SimTechnician {
         SimTechnician {
             rng: ChaCha8Rng::seed_from_u64(setup.seed ^ 0x5eed),
             new_wire_length_m: setup.new_wire_length_m,
+            faults: setup.faults.clone(),
             log: Vec::new(),
             echo: false,
         }
@@ -148,6 +200,18 @@ impl Technician<Twin> for SimTechnician {
                 let mut p = (g[0] * w[0] + g[1] * w[1] + g[2] * w[2]) / sum;
                 p.z = self.rng.random_range(0.15..0.35);
                 hw.plant_mut().connect_wires_at(p);
+                let now = hw.sim_time();
+                for fault in self.faults.drain(..) {
+                    match fault {
+                        SimFault::Disconnected(w) => {
+                            hw.plant_mut().detach_wire(w);
+                            hw.plant_mut().set_free_length_m(w, 0.0);
+                        }
+                        SimFault::After(secs, f) => {
+                            hw.schedule_fault(now.plus(std::time::Duration::from_secs_f64(secs)), f)
+                        }
+                    }
+                }
             }
             Request::FitNewWire { wire } => {
                 let hanging = self.rng.random_range(0.1..0.4);
@@ -178,5 +242,25 @@ impl Technician<Twin> for SimTechnician {
             eprintln!("videt: {message}");
         }
         self.log.push(message.to_string());
+    }
+}
+
+impl super::tension::TensionTechnician<Twin> for SimTechnician {
+    fn perform(&mut self, step: super::tension::TensionStep, hw: &mut Twin) -> Result<(), Failure> {
+        use super::tension::TensionStep;
+        let plant = hw.plant_mut();
+        match step {
+            TensionStep::Unload { wire } => {
+                plant.detach_wire(wire);
+                plant.set_free_length_m(wire, 0.3);
+            }
+            TensionStep::HangWeight { wire, mass_kg } => plant.hang_weight(wire, mass_kg),
+            TensionStep::Finish { wire } => {
+                plant.hang_weight(wire, 0.0);
+                plant.set_free_length_m(wire, 0.0);
+            }
+        }
+        self.inform(&format!("{step:?} done"));
+        Ok(())
     }
 }

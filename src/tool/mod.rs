@@ -2,6 +2,11 @@
 //! function returning the process exit code or an error to print.
 
 pub mod config;
+pub mod device;
+pub mod init;
+pub mod status;
+pub mod tension_calibrate;
+pub mod wire;
 
 /// The error a subcommand reports to the user (printed as `videt: <message>`).
 pub type ToolError = Box<dyn std::error::Error + Send + Sync>;
