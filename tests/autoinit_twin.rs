@@ -6,10 +6,10 @@ use std::sync::atomic::AtomicBool;
 
 use videt::init::runner::Runner;
 use videt::init::session::{self, run_settings, FlowContext, InitError, InitOutcome};
-use videt::init::twin::{rest_twin, SimTechnician, TwinSetup};
-use videt_control::autoinit::Failure;
+use videt::init::twin::{rest_twin, SimFault, SimTechnician, TwinSetup};
+use videt_control::autoinit::{Failure, Limit};
 use videt_rt_config::Config;
-use videt_sim::{SensorModel, Twin, Vec3};
+use videt_sim::{ScheduledFault, SensorModel, Twin, Vec3};
 
 fn setup(guides: [[f64; 2]; 3], seed: u64) -> TwinSetup {
     TwinSetup {
@@ -96,8 +96,6 @@ fn sides_and_guides_match_the_truth_on_rigs_the_test_picks() {
             assert!(*e < 1e-3, "rig {k}: guide error {e}");
         }
         // The encoder zeros found are the twin's (within 0.1 mm of wire).
-        let mpc = config.transmission.counts_per_motor_rev;
-        let _ = mpc;
         let truth_offsets = twin.encoder_offset_counts();
         let m = videt::setup::transmission(&config).metres_per_count();
         for i in 0..3 {
@@ -108,13 +106,208 @@ fn sides_and_guides_match_the_truth_on_rigs_the_test_picks() {
     }
 }
 
+/// Run an initialization with `faults` on a rig the test picks; return the failure and the twin.
+fn failing(config: &Config, guides: [[f64; 2]; 3], faults: Vec<SimFault>) -> (Twin, InitError) {
+    let mut s = setup(guides, 21);
+    s.faults = faults;
+    let (twin, r) = run_init(config, &s);
+    match r {
+        Ok(o) => panic!("expected a failure, got sides {:?}", o.triangle.sides_m),
+        Err(e) => (twin, e),
+    }
+}
+
+const RIG: [[f64; 2]; 3] = [[0.01, 0.02], [0.39, -0.01], [0.21, 0.33]];
+
+/// After a failure the motors hold every wire at the pay-out (minimum) tension.
+fn assert_minimum_tension(config: &Config, twin: &Twin) {
+    let tr = videt::setup::transmission(config);
+    let expected = tr.torque_for_tension(config.autoinit.pay_out_tension_n);
+    for (i, t) in twin.applied_torque_nm().iter().enumerate() {
+        assert!(
+            (t - expected).abs() < 1e-12,
+            "wire {i}: torque {t} vs {expected}"
+        );
+    }
+}
+
+fn slip_counts(config: &Config, mm: f64) -> i64 {
+    (mm * 1e-3 / videt::setup::transmission(config).metres_per_count()).round() as i64
+}
+
 #[test]
-fn a_broken_wire_ends_with_its_own_error() {
+fn every_failure_mode_has_its_own_error() {
     let config = Config::default();
-    let s = setup([[0.0, 0.0], [0.36, 0.02], [0.17, 0.29]], 7);
+
+    let (twin, e) = failing(&config, RIG, vec![SimFault::Disconnected(1)]);
+    assert!(
+        matches!(
+            e,
+            InitError::Procedure(Failure::NotConnected { wire: 1, .. })
+        ),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 12);
+    assert_minimum_tension(&config, &twin);
+
+    let (twin, e) = failing(&config, RIG, vec![SimFault::Disconnected(0)]);
+    assert!(
+        matches!(
+            e,
+            InitError::Procedure(Failure::NotConnected { wire: 0, .. })
+        ),
+        "{e}"
+    );
+    assert_minimum_tension(&config, &twin);
+
+    let mut quick = config.clone();
+    quick.autoinit.max_wind_travel_m = 0.6;
+    let (twin, e) = failing(
+        &quick,
+        RIG,
+        vec![SimFault::After(1.0, ScheduledFault::BreakWire(0))],
+    );
+    assert!(
+        matches!(
+            e,
+            InitError::Procedure(Failure::TensionNeverRose { wire: 0, .. })
+        ),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 13);
+    assert!(e.to_string().contains("broken or slipping"), "{e}");
+    assert_minimum_tension(&quick, &twin);
+
+    let (twin, e) = failing(
+        &config,
+        RIG,
+        vec![SimFault::After(2.0, ScheduledFault::EStop)],
+    );
+    assert!(
+        matches!(e, InitError::Procedure(Failure::EmergencyStop)),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 10);
+    assert!(!twin.drives_enabled(), "an e-stop powers the drives off");
+
+    let (twin, e) = failing(
+        &config,
+        RIG,
+        vec![SimFault::After(
+            7.0,
+            ScheduledFault::SlipWire(2, slip_counts(&config, 3.0)),
+        )],
+    );
+    assert!(
+        matches!(e, InitError::Procedure(Failure::SidesDisagree { .. })),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 14);
+    assert_minimum_tension(&config, &twin);
+
+    let (twin, e) = failing(
+        &config,
+        RIG,
+        vec![SimFault::After(2.0, ScheduledFault::FailTensionSensor(1))],
+    );
+    assert!(
+        matches!(e, InitError::Procedure(Failure::SensorFault)),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 18);
+    assert_minimum_tension(&config, &twin);
+
+    let mut short = config.clone();
+    short.autoinit.max_length_m = 0.3;
+    let (twin, e) = failing(&short, RIG, vec![]);
+    assert!(
+        matches!(
+            e,
+            InitError::Procedure(Failure::LimitHit {
+                limit: Limit::Length { .. },
+                ..
+            })
+        ),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 11);
+    assert_minimum_tension(&short, &twin);
+
+    let mut hasty = config.clone();
+    hasty.autoinit.stage_timeout_s = 1.0;
+    let (twin, e) = failing(&hasty, RIG, vec![]);
+    assert!(
+        matches!(e, InitError::Procedure(Failure::Timeout { wire: 0, .. })),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 19);
+    assert_minimum_tension(&hasty, &twin);
+}
+
+#[test]
+fn collinear_guides_are_reported_as_a_degenerate_triangle() {
+    let config = Config::default();
+    let (twin, e) = failing(&config, [[0.0, 0.0], [0.2, 0.004], [0.4, 0.0]], vec![]);
+    assert!(
+        matches!(e, InitError::Procedure(Failure::DegenerateTriangle { .. })),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 16);
+    assert_minimum_tension(&config, &twin);
+}
+
+#[test]
+fn a_replaced_wire_is_homed_checked_and_the_rig_reinitialized() {
+    let config = Config::default();
+    let s = setup([[0.02, 0.0], [0.40, 0.03], [0.19, 0.32]], 9);
+    let stop = AtomicBool::new(false);
+    let ctx = FlowContext {
+        config: &config,
+        source: "twin",
+        stop: &stop,
+    };
+    let required = session::required_wire_length_m(&config, None);
     let mut twin = rest_twin(&config, &s);
-    let _ = &mut twin;
-    let (_t, r) = run_init(&config, &s);
-    assert!(r.is_ok());
-    let _ = Failure::Cancelled;
+    let mut tech = SimTechnician::new(&s);
+    let mut runner = Runner::new(run_settings(&config));
+    session::start(&mut twin).unwrap();
+    let out = session::replace_wire(&mut twin, &mut tech, &mut runner, &ctx, 1, required).unwrap();
+    let truth = true_sides(&s.guides_m);
+    for k in 0..3 {
+        assert!((out.triangle.sides_m[k] - truth[k]).abs() < 0.5e-3);
+    }
+
+    // A yarn shorter than the workspace needs is refused before anything is measured.
+    let mut s = s.clone();
+    s.new_wire_length_m = required - 0.05;
+    let mut twin = rest_twin(&config, &s);
+    let mut tech = SimTechnician::new(&s);
+    let mut runner = Runner::new(run_settings(&config));
+    session::start(&mut twin).unwrap();
+    let e =
+        session::replace_wire(&mut twin, &mut tech, &mut runner, &ctx, 2, required).unwrap_err();
+    assert!(matches!(e, InitError::WireTooShort { wire: 2, .. }), "{e}");
+    assert_eq!(e.exit_code(), 21);
+}
+
+#[test]
+fn tension_calibration_recovers_the_sensor_offset_and_gain() {
+    let config = Config::default();
+    let s = setup(RIG, 4);
+    let mut twin = rest_twin(&config, &s);
+    let mut tech = SimTechnician::new(&s);
+    let mut runner = Runner::new(run_settings(&config));
+    session::start(&mut twin).unwrap();
+    let p = videt::init::tension::calibrate_tension(
+        &mut twin,
+        &mut tech,
+        &mut runner,
+        1,
+        0.5,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let (offset, gain_error) = (s.sensors.offset_n[1], s.sensors.gain_error[1]);
+    assert!((p.offset_n - offset).abs() < 0.005, "{p:?}");
+    assert!((p.gain - 1.0 / (1.0 + gain_error)).abs() < 0.002, "{p:?}");
 }

@@ -63,7 +63,7 @@ pub struct ProcedureParams {
     pub max_wind_travel_m: f64,
     /// Shortest base-triangle side accepted, metres (a shorter paying-out wire is not connected).
     pub min_side_m: f64,
-    /// Longest a wire may pay out during the procedure, metres.
+    /// Longest a wire may be (once its winding homed it) or pay out (before), metres.
     pub max_length_m: f64,
     /// Largest disagreement between the two measurements of one side, metres.
     pub side_tolerance_m: f64,
@@ -114,9 +114,9 @@ pub enum Limit {
         /// The speed measured, m/s.
         measured_m_s: f64,
     },
-    /// Wire paid out beyond the limit since the procedure started, metres.
+    /// Wire longer than the limit (or, before its winding homed it, paid out beyond it).
     Length {
-        /// The length paid out, metres.
+        /// The length, metres.
         measured_m: f64,
     },
 }
@@ -229,7 +229,7 @@ impl core::fmt::Display for Failure {
                 ),
                 Limit::Length { measured_m } => write!(
                     f,
-                    "wire {wire}: length limit hit ({:.0} mm paid out)",
+                    "wire {wire}: length limit hit ({:.0} mm)",
                     measured_m * 1e3
                 ),
             },
@@ -544,6 +544,7 @@ pub struct Procedure {
     start_counts: [i64; WIRES],
     first_counts: [i64; WIRES],
     counts_at_stop: [[f64; WIRES]; WIRES],
+    zero_known: [bool; WIRES],
     over_tension_s: [f64; WIRES],
     home_counts: [i64; WIRES],
     lengths_at_stop_m: [[f64; WIRES]; WIRES],
@@ -567,6 +568,7 @@ impl Procedure {
             start_counts: [0; WIRES],
             first_counts: [0; WIRES],
             counts_at_stop: [[0.0; WIRES]; WIRES],
+            zero_known: [false; WIRES],
             over_tension_s: [0.0; WIRES],
             home_counts: [0; WIRES],
             lengths_at_stop_m: [[0.0; WIRES]; WIRES],
@@ -721,7 +723,13 @@ impl Procedure {
                 };
                 return self.fail(Failure::LimitHit { wire, limit }, setpoint_n);
             }
-            let paid_out = (self.first_counts[i] - input.counts[i]) as f64 * p.metres_per_count;
+            // A wire's length once its winding homed it; before, how far it paid out.
+            let reference = if self.zero_known[i] {
+                self.counts_at_stop[i][i]
+            } else {
+                self.first_counts[i] as f64
+            };
+            let paid_out = (reference - input.counts[i] as f64) * p.metres_per_count;
             if paid_out > p.max_length_m {
                 let limit = Limit::Length {
                     measured_m: paid_out,
@@ -901,6 +909,7 @@ impl Procedure {
         for j in 0..WIRES {
             self.counts_at_stop[w][j] = self.mean_counts(w, j);
         }
+        self.zero_known[w] = true;
         let travel = (self.counts_at_stop[w][w] - self.start_counts[w] as f64) * p.metres_per_count;
         if travel < p.min_travel_m {
             return self.fail(

@@ -76,7 +76,7 @@ pub struct AutoInitConfig {
     pub side_tolerance_m: f64,
     /// Shortest base-triangle side accepted, metres.
     pub min_side_m: f64,
-    /// Longest a wire may pay out during the procedure, metres.
+    /// Longest a wire may be during the procedure (before its winding homed it: pay out), metres.
     pub max_length_m: f64,
     /// Shortest winding that counts as movement (a connected wire), metres.
     pub min_travel_m: f64,

@@ -84,6 +84,8 @@ pub enum ScheduledFault {
     DetachWire(usize),
     /// Tension sensor `0` fails.
     FailTensionSensor(usize),
+    /// Wire `0` slips on its pulley by `1` encoder counts (the pulley turns, the yarn does not).
+    SlipWire(usize, i64),
 }
 
 /// How the twin's clock runs.
@@ -175,6 +177,7 @@ impl Twin {
                     ScheduledFault::BreakWire(w) => self.plant.break_wire(w),
                     ScheduledFault::DetachWire(w) => self.plant.detach_wire(w),
                     ScheduledFault::FailTensionSensor(w) => self.fail_tension_sensor(Some(w)),
+                    ScheduledFault::SlipWire(w, counts) => self.encoder_offset_counts[w] += counts,
                 }
             } else {
                 k += 1;

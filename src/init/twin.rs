@@ -45,8 +45,9 @@ pub enum SimFault {
 }
 
 /// Parse `--sim-fault`: `disconnected:N`, `estop:SECS`, `break:N:SECS`, `detach:N:SECS`,
-/// `sensor:N:SECS` (SECS after the wires are connected).
-pub fn parse_fault(text: &str) -> Result<SimFault, String> {
+/// `sensor:N:SECS`, `slip:N:MM:SECS` (SECS after the wires are connected). `transmission`
+/// converts a slip in millimetres to encoder counts.
+pub fn parse_fault(text: &str, transmission: &videt_hal::Transmission) -> Result<SimFault, String> {
     let parts: Vec<&str> = text.split(':').collect();
     let wire = |s: &str| {
         s.parse::<usize>()
@@ -69,8 +70,17 @@ pub fn parse_fault(text: &str) -> Result<SimFault, String> {
             secs(t)?,
             ScheduledFault::FailTensionSensor(wire(n)?),
         )),
+        ["slip", n, mm, t] => {
+            let mm = mm
+                .parse::<f64>()
+                .ok()
+                .filter(|m| m.is_finite() && m.abs() <= 100.0)
+                .ok_or_else(|| format!("--sim-fault {text:?}: slip {mm:?} must be millimetres in [-100, 100]"))?;
+            let counts = (mm * 1e-3 / transmission.metres_per_count()).round() as i64;
+            Ok(SimFault::After(secs(t)?, ScheduledFault::SlipWire(wire(n)?, counts)))
+        }
         _ => Err(format!(
-            "--sim-fault {text:?}: must be disconnected:N, estop:SECS, break:N:SECS, detach:N:SECS or sensor:N:SECS"
+            "--sim-fault {text:?}: must be disconnected:N, estop:SECS, break:N:SECS, detach:N:SECS, sensor:N:SECS or slip:N:MM:SECS"
         )),
     }
 }

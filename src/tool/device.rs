@@ -58,7 +58,7 @@ pub struct DeviceArgs {
     #[arg(long, value_name = "N", default_value_t = 1, requires = "sim")]
     pub sim_seed: u64,
     /// A fault to rehearse on the twin (repeatable): disconnected:N, estop:SECS, break:N:SECS,
-    /// detach:N:SECS, sensor:N:SECS (SECS after the wires are connected).
+    /// detach:N:SECS, sensor:N:SECS, slip:N:MM:SECS (SECS after the wires are connected).
     #[arg(long, value_name = "FAULT", requires = "sim")]
     pub sim_fault: Vec<String>,
     /// Configuration file (default: /etc/videt/videt.toml when present; with --sim, built-in
@@ -174,9 +174,10 @@ impl DeviceArgs {
             setup.guides_m = parse_guides(g).map_err(|e| Exit::new(EXIT_USAGE, "usage", e))?;
         }
         for f in &self.sim_fault {
-            setup
-                .faults
-                .push(parse_fault(f).map_err(|e| Exit::new(EXIT_USAGE, "usage", e))?);
+            setup.faults.push(
+                parse_fault(f, &crate::setup::transmission(config))
+                    .map_err(|e| Exit::new(EXIT_USAGE, "usage", e))?,
+            );
         }
         Ok(setup)
     }

@@ -92,12 +92,13 @@ pub fn run_flow(
     flow: &mut Flow<'_, videt_sim::Twin, SimTechnician>,
 ) -> Result<ExitCode, Exit> {
     let calibration_path = device.calibration_path(config);
+    // Check every argument before touching anything.
+    let setup = device.twin_setup(config)?;
     let _lock = MotorsLock::acquire(&device.lock_path(config))
         .map_err(|e| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))?;
     if !device.sim {
         return Err(device.no_backend());
     }
-    let setup = device.twin_setup(config)?;
     let mut twin = rest_twin(config, &setup);
     let mut tech = SimTechnician::new(&setup);
     tech.echo = true;

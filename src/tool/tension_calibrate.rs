@@ -47,12 +47,12 @@ fn calibrate(args: &TensionCalibrateArgs) -> Result<ExitCode, Exit> {
     let device = &args.device;
     let config = device.load_config()?;
     let path = TensionCalibration::path_beside(&device.calibration_path(&config));
+    let setup = device.twin_setup(&config)?;
     let _lock = MotorsLock::acquire(&device.lock_path(&config))
         .map_err(|e| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))?;
     if !device.sim {
         return Err(device.no_backend());
     }
-    let setup = device.twin_setup(&config)?;
     let mut twin = rest_twin(&config, &setup);
     let mut tech = SimTechnician::new(&setup);
     tech.echo = true;
