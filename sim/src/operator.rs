@@ -22,6 +22,8 @@ pub struct VirtualOperator {
     pub damping_n_s_per_m: f64,
     /// When set, the script repeats with this period, seconds.
     pub repeat_period_s: Option<f64>,
+    /// Simulated time at which the script starts, seconds (0 unless [`Self::starting_at`]).
+    start_s: f64,
 }
 
 impl VirtualOperator {
@@ -41,6 +43,7 @@ impl VirtualOperator {
             stiffness_n_per_m,
             damping_n_s_per_m,
             repeat_period_s: None,
+            start_s: 0.0,
         }
     }
 
@@ -105,8 +108,16 @@ impl VirtualOperator {
         )
     }
 
+    /// The same script, starting at simulated time `start_s` instead of 0 (e.g. after an
+    /// auto-initialization has run on the twin).
+    pub fn starting_at(mut self, start_s: f64) -> VirtualOperator {
+        self.start_s = start_s;
+        self
+    }
+
     /// The hand target and its velocity at time `t_s`.
     pub fn target(&self, t_s: f64) -> (Vec3, Vec3) {
+        let t_s = t_s - self.start_s;
         let t_s = match self.repeat_period_s {
             Some(period) if t_s > 0.0 => t_s % period,
             _ => t_s,

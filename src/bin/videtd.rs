@@ -40,6 +40,14 @@ struct Args {
     /// Stop cleanly after this many seconds.
     #[arg(long, value_name = "SECS")]
     duration: Option<f64>,
+    /// Calibration file (default: `files.calibration` of the configuration). Without a valid
+    /// one no force is rendered. With --sim the twin is auto-initialized at start-up instead.
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// With --sim: skip the start-up auto-initialization (the twin then runs uncalibrated:
+    /// every wire at minimum tension, no force rendered).
+    #[arg(long, requires = "sim")]
+    sim_no_init: bool,
 }
 
 const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -78,14 +86,38 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
+    // One process at a time drives the motors (the `videt` tool takes the same lock).
+    let lock_path = if args.sim.is_some() {
+        videt::init::daemon::sim_state_dir().join("motors-sim.lock")
+    } else {
+        PathBuf::from(&config.files.motors_lock)
+    };
+    let _motors = match videt::init::MotorsLock::acquire(&lock_path) {
+        Ok(l) => l,
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::from(23);
+        }
+    };
     if args.sim.is_none() {
+        let path = args
+            .calibration
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(&config.files.calibration));
+        match videt::init::daemon::load(&config, &path) {
+            Ok(s) if !s.calibrated => warn!(
+                "forces will not be rendered (not calibrated): {}",
+                s.reason.unwrap_or_default()
+            ),
+            _ => {}
+        }
         error!("no device backend is built into this videtd: run with --sim for the digital twin");
         return ExitCode::from(2);
     }
-    run_on_twin(&config, args.duration)
+    run_on_twin(&config, args.duration, args.sim_no_init)
 }
 
-fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
+fn run_on_twin(config: &Config, duration_s: Option<f64>, skip_init: bool) -> ExitCode {
     let rig = match setup::rig(config) {
         Ok(r) => r,
         Err(e) => {
@@ -106,9 +138,39 @@ fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
         }
     }
 
-    let scene = setup::demo_scene(config, 1);
+    let mut scene = setup::demo_scene(config, 1);
     let wall = scene.wall;
-    let mut cycle = setup::control_cycle(config, rig, WireZero::default(), true);
+    let (rig, wire_zero, calibrated) = if skip_init {
+        warn!("forces will not be rendered (not calibrated): the start-up auto-initialization was skipped");
+        (rig, WireZero::default(), false)
+    } else {
+        let operator = scene.twin.operator().clone();
+        let start = scene.twin.plant().position_m();
+        match videt::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1)
+            .map_err(|e| e.to_string())
+            .and_then(|o| videt::init::daemon::from_calibration(config, &o.calibration))
+        {
+            Ok(s) => {
+                let c = s
+                    .calibration
+                    .as_ref()
+                    .map(|c| c.sides_m)
+                    .unwrap_or_default();
+                info!(
+                    d01_mm = c[0] * 1e3,
+                    d02_mm = c[1] * 1e3,
+                    d12_mm = c[2] * 1e3,
+                    "twin auto-initialized at start-up"
+                );
+                (s.rig, s.wire_zero, true)
+            }
+            Err(e) => {
+                warn!("forces will not be rendered (not calibrated): twin auto-initialization failed: {e}");
+                (rig, WireZero::default(), false)
+            }
+        }
+    };
+    let mut cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     let settings = LoopSettings {
         rate_hz: config.control.rate_hz,
         duration_ns: duration_s.map(|d| (d * 1e9) as u64),

@@ -116,16 +116,7 @@ impl Exit {
     }
 }
 
-/// The state directory for the twin's files.
-fn sim_state_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("XDG_STATE_HOME").filter(|d| !d.is_empty()) {
-        return PathBuf::from(d).join("videt");
-    }
-    if let Some(h) = std::env::var_os("HOME").filter(|h| !h.is_empty()) {
-        return PathBuf::from(h).join(".local/state/videt");
-    }
-    std::env::temp_dir().join("videt")
-}
+use crate::init::daemon::sim_state_dir;
 
 impl DeviceArgs {
     /// Load the configuration.
