@@ -48,9 +48,19 @@ impl VirtualOperator {
     }
 
     /// The same script, repeated every `period_s` seconds (at least as long as the script).
+    /// When the script ends away from where it starts, the hand moves back to the start over the
+    /// rest of the period instead of jumping there (a jump would yank the thimble).
     pub fn repeating(mut self, period_s: f64) -> VirtualOperator {
-        let last = self.waypoints[self.waypoints.len() - 1].time_s;
-        self.repeat_period_s = Some(period_s.max(last).max(1e-3));
+        let first = self.waypoints[0];
+        let last = self.waypoints[self.waypoints.len() - 1];
+        let period = period_s.max(last.time_s).max(1e-3);
+        if period > last.time_s && last.target_m != first.target_m {
+            self.waypoints.push(Waypoint {
+                time_s: period,
+                target_m: first.target_m,
+            });
+        }
+        self.repeat_period_s = Some(period);
         self
     }
 

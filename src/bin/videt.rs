@@ -29,6 +29,12 @@ enum Command {
     TensionCalibrate(tool::tension_calibrate::TensionCalibrateArgs),
     /// Calibration age and validity, wires, whether the motors are in use.
     Status(tool::status::StatusArgs),
+    /// Summarise a telemetry session log and export it as CSV.
+    Log(tool::log::LogArgs),
+    /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
+    Service(tool::service::ServiceArgs),
+    /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
+    BenchRt(tool::bench_rt::BenchRtArgs),
 }
 
 fn main() -> ExitCode {
@@ -39,6 +45,9 @@ fn main() -> ExitCode {
         Command::Wire(c) => tool::wire::run(c),
         Command::TensionCalibrate(a) => tool::tension_calibrate::run(a),
         Command::Status(a) => tool::status::run(a),
+        Command::Log(a) => tool::log::run(a),
+        Command::Service(a) => tool::service::run(a),
+        Command::BenchRt(a) => tool::bench_rt::run(a),
     };
     match result {
         Ok(code) => code,

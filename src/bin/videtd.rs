@@ -2,21 +2,23 @@
 //!
 //! `videtd --sim` runs the real runtime and control code on the digital twin (a virtual wall and
 //! a virtual operator who touches it and slides along it). One status line per second; Ctrl-C or
-//! SIGTERM ramps the forces out, powers the drives off and exits 0.
+//! SIGTERM ramps the forces out, powers the drives off and exits 0. Under systemd
+//! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
+//! control loop is healthy.
+//!
+//! Forces are rendered only with a valid calibration (`videt init`); without one every wire is
+//! held at minimum tension and the log says why. `--sim` auto-initializes the twin at start-up.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
 
 use clap::{Parser, ValueEnum};
 use tracing::{error, info, warn};
-use videt::control_loop::{run_control_loop, start_hardware, LoopSettings};
 use videt::cycle::WireZero;
-use videt::status::status_channel;
+use videt::service::{run_service, ServiceOptions};
+use videt::setup;
+use videt::snapshot::FixedSurface;
 use videt::twin_rt::RealTimeTwin;
-use videt::{rt, setup};
 use videt_rt_config::Config;
 
 /// Which twin `--sim` runs on.
@@ -33,21 +35,38 @@ struct Args {
     /// Run on the digital twin instead of the device.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "hal")]
     sim: Option<SimMode>,
-    /// Configuration file (default: /etc/videt/videt.toml when present, else built-in defaults
-    /// with --sim).
+    /// Configuration file (default: /etc/videt/videt.toml when present; with --sim, built-in
+    /// defaults otherwise).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Stop cleanly after this many seconds.
     #[arg(long, value_name = "SECS")]
     duration: Option<f64>,
+    /// Control socket path (overrides socket.path).
+    #[arg(long, value_name = "PATH")]
+    socket: Option<PathBuf>,
+    /// Run without the control socket.
+    #[arg(long, conflicts_with = "socket")]
+    no_socket: bool,
+    /// Directory of the session log (overrides telemetry.directory).
+    #[arg(long, value_name = "DIR")]
+    telemetry_dir: Option<PathBuf>,
+    /// Run without the per-period telemetry log.
+    #[arg(long, conflicts_with = "telemetry_dir")]
+    no_telemetry: bool,
     /// Calibration file (default: `files.calibration` of the configuration). Without a valid
-    /// one no force is rendered. With --sim the twin is auto-initialized at start-up instead.
+    /// one no force is rendered and the log says why. With --sim the twin is auto-initialized at
+    /// start-up instead (see --sim-no-init).
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
-    /// With --sim: skip the start-up auto-initialization (the twin then runs uncalibrated:
-    /// every wire at minimum tension, no force rendered).
+    /// With --sim: skip the start-up auto-initialization (the twin then runs uncalibrated: every
+    /// wire at minimum tension, no force rendered).
     #[arg(long, requires = "sim")]
     sim_no_init: bool,
+    /// Motors lock file (default: `files.motors_lock`; with --sim none: the twin is private to
+    /// this process).
+    #[arg(long, value_name = "FILE")]
+    lock: Option<PathBuf>,
 }
 
 const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -86,161 +105,116 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    // One process at a time drives the motors (the `videt` tool takes the same lock).
-    let lock_path = if args.sim.is_some() {
-        videt::init::daemon::sim_state_dir().join("motors-sim.lock")
-    } else {
-        PathBuf::from(&config.files.motors_lock)
-    };
-    let _motors = match videt::init::MotorsLock::acquire(&lock_path) {
-        Ok(l) => l,
-        Err(e) => {
-            error!("{e}");
-            return ExitCode::from(23);
-        }
-    };
-    if args.sim.is_none() {
-        let path = args
-            .calibration
-            .clone()
-            .unwrap_or_else(|| PathBuf::from(&config.files.calibration));
-        match videt::init::daemon::load(&config, &path) {
-            Ok(s) if !s.calibrated => warn!(
-                "forces will not be rendered (not calibrated): {}",
-                s.reason.unwrap_or_default()
-            ),
-            _ => {}
-        }
-        error!("no device backend is built into this videtd: run with --sim for the digital twin");
-        return ExitCode::from(2);
+    let mut options = ServiceOptions::from_config(config.clone());
+    options.duration_s = args.duration;
+    if args.no_socket {
+        options.socket_path = None;
+    } else if let Some(p) = &args.socket {
+        options.socket_path = Some(p.clone());
     }
-    run_on_twin(&config, args.duration, args.sim_no_init)
-}
-
-fn run_on_twin(config: &Config, duration_s: Option<f64>, skip_init: bool) -> ExitCode {
-    let rig = match setup::rig(config) {
+    if args.no_telemetry {
+        options.telemetry_dir = None;
+    } else if let Some(d) = &args.telemetry_dir {
+        options.telemetry_dir = Some(d.clone());
+    }
+    let rig = match setup::rig(&config) {
         Ok(r) => r,
         Err(e) => {
             error!("rig geometry: {e}");
             return ExitCode::from(2);
         }
     };
-    if config.realtime.lock_memory {
-        if let Err(e) = rt::lock_memory() {
-            warn!("memory not locked (mlockall: {e}); page faults may delay the control loop");
-        }
-    }
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        if let Err(e) = signal_hook::flag::register(signal, Arc::clone(&stop)) {
-            error!("cannot install the handler for signal {signal}: {e}");
-            return ExitCode::FAILURE;
-        }
-    }
-
-    let mut scene = setup::demo_scene(config, 1);
-    let wall = scene.wall;
-    let (rig, wire_zero, calibrated) = if skip_init {
-        warn!("forces will not be rendered (not calibrated): the start-up auto-initialization was skipped");
-        (rig, WireZero::default(), false)
-    } else {
-        let operator = scene.twin.operator().clone();
-        let start = scene.twin.plant().position_m();
-        match videt::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1)
-            .map_err(|e| e.to_string())
-            .and_then(|o| videt::init::daemon::from_calibration(config, &o.calibration))
-        {
-            Ok(s) => {
-                let c = s
-                    .calibration
-                    .as_ref()
-                    .map(|c| c.sides_m)
-                    .unwrap_or_default();
-                info!(
-                    d01_mm = c[0] * 1e3,
-                    d02_mm = c[1] * 1e3,
-                    d12_mm = c[2] * 1e3,
-                    "twin auto-initialized at start-up"
-                );
-                (s.rig, s.wire_zero, true)
-            }
-            Err(e) => {
-                warn!("forces will not be rendered (not calibrated): twin auto-initialization failed: {e}");
-                (rig, WireZero::default(), false)
-            }
-        }
+    // One process at a time drives the motors (the `videt` tool takes the same lock). A twin is
+    // private to its process, so with --sim the lock is taken only when --lock asks for it.
+    let lock_path = match (&args.lock, args.sim) {
+        (Some(p), _) => Some(p.clone()),
+        (None, None) => Some(PathBuf::from(&config.files.motors_lock)),
+        (None, Some(_)) => None,
     };
-    let mut cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
-    let settings = LoopSettings {
-        rate_hz: config.control.rate_hz,
-        duration_ns: duration_s.map(|d| (d * 1e9) as u64),
-        max_consecutive_overruns: 10,
-    };
-    let (mut publisher, mut reader) = status_channel();
-    let priority = config.realtime.control_priority;
-    let cpu = usize::try_from(config.realtime.control_cpu).ok();
-    let thread_stop = Arc::clone(&stop);
-    info!(
-        rate_hz = settings.rate_hz,
-        wall_z_m = scene.wall_z_m,
-        "starting the control loop on the digital twin (virtual wall, virtual operator)"
-    );
-    let control = std::thread::Builder::new()
-        .name("videt-control".into())
-        .spawn(move || {
-            let report = rt::setup_control_thread(priority, cpu);
-            for w in &report.warnings {
-                warn!("{w}");
-            }
-            let mut hw = RealTimeTwin::new(scene.twin);
-            start_hardware(&mut hw).map_err(|e| e.to_string())?;
-            Ok::<_, String>(run_control_loop(
-                &mut hw,
-                &wall,
-                &mut cycle,
-                &settings,
-                &thread_stop,
-                &mut publisher,
-            ))
-        });
-    let control = match control {
-        Ok(handle) => handle,
+    let _motors = match lock_path
+        .map(|p| videt::init::MotorsLock::acquire(&p))
+        .transpose()
+    {
+        Ok(l) => l,
         Err(e) => {
-            error!("cannot start the control thread: {e}");
-            return ExitCode::FAILURE;
+            error!("{e}");
+            return ExitCode::from(23);
         }
     };
-
-    let mut last_print = std::time::Instant::now();
-    while !control.is_finished() {
-        std::thread::sleep(Duration::from_millis(20));
-        if last_print.elapsed() >= Duration::from_secs(1) {
-            last_print = std::time::Instant::now();
-            println!("{}", reader.latest().line());
+    match args.sim {
+        Some(SimMode::Hal) => {
+            let mut scene = setup::demo_scene(&config, 1);
+            tracing::info!(
+                rate_hz = config.control.rate_hz,
+                wall_z_m = scene.wall_z_m,
+                "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
+            );
+            let (rig, wire_zero, calibrated) =
+                calibrate_twin(&config, &mut scene, rig, args.sim_no_init);
+            let cycle = setup::control_cycle(&config, rig, wire_zero, calibrated);
+            run_service(
+                RealTimeTwin::new(scene.twin),
+                FixedSurface(scene.wall),
+                cycle,
+                &options,
+            )
+        }
+        None => {
+            let path = args
+                .calibration
+                .clone()
+                .unwrap_or_else(|| PathBuf::from(&config.files.calibration));
+            if let Ok(s) = videt::init::daemon::load(&config, &path) {
+                if !s.calibrated {
+                    warn!(
+                        "forces will not be rendered (not calibrated): {}",
+                        s.reason.unwrap_or_default()
+                    );
+                }
+            }
+            error!(
+                "no device backend is built into this videtd: run with --sim for the digital twin"
+            );
+            ExitCode::from(2)
         }
     }
-    match control.join() {
-        Ok(Ok(report)) => {
-            let s = reader.latest();
-            println!("{}", s.line());
+}
+
+/// The twin's calibration: auto-initialized at start-up (simulated time), or none with
+/// `--sim-no-init`. Returns the rig, the encoder zeros and whether forces may be rendered.
+fn calibrate_twin(
+    config: &Config,
+    scene: &mut setup::DemoScene,
+    configured: videt_control::Rig3,
+    skip: bool,
+) -> (videt_control::Rig3, WireZero, bool) {
+    if skip {
+        warn!("forces will not be rendered (not calibrated): the start-up auto-initialization was skipped");
+        return (configured, WireZero::default(), false);
+    }
+    let operator = scene.twin.operator().clone();
+    let start = scene.twin.plant().position_m();
+    match videt::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1)
+        .map_err(|e| e.to_string())
+        .and_then(|o| videt::init::daemon::from_calibration(config, &o.calibration))
+    {
+        Ok(s) => {
+            let c = s
+                .calibration
+                .as_ref()
+                .map(|c| c.sides_m)
+                .unwrap_or_default();
             info!(
-                cycles = report.cycles,
-                overruns = report.overruns,
-                safety = report.final_safety.as_str(),
-                "control loop stopped: forces ramped out, drives off"
+                d01_mm = c[0] * 1e3,
+                d02_mm = c[1] * 1e3,
+                d12_mm = c[2] * 1e3,
+                "twin auto-initialized at start-up"
             );
-            if stop.load(Ordering::Relaxed) {
-                info!("stopped by signal");
-            }
-            ExitCode::SUCCESS
+            (s.rig, s.wire_zero, true)
         }
-        Ok(Err(e)) => {
-            error!("{e}");
-            ExitCode::FAILURE
-        }
-        Err(_) => {
-            error!("the control thread panicked; the drives were left to their communication-loss stop");
-            ExitCode::from(70)
+        Err(e) => {
+            warn!("forces will not be rendered (not calibrated): twin auto-initialization failed: {e}");
+            (configured, WireZero::default(), false)
         }
     }
 }

@@ -14,6 +14,7 @@ use videt_rt_config::Config;
 use crate::init::runner::{InitHardware, Runner};
 use crate::init::session::{Request, Technician};
 use crate::init::twin::{parse_fault, parse_guides, TwinSetup};
+use crate::init::MotorsLock;
 
 /// Where the configuration lives on the device.
 pub const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -70,8 +71,8 @@ pub struct DeviceArgs {
     /// else ~/.local/state/videt/calibration-sim.toml).
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
-    /// Motors lock file (default: `files.motors_lock`, /run/videt/motors.lock; with --sim:
-    /// motors-sim.lock beside the calibration).
+    /// Motors lock file (default: `files.motors_lock`, /run/videt/motors.lock; with --sim none
+    /// unless given: the twin is private to this process).
     #[arg(long, value_name = "FILE")]
     pub lock: Option<PathBuf>,
     /// Do not wait at the prompts: the manual steps are already done (scripts).
@@ -145,17 +146,22 @@ impl DeviceArgs {
         }
     }
 
-    /// The motors lock file.
-    pub fn lock_path(&self, config: &Config) -> PathBuf {
+    /// The motors lock file; none with --sim unless --lock names one (a twin is private to its
+    /// process: there are no shared motors).
+    pub fn lock_path(&self, config: &Config) -> Option<PathBuf> {
         match &self.lock {
-            Some(p) => p.clone(),
-            None if self.sim => self
-                .calibration_path(config)
-                .parent()
-                .map_or_else(sim_state_dir, Path::to_path_buf)
-                .join("motors-sim.lock"),
-            None => PathBuf::from(&config.files.motors_lock),
+            Some(p) => Some(p.clone()),
+            None if self.sim => None,
+            None => Some(PathBuf::from(&config.files.motors_lock)),
         }
+    }
+
+    /// Take the motors lock (see [`Self::lock_path`]).
+    pub fn lock_motors(&self, config: &Config) -> Result<Option<MotorsLock>, Exit> {
+        self.lock_path(config)
+            .map(|p| MotorsLock::acquire(&p))
+            .transpose()
+            .map_err(|e| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))
     }
 
     /// The twin's set-up from the rehearsal options.

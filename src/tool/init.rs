@@ -10,14 +10,11 @@ use videt_hal::{Lifecycle, WireDrives};
 use videt_rt_config::calibration::{backup_path, Calibration};
 use videt_rt_config::Config;
 
-use super::device::{
-    stop_on_signals, DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_CODES_HELP, EXIT_MOTORS_BUSY,
-};
+use super::device::{stop_on_signals, DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_CODES_HELP};
 use super::ToolResult;
 use crate::init::runner::Runner;
 use crate::init::session::{self, run_settings, FlowContext, InitError, InitOutcome};
 use crate::init::twin::{rest_twin, SimTechnician};
-use crate::init::MotorsLock;
 
 /// Arguments of `videt init`.
 #[derive(Debug, Args)]
@@ -94,8 +91,7 @@ pub fn run_flow(
     let calibration_path = device.calibration_path(config);
     // Check every argument before touching anything.
     let setup = device.twin_setup(config)?;
-    let _lock = MotorsLock::acquire(&device.lock_path(config))
-        .map_err(|e| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))?;
+    let _lock = device.lock_motors(config)?;
     if !device.sim {
         return Err(device.no_backend());
     }

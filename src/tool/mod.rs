@@ -1,9 +1,12 @@
 //! Subcommands of the `videt` tool, one module each. Each exposes its clap arguments and a `run`
 //! function returning the process exit code or an error to print.
 
+pub mod bench_rt;
 pub mod config;
 pub mod device;
 pub mod init;
+pub mod log;
+pub mod service;
 pub mod status;
 pub mod tension_calibrate;
 pub mod wire;

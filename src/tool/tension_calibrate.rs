@@ -8,15 +8,12 @@ use clap::Args;
 use videt_hal::{Lifecycle, WireDrives};
 use videt_rt_config::calibration::TensionCalibration;
 
-use super::device::{
-    stop_on_signals, DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_MOTORS_BUSY, EXIT_USAGE,
-};
+use super::device::{stop_on_signals, DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_USAGE};
 use super::ToolResult;
 use crate::init::runner::Runner;
 use crate::init::session::{self, failure_exit_code, run_settings};
 use crate::init::tension::{calibrate_tension, TensionCalibrationError};
 use crate::init::twin::{rest_twin, SimTechnician};
-use crate::init::MotorsLock;
 
 /// Arguments of `videt tension-calibrate`.
 #[derive(Debug, Args)]
@@ -48,8 +45,7 @@ fn calibrate(args: &TensionCalibrateArgs) -> Result<ExitCode, Exit> {
     let config = device.load_config()?;
     let path = TensionCalibration::path_beside(&device.calibration_path(&config));
     let setup = device.twin_setup(&config)?;
-    let _lock = MotorsLock::acquire(&device.lock_path(&config))
-        .map_err(|e| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))?;
+    let _lock = device.lock_motors(&config)?;
     if !device.sim {
         return Err(device.no_backend());
     }
