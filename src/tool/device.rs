@@ -6,6 +6,7 @@ use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use clap::Args;
 use videt_control::autoinit::Failure;
@@ -14,7 +15,8 @@ use videt_rt_config::Config;
 use crate::init::runner::{InitHardware, Runner};
 use crate::init::session::{Request, Technician};
 use crate::init::twin::{parse_fault, parse_guides, TwinSetup};
-use crate::init::MotorsLock;
+use crate::init::{LockError, MotorsLock};
+use crate::socket::{request, Request as SocketRequest};
 
 /// Where the configuration lives on the device.
 pub const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -75,7 +77,14 @@ pub struct DeviceArgs {
     /// unless given: the twin is private to this process).
     #[arg(long, value_name = "FILE")]
     pub lock: Option<PathBuf>,
-    /// Do not wait at the prompts: the manual steps are already done (scripts).
+    /// The running videtd's control socket (default: `socket.path` of the configuration; with
+    /// --sim none unless given). When videtd holds the motors, the tool asks it through this
+    /// socket to hand them over (forces ramped out, drives off, service stopped), runs, and
+    /// reminds you to start the service again.
+    #[arg(long, value_name = "PATH")]
+    pub socket: Option<PathBuf>,
+    /// Do not wait at the prompts: the manual steps are already done, and videtd may be asked to
+    /// hand the motors over (scripts).
     #[arg(long)]
     pub yes: bool,
     /// Print the result as JSON on stdout (progress stays on stderr).
@@ -156,12 +165,64 @@ impl DeviceArgs {
         }
     }
 
-    /// Take the motors lock (see [`Self::lock_path`]).
+    /// The running service's control socket, when there may be one.
+    pub fn socket_path(&self, config: &Config) -> Option<PathBuf> {
+        match &self.socket {
+            Some(p) => Some(p.clone()),
+            None if self.sim => None,
+            None => Some(PathBuf::from(&config.socket.path)),
+        }
+    }
+
+    /// Take the motors lock (see [`Self::lock_path`]). When `videtd` holds it and answers on
+    /// its control socket, ask it to hand the motors over (after confirmation, or `--yes`) and
+    /// take the lock once it has let go.
     pub fn lock_motors(&self, config: &Config) -> Result<Option<MotorsLock>, Exit> {
-        self.lock_path(config)
-            .map(|p| MotorsLock::acquire(&p))
-            .transpose()
-            .map_err(|e| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))
+        let Some(path) = self.lock_path(config) else {
+            return Ok(None);
+        };
+        let busy = match MotorsLock::acquire(&path) {
+            Ok(l) => return Ok(Some(l)),
+            Err(e @ LockError::Io { .. }) => {
+                return Err(Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))
+            }
+            Err(e) => e,
+        };
+        let refuse = |why: &str| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", format!("{busy}{why}"));
+        let Some(socket) = self.socket_path(config).filter(|s| s.exists()) else {
+            return Err(refuse(""));
+        };
+        let running = request(&socket, &SocketRequest::Status, Duration::from_secs(3));
+        if !running.is_ok_and(|r| r.ok) {
+            return Err(refuse(&format!(
+                "; its control socket {} does not answer",
+                socket.display()
+            )));
+        }
+        eprintln!(
+            "videt: videtd is running and holds the motors; it has to hand them over: forces ramped out, drives off, service stopped"
+        );
+        if !self.yes && !confirm("stop videtd now? [y/N] ") {
+            return Err(refuse("; not stopped (answer y, or pass --yes)"));
+        }
+        let stopped = request(&socket, &SocketRequest::Stop, Duration::from_secs(3));
+        if !stopped.as_ref().is_ok_and(|r| r.ok) {
+            return Err(refuse(&format!(
+                "; videtd did not accept the stop ({})",
+                stopped.map_or_else(|e| e.to_string(), |r| r.error.unwrap_or_default())
+            )));
+        }
+        let deadline = Instant::now() + Duration::from_secs(15);
+        while Instant::now() < deadline {
+            if let Ok(l) = MotorsLock::acquire(&path) {
+                eprintln!(
+                    "videt: videtd stopped and handed the motors over; start it again afterwards (systemctl start videtd)"
+                );
+                return Ok(Some(l));
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        Err(refuse("; videtd did not let go of the motors within 15 s"))
     }
 
     /// The twin's set-up from the rehearsal options.
@@ -187,6 +248,17 @@ impl DeviceArgs {
             "no device backend is built into this videt: run with --sim to rehearse on the digital twin",
         )
     }
+}
+
+/// Ask a yes/no question on the terminal; anything but `y`/`yes` (or no terminal) is no.
+pub fn confirm(question: &str) -> bool {
+    if !std::io::stdin().is_terminal() {
+        return false;
+    }
+    eprint!("videt: {question}");
+    let mut line = String::new();
+    std::io::stdin().lock().read_line(&mut line).is_ok()
+        && matches!(line.trim().to_ascii_lowercase().as_str(), "y" | "yes")
 }
 
 /// A stop flag set by SIGINT and SIGTERM.
