@@ -4,10 +4,11 @@
 
 use std::sync::atomic::AtomicBool;
 
+use videt::init::params::procedure_params;
 use videt::init::runner::Runner;
 use videt::init::session::{self, run_settings, FlowContext, InitError, InitOutcome};
 use videt::init::twin::{rest_twin, SimFault, SimTechnician, TwinSetup};
-use videt_control::autoinit::{Failure, Limit};
+use videt_control::autoinit::{Failure, Limit, Plan, Procedure, Status};
 use videt_rt_config::Config;
 use videt_sim::{ScheduledFault, SensorModel, Twin, Vec3};
 
@@ -67,6 +68,9 @@ fn sides_and_guides_match_the_truth_on_rigs_the_test_picks() {
     let rigs = [
         [[0.03, -0.02], [0.42, 0.05], [0.16, 0.31]],
         [[-0.10, 0.10], [0.25, -0.05], [0.20, 0.35]],
+        // A wide, flat frame and a narrow, tall one.
+        [[0.0, 0.0], [0.55, 0.02], [0.30, 0.22]],
+        [[0.05, 0.0], [0.28, -0.01], [0.12, 0.42]],
     ];
     for (k, rig) in rigs.iter().enumerate() {
         let s = setup(*rig, 100 + k as u64);
@@ -133,6 +137,42 @@ fn assert_minimum_tension(config: &Config, twin: &Twin) {
 
 fn slip_counts(config: &Config, mm: f64) -> i64 {
     (mm * 1e-3 / videt::setup::transmission(config).metres_per_count()).round() as i64
+}
+
+#[test]
+fn homing_finds_each_detached_wires_encoder_zero() {
+    let config = Config::default();
+    let s = setup([[0.0, 0.01], [0.38, 0.0], [0.2, 0.3]], 33);
+    let mut twin = rest_twin(&config, &s);
+    // Some wire hanging out of each ring, as after the wearer took the thimble off.
+    for (i, hanging) in [0.05, 0.2, 0.12].iter().enumerate() {
+        twin.plant_mut().fit_new_wire(i, *hanging, 1.5);
+    }
+    let mut runner = Runner::new(run_settings(&config));
+    session::start(&mut twin).unwrap();
+    let mut homing = Procedure::new(procedure_params(&config), Plan::Home { wires: [true; 3] });
+    let status = runner.run(
+        &mut twin,
+        &mut homing,
+        &AtomicBool::new(false),
+        &mut |_, _| {},
+    );
+    assert_eq!(status, Status::Finished);
+    let m = videt::setup::transmission(&config).metres_per_count();
+    let truth = twin.encoder_offset_counts();
+    for i in 0..3 {
+        let e = (homing.homed_zero_counts()[i] - truth[i]) as f64 * m;
+        println!("wire {i}: homed zero off by {:.4} mm", e * 1e3);
+        assert!(e.abs() < 0.1e-3, "wire {i}: {e} m");
+    }
+    // Every wire is left at the pay-out tension against its ring.
+    let t = twin.plant().tension_n();
+    for ti in t {
+        assert!(
+            (ti - config.autoinit.pay_out_tension_n).abs() < 0.05,
+            "{t:?}"
+        );
+    }
 }
 
 #[test]

@@ -1065,6 +1065,43 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(43), ..proptest::test_runner::Config::default() })]
+        /// Any well-shaped triangle measured with errors below half the tolerance is accepted, its
+        /// sides are within the measurement error, and the guides reproduce the sides.
+        #[test]
+        fn noisy_measurements_of_real_triangles_are_solved(
+            x1 in 0.2f64..0.7, y1 in -0.1f64..0.1, x2 in -0.1f64..0.6, y2 in 0.15f64..0.5,
+            noise in proptest::array::uniform6(-0.4e-3f64..0.4e-3),
+        ) {
+            let g = [Vec3::zeros(), Vec3::new(x1, y1, 0.0), Vec3::new(x2, y2, 0.0)];
+            proptest::prop_assume!(Rig3::new(g).is_ok());
+            let mut m = exact_measurements(&g);
+            let slots = [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)];
+            for (k, (i, j)) in slots.iter().enumerate() {
+                m[*i][*j] += noise[k];
+            }
+            let t = solve_base_triangle(&m, 1e-3).unwrap();
+            let truth = sides_of(&g);
+            for k in 0..3 {
+                proptest::prop_assert!((t.sides_m[k] - truth[k]).abs() <= 0.4e-3 + 1e-12);
+            }
+            let solved = sides_of(t.rig.guides_m());
+            for k in 0..3 {
+                proptest::prop_assert!((solved[k] - t.sides_m[k]).abs() < 1e-9);
+            }
+            let r: f64 = t.residuals_m.iter().map(|r| r * r).sum();
+            proptest::prop_assert!(r.sqrt() <= 1e-3);
+        }
+
+        /// Whatever the six numbers, the solver answers (a triangle or a failure) without panic.
+        #[test]
+        fn arbitrary_measurements_never_panic(m in proptest::array::uniform9(-1.0f64..2.0)) {
+            let m = [[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]];
+            let _ = solve_base_triangle(&m, 2e-3);
+        }
+    }
+
     fn params() -> ProcedureParams {
         ProcedureParams {
             metres_per_count: 1e-5,
