@@ -308,6 +308,21 @@ fn init_takes_the_motors_over_from_a_running_videtd_through_its_socket() {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     std::thread::sleep(std::time::Duration::from_millis(200));
+    // The service runs uncalibrated: status shows it holding the wires at minimum tension.
+    let out = videt(&[
+        "status",
+        "--json",
+        "--socket",
+        p(&socket),
+        "--lock",
+        p(&f.lock),
+        "--calibration",
+        p(&f.calibration),
+    ]);
+    assert_eq!(out.status.code(), Some(4));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["service"]["safety"], "not-calibrated", "{v}");
+    assert!(v["motors"].as_str().unwrap().contains("in use"), "{v}");
     let args = ["--socket", p(&socket)];
     // Without --yes and no terminal to confirm on, the service is left alone.
     let out = init(&f, &args);

@@ -1,4 +1,5 @@
-//! `videt status`: the calibration (age, sides, workspace), the wires and the drives.
+//! `videt status`: the calibration (age, sides, workspace), the wires, whether the motors are in
+//! use, and the running service's safety state, drives and tensions.
 
 use std::process::ExitCode;
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -9,6 +10,8 @@ use videt_rt_config::calibration::{backup_path, Calibration};
 use super::device::{Exit, DEFAULT_CONFIG, EXIT_USAGE};
 use super::ToolResult;
 use crate::init::MotorsLock;
+use crate::socket::{request, Request};
+use std::time::Duration;
 
 /// Arguments of `videt status`.
 #[derive(Debug, Args)]
@@ -22,6 +25,10 @@ pub struct StatusArgs {
     /// Motors lock file (default: `files.motors_lock`).
     #[arg(long, value_name = "FILE")]
     pub lock: Option<std::path::PathBuf>,
+    /// The service's control socket (default: `socket.path`): when videtd answers, its safety
+    /// state, drives and tensions are shown too.
+    #[arg(long, value_name = "PATH")]
+    pub socket: Option<std::path::PathBuf>,
     /// Print JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -65,6 +72,18 @@ fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
         Ok(_) => "free".to_string(),
         Err(e) => e.to_string(),
     };
+    // The running service, if any: safety state, drives, tensions.
+    let socket = args
+        .socket
+        .clone()
+        .unwrap_or_else(|| config.socket.path.clone().into());
+    let service = if socket.exists() {
+        request(&socket, &Request::Status, Duration::from_secs(2))
+            .ok()
+            .and_then(|r| r.status)
+    } else {
+        None
+    };
     let now = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
@@ -94,6 +113,7 @@ fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
                 "backup": has_backup,
                 "calibration": cal,
                 "motors": motors,
+                "service": service,
             })
         );
     } else {
@@ -135,6 +155,20 @@ fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
             }
         );
         println!("motors: {motors}");
+        match &service {
+            Some(s) => println!(
+                "videtd: running, safety {}, drives {}, tensions ({:.2}, {:.2}, {:.2}) N, released wire {}, {:.0} Hz, {} overruns",
+                s.safety,
+                if s.power_off { "off" } else { "on" },
+                s.tensions_n[0],
+                s.tensions_n[1],
+                s.tensions_n[2],
+                s.released_wire.map_or("none".to_string(), |w| w.to_string()),
+                s.rate_hz,
+                s.overruns
+            ),
+            None => println!("videtd: not answering on {}", socket.display()),
+        }
     }
     Ok(if calibration.is_ok() {
         ExitCode::SUCCESS
