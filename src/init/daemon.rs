@@ -82,8 +82,8 @@ pub fn load(config: &Config, path: &Path) -> Result<CalibrationState, InitError>
 /// Auto-initialize the demonstration twin at start-up: the twin is put at rest (wires detached
 /// and wound, arbitrary encoder offsets), the simulated technician connects the empty thimble,
 /// the procedure measures the rig; then the operator's finger goes back into the thimble at
-/// `start_m` with `operator`'s script, restarted now. Runs on simulated time (well under a
-/// second of CPU).
+/// `start_m` with `operator`'s script, restarted now. Runs on the twin's simulated clock, before
+/// the real-time loop starts.
 pub fn initialize_twin(
     config: &Config,
     twin: &mut Twin,

@@ -12,6 +12,7 @@ use videt_hal::{
     Clock, DriveSample, DriveState, EStop, MonoTime, TensionSensors, Transmission, WireDrives,
     WIRES,
 };
+use videt_rt_config::calibration::TensionCalibration;
 
 /// The device capabilities the procedure needs.
 pub trait InitHardware: WireDrives + TensionSensors + EStop + Clock {}
@@ -50,6 +51,7 @@ pub struct Runner {
     torque_nm: [f64; WIRES],
     readings: Readings,
     lowest_counts: [i64; WIRES],
+    tension_correction: Option<TensionCalibration>,
 }
 
 impl Runner {
@@ -62,7 +64,14 @@ impl Runner {
             torque_nm: [0.0; WIRES],
             readings: Readings::default(),
             lowest_counts: [i64::MAX; WIRES],
+            tension_correction: None,
         }
+    }
+
+    /// Correct every tension reading with a two-point sensor calibration from now on
+    /// (`videt tension-calibrate`), or stop correcting with `None`.
+    pub fn set_tension_correction(&mut self, correction: Option<TensionCalibration>) {
+        self.tension_correction = correction;
     }
 
     /// The settings.
@@ -111,6 +120,11 @@ impl Runner {
             }
         }
         let sensor_fault = hw.read_tensions(&mut r.tension_n).is_err();
+        if let Some(c) = &self.tension_correction {
+            for i in 0..WIRES {
+                r.tension_n[i] = c.correct(i, r.tension_n[i]);
+            }
+        }
         let tr = &self.settings.transmission;
         r.input = ProcedureInput {
             time_s: now.as_secs_f64(),

@@ -7,7 +7,9 @@ use std::sync::atomic::AtomicBool;
 
 use clap::Args;
 use videt_hal::{Lifecycle, WireDrives};
-use videt_rt_config::calibration::{backup_path, Calibration};
+use videt_rt_config::calibration::{
+    backup_path, Calibration, CalibrationError, TensionCalibration,
+};
 use videt_rt_config::Config;
 
 use super::device::{stop_on_signals, DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_CODES_HELP};
@@ -99,6 +101,19 @@ pub fn run_flow(
     let mut tech = SimTechnician::new(&setup);
     tech.echo = true;
     let mut runner = Runner::new(run_settings(config));
+    // The strain gauges' own calibration, when `videt tension-calibrate` wrote one.
+    let tension_path = TensionCalibration::path_beside(&calibration_path);
+    match TensionCalibration::load(&tension_path) {
+        Ok(tc) => {
+            eprintln!(
+                "videt: tension readings corrected with {}",
+                tension_path.display()
+            );
+            runner.set_tension_correction(Some(tc));
+        }
+        Err(CalibrationError::Missing { .. }) => {}
+        Err(e) => eprintln!("videt: tension readings not corrected: {e}"),
+    }
     let stop = stop_on_signals();
     let stop: &AtomicBool = &stop;
     let ctx = FlowContext {
