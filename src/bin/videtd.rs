@@ -152,12 +152,39 @@ fn main() -> ExitCode {
             let (rig, wire_zero, calibrated) =
                 calibrate_twin(&config, &mut scene, rig, args.sim_no_init);
             let cycle = setup::control_cycle(&config, rig, wire_zero, calibrated);
-            run_service(
-                RealTimeTwin::new(scene.twin),
-                FixedSurface(scene.wall),
-                cycle,
-                &options,
-            )
+            let tension_path = videt_rt_config::calibration::TensionCalibration::path_beside(
+                &args.calibration.clone().unwrap_or_else(|| {
+                    videt::init::daemon::sim_state_dir().join("calibration-sim.toml")
+                }),
+            );
+            match videt_rt_config::calibration::TensionCalibration::load(&tension_path) {
+                Ok(tc) => {
+                    info!(file = %tension_path.display(), "tension readings corrected");
+                    run_service(
+                        videt::init::corrected::CorrectedTensions::new(
+                            RealTimeTwin::new(scene.twin),
+                            tc,
+                        ),
+                        FixedSurface(scene.wall),
+                        cycle,
+                        &options,
+                    )
+                }
+                Err(e) => {
+                    if !matches!(
+                        e,
+                        videt_rt_config::calibration::CalibrationError::Missing { .. }
+                    ) {
+                        warn!("tension readings not corrected: {e}");
+                    }
+                    run_service(
+                        RealTimeTwin::new(scene.twin),
+                        FixedSurface(scene.wall),
+                        cycle,
+                        &options,
+                    )
+                }
+            }
         }
         None => {
             let path = args

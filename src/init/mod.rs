@@ -6,6 +6,7 @@
 //! (`videt_rt_config::calibration`), and keeps other processes off the motors meanwhile
 //! ([`lock`]). [`twin`] builds the digital twin a `--sim` run rehearses on.
 
+pub mod corrected;
 pub mod daemon;
 pub mod lock;
 pub mod params;
