@@ -10,7 +10,7 @@ use videt::init::session::{self, run_settings, FlowContext, InitError, InitOutco
 use videt::init::twin::{rest_twin, SimFault, SimTechnician, TwinSetup};
 use videt_control::autoinit::{Failure, Limit, Plan, Procedure, Status};
 use videt_rt_config::Config;
-use videt_sim::{ScheduledFault, SensorModel, Twin, Vec3};
+use videt_sim::{SensorModel, Twin, TwinFault, Vec3};
 
 fn setup(guides: [[f64; 2]; 3], seed: u64) -> TwinSetup {
     TwinSetup {
@@ -205,7 +205,7 @@ fn every_failure_mode_has_its_own_error() {
     let (twin, e) = failing(
         &quick,
         RIG,
-        vec![SimFault::After(1.0, ScheduledFault::BreakWire(0))],
+        vec![SimFault::After(1.0, TwinFault::BreakWire(0))],
     );
     assert!(
         matches!(
@@ -221,7 +221,7 @@ fn every_failure_mode_has_its_own_error() {
     let (twin, e) = failing(
         &config,
         RIG,
-        vec![SimFault::After(2.0, ScheduledFault::EStop)],
+        vec![SimFault::After(2.0, TwinFault::PressEStop)],
     );
     assert!(
         matches!(e, InitError::Procedure(Failure::EmergencyStop)),
@@ -235,7 +235,7 @@ fn every_failure_mode_has_its_own_error() {
         RIG,
         vec![SimFault::After(
             7.0,
-            ScheduledFault::SlipWire(2, slip_counts(&config, 3.0)),
+            TwinFault::SlipWire(2, slip_counts(&config, 3.0)),
         )],
     );
     assert!(
@@ -248,7 +248,7 @@ fn every_failure_mode_has_its_own_error() {
     let (twin, e) = failing(
         &config,
         RIG,
-        vec![SimFault::After(2.0, ScheduledFault::FailTensionSensor(1))],
+        vec![SimFault::After(2.0, TwinFault::FailTensionSensor(1))],
     );
     assert!(
         matches!(e, InitError::Procedure(Failure::SensorFault)),

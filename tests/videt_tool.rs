@@ -342,3 +342,52 @@ fn init_takes_the_motors_over_from_a_running_videtd_through_its_socket() {
     assert!(status.success(), "videtd stopped cleanly: {status:?}");
     assert!(f.calibration.exists());
 }
+
+#[test]
+fn videtd_renders_forces_after_auto_initializing_its_twin_and_not_without_calibration() {
+    for (source, expected) in [("init", "normal"), ("none", "not-calibrated")] {
+        let dir = tempfile::tempdir().unwrap();
+        let socket = dir.path().join("videtd.sock");
+        let mut daemon = Command::new(env!("CARGO_BIN_EXE_videtd"))
+            .args([
+                "--sim",
+                "--sim-calibration",
+                source,
+                "--no-telemetry",
+                "--duration",
+                "60",
+            ])
+            .args(["--socket", p(&socket)])
+            .env("RUST_LOG", "warn")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+        let status = loop {
+            assert!(
+                std::time::Instant::now() < deadline,
+                "videtd did not answer"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            let reply = videt::socket::request(
+                &socket,
+                &videt::socket::Request::Status,
+                std::time::Duration::from_secs(2),
+            );
+            if let Ok(r) = reply {
+                let s = r.status.unwrap();
+                if s.cycles > 1500 {
+                    break s;
+                }
+            }
+        };
+        assert_eq!(status.safety, expected, "--sim-calibration {source}");
+        let _ = videt::socket::request(
+            &socket,
+            &videt::socket::Request::Stop,
+            std::time::Duration::from_secs(2),
+        );
+        assert!(daemon.wait().unwrap().success());
+    }
+}

@@ -73,20 +73,26 @@ impl SensorModel {
     }
 }
 
-/// A fault the twin injects at a chosen simulated time (rehearsing failures end to end).
+/// A fault the twin can be scheduled to suffer (see [`Twin::schedule_fault`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ScheduledFault {
-    /// The e-stop button is pressed (and released: the press latches).
-    EStop,
-    /// Wire `0` breaks.
+pub enum TwinFault {
+    /// Wire N breaks.
     BreakWire(usize),
-    /// Wire `0`'s end comes off the thimble.
-    DetachWire(usize),
-    /// Tension sensor `0` fails.
+    /// The e-stop button is pressed (and stays pressed).
+    PressEStop,
+    /// Tension sensor N stops answering.
     FailTensionSensor(usize),
-    /// Wire `0` slips on its pulley by `1` encoder counts (the pulley turns, the yarn does not).
+    /// Drive N latches a fault.
+    FaultDrive(usize),
+    /// Wire N's end comes off the thimble.
+    DetachWire(usize),
+    /// Wire N slips on its pulley by this many encoder counts (the pulley turns, the yarn
+    /// does not).
     SlipWire(usize, i64),
 }
+
+/// Most faults that can be scheduled at once.
+pub const FAULT_SLOTS: usize = 8;
 
 /// How the twin's clock runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -119,8 +125,7 @@ pub struct Twin {
     step_ns: u64,
     /// Encoder count at free length zero (an incremental encoder starts anywhere at power-up).
     encoder_offset_counts: [i64; WIRES],
-    /// Faults still to inject, with their times.
-    scheduled: Vec<(MonoTime, ScheduledFault)>,
+    scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
 }
 
 impl Twin {
@@ -154,34 +159,7 @@ impl Twin {
             steps_done: 0,
             step_ns,
             encoder_offset_counts: [0; WIRES],
-            scheduled: Vec::new(),
-        }
-    }
-
-    /// Inject `fault` once the simulated time reaches `at`.
-    pub fn schedule_fault(&mut self, at: MonoTime, fault: ScheduledFault) {
-        self.scheduled.push((at, fault));
-    }
-
-    fn inject_due_faults(&mut self) {
-        let now = self.sim_time();
-        let mut k = 0;
-        while k < self.scheduled.len() {
-            if self.scheduled[k].0 <= now {
-                let (_, fault) = self.scheduled.swap_remove(k);
-                match fault {
-                    ScheduledFault::EStop => {
-                        self.set_estop_button(true);
-                        self.set_estop_button(false);
-                    }
-                    ScheduledFault::BreakWire(w) => self.plant.break_wire(w),
-                    ScheduledFault::DetachWire(w) => self.plant.detach_wire(w),
-                    ScheduledFault::FailTensionSensor(w) => self.fail_tension_sensor(Some(w)),
-                    ScheduledFault::SlipWire(w, counts) => self.encoder_offset_counts[w] += counts,
-                }
-            } else {
-                k += 1;
-            }
+            scheduled: [None; FAULT_SLOTS],
         }
     }
 
@@ -256,13 +234,47 @@ impl Twin {
         MonoTime(self.steps_done * self.step_ns)
     }
 
-    /// Advance the physics to `t` (no-op when `t` is not later than the simulated time).
-    /// Allocation-free; cost is one plant step per integration step.
+    /// Schedule `fault` to happen at simulated time `at`. Returns false when every slot is
+    /// taken.
+    pub fn schedule_fault(&mut self, at: MonoTime, fault: TwinFault) -> bool {
+        match self.scheduled.iter_mut().find(|s| s.is_none()) {
+            Some(slot) => {
+                *slot = Some((at, fault));
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Make `fault` happen now.
+    pub fn inject(&mut self, fault: TwinFault) {
+        match fault {
+            TwinFault::BreakWire(w) => self.plant.break_wire(w),
+            TwinFault::PressEStop => self.set_estop_button(true),
+            TwinFault::FailTensionSensor(w) => self.fail_tension_sensor(Some(w)),
+            TwinFault::FaultDrive(w) => self.fault_drive(w),
+            TwinFault::DetachWire(w) => self.plant.detach_wire(w),
+            TwinFault::SlipWire(w, counts) => self.encoder_offset_counts[w] += counts,
+        }
+    }
+
+    fn fire_due_faults(&mut self) {
+        let now = self.sim_time();
+        for i in 0..FAULT_SLOTS {
+            if let Some((at, fault)) = self.scheduled[i] {
+                if at <= now {
+                    self.scheduled[i] = None;
+                    self.inject(fault);
+                }
+            }
+        }
+    }
+
+    /// Advance the physics to `t` (no-op when `t` is not later than the simulated time),
+    /// firing scheduled faults on the way. Allocation-free; one plant step per integration step.
     pub fn advance_to(&mut self, t: MonoTime) {
         while self.sim_time() < t {
-            if !self.scheduled.is_empty() {
-                self.inject_due_faults();
-            }
+            self.fire_due_faults();
             let torque = self.applied_torque_nm();
             self.plant.step(&torque, &self.operator);
             self.steps_done += 1;

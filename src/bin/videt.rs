@@ -29,6 +29,8 @@ enum Command {
     TensionCalibrate(tool::tension_calibrate::TensionCalibrateArgs),
     /// Calibration age and validity, wires, whether the motors are in use.
     Status(tool::status::StatusArgs),
+    /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
+    Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
     Log(tool::log::LogArgs),
     /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
@@ -45,6 +47,7 @@ fn main() -> ExitCode {
         Command::Wire(c) => tool::wire::run(c),
         Command::TensionCalibrate(a) => tool::tension_calibrate::run(a),
         Command::Status(a) => tool::status::run(a),
+        Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),

@@ -7,7 +7,9 @@
 //! control loop is healthy.
 //!
 //! Forces are rendered only with a valid calibration (`videt init`); without one every wire is
-//! held at minimum tension and the log says why. `--sim` auto-initializes the twin at start-up.
+//! held at minimum tension and the log says why. On the twin, `--sim-calibration` chooses where
+//! the calibration comes from (the configured geometry, an auto-initialization at start-up, or
+//! none).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,6 +28,17 @@ use videt_rt_config::Config;
 enum SimMode {
     /// The HAL-level physics twin (fast).
     Hal,
+}
+
+/// Where the twin's calibration comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SimCalibration {
+    /// The configured guides (the twin's truth), encoders homed.
+    Config,
+    /// Auto-initialization at start-up.
+    Init,
+    /// None: forces are not rendered.
+    None,
 }
 
 /// VIDET service: the real-time control loop of the haptic interface.
@@ -59,10 +72,12 @@ struct Args {
     /// start-up instead (see --sim-no-init).
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
-    /// With --sim: skip the start-up auto-initialization (the twin then runs uncalibrated: every
-    /// wire at minimum tension, no force rendered).
-    #[arg(long, requires = "sim")]
-    sim_no_init: bool,
+    /// With --sim, where the twin's calibration comes from: `config` (the configured guides are
+    /// the twin's true geometry and its encoders start homed: a perfect calibration), `init`
+    /// (auto-initialize the twin at start-up with the procedure `videt init` runs; start-up takes
+    /// longer), `none` (uncalibrated: every wire at minimum tension, no force rendered).
+    #[arg(long, value_enum, default_value = "config", requires = "sim")]
+    sim_calibration: SimCalibration,
     /// Motors lock file (default: `files.motors_lock`; with --sim none: the twin is private to
     /// this process).
     #[arg(long, value_name = "FILE")]
@@ -150,8 +165,13 @@ fn main() -> ExitCode {
                 "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
             );
             let (rig, wire_zero, calibrated) =
-                calibrate_twin(&config, &mut scene, rig, args.sim_no_init);
+                calibrate_twin(&config, &mut scene, rig, args.sim_calibration);
             let cycle = setup::control_cycle(&config, rig, wire_zero, calibrated);
+            // Colour under the finger: a demo image over the explored area.
+            match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
+                Ok(source) => options.colour = Some(source),
+                Err(e) => tracing::warn!("colour rendering disabled: {e}"),
+            }
             let tension_path = videt_rt_config::calibration::TensionCalibration::path_beside(
                 &args.calibration.clone().unwrap_or_else(|| {
                     videt::init::daemon::sim_state_dir().join("calibration-sim.toml")
@@ -213,15 +233,28 @@ fn calibrate_twin(
     config: &Config,
     scene: &mut setup::DemoScene,
     configured: videt_control::Rig3,
-    skip: bool,
+    source: SimCalibration,
 ) -> (videt_control::Rig3, WireZero, bool) {
-    if skip {
-        warn!("forces will not be rendered (not calibrated): the start-up auto-initialization was skipped");
-        return (configured, WireZero::default(), false);
+    match source {
+        SimCalibration::Config => {
+            info!("twin calibration: the configured guides (the twin's true geometry)");
+            return (configured, WireZero::default(), true);
+        }
+        SimCalibration::None => {
+            warn!("forces will not be rendered (not calibrated): --sim-calibration none");
+            return (configured, WireZero::default(), false);
+        }
+        SimCalibration::Init => {}
     }
     let operator = scene.twin.operator().clone();
     let start = scene.twin.plant().position_m();
-    match videt::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1)
+    // A signal during the start-up initialization cancels it (the service then starts
+    // uncalibrated and stops at once: its own handlers see the same signal pending).
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        let _ = signal_hook::flag::register(signal, std::sync::Arc::clone(&stop));
+    }
+    match videt::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1, &stop)
         .map_err(|e| e.to_string())
         .and_then(|o| videt::init::daemon::from_calibration(config, &o.calibration))
     {

@@ -82,7 +82,8 @@ pub fn load(config: &Config, path: &Path) -> Result<CalibrationState, InitError>
 /// Auto-initialize the demonstration twin at start-up: the twin is put at rest (wires detached
 /// and wound, arbitrary encoder offsets), the simulated technician connects the empty thimble,
 /// the procedure measures the rig; then the operator's finger goes back into the thimble at
-/// `start_m` with `operator`'s script, restarted now. Runs on the twin's simulated clock, before
+/// `start_m` with `operator`'s script, restarted now. `stop` cancels it (a signal during
+/// start-up). Runs on the twin's simulated clock, before
 /// the real-time loop starts.
 pub fn initialize_twin(
     config: &Config,
@@ -90,6 +91,7 @@ pub fn initialize_twin(
     operator: VirtualOperator,
     start_m: videt_sim::Vec3,
     seed: u64,
+    stop: &AtomicBool,
 ) -> Result<InitOutcome, InitError> {
     let guides = twin.plant().params().guides_m;
     let setup = TwinSetup {
@@ -101,12 +103,18 @@ pub fn initialize_twin(
     twin.set_operator(VirtualOperator::absent(0.2));
     twin.set_encoder_offset_counts([12_345, -67_890, 424_242]);
     let mut tech = SimTechnician::new(&setup);
+    // Start-up should be quick: wind at up to 0.25 m/s (within the speed limit).
+    let mut quick = config.clone();
+    quick.autoinit.wind_speed_m_s = config
+        .autoinit
+        .wind_speed_m_s
+        .max(0.25_f64.min(0.5 * config.control.max_wire_speed_m_s));
+    let config = &quick;
     let mut runner = Runner::new(run_settings(config));
-    let stop = AtomicBool::new(false);
     let ctx = FlowContext {
         config,
         source: "twin",
-        stop: &stop,
+        stop,
     };
     let result =
         session::start(twin).and_then(|()| session::initialize(twin, &mut tech, &mut runner, &ctx));

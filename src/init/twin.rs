@@ -12,9 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use videt_control::autoinit::Failure;
 use videt_hal::WIRES;
 use videt_rt_config::Config;
-use videt_sim::{
-    PlantParams, ScheduledFault, SensorModel, Twin, Vec3, VirtualOperator, WireModules,
-};
+use videt_sim::{PlantParams, SensorModel, Twin, TwinFault, Vec3, VirtualOperator, WireModules};
 
 use super::runner::Runner;
 use super::session::{Request, Technician};
@@ -41,7 +39,7 @@ pub enum SimFault {
     /// Wire `0` is left unconnected (its end stays at its ring).
     Disconnected(usize),
     /// A fault injected this many seconds after the wires were connected.
-    After(f64, ScheduledFault),
+    After(f64, TwinFault),
 }
 
 /// Parse `--sim-fault`: `disconnected:N`, `estop:SECS`, `break:N:SECS`, `detach:N:SECS`,
@@ -63,12 +61,12 @@ pub fn parse_fault(text: &str, transmission: &videt_hal::Transmission) -> Result
     };
     match parts.as_slice() {
         ["disconnected", n] => Ok(SimFault::Disconnected(wire(n)?)),
-        ["estop", t] => Ok(SimFault::After(secs(t)?, ScheduledFault::EStop)),
-        ["break", n, t] => Ok(SimFault::After(secs(t)?, ScheduledFault::BreakWire(wire(n)?))),
-        ["detach", n, t] => Ok(SimFault::After(secs(t)?, ScheduledFault::DetachWire(wire(n)?))),
+        ["estop", t] => Ok(SimFault::After(secs(t)?, TwinFault::PressEStop)),
+        ["break", n, t] => Ok(SimFault::After(secs(t)?, TwinFault::BreakWire(wire(n)?))),
+        ["detach", n, t] => Ok(SimFault::After(secs(t)?, TwinFault::DetachWire(wire(n)?))),
         ["sensor", n, t] => Ok(SimFault::After(
             secs(t)?,
-            ScheduledFault::FailTensionSensor(wire(n)?),
+            TwinFault::FailTensionSensor(wire(n)?),
         )),
         ["slip", n, mm, t] => {
             let mm = mm
@@ -77,7 +75,7 @@ pub fn parse_fault(text: &str, transmission: &videt_hal::Transmission) -> Result
                 .filter(|m| m.is_finite() && m.abs() <= 100.0)
                 .ok_or_else(|| format!("--sim-fault {text:?}: slip {mm:?} must be millimetres in [-100, 100]"))?;
             let counts = (mm * 1e-3 / transmission.metres_per_count()).round() as i64;
-            Ok(SimFault::After(secs(t)?, ScheduledFault::SlipWire(wire(n)?, counts)))
+            Ok(SimFault::After(secs(t)?, TwinFault::SlipWire(wire(n)?, counts)))
         }
         _ => Err(format!(
             "--sim-fault {text:?}: must be disconnected:N, estop:SECS, break:N:SECS, detach:N:SECS, sensor:N:SECS or slip:N:MM:SECS"
@@ -218,7 +216,10 @@ impl Technician<Twin> for SimTechnician {
                             hw.plant_mut().set_free_length_m(w, 0.0);
                         }
                         SimFault::After(secs, f) => {
-                            hw.schedule_fault(now.plus(std::time::Duration::from_secs_f64(secs)), f)
+                            let at = now.plus(std::time::Duration::from_secs_f64(secs));
+                            if !hw.schedule_fault(at, f) {
+                                return Err(Failure::Cancelled);
+                            }
                         }
                     }
                 }
