@@ -291,7 +291,8 @@ fn init_takes_the_motors_over_from_a_running_videtd_through_its_socket() {
     let mut daemon = Command::new(env!("CARGO_BIN_EXE_videtd"))
         .args([
             "--sim",
-            "--sim-no-init",
+            "--sim-calibration",
+            "none",
             "--no-telemetry",
             "--duration",
             "120",

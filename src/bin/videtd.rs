@@ -68,8 +68,9 @@ struct Args {
     #[arg(long, conflicts_with = "telemetry_dir")]
     no_telemetry: bool,
     /// Calibration file (default: `files.calibration` of the configuration). Without a valid
-    /// one no force is rendered and the log says why. With --sim the twin is auto-initialized at
-    /// start-up instead (see --sim-no-init).
+    /// one no force is rendered and the log says why. With --sim, `--sim-calibration` decides
+    /// instead; this file's directory still holds the strain-gauge calibration the twin's
+    /// readings are corrected with.
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
     /// With --sim, where the twin's calibration comes from: `config` (the configured guides are
@@ -227,8 +228,8 @@ fn main() -> ExitCode {
     }
 }
 
-/// The twin's calibration: auto-initialized at start-up (simulated time), or none with
-/// `--sim-no-init`. Returns the rig, the encoder zeros and whether forces may be rendered.
+/// The twin's calibration as `--sim-calibration` chooses. Returns the rig, the encoder zeros and
+/// whether forces may be rendered.
 fn calibrate_twin(
     config: &Config,
     scene: &mut setup::DemoScene,
