@@ -123,16 +123,18 @@ fn failing(config: &Config, guides: [[f64; 2]; 3], faults: Vec<SimFault>) -> (Tw
 
 const RIG: [[f64; 2]; 3] = [[0.01, 0.02], [0.39, -0.01], [0.21, 0.33]];
 
-/// After a failure the motors hold every wire at the pay-out (minimum) tension.
+/// After a failure the motors hold every wire at most at the pay-out (minimum) tension: no
+/// winding force is left (a wire still winding fast gets less, from the speed governor).
 fn assert_minimum_tension(config: &Config, twin: &Twin) {
     let tr = videt::setup::transmission(config);
-    let expected = tr.torque_for_tension(config.autoinit.pay_out_tension_n);
+    let pay_out = tr.torque_for_tension(config.autoinit.pay_out_tension_n);
     for (i, t) in twin.applied_torque_nm().iter().enumerate() {
         assert!(
-            (t - expected).abs() < 1e-12,
-            "wire {i}: torque {t} vs {expected}"
+            *t >= 0.0 && *t <= pay_out + 1e-12,
+            "wire {i}: torque {t} N·m, pay-out {pay_out} N·m"
         );
     }
+    assert!(twin.drives_enabled(), "the drives stay on, holding the wires");
 }
 
 fn slip_counts(config: &Config, mm: f64) -> i64 {
@@ -350,4 +352,46 @@ fn tension_calibration_recovers_the_sensor_offset_and_gain() {
     let (offset, gain_error) = (s.sensors.offset_n[1], s.sensors.gain_error[1]);
     assert!((p.offset_n - offset).abs() < 0.005, "{p:?}");
     assert!((p.gain - 1.0 / (1.0 + gain_error)).abs() < 0.002, "{p:?}");
+}
+
+/// Accuracy over many rigs (run with `--ignored --nocapture` for the figures): random frames
+/// between 0.25 and 0.6 m across, random connection points and seeds.
+#[test]
+#[ignore = "a sweep for the accuracy figures; the regular tests cover four rigs"]
+fn accuracy_sweep_over_random_rigs() {
+    use rand::{Rng, SeedableRng};
+    let config = Config::default();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2026);
+    let (mut worst_side, mut worst_guide, mut worst_residual) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let mut done = 0;
+    while done < 20 {
+        let g = [
+            [rng.random_range(-0.05..0.05), rng.random_range(-0.05..0.05)],
+            [rng.random_range(0.25..0.6), rng.random_range(-0.08..0.08)],
+            [rng.random_range(0.05..0.45), rng.random_range(0.2..0.45)],
+        ];
+        let s = setup(g, 1000 + done);
+        if videt_control::Rig3::new(s.guides_m).is_err() {
+            continue;
+        }
+        let (_, r) = run_init(&config, &s);
+        let out = r.unwrap_or_else(|e| panic!("rig {g:?}: {e}"));
+        let truth = true_sides(&s.guides_m);
+        let guides = true_guides_in_papers_frame(&s.guides_m);
+        for k in 0..3 {
+            worst_side = worst_side.max((out.triangle.sides_m[k] - truth[k]).abs());
+            worst_guide = worst_guide.max((out.triangle.rig.guides_m()[k] - guides[k]).norm());
+        }
+        for r in out.triangle.residuals_m {
+            worst_residual = worst_residual.max(r.abs());
+        }
+        done += 1;
+    }
+    println!(
+        "20 random rigs: worst side error {:.4} mm, worst guide error {:.4} mm, worst residual {:.4} mm",
+        worst_side * 1e3,
+        worst_guide * 1e3,
+        worst_residual * 1e3
+    );
+    assert!(worst_side < 0.5e-3 && worst_guide < 1e-3);
 }

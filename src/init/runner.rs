@@ -29,6 +29,9 @@ pub struct RunSettings {
     pub pay_out_tension_n: f64,
     /// How long the wires are held at the pay-out tension after the procedure ends, seconds.
     pub hold_after_s: f64,
+    /// While holding, a wire winding faster than half this speed has its force lowered, to zero
+    /// at this speed (a dangling wire let go must not whip back), m/s.
+    pub governor_speed_m_s: f64,
 }
 
 /// One period's readings.
@@ -212,10 +215,10 @@ impl Runner {
         if power_off {
             let _ = hw.disable();
         } else {
-            let hold = [self.settings.pay_out_tension_n; WIRES];
             let periods = (self.settings.hold_after_s * f64::from(self.settings.rate_hz)) as u64;
             for _ in 0..periods {
                 self.read(hw);
+                let hold = self.governed_hold();
                 if self.readings.input.estop_pressed {
                     let _ = hw.disable();
                     break;
@@ -224,6 +227,20 @@ impl Runner {
             }
         }
         status
+    }
+
+    /// The pay-out force on every wire, lowered on a wire winding faster than half the governor
+    /// speed (to zero at the governor speed).
+    fn governed_hold(&self) -> [f64; WIRES] {
+        let v = self.settings.governor_speed_m_s.max(1e-3);
+        let mut hold = [self.settings.pay_out_tension_n; WIRES];
+        for (i, f) in hold.iter_mut().enumerate() {
+            let excess = (self.readings.input.wind_speed_m_s[i] - 0.5 * v) / (0.5 * v);
+            if excess > 0.0 {
+                *f *= (1.0 - excess).clamp(0.0, 1.0);
+            }
+        }
+        hold
     }
 
     /// Hold every wire at the pay-out tension (wire `released`: no torque, free to pull) until
@@ -237,9 +254,9 @@ impl Runner {
         done: &mut dyn FnMut() -> bool,
         watch: &mut dyn FnMut(&Readings),
     ) -> Result<(), Failure> {
-        let hold = [self.settings.pay_out_tension_n; WIRES];
         loop {
             self.read(hw);
+            let hold = self.governed_hold();
             let input = &self.readings.input;
             if input.estop_pressed {
                 let _ = hw.disable();

@@ -144,6 +144,7 @@ pub fn run_settings(config: &Config) -> RunSettings {
         transmission: setup::transmission(config),
         pay_out_tension_n: config.autoinit.pay_out_tension_n,
         hold_after_s: 0.3,
+        governor_speed_m_s: config.autoinit.wind_speed_m_s,
     }
 }
 
