@@ -134,7 +134,10 @@ fn assert_minimum_tension(config: &Config, twin: &Twin) {
             "wire {i}: torque {t} N·m, pay-out {pay_out} N·m"
         );
     }
-    assert!(twin.drives_enabled(), "the drives stay on, holding the wires");
+    assert!(
+        twin.drives_enabled(),
+        "the drives stay on, holding the wires"
+    );
 }
 
 fn slip_counts(config: &Config, mm: f64) -> i64 {

@@ -37,8 +37,9 @@ pub const EXIT_CODES_HELP: &str = "Exit codes: 0 done; 2 bad arguments or config
 15 the sides violate the triangle inequality; 16 the triangle is degenerate; 17 drive fault; \
 18 tension-sensor fault; 19 timeout; 20 cancelled; 21 new wire too short; 22 the hardware would not start; \
 23 the motors are in use by another process; 24 the calibration could not be written; \
-25 a re-homed wire's stop moved. On every failure the motors are left at minimum tension (powered \
-off after an e-stop or a drive fault) and the previous calibration is untouched.";
+25 a re-homed wire's stop moved. On every failure the procedure ends with every motor at minimum \
+tension (powered off after an e-stop or a drive fault) and the previous calibration untouched; the \
+tool disables the drives when it exits.";
 
 /// Options of the subcommands that drive the motors.
 #[derive(Debug, Clone, Args)]

@@ -130,7 +130,7 @@ pub fn run_flow(
             e.exit_code(),
             e.name(),
             format!(
-                "{e}; the motors were left at minimum tension and the previous calibration ({}) is unchanged",
+                "{e}; the procedure ended with the motors at minimum tension and the previous calibration ({}) is unchanged",
                 calibration_path.display()
             ),
         )
