@@ -29,6 +29,9 @@ enum Command {
     TensionCalibrate(tool::tension_calibrate::TensionCalibrateArgs),
     /// Calibration age and validity, wires, whether the motors are in use.
     Status(tool::status::StatusArgs),
+    /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
+    /// limit, plots (paper section 6).
+    Analyze(tool::analyze::AnalyzeArgs),
     /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
     Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
@@ -37,6 +40,8 @@ enum Command {
     Service(tool::service::ServiceArgs),
     /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
     BenchRt(tool::bench_rt::BenchRtArgs),
+    /// Calibrate the stereo camera pair from chessboard image pairs and write the calibration.
+    CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,10 +52,12 @@ fn main() -> ExitCode {
         Command::Wire(c) => tool::wire::run(c),
         Command::TensionCalibrate(a) => tool::tension_calibrate::run(a),
         Command::Status(a) => tool::status::run(a),
+        Command::Analyze(a) => tool::analyze::run(a),
         Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),
+        Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
     };
     match result {
         Ok(code) => code,
