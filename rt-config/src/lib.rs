@@ -488,7 +488,12 @@ impl Config {
         in_range("control.t_max_n", c.t_max_n, 0.5, 15.0)?;
         in_range("control.t_min_n", c.t_min_n, 0.05, c.t_max_n)?;
         in_range("control.field_n", c.field_n, 0.0, c.t_max_n)?;
-        in_range("control.free_space_field_n", c.free_space_field_n, 0.0, c.t_max_n)?;
+        in_range(
+            "control.free_space_field_n",
+            c.free_space_field_n,
+            0.0,
+            c.t_max_n,
+        )?;
         in_range(
             "control.max_wire_speed_m_s",
             c.max_wire_speed_m_s,
