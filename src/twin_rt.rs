@@ -1,4 +1,8 @@
 //! The digital twin in real time: the system clock paces the loop and drives the twin's physics.
+//!
+//! The physics catches up with the clock when the drives are read (as a bus exchange brings a
+//! real device's state up to date), not inside the sleep: the loop's wake-up latency then
+//! measures the operating system alone, and the physics cost shows in the compute time.
 
 use videt_hal::{
     Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime, TensionSensors,
@@ -65,6 +69,8 @@ impl WireDrives for RealTimeTwin {
         self.twin.disable()
     }
     fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), TwinError> {
+        let now = self.now();
+        self.twin.advance_to(now);
         self.twin.read_drives(out)
     }
     fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), TwinError> {
@@ -93,7 +99,5 @@ impl Clock for RealTimeTwin {
     }
     fn sleep_until(&mut self, deadline: MonoTime) {
         self.clock.sleep_until(deadline.add_nanos(self.origin.0));
-        let now = self.now();
-        self.twin.advance_to(now);
     }
 }
