@@ -1,1 +1,14 @@
-//! placeholder
+//! VIDET vision: the stereo pipeline from rectified images to 3D line segments (paper section
+//! 3): Canny edges, polygonal approximation, Ayache's segment matching, back-projection.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod canny;
+pub mod chains;
+pub mod error;
+pub mod gray;
+pub mod matching;
+pub mod reconstruct;
+pub mod segments;
+
+pub use error::VisionError;

@@ -1,0 +1,750 @@
+//! Segment matching after Ayache: hypothesis prediction, propagation under the continuity
+//! constraint, validation (uniqueness and left-right consistency).
+//!
+//! On rectified images corresponding segments overlap in their row extents (epipolar
+//! constraint). A candidate pair `(left i, right j)` must overlap enough in y, have the same
+//! gradient polarity, similar intensities on at least one side, a disparity within the allowed
+//! range and, depending on the stage, a tight or a weak agreement of orientation and length.
+//!
+//! 1. **Prediction**: pairs meeting the tight constraints are hypotheses.
+//! 2. **Propagation**: from the best-supported hypotheses, matches grow best-first to
+//!    neighbouring left segments whose candidates meet the weak constraints and the continuity
+//!    constraint (disparity difference at the closest points of the two neighbours bounded by a
+//!    disparity-gradient limit times their distance plus a tolerance).
+//! 3. **Validation**: a left or right segment is used once (uniqueness); a match is kept only
+//!    if it is the best-supported candidate of its right segment among the left segments and
+//!    of its left segment among the right ones (left-right consistency), and if it has the
+//!    required support.
+//!
+//! Nearly horizontal segments lie along epipolar lines and their disparity is only fixed by
+//! their unstable endpoints: they are matched only during propagation, to a right segment on
+//! the same rows whose endpoint disparities agree with the matched neighbour's; they are
+//! flagged [`SegmentMatch::nearly_horizontal`] and never back-projected.
+//!
+//! A match's disparity is taken at the left segment's two endpoints: the right segment's line
+//! is intersected with the rows of the left endpoints.
+
+use crate::error::VisionError;
+use crate::segments::Segment;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Parameters of the matcher. See the module documentation for the stages.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchParams {
+    /// Smallest disparity searched, pixels.
+    pub disparity_min_px: f32,
+    /// Largest disparity searched, pixels.
+    pub disparity_max_px: f32,
+    /// Segments within this angle of horizontal are "nearly horizontal", degrees.
+    pub horizontal_angle_deg: f32,
+    /// Row overlap of a pair divided by the shorter row extent must reach this.
+    pub min_row_overlap_ratio: f32,
+    /// Prediction: maximum orientation difference, degrees.
+    pub predict_max_angle_diff_deg: f32,
+    /// Prediction: minimum ratio shorter/longer length.
+    pub predict_min_length_ratio: f32,
+    /// Prediction: minimum length of both segments, pixels.
+    pub predict_min_length_px: f32,
+    /// Propagation: maximum orientation difference, degrees.
+    pub propagate_max_angle_diff_deg: f32,
+    /// Propagation: minimum ratio shorter/longer length.
+    pub propagate_min_length_ratio: f32,
+    /// Left segments closer than this (closest points) are neighbours, pixels.
+    pub neighbourhood_radius_px: f32,
+    /// Continuity: allowed disparity change per pixel of distance between neighbours.
+    pub disparity_gradient_limit: f32,
+    /// Continuity: allowed disparity change at zero distance, pixels.
+    pub disparity_tolerance_px: f32,
+    /// Maximum difference of mean intensity on the better-agreeing side, grey levels.
+    pub max_intensity_diff: f32,
+    /// Maximum ratio of the two segments' contrasts.
+    pub max_contrast_ratio: f32,
+    /// Minimum number of neighbours supporting a hypothesis to seed propagation.
+    pub min_seed_support: u32,
+    /// Minimum number of neighbours supporting a propagated match.
+    pub min_support: u32,
+    /// Enforce left-right consistency (mutual best candidate) at validation.
+    pub left_right_check: bool,
+    /// Match nearly horizontal segments during propagation.
+    pub match_horizontal: bool,
+}
+
+impl Default for MatchParams {
+    /// Disparities 0..64 px; 15 deg horizontal band; overlap >= 50 %; prediction within 8 deg and
+    /// length ratio >= 0.7 for segments >= 20 px; propagation within 20 deg and ratio >= 0.4;
+    /// neighbours within 30 px; disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
+    /// levels, contrast ratio <= 2.5; seeds need 2 supporting neighbours, other matches 1;
+    /// left-right check on; horizontal segments matched.
+    fn default() -> Self {
+        Self {
+            disparity_min_px: 0.0,
+            disparity_max_px: 64.0,
+            horizontal_angle_deg: 15.0,
+            min_row_overlap_ratio: 0.5,
+            predict_max_angle_diff_deg: 8.0,
+            predict_min_length_ratio: 0.7,
+            predict_min_length_px: 20.0,
+            propagate_max_angle_diff_deg: 20.0,
+            propagate_min_length_ratio: 0.4,
+            neighbourhood_radius_px: 30.0,
+            disparity_gradient_limit: 0.3,
+            disparity_tolerance_px: 1.5,
+            max_intensity_diff: 30.0,
+            max_contrast_ratio: 2.5,
+            min_seed_support: 2,
+            min_support: 1,
+            left_right_check: true,
+            match_horizontal: true,
+        }
+    }
+}
+
+impl MatchParams {
+    /// Checks the parameter ranges.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        let checks: [(&'static str, f32, bool, &'static str); 6] = [
+            (
+                "matching.disparity_max_px",
+                self.disparity_max_px,
+                self.disparity_max_px > self.disparity_min_px && self.disparity_max_px <= 4096.0,
+                "disparity_min_px < value <= 4096",
+            ),
+            (
+                "matching.horizontal_angle_deg",
+                self.horizontal_angle_deg,
+                (0.0..=45.0).contains(&self.horizontal_angle_deg),
+                "0..=45",
+            ),
+            (
+                "matching.min_row_overlap_ratio",
+                self.min_row_overlap_ratio,
+                (0.0..=1.0).contains(&self.min_row_overlap_ratio),
+                "0..=1",
+            ),
+            (
+                "matching.neighbourhood_radius_px",
+                self.neighbourhood_radius_px,
+                (0.0..=500.0).contains(&self.neighbourhood_radius_px),
+                "0..=500",
+            ),
+            (
+                "matching.propagate_max_angle_diff_deg",
+                self.propagate_max_angle_diff_deg,
+                self.propagate_max_angle_diff_deg >= self.predict_max_angle_diff_deg
+                    && self.propagate_max_angle_diff_deg <= 90.0,
+                "predict_max_angle_diff_deg..=90",
+            ),
+            (
+                "matching.max_contrast_ratio",
+                self.max_contrast_ratio,
+                self.max_contrast_ratio >= 1.0,
+                ">= 1",
+            ),
+        ];
+        for (name, value, ok, allowed) in checks {
+            if !ok {
+                return Err(VisionError::Parameter {
+                    name,
+                    value: value as f64,
+                    allowed,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// An accepted correspondence between a left and a right segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentMatch {
+    /// Index into the left segments.
+    pub left: u32,
+    /// Index into the right segments.
+    pub right: u32,
+    /// Disparity at the left segment's `start` and `end`, pixels (`x_left - x_right`).
+    pub disparity_px: [f32; 2],
+    /// Number of neighbouring left segments with a continuity-compatible candidate.
+    pub support: u32,
+    /// Whether the pair met the tight prediction constraints.
+    pub predicted: bool,
+    /// Whether the left segment is nearly horizontal (matched, but not back-projected).
+    pub nearly_horizontal: bool,
+}
+
+/// A candidate pair.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    left: u32,
+    right: u32,
+    /// Disparity at the left start and end rows.
+    disparity: [f32; 2],
+    cost: f32,
+    tight: bool,
+    horizontal: bool,
+    support: u32,
+}
+
+impl Candidate {
+    /// Disparity at parameter `t` in `[0, 1]` along the left segment.
+    fn disparity_at(&self, t: f32) -> f32 {
+        self.disparity[0] + t * (self.disparity[1] - self.disparity[0])
+    }
+
+    fn better_than(&self, other: &Candidate) -> bool {
+        (self.support, -self.cost) > (other.support, -other.cost)
+    }
+}
+
+/// Two neighbouring left segments and the parameters of their closest points.
+#[derive(Debug, Clone, Copy)]
+struct Neighbour {
+    other: u32,
+    t_self: f32,
+    t_other: f32,
+    distance: f32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Queued {
+    support: u32,
+    cost: f32,
+    candidate: u32,
+}
+
+impl Eq for Queued {}
+
+impl Ord for Queued {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.support
+            .cmp(&other.support)
+            .then_with(|| other.cost.total_cmp(&self.cost))
+            .then_with(|| other.candidate.cmp(&self.candidate))
+    }
+}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// Reusable buffers of the matcher.
+#[derive(Debug, Default, Clone)]
+pub struct MatchWorkspace {
+    right_order: Vec<u32>,
+    candidates: Vec<Candidate>,
+    candidate_start: Vec<u32>,
+    neighbours: Vec<Neighbour>,
+    neighbour_start: Vec<u32>,
+    neighbour_pairs: Vec<(u32, Neighbour)>,
+    best_for_right: Vec<u32>,
+    best_for_left: Vec<u32>,
+    left_used: Vec<bool>,
+    right_used: Vec<bool>,
+    accepted_candidate: Vec<u32>,
+    heap: BinaryHeap<Queued>,
+}
+
+const NONE: u32 = u32::MAX;
+
+impl MatchWorkspace {
+    /// An empty workspace.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Matches `left` against `right` segments, writing the accepted matches to `out`
+    /// (cleared first), sorted by left index.
+    pub fn match_segments(
+        &mut self,
+        left: &[Segment],
+        right: &[Segment],
+        params: &MatchParams,
+        out: &mut Vec<SegmentMatch>,
+    ) {
+        out.clear();
+        self.build_candidates(left, right, params);
+        self.build_neighbours(left, params);
+        self.compute_support(params);
+        self.best_candidates(left.len(), right.len());
+        self.grow(left.len(), right.len(), params);
+        for (i, &c) in self.accepted_candidate.iter().enumerate() {
+            if c == NONE {
+                continue;
+            }
+            let cand = self.candidates[c as usize];
+            debug_assert_eq!(cand.left as usize, i);
+            out.push(SegmentMatch {
+                left: cand.left,
+                right: cand.right,
+                disparity_px: cand.disparity,
+                support: cand.support,
+                predicted: cand.tight,
+                nearly_horizontal: cand.horizontal,
+            });
+        }
+    }
+
+    fn build_candidates(&mut self, left: &[Segment], right: &[Segment], params: &MatchParams) {
+        self.candidates.clear();
+        self.candidate_start.clear();
+        self.right_order.clear();
+        self.right_order.extend(0..right.len() as u32);
+        self.right_order.sort_unstable_by(|&a, &b| {
+            right[a as usize].start[1].total_cmp(&right[b as usize].start[1])
+        });
+        let horizontal = params.horizontal_angle_deg.to_radians();
+        for (i, l) in left.iter().enumerate() {
+            self.candidate_start.push(self.candidates.len() as u32);
+            let l_horizontal = l.is_nearly_horizontal(horizontal);
+            if l_horizontal && !params.match_horizontal {
+                continue;
+            }
+            // Right segments starting above the left segment's lower end (plus slack for
+            // horizontal segments whose rows must agree within 2 px).
+            let slack = if l_horizontal { 2.0 } else { 0.0 };
+            let upper = l.end[1] + slack;
+            let count = self
+                .right_order
+                .partition_point(|&j| right[j as usize].start[1] <= upper);
+            for &j in &self.right_order[..count] {
+                let r = &right[j as usize];
+                if r.end[1] + slack < l.start[1] {
+                    continue;
+                }
+                if let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params, horizontal)
+                {
+                    self.candidates.push(c);
+                }
+            }
+        }
+        self.candidate_start.push(self.candidates.len() as u32);
+    }
+
+    fn build_neighbours(&mut self, left: &[Segment], params: &MatchParams) {
+        let radius = params.neighbourhood_radius_px;
+        self.neighbour_pairs.clear();
+        for i in 0..left.len() {
+            let a = &left[i];
+            let (ax0, ax1) = min_max(a.start[0], a.end[0]);
+            for (j, b) in left.iter().enumerate().skip(i + 1) {
+                if b.start[1] > a.end[1] + radius || b.end[1] < a.start[1] - radius {
+                    continue;
+                }
+                let (bx0, bx1) = min_max(b.start[0], b.end[0]);
+                if bx0 > ax1 + radius || bx1 < ax0 - radius {
+                    continue;
+                }
+                let (d, ta, tb) = segment_distance(a, b);
+                if d <= radius {
+                    self.neighbour_pairs.push((
+                        i as u32,
+                        Neighbour {
+                            other: j as u32,
+                            t_self: ta,
+                            t_other: tb,
+                            distance: d,
+                        },
+                    ));
+                    self.neighbour_pairs.push((
+                        j as u32,
+                        Neighbour {
+                            other: i as u32,
+                            t_self: tb,
+                            t_other: ta,
+                            distance: d,
+                        },
+                    ));
+                }
+            }
+        }
+        self.neighbour_pairs
+            .sort_unstable_by_key(|p| (p.0, p.1.other));
+        self.neighbours.clear();
+        self.neighbour_start.clear();
+        let mut k = 0;
+        for i in 0..left.len() as u32 {
+            self.neighbour_start.push(self.neighbours.len() as u32);
+            while k < self.neighbour_pairs.len() && self.neighbour_pairs[k].0 == i {
+                self.neighbours.push(self.neighbour_pairs[k].1);
+                k += 1;
+            }
+        }
+        self.neighbour_start.push(self.neighbours.len() as u32);
+    }
+
+    fn candidates_of(&self, left: u32) -> std::ops::Range<usize> {
+        self.candidate_start[left as usize] as usize
+            ..self.candidate_start[left as usize + 1] as usize
+    }
+
+    fn neighbours_of(&self, left: u32) -> std::ops::Range<usize> {
+        self.neighbour_start[left as usize] as usize
+            ..self.neighbour_start[left as usize + 1] as usize
+    }
+
+    /// Support of each candidate: neighbouring left segments (not nearly horizontal) having a
+    /// non-horizontal candidate compatible under the continuity constraint.
+    fn compute_support(&mut self, params: &MatchParams) {
+        for c in 0..self.candidates.len() {
+            let cand = self.candidates[c];
+            let mut support = 0;
+            for n in self.neighbours_of(cand.left) {
+                let nb = self.neighbours[n];
+                let compatible = self.candidates_of(nb.other).any(|k| {
+                    let other = &self.candidates[k];
+                    !other.horizontal
+                        && other.right != cand.right
+                        && continuous(&cand, other, &nb, params)
+                });
+                if compatible {
+                    support += 1;
+                }
+            }
+            self.candidates[c].support = support;
+        }
+    }
+
+    fn best_candidates(&mut self, n_left: usize, n_right: usize) {
+        self.best_for_left.clear();
+        self.best_for_left.resize(n_left, NONE);
+        self.best_for_right.clear();
+        self.best_for_right.resize(n_right, NONE);
+        for (k, c) in self.candidates.iter().enumerate() {
+            let bl = &mut self.best_for_left[c.left as usize];
+            if *bl == NONE || c.better_than(&self.candidates[*bl as usize]) {
+                *bl = k as u32;
+            }
+            let br = &mut self.best_for_right[c.right as usize];
+            if *br == NONE || c.better_than(&self.candidates[*br as usize]) {
+                *br = k as u32;
+            }
+        }
+    }
+
+    fn consistent(&self, k: usize, params: &MatchParams) -> bool {
+        if !params.left_right_check {
+            return true;
+        }
+        let c = &self.candidates[k];
+        self.best_for_left[c.left as usize] == k as u32
+            && self.best_for_right[c.right as usize] == k as u32
+    }
+
+    fn grow(&mut self, n_left: usize, n_right: usize, params: &MatchParams) {
+        self.left_used.clear();
+        self.left_used.resize(n_left, false);
+        self.right_used.clear();
+        self.right_used.resize(n_right, false);
+        self.accepted_candidate.clear();
+        self.accepted_candidate.resize(n_left, NONE);
+        self.heap.clear();
+        // Prediction: seeds.
+        for (k, c) in self.candidates.iter().enumerate() {
+            if c.tight && !c.horizontal && c.support >= params.min_seed_support {
+                self.heap.push(Queued {
+                    support: c.support,
+                    cost: c.cost,
+                    candidate: k as u32,
+                });
+            }
+        }
+        // Propagation, best first.
+        while let Some(q) = self.heap.pop() {
+            let k = q.candidate as usize;
+            let cand = self.candidates[k];
+            if self.left_used[cand.left as usize] || self.right_used[cand.right as usize] {
+                continue;
+            }
+            if !self.consistent(k, params) {
+                continue;
+            }
+            self.left_used[cand.left as usize] = true;
+            self.right_used[cand.right as usize] = true;
+            self.accepted_candidate[cand.left as usize] = k as u32;
+            for n in self.neighbours_of(cand.left) {
+                let nb = self.neighbours[n];
+                if self.left_used[nb.other as usize] {
+                    continue;
+                }
+                let mut best: Option<usize> = None;
+                for m in self.candidates_of(nb.other) {
+                    let other = &self.candidates[m];
+                    if self.right_used[other.right as usize]
+                        || other.support < params.min_support
+                        || !continuous(&cand, other, &nb, params)
+                    {
+                        continue;
+                    }
+                    if best.is_none_or(|b| other.better_than(&self.candidates[b])) {
+                        best = Some(m);
+                    }
+                }
+                if let Some(m) = best {
+                    let other = &self.candidates[m];
+                    self.heap.push(Queued {
+                        support: other.support,
+                        cost: other.cost,
+                        candidate: m as u32,
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// Continuity between candidate `a` (on left segment `n`'s owner) and `b` (on `n.other`).
+fn continuous(a: &Candidate, b: &Candidate, n: &Neighbour, params: &MatchParams) -> bool {
+    let da = a.disparity_at(n.t_self);
+    let db = b.disparity_at(n.t_other);
+    (da - db).abs() <= params.disparity_tolerance_px + params.disparity_gradient_limit * n.distance
+}
+
+fn min_max(a: f32, b: f32) -> (f32, f32) {
+    if a < b {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// Evaluates the pair against the weak constraints; `None` when it fails them.
+fn evaluate_pair(
+    i: u32,
+    l: &Segment,
+    j: u32,
+    r: &Segment,
+    l_horizontal: bool,
+    params: &MatchParams,
+    horizontal_rad: f32,
+) -> Option<Candidate> {
+    if l.polarity != r.polarity {
+        return None;
+    }
+    let r_horizontal = r.is_nearly_horizontal(horizontal_rad);
+    if l_horizontal != r_horizontal {
+        return None;
+    }
+    let contrast_ratio = l.contrast.max(r.contrast) / l.contrast.min(r.contrast).max(1e-3);
+    if contrast_ratio > params.max_contrast_ratio {
+        return None;
+    }
+    let di0 = (l.side_intensity[0] - r.side_intensity[0]).abs();
+    let di1 = (l.side_intensity[1] - r.side_intensity[1]).abs();
+    if di0.min(di1) > params.max_intensity_diff {
+        return None;
+    }
+    let mut angle_diff = (l.angle_rad - r.angle_rad).abs();
+    if angle_diff > std::f32::consts::FRAC_PI_2 {
+        angle_diff = std::f32::consts::PI - angle_diff;
+    }
+    let angle_diff_deg = angle_diff.to_degrees();
+    if angle_diff_deg > params.propagate_max_angle_diff_deg {
+        return None;
+    }
+    let length_ratio = l.length_px.min(r.length_px) / l.length_px.max(r.length_px);
+    if length_ratio < params.propagate_min_length_ratio {
+        return None;
+    }
+    let (dmin, dmax) = (params.disparity_min_px, params.disparity_max_px);
+    let disparity = if l_horizontal {
+        // Rows must agree; disparities from the endpoints.
+        let (ly, ry) = (l.midpoint()[1], r.midpoint()[1]);
+        if (ly - ry).abs() > 1.5 {
+            return None;
+        }
+        [l.start[0] - r.start[0], l.end[0] - r.end[0]]
+    } else {
+        let y0 = l.start[1].max(r.start[1]);
+        let y1 = l.end[1].min(r.end[1]);
+        let overlap = y1 - y0;
+        if overlap <= 0.0
+            || overlap < params.min_row_overlap_ratio * l.height_px().min(r.height_px())
+        {
+            return None;
+        }
+        let (Some(xr0), Some(xr1)) = (r.x_at_row(l.start[1]), r.x_at_row(l.end[1])) else {
+            return None;
+        };
+        let d = [l.start[0] - xr0, l.end[0] - xr1];
+        // The disparity must be in range over the overlapping rows.
+        let (Some(xa), Some(xb)) = (l.x_at_row(y0), l.x_at_row(y1)) else {
+            return None;
+        };
+        let (Some(ra), Some(rb)) = (r.x_at_row(y0), r.x_at_row(y1)) else {
+            return None;
+        };
+        for dd in [xa - ra, xb - rb] {
+            if dd < dmin - 0.5 || dd > dmax + 0.5 {
+                return None;
+            }
+        }
+        d
+    };
+    let mean_d = 0.5 * (disparity[0] + disparity[1]);
+    if mean_d < dmin - 0.5 || mean_d > dmax + 0.5 {
+        return None;
+    }
+    let tight = angle_diff_deg <= params.predict_max_angle_diff_deg
+        && length_ratio >= params.predict_min_length_ratio
+        && l.length_px.min(r.length_px) >= params.predict_min_length_px
+        && di0.max(di1) <= params.max_intensity_diff;
+    let cost = angle_diff_deg / params.propagate_max_angle_diff_deg
+        + (1.0 - length_ratio)
+        + (di0 + di1) / (2.0 * params.max_intensity_diff);
+    Some(Candidate {
+        left: i,
+        right: j,
+        disparity,
+        cost,
+        tight,
+        horizontal: l_horizontal,
+        support: 0,
+    })
+}
+
+/// Distance between two segments and the parameters (0 at `start`, 1 at `end`) of the closest
+/// points.
+fn segment_distance(a: &Segment, b: &Segment) -> (f32, f32, f32) {
+    let mut best = (f32::INFINITY, 0.0, 0.0);
+    // Segments that do not cross are closest at an endpoint of one of them.
+    for (p, on_a, t_fixed) in [
+        (a.start, false, 0.0),
+        (a.end, false, 1.0),
+        (b.start, true, 0.0),
+        (b.end, true, 1.0),
+    ] {
+        let s = if on_a { a } else { b };
+        let t = project_param(s, p);
+        let q = lerp(s, t);
+        let d = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt();
+        if d < best.0 {
+            best = if on_a {
+                (d, t, t_fixed)
+            } else {
+                (d, t_fixed, t)
+            };
+        }
+    }
+    best
+}
+
+fn project_param(s: &Segment, p: [f32; 2]) -> f32 {
+    let (dx, dy) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
+    let len2 = dx * dx + dy * dy;
+    if len2 < 1e-9 {
+        return 0.0;
+    }
+    (((p[0] - s.start[0]) * dx + (p[1] - s.start[1]) * dy) / len2).clamp(0.0, 1.0)
+}
+
+fn lerp(s: &Segment, t: f32) -> [f32; 2] {
+    [
+        s.start[0] + t * (s.end[0] - s.start[0]),
+        s.start[1] + t * (s.end[1] - s.start[1]),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seg(x0: f32, y0: f32, x1: f32, y1: f32, polarity: i8, sides: [f32; 2]) -> Segment {
+        let (mut s, mut e) = ([x0, y0], [x1, y1]);
+        if e[1] < s[1] {
+            std::mem::swap(&mut s, &mut e);
+        }
+        let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
+        let mut angle = dy.atan2(dx);
+        if angle >= std::f32::consts::PI {
+            angle -= std::f32::consts::PI;
+        }
+        Segment {
+            start: s,
+            end: e,
+            length_px: (dx * dx + dy * dy).sqrt(),
+            angle_rad: angle,
+            polarity,
+            contrast: 100.0,
+            side_intensity: sides,
+            chain: 0,
+        }
+    }
+
+    /// A synthetic scene: a fan of segments on a fronto-parallel plane at disparity `d`.
+    fn scene(d: f32) -> (Vec<Segment>, Vec<Segment>) {
+        let mut left = Vec::new();
+        let mut right = Vec::new();
+        for k in 0..12 {
+            let x = 80.0 + 17.0 * k as f32;
+            let y = 40.0 + 6.0 * (k % 3) as f32;
+            let slant = 0.15 * (k % 4) as f32;
+            let sides = [40.0 + 12.0 * k as f32, 200.0 - 9.0 * k as f32];
+            let pol = if k % 2 == 0 { 1 } else { -1 };
+            let l = seg(
+                x,
+                y,
+                x + 40.0 * slant,
+                y + 40.0 + 3.0 * k as f32,
+                pol,
+                sides,
+            );
+            let mut r = l;
+            r.start[0] -= d;
+            r.end[0] -= d;
+            left.push(l);
+            right.push(r);
+        }
+        (left, right)
+    }
+
+    #[test]
+    fn a_plane_of_segments_is_matched_exactly() {
+        let (left, right) = scene(23.0);
+        let mut ws = MatchWorkspace::new();
+        let mut out = Vec::new();
+        ws.match_segments(&left, &right, &MatchParams::default(), &mut out);
+        assert_eq!(out.len(), left.len());
+        for m in &out {
+            assert_eq!(m.left, m.right);
+            assert!((m.disparity_px[0] - 23.0).abs() < 1e-3);
+            assert!((m.disparity_px[1] - 23.0).abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn disparity_outside_the_range_is_not_matched() {
+        let (left, right) = scene(80.0);
+        let mut ws = MatchWorkspace::new();
+        let mut out = Vec::new();
+        ws.match_segments(&left, &right, &MatchParams::default(), &mut out);
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn endpoint_disparity_comes_from_the_right_line_at_the_left_rows() {
+        // Right segment is shorter (fragmented) but on the same line shifted by 10 px.
+        let l = seg(100.0, 10.0, 120.0, 90.0, 1, [50.0, 150.0]);
+        let r = seg(92.5, 20.0, 107.5, 80.0, 1, [50.0, 150.0]);
+        let c = evaluate_pair(0, &l, 0, &r, false, &MatchParams::default(), 0.26).unwrap();
+        assert!((c.disparity[0] - 10.0).abs() < 1e-3, "{:?}", c.disparity);
+        assert!((c.disparity[1] - 10.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn opposite_polarity_is_rejected() {
+        let l = seg(100.0, 10.0, 120.0, 90.0, 1, [50.0, 150.0]);
+        let r = seg(90.0, 10.0, 110.0, 90.0, -1, [50.0, 150.0]);
+        assert!(evaluate_pair(0, &l, 0, &r, false, &MatchParams::default(), 0.26).is_none());
+    }
+
+    #[test]
+    fn closest_points_of_two_segments() {
+        let a = seg(0.0, 0.0, 0.0, 10.0, 1, [0.0, 0.0]);
+        let b = seg(3.0, 12.0, 3.0, 20.0, 1, [0.0, 0.0]);
+        let (d, ta, tb) = segment_distance(&a, &b);
+        assert!((d - (9.0f32 + 4.0).sqrt()).abs() < 1e-5);
+        assert_eq!((ta, tb), (1.0, 0.0));
+    }
+}
