@@ -6,9 +6,16 @@
 pub mod canny;
 pub mod chains;
 pub mod error;
+pub mod evaluation;
 pub mod gray;
 pub mod matching;
+pub mod pipeline;
 pub mod reconstruct;
+pub mod roi;
 pub mod segments;
 
 pub use error::VisionError;
+pub use gray::{GrayView, PixelRect};
+pub use pipeline::{run_pipeline, PipelineOutput, StageTimings, StereoPipeline, VisionParams};
+pub use reconstruct::{RectifiedGeometry, Segment3d};
+pub use roi::{LocalParams, LocalRegion};
