@@ -132,6 +132,11 @@ impl CannyWorkspace {
         &self.gy[..self.width * self.height]
     }
 
+    /// L1 gradient magnitude `|gx| + |gy|` of the last image.
+    pub fn magnitude(&self) -> &[i16] {
+        &self.magnitude[..self.width * self.height]
+    }
+
     /// The smoothed last image.
     pub fn smoothed(&self) -> &[u8] {
         &self.smoothed[..self.width * self.height]

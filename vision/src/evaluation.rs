@@ -11,6 +11,14 @@
 //! surface), otherwise it is the distance to the truth at the sample. A match is **wrong** when
 //! the median error of its samples exceeds 1 px; a match with no usable sample is
 //! **unevaluated**.
+//!
+//! Nearly horizontal matches have no measurable disparity along their rows (their endpoints
+//! are unstable, which is why they are never back-projected), so for them the correspondence
+//! itself is judged: each sample is moved by its true disparity into the right image and must
+//! land within 1.5 px of the matched right segment; the match is wrong when fewer than half of
+//! the samples that could land (those within the right segment's column extent) do. Their
+//! endpoint disparity is judged separately by [`judge_match`] and reported as
+//! [`AccuracyReport::horizontal_disparity_wrong`].
 
 use crate::matching::SegmentMatch;
 use crate::segments::Segment;
@@ -83,7 +91,79 @@ pub enum MatchVerdict {
     Unevaluated,
 }
 
-/// Judges one match (see the module documentation).
+/// Judges the correspondence of a nearly horizontal match (see the module documentation).
+pub fn judge_correspondence(left: &Segment, right: &Segment, truth: &DisparityMap) -> MatchVerdict {
+    let steps = left.length_px.ceil().max(1.0) as usize;
+    let (rx0, rx1) = if right.start[0] < right.end[0] {
+        (right.start[0], right.end[0])
+    } else {
+        (right.end[0], right.start[0])
+    };
+    let (mut landing, mut could_land) = (0usize, 0usize);
+    for k in 0..=steps {
+        let t = k as f32 / steps as f32;
+        let x = left.start[0] + t * (left.end[0] - left.start[0]);
+        let y = left.start[1] + t * (left.end[1] - left.start[1]);
+        let (xi, yi) = (x.round() as i64, y.round() as i64);
+        // Any known truth in the 5x5 window may apply (the edge may bound either surface).
+        let mut lands = false;
+        let mut in_extent = false;
+        for dy in -2..=2 {
+            for dx in -2..=2 {
+                let Some(d) = truth.at(xi + dx, yi + dy) else {
+                    continue;
+                };
+                let xr = x - d;
+                if xr < rx0 - 1.0 || xr > rx1 + 1.0 {
+                    continue;
+                }
+                in_extent = true;
+                if point_segment_distance([xr, y], right) <= 1.5 {
+                    lands = true;
+                }
+            }
+        }
+        if in_extent {
+            could_land += 1;
+            if lands {
+                landing += 1;
+            }
+        }
+    }
+    if could_land == 0 {
+        // No true correspondence of the left segment falls on the right segment's columns.
+        return if truth_known_along(left, truth) {
+            MatchVerdict::Wrong
+        } else {
+            MatchVerdict::Unevaluated
+        };
+    }
+    if 2 * landing >= could_land {
+        MatchVerdict::Correct
+    } else {
+        MatchVerdict::Wrong
+    }
+}
+
+fn truth_known_along(s: &Segment, truth: &DisparityMap) -> bool {
+    let steps = s.length_px.ceil().max(1.0) as usize;
+    (0..=steps).any(|k| {
+        let t = k as f32 / steps as f32;
+        let x = s.start[0] + t * (s.end[0] - s.start[0]);
+        let y = s.start[1] + t * (s.end[1] - s.start[1]);
+        truth.at(x.round() as i64, y.round() as i64).is_some()
+    })
+}
+
+fn point_segment_distance(p: [f32; 2], s: &Segment) -> f32 {
+    let (dx, dy) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
+    let len2 = (dx * dx + dy * dy).max(1e-9);
+    let t = (((p[0] - s.start[0]) * dx + (p[1] - s.start[1]) * dy) / len2).clamp(0.0, 1.0);
+    let (qx, qy) = (s.start[0] + t * dx, s.start[1] + t * dy);
+    ((p[0] - qx).powi(2) + (p[1] - qy).powi(2)).sqrt()
+}
+
+/// Judges one match's disparity (see the module documentation).
 pub fn judge_match(left: &Segment, m: &SegmentMatch, truth: &DisparityMap) -> MatchVerdict {
     let steps = left.length_px.ceil().max(1.0) as usize;
     let mut errors: Vec<f32> = Vec::with_capacity(steps + 1);
@@ -135,8 +215,12 @@ pub struct AccuracyReport {
     pub matches: usize,
     /// Matches of nearly horizontal segments among them.
     pub horizontal_matches: usize,
-    /// Matches judged wrong.
+    /// Matches judged wrong (disparity for ordinary matches, correspondence for nearly
+    /// horizontal ones).
     pub wrong: usize,
+    /// Nearly horizontal matches whose endpoint disparity is off by more than 1 px (informative:
+    /// that disparity is never used for 3D).
+    pub horizontal_disparity_wrong: usize,
     /// Matches without usable ground truth.
     pub unevaluated: usize,
 }
@@ -156,21 +240,28 @@ impl AccuracyReport {
 /// Evaluates all matches of a run.
 pub fn evaluate(
     left: &[Segment],
-    right_count: usize,
+    right: &[Segment],
     matches: &[SegmentMatch],
     truth: &DisparityMap,
 ) -> AccuracyReport {
     let mut report = AccuracyReport {
         left_segments: left.len(),
-        right_segments: right_count,
+        right_segments: right.len(),
         matches: matches.len(),
         ..AccuracyReport::default()
     };
     for m in matches {
-        if m.nearly_horizontal {
+        let l = &left[m.left as usize];
+        let verdict = if m.nearly_horizontal {
             report.horizontal_matches += 1;
-        }
-        match judge_match(&left[m.left as usize], m, truth) {
+            if judge_match(l, m, truth) == MatchVerdict::Wrong {
+                report.horizontal_disparity_wrong += 1;
+            }
+            judge_correspondence(l, &right[m.right as usize], truth)
+        } else {
+            judge_match(l, m, truth)
+        };
+        match verdict {
             MatchVerdict::Correct => {}
             MatchVerdict::Wrong => report.wrong += 1,
             MatchVerdict::Unevaluated => report.unevaluated += 1,
@@ -217,19 +308,41 @@ mod tests {
                 values[y * w + x] = if x < 20 { 10.0 } else { 20.0 };
             }
         }
-        let truth = DisparityMap { width: w, height: h, values };
-        assert_eq!(judge_match(&vertical(8.0), &m(10.5), &truth), MatchVerdict::Correct);
-        assert_eq!(judge_match(&vertical(8.0), &m(12.0), &truth), MatchVerdict::Wrong);
+        let truth = DisparityMap {
+            width: w,
+            height: h,
+            values,
+        };
+        assert_eq!(
+            judge_match(&vertical(8.0), &m(10.5), &truth),
+            MatchVerdict::Correct
+        );
+        assert_eq!(
+            judge_match(&vertical(8.0), &m(12.0), &truth),
+            MatchVerdict::Wrong
+        );
         // On the discontinuity either surface is accepted, nothing in between.
-        assert_eq!(judge_match(&vertical(19.0), &m(20.0), &truth), MatchVerdict::Correct);
-        assert_eq!(judge_match(&vertical(19.0), &m(10.0), &truth), MatchVerdict::Correct);
-        assert_eq!(judge_match(&vertical(19.0), &m(15.0), &truth), MatchVerdict::Wrong);
+        assert_eq!(
+            judge_match(&vertical(19.0), &m(20.0), &truth),
+            MatchVerdict::Correct
+        );
+        assert_eq!(
+            judge_match(&vertical(19.0), &m(10.0), &truth),
+            MatchVerdict::Correct
+        );
+        assert_eq!(
+            judge_match(&vertical(19.0), &m(15.0), &truth),
+            MatchVerdict::Wrong
+        );
         let unknown = DisparityMap {
             width: w,
             height: h,
             values: vec![f32::NAN; w * h],
         };
-        assert_eq!(judge_match(&vertical(8.0), &m(10.0), &unknown), MatchVerdict::Unevaluated);
+        assert_eq!(
+            judge_match(&vertical(8.0), &m(10.0), &unknown),
+            MatchVerdict::Unevaluated
+        );
     }
 
     #[test]

@@ -56,6 +56,9 @@ pub struct MatchParams {
     pub disparity_gradient_limit: f32,
     /// Continuity: allowed disparity change at zero distance, pixels.
     pub disparity_tolerance_px: f32,
+    /// Maximum change of disparity along a segment per pixel of its height (a segment on a
+    /// plausible surface, and right/left orientations that agree).
+    pub max_disparity_slope: f32,
     /// Maximum difference of mean intensity on the better-agreeing side, grey levels.
     pub max_intensity_diff: f32,
     /// Maximum ratio of the two segments' contrasts.
@@ -64,6 +67,9 @@ pub struct MatchParams {
     pub min_seed_support: u32,
     /// Minimum number of neighbours supporting a propagated match.
     pub min_support: u32,
+    /// Ambiguity rejection: a match's support must be at least this times the support of the
+    /// runner-up candidate of its left segment and of its right segment (1 = off).
+    pub ambiguity_ratio: f32,
     /// Enforce left-right consistency (mutual best candidate) at validation.
     pub left_right_check: bool,
     /// Match nearly horizontal segments during propagation.
@@ -90,10 +96,12 @@ impl Default for MatchParams {
             neighbourhood_radius_px: 30.0,
             disparity_gradient_limit: 0.3,
             disparity_tolerance_px: 1.5,
+            max_disparity_slope: 0.3,
             max_intensity_diff: 30.0,
             max_contrast_ratio: 2.5,
             min_seed_support: 2,
             min_support: 1,
+            ambiguity_ratio: 1.0,
             left_right_check: true,
             match_horizontal: true,
         }
@@ -240,6 +248,8 @@ pub struct MatchWorkspace {
     neighbour_pairs: Vec<(u32, Neighbour)>,
     best_for_right: Vec<u32>,
     best_for_left: Vec<u32>,
+    second_support_left: Vec<u32>,
+    second_support_right: Vec<u32>,
     left_used: Vec<bool>,
     right_used: Vec<bool>,
     accepted_candidate: Vec<u32>,
@@ -268,7 +278,7 @@ impl MatchWorkspace {
         self.build_neighbours(left, params);
         self.compute_support(params);
         self.best_candidates(left.len(), right.len());
-        self.grow(left.len(), right.len(), params);
+        self.grow(left, right, params);
         for (i, &c) in self.accepted_candidate.iter().enumerate() {
             if c == NONE {
                 continue;
@@ -313,8 +323,7 @@ impl MatchWorkspace {
                 if r.end[1] + slack < l.start[1] {
                     continue;
                 }
-                if let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params, horizontal)
-                {
+                if let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params) {
                     self.candidates.push(c);
                 }
             }
@@ -389,6 +398,9 @@ impl MatchWorkspace {
     fn compute_support(&mut self, params: &MatchParams) {
         for c in 0..self.candidates.len() {
             let cand = self.candidates[c];
+            if cand.horizontal {
+                continue;
+            }
             let mut support = 0;
             for n in self.neighbours_of(cand.left) {
                 let nb = self.neighbours[n];
@@ -411,7 +423,34 @@ impl MatchWorkspace {
         self.best_for_left.resize(n_left, NONE);
         self.best_for_right.clear();
         self.best_for_right.resize(n_right, NONE);
+        self.second_support_left.clear();
+        self.second_support_left.resize(n_left, 0);
+        self.second_support_right.clear();
+        self.second_support_right.resize(n_right, 0);
         for (k, c) in self.candidates.iter().enumerate() {
+            if c.horizontal {
+                continue;
+            }
+            let bl = self.best_for_left[c.left as usize];
+            if bl != NONE {
+                let displaced = if c.better_than(&self.candidates[bl as usize]) {
+                    self.candidates[bl as usize].support
+                } else {
+                    c.support
+                };
+                let s = &mut self.second_support_left[c.left as usize];
+                *s = (*s).max(displaced);
+            }
+            let br = self.best_for_right[c.right as usize];
+            if br != NONE {
+                let displaced = if c.better_than(&self.candidates[br as usize]) {
+                    self.candidates[br as usize].support
+                } else {
+                    c.support
+                };
+                let s = &mut self.second_support_right[c.right as usize];
+                *s = (*s).max(displaced);
+            }
             let bl = &mut self.best_for_left[c.left as usize];
             if *bl == NONE || c.better_than(&self.candidates[*bl as usize]) {
                 *bl = k as u32;
@@ -424,15 +463,20 @@ impl MatchWorkspace {
     }
 
     fn consistent(&self, k: usize, params: &MatchParams) -> bool {
-        if !params.left_right_check {
+        let c = &self.candidates[k];
+        if !params.left_right_check || c.horizontal {
             return true;
         }
-        let c = &self.candidates[k];
+        let support = c.support as f32;
         self.best_for_left[c.left as usize] == k as u32
             && self.best_for_right[c.right as usize] == k as u32
+            && support >= params.ambiguity_ratio * self.second_support_left[c.left as usize] as f32
+            && support
+                >= params.ambiguity_ratio * self.second_support_right[c.right as usize] as f32
     }
 
-    fn grow(&mut self, n_left: usize, n_right: usize, params: &MatchParams) {
+    fn grow(&mut self, left: &[Segment], right: &[Segment], params: &MatchParams) {
+        let (n_left, n_right) = (left.len(), right.len());
         self.left_used.clear();
         self.left_used.resize(n_left, false);
         self.right_used.clear();
@@ -463,25 +507,49 @@ impl MatchWorkspace {
             self.left_used[cand.left as usize] = true;
             self.right_used[cand.right as usize] = true;
             self.accepted_candidate[cand.left as usize] = k as u32;
+            if cand.horizontal {
+                // Nearly horizontal matches carry an inherited disparity: no propagation.
+                continue;
+            }
             for n in self.neighbours_of(cand.left) {
                 let nb = self.neighbours[n];
                 if self.left_used[nb.other as usize] {
                     continue;
                 }
+                let context_disparity = cand.disparity_at(nb.t_self);
                 let mut best: Option<usize> = None;
+                let mut best_disparity = context_disparity;
                 for m in self.candidates_of(nb.other) {
                     let other = &self.candidates[m];
-                    if self.right_used[other.right as usize]
-                        || other.support < params.min_support
-                        || !continuous(&cand, other, &nb, params)
-                    {
+                    if self.right_used[other.right as usize] {
                         continue;
                     }
+                    let measured = if other.horizontal {
+                        fits_shifted(
+                            &left[other.left as usize],
+                            &right[other.right as usize],
+                            context_disparity,
+                            params,
+                        )
+                    } else if other.support >= params.min_support
+                        && continuous(&cand, other, &nb, params)
+                    {
+                        Some(0.0)
+                    } else {
+                        None
+                    };
+                    let Some(measured) = measured else {
+                        continue;
+                    };
                     if best.is_none_or(|b| other.better_than(&self.candidates[b])) {
                         best = Some(m);
+                        best_disparity = measured;
                     }
                 }
                 if let Some(m) = best {
+                    if self.candidates[m].horizontal {
+                        self.candidates[m].disparity = [best_disparity; 2];
+                    }
                     let other = &self.candidates[m];
                     self.heap.push(Queued {
                         support: other.support,
@@ -517,13 +585,8 @@ fn evaluate_pair(
     r: &Segment,
     l_horizontal: bool,
     params: &MatchParams,
-    horizontal_rad: f32,
 ) -> Option<Candidate> {
     if l.polarity != r.polarity {
-        return None;
-    }
-    let r_horizontal = r.is_nearly_horizontal(horizontal_rad);
-    if l_horizontal != r_horizontal {
         return None;
     }
     let contrast_ratio = l.contrast.max(r.contrast) / l.contrast.min(r.contrast).max(1e-3);
@@ -549,12 +612,19 @@ fn evaluate_pair(
     }
     let (dmin, dmax) = (params.disparity_min_px, params.disparity_max_px);
     let disparity = if l_horizontal {
-        // Rows must agree; disparities from the endpoints.
-        let (ly, ry) = (l.midpoint()[1], r.midpoint()[1]);
-        if (ly - ry).abs() > 1.5 {
+        // Rows must agree (within 2 px) and some disparity in range must make the columns
+        // overlap; the disparity itself is inherited during propagation.
+        if l.start[1].max(r.start[1]) > l.end[1].min(r.end[1]) + 2.0 {
             return None;
         }
-        [l.start[0] - r.start[0], l.end[0] - r.end[0]]
+        let (a0, a1) = min_max(l.start[0], l.end[0]);
+        let (b0, b1) = min_max(r.start[0], r.end[0]);
+        let lo = (a0 - b1).max(dmin);
+        let hi = (a1 - b0).min(dmax);
+        if lo > hi {
+            return None;
+        }
+        [0.5 * (lo + hi); 2]
     } else {
         let y0 = l.start[1].max(r.start[1]);
         let y1 = l.end[1].min(r.end[1]);
@@ -568,6 +638,9 @@ fn evaluate_pair(
             return None;
         };
         let d = [l.start[0] - xr0, l.end[0] - xr1];
+        if (d[1] - d[0]).abs() > 1.0 + params.max_disparity_slope * l.height_px() {
+            return None;
+        }
         // The disparity must be in range over the overlapping rows.
         let (Some(xa), Some(xb)) = (l.x_at_row(y0), l.x_at_row(y1)) else {
             return None;
@@ -602,6 +675,37 @@ fn evaluate_pair(
         horizontal: l_horizontal,
         support: 0,
     })
+}
+
+/// Whether the right segment `r` shifted right by the context `disparity` lies on the left
+/// segment `l` (nearly horizontal pairs): the left midpoint within the continuity tolerance of
+/// the shifted line, the columns overlapping by at least half the shorter extent, and an
+/// endpoint disparity agreeing with the context. Returns the measured disparity.
+fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) -> Option<f32> {
+    let (dx, dy) = (r.end[0] - r.start[0], r.end[1] - r.start[1]);
+    let m = l.midpoint();
+    let (px, py) = (m[0] - (r.start[0] + disparity), m[1] - r.start[1]);
+    let distance = (dx * py - dy * px).abs() / r.length_px.max(1e-3);
+    if distance > params.disparity_tolerance_px {
+        return None;
+    }
+    // The measured disparity: the mean of the endpoint disparities that agree with the
+    // context (at least one must, typically the corner shared with the neighbour).
+    let (mut sum, mut count) = (0.0f32, 0u32);
+    for (a, b) in [(l.start, r.start), (l.end, r.end)] {
+        let d = a[0] - b[0];
+        if (d - disparity).abs() <= params.disparity_tolerance_px {
+            sum += d;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    let (a0, a1) = min_max(l.start[0], l.end[0]);
+    let (b0, b1) = min_max(r.start[0] + disparity, r.end[0] + disparity);
+    let overlap = a1.min(b1) - a0.max(b0);
+    (overlap >= 0.5 * (a1 - a0).min(b1 - b0)).then_some(sum / count as f32)
 }
 
 /// Distance between two segments and the parameters (0 at `start`, 1 at `end`) of the closest
@@ -727,7 +831,7 @@ mod tests {
         // Right segment is shorter (fragmented) but on the same line shifted by 10 px.
         let l = seg(100.0, 10.0, 120.0, 90.0, 1, [50.0, 150.0]);
         let r = seg(92.5, 20.0, 107.5, 80.0, 1, [50.0, 150.0]);
-        let c = evaluate_pair(0, &l, 0, &r, false, &MatchParams::default(), 0.26).unwrap();
+        let c = evaluate_pair(0, &l, 0, &r, false, &MatchParams::default()).unwrap();
         assert!((c.disparity[0] - 10.0).abs() < 1e-3, "{:?}", c.disparity);
         assert!((c.disparity[1] - 10.0).abs() < 1e-3);
     }
@@ -736,7 +840,7 @@ mod tests {
     fn opposite_polarity_is_rejected() {
         let l = seg(100.0, 10.0, 120.0, 90.0, 1, [50.0, 150.0]);
         let r = seg(90.0, 10.0, 110.0, 90.0, -1, [50.0, 150.0]);
-        assert!(evaluate_pair(0, &l, 0, &r, false, &MatchParams::default(), 0.26).is_none());
+        assert!(evaluate_pair(0, &l, 0, &r, false, &MatchParams::default()).is_none());
     }
 
     #[test]

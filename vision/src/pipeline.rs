@@ -190,8 +190,10 @@ impl StereoPipeline {
         let start = Instant::now();
         let mut timings = StageTimings::default();
         let out = &mut self.output;
-        for (view, segments) in [(left, &mut out.left_segments), (right, &mut out.right_segments)]
-        {
+        for (view, segments) in [
+            (left, &mut out.left_segments),
+            (right, &mut out.right_segments),
+        ] {
             let t = Instant::now();
             self.canny.detect(view, &params.canny)?;
             timings.edges += t.elapsed();
@@ -315,7 +317,11 @@ mod tests {
         let inside = |x: usize, y: usize| (60..160).contains(&x) && (40..140).contains(&y);
         for y in 0..h {
             for x in 0..w {
-                left[y * w + x] = if inside(x, y) { front[y * w + x] } else { back[y * w + x] };
+                left[y * w + x] = if inside(x, y) {
+                    front[y * w + x]
+                } else {
+                    back[y * w + x]
+                };
                 let xb = x + d_back;
                 let xf = x + d_front;
                 right[y * w + x] = if xf < w && inside(xf, y) {
@@ -354,7 +360,11 @@ mod tests {
                 (d - 6.0).abs() > 1.0 && (d - 18.0).abs() > 1.0
             })
             .count();
-        assert!(wrong * 20 <= out.matches.len(), "{wrong} wrong of {}", out.matches.len());
+        assert!(
+            wrong * 20 <= out.matches.len(),
+            "{wrong} wrong of {}",
+            out.matches.len()
+        );
         assert!(!out.segments_3d.is_empty());
         for s in &out.segments_3d {
             assert!(s.start_m.z > 0.0 && s.start_sigma_m.z > 0.0);

@@ -120,6 +120,7 @@ impl Segment {
 pub struct SegmentWorkspace {
     stack: Vec<(usize, usize)>,
     pieces: Vec<(usize, usize)>,
+    subpixel: Vec<[f32; 2]>,
 }
 
 impl SegmentWorkspace {
@@ -151,8 +152,18 @@ impl SegmentWorkspace {
                 &mut self.stack,
                 &mut self.pieces,
             );
+            subpixel_positions(points, canny, &mut self.subpixel);
             for &(a, b) in &self.pieces {
-                if let Some(seg) = make_segment(points, a, b, c as u32, canny, origin_px, params) {
+                if let Some(seg) = make_segment(
+                    points,
+                    &self.subpixel,
+                    a,
+                    b,
+                    c as u32,
+                    canny,
+                    origin_px,
+                    params,
+                ) {
                     out.push(seg);
                 }
             }
@@ -206,18 +217,59 @@ fn max_deviation(points: &[[u16; 2]], a: usize, b: usize) -> (usize, f32) {
     (worst, worst_d)
 }
 
+/// Sub-pixel position of every chain pixel: the vertex of the parabola through the gradient
+/// magnitudes of the pixel and its two neighbours along the quantised gradient direction.
+fn subpixel_positions(points: &[[u16; 2]], canny: &CannyWorkspace, out: &mut Vec<[f32; 2]>) {
+    out.clear();
+    let w = canny.width();
+    let (gx, gy, mag) = (canny.gx(), canny.gy(), canny.magnitude());
+    for p in points {
+        let (x, y) = (p[0] as usize, p[1] as usize);
+        let i = y * w + x;
+        let (dx, dy) = (gx[i] as i32, gy[i] as i32);
+        let (ax, ay) = (dx.abs() as f32, dy.abs() as f32);
+        // Direction step (sx, sy) in pixels, as in non-maximum suppression.
+        let (sx, sy): (i32, i32) = if ay < 0.4142 * ax {
+            (1, 0)
+        } else if ay > 2.4142 * ax {
+            (0, 1)
+        } else if (dx ^ dy) < 0 {
+            (1, -1)
+        } else {
+            (1, 1)
+        };
+        let step = sy as isize * w as isize + sx as isize;
+        let (Some(i0), Some(i2)) = (i.checked_add_signed(-step), i.checked_add_signed(step)) else {
+            out.push([x as f32, y as f32]);
+            continue;
+        };
+        if i2 >= mag.len() {
+            out.push([x as f32, y as f32]);
+            continue;
+        }
+        let (m0, m1, m2) = (mag[i0] as f32, mag[i] as f32, mag[i2] as f32);
+        let denom = m0 - 2.0 * m1 + m2;
+        let offset = if denom < -1e-3 {
+            (0.5 * (m0 - m2) / denom).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        };
+        out.push([x as f32 + offset * sx as f32, y as f32 + offset * sy as f32]);
+    }
+}
+
 /// Total-least-squares line through `points[a..=b]`: centroid and unit direction.
-fn fit_line(points: &[[u16; 2]], a: usize, b: usize) -> ([f32; 2], [f32; 2]) {
+fn fit_line(points: &[[f32; 2]], a: usize, b: usize) -> ([f32; 2], [f32; 2]) {
     let n = (b - a + 1) as f32;
     let (mut sx, mut sy) = (0.0f32, 0.0f32);
     for p in &points[a..=b] {
-        sx += p[0] as f32;
-        sy += p[1] as f32;
+        sx += p[0];
+        sy += p[1];
     }
     let (mx, my) = (sx / n, sy / n);
     let (mut sxx, mut sxy, mut syy) = (0.0f32, 0.0f32, 0.0f32);
     for p in &points[a..=b] {
-        let (x, y) = (p[0] as f32 - mx, p[1] as f32 - my);
+        let (x, y) = (p[0] - mx, p[1] - my);
         sxx += x * x;
         sxy += x * y;
         syy += y * y;
@@ -226,8 +278,10 @@ fn fit_line(points: &[[u16; 2]], a: usize, b: usize) -> ([f32; 2], [f32; 2]) {
     ([mx, my], [theta.cos(), theta.sin()])
 }
 
+#[allow(clippy::too_many_arguments)]
 fn make_segment(
     points: &[[u16; 2]],
+    subpixel: &[[f32; 2]],
     a: usize,
     b: usize,
     chain: u32,
@@ -235,10 +289,10 @@ fn make_segment(
     origin_px: (usize, usize),
     params: &SegmentParams,
 ) -> Option<Segment> {
-    let mut p0 = [points[a][0] as f32, points[a][1] as f32];
-    let mut p1 = [points[b][0] as f32, points[b][1] as f32];
+    let mut p0 = subpixel[a];
+    let mut p1 = subpixel[b];
     if params.refit && b > a + 1 {
-        let (c, u) = fit_line(points, a, b);
+        let (c, u) = fit_line(subpixel, a, b);
         let project = |p: [f32; 2]| {
             let t = (p[0] - c[0]) * u[0] + (p[1] - c[1]) * u[1];
             [c[0] + t * u[0], c[1] + t * u[1]]
@@ -325,7 +379,8 @@ mod tests {
         let mut pieces = Vec::new();
         split_chain(&points, 1.0, &mut stack, &mut pieces);
         assert_eq!(pieces.len(), 1);
-        let (_, u) = fit_line(&points, 0, 39);
+        let sub: Vec<[f32; 2]> = points.iter().map(|p| [p[0] as f32, p[1] as f32]).collect();
+        let (_, u) = fit_line(&sub, 0, 39);
         assert!((u[1] / u[0] - 0.25).abs() < 0.02);
     }
 
