@@ -70,6 +70,11 @@ pub struct MatchParams {
     /// Ambiguity rejection: a match's support must be at least this times the support of the
     /// runner-up candidate of its left segment and of its right segment (1 = off).
     pub ambiguity_ratio: f32,
+    /// Photometric validation: mean absolute difference (grey levels) between the smoothed
+    /// left and right images on 4-px strips beside the segment, the right one shifted by the
+    /// match's disparity; the better of the two sides of the edge counts (the other may be
+    /// occluded).
+    pub max_photometric_error: f32,
     /// Enforce left-right consistency (mutual best candidate) at validation.
     pub left_right_check: bool,
     /// Match nearly horizontal segments during propagation.
@@ -93,7 +98,7 @@ impl Default for MatchParams {
             predict_min_length_px: 20.0,
             propagate_max_angle_diff_deg: 20.0,
             propagate_min_length_ratio: 0.4,
-            neighbourhood_radius_px: 30.0,
+            neighbourhood_radius_px: 70.0,
             disparity_gradient_limit: 0.3,
             disparity_tolerance_px: 1.5,
             max_disparity_slope: 0.3,
@@ -102,6 +107,7 @@ impl Default for MatchParams {
             min_seed_support: 2,
             min_support: 1,
             ambiguity_ratio: 1.0,
+            max_photometric_error: 6.0,
             left_right_check: true,
             match_horizontal: true,
         }
@@ -266,15 +272,19 @@ impl MatchWorkspace {
 
     /// Matches `left` against `right` segments, writing the accepted matches to `out`
     /// (cleared first), sorted by left index.
+    ///
+    /// With `images`, a match is also validated photometrically (see
+    /// [`MatchParams::max_photometric_error`]).
     pub fn match_segments(
         &mut self,
         left: &[Segment],
         right: &[Segment],
+        images: Option<&StereoImages<'_>>,
         params: &MatchParams,
         out: &mut Vec<SegmentMatch>,
     ) {
         out.clear();
-        self.build_candidates(left, right, params);
+        self.build_candidates(left, right, images, params);
         self.build_neighbours(left, params);
         self.compute_support(params);
         self.best_candidates(left.len(), right.len());
@@ -296,7 +306,13 @@ impl MatchWorkspace {
         }
     }
 
-    fn build_candidates(&mut self, left: &[Segment], right: &[Segment], params: &MatchParams) {
+    fn build_candidates(
+        &mut self,
+        left: &[Segment],
+        right: &[Segment],
+        images: Option<&StereoImages<'_>>,
+        params: &MatchParams,
+    ) {
         self.candidates.clear();
         self.candidate_start.clear();
         self.right_order.clear();
@@ -323,9 +339,17 @@ impl MatchWorkspace {
                 if r.end[1] + slack < l.start[1] {
                     continue;
                 }
-                if let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params) {
-                    self.candidates.push(c);
+                let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params) else {
+                    continue;
+                };
+                if let Some(images) = images {
+                    if !c.horizontal
+                        && photometric_error(l, &c, images) > params.max_photometric_error
+                    {
+                        continue;
+                    }
                 }
+                self.candidates.push(c);
             }
         }
         self.candidate_start.push(self.candidates.len() as u32);
@@ -504,6 +528,7 @@ impl MatchWorkspace {
             if !self.consistent(k, params) {
                 continue;
             }
+
             self.left_used[cand.left as usize] = true;
             self.right_used[cand.right as usize] = true;
             self.accepted_candidate[cand.left as usize] = k as u32;
@@ -560,6 +585,79 @@ impl MatchWorkspace {
             }
         }
     }
+}
+
+/// A smoothed image (or window of one) that segments were extracted from.
+#[derive(Debug, Clone, Copy)]
+pub struct ImagePatch<'a> {
+    /// Row-major pixels.
+    pub data: &'a [u8],
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Top-left corner in the frame, pixels.
+    pub origin_px: (usize, usize),
+}
+
+impl ImagePatch<'_> {
+    /// Intensity at frame coordinates (`x` interpolated linearly, `y` rounded); `None` outside.
+    fn sample(&self, x: f32, y: f32) -> Option<f32> {
+        let xl = x - self.origin_px.0 as f32;
+        let yl = (y - self.origin_px.1 as f32).round();
+        if xl < 0.0 || yl < 0.0 || xl >= (self.width - 1) as f32 || yl >= self.height as f32 {
+            return None;
+        }
+        let x0 = xl as usize;
+        let f = xl - x0 as f32;
+        let row = yl as usize * self.width;
+        let a = self.data[row + x0] as f32;
+        let b = self.data[row + x0 + 1] as f32;
+        Some(a + f * (b - a))
+    }
+}
+
+/// The smoothed left and right images of a pair.
+#[derive(Debug, Clone, Copy)]
+pub struct StereoImages<'a> {
+    /// Left image.
+    pub left: ImagePatch<'a>,
+    /// Right image.
+    pub right: ImagePatch<'a>,
+}
+
+/// Photometric error of a candidate (see [`MatchParams::max_photometric_error`]).
+fn photometric_error(l: &Segment, c: &Candidate, images: &StereoImages<'_>) -> f32 {
+    const SAMPLES: usize = 12;
+    let mut sums = [0.0f32; 2];
+    let mut counts = [0u32; 2];
+    for k in 0..SAMPLES {
+        let t = (k as f32 + 0.5) / SAMPLES as f32;
+        let x = l.start[0] + t * (l.end[0] - l.start[0]);
+        let y = l.start[1] + t * (l.end[1] - l.start[1]);
+        let d = c.disparity_at(t);
+        for (side, offsets) in [
+            (0usize, [-4.0f32, -3.0, -2.0, -1.0]),
+            (1, [1.0, 2.0, 3.0, 4.0]),
+        ] {
+            for o in offsets {
+                if let (Some(a), Some(b)) = (
+                    images.left.sample(x + o, y),
+                    images.right.sample(x - d + o, y),
+                ) {
+                    sums[side] += (a - b).abs();
+                    counts[side] += 1;
+                }
+            }
+        }
+    }
+    let mut best = f32::INFINITY;
+    for side in 0..2 {
+        if counts[side] >= (SAMPLES * 2) as u32 {
+            best = best.min(sums[side] / counts[side] as f32);
+        }
+    }
+    best
 }
 
 /// Continuity between candidate `a` (on left segment `n`'s owner) and `b` (on `n.other`).
@@ -808,7 +906,7 @@ mod tests {
         let (left, right) = scene(23.0);
         let mut ws = MatchWorkspace::new();
         let mut out = Vec::new();
-        ws.match_segments(&left, &right, &MatchParams::default(), &mut out);
+        ws.match_segments(&left, &right, None, &MatchParams::default(), &mut out);
         assert_eq!(out.len(), left.len());
         for m in &out {
             assert_eq!(m.left, m.right);
@@ -822,7 +920,7 @@ mod tests {
         let (left, right) = scene(80.0);
         let mut ws = MatchWorkspace::new();
         let mut out = Vec::new();
-        ws.match_segments(&left, &right, &MatchParams::default(), &mut out);
+        ws.match_segments(&left, &right, None, &MatchParams::default(), &mut out);
         assert!(out.is_empty());
     }
 

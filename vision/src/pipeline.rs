@@ -6,7 +6,7 @@ use crate::canny::{CannyParams, CannyWorkspace};
 use crate::chains::Chains;
 use crate::error::VisionError;
 use crate::gray::{GrayView, PixelRect};
-use crate::matching::{MatchParams, MatchWorkspace, SegmentMatch};
+use crate::matching::{ImagePatch, MatchParams, MatchWorkspace, SegmentMatch, StereoImages};
 use crate::reconstruct::{back_project_matches, RectifiedGeometry, Segment3d};
 use crate::roi::{local_windows, LocalParams, LocalRegion, LocalWindows};
 use crate::segments::{Segment, SegmentParams, SegmentWorkspace};
@@ -95,6 +95,7 @@ pub struct PipelineOutput {
 #[derive(Debug, Default, Clone)]
 pub struct StereoPipeline {
     canny: CannyWorkspace,
+    canny_right: CannyWorkspace,
     chains: Chains,
     segments: SegmentWorkspace,
     matcher: MatchWorkspace,
@@ -190,16 +191,16 @@ impl StereoPipeline {
         let start = Instant::now();
         let mut timings = StageTimings::default();
         let out = &mut self.output;
-        for (view, segments) in [
-            (left, &mut out.left_segments),
-            (right, &mut out.right_segments),
+        for (view, canny, segments) in [
+            (left, &mut self.canny, &mut out.left_segments),
+            (right, &mut self.canny_right, &mut out.right_segments),
         ] {
             let t = Instant::now();
-            self.canny.detect(view, &params.canny)?;
+            canny.detect(view, &params.canny)?;
             timings.edges += t.elapsed();
             let t = Instant::now();
             self.chains.link(
-                self.canny.edges(),
+                canny.edges(),
                 view.width(),
                 view.height(),
                 params.segments.min_chain_pixels,
@@ -208,7 +209,7 @@ impl StereoPipeline {
             let t = Instant::now();
             self.segments.extract(
                 &self.chains,
-                &self.canny,
+                canny,
                 view.origin_px(),
                 &params.segments,
                 segments,
@@ -216,9 +217,14 @@ impl StereoPipeline {
             timings.segments += t.elapsed();
         }
         let t = Instant::now();
+        let images = StereoImages {
+            left: patch(&self.canny, left),
+            right: patch(&self.canny_right, right),
+        };
         self.matcher.match_segments(
             &out.left_segments,
             &out.right_segments,
+            Some(&images),
             &params.matching,
             &mut out.matches,
         );
@@ -239,6 +245,16 @@ impl StereoPipeline {
         timings.total = start.elapsed();
         out.timings = timings;
         Ok(())
+    }
+}
+
+/// The smoothed image held by `canny` for the view `v`.
+fn patch<'a>(canny: &'a CannyWorkspace, v: &GrayView<'_>) -> ImagePatch<'a> {
+    ImagePatch {
+        data: canny.smoothed(),
+        width: canny.width(),
+        height: canny.height(),
+        origin_px: v.origin_px(),
     }
 }
 
