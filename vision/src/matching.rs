@@ -67,9 +67,6 @@ pub struct MatchParams {
     pub min_seed_support: u32,
     /// Minimum number of neighbours supporting a propagated match.
     pub min_support: u32,
-    /// Ambiguity rejection: a match's support must be at least this times the support of the
-    /// runner-up candidate of its left segment and of its right segment (1 = off).
-    pub ambiguity_ratio: f32,
     /// Photometric validation: mean absolute difference (grey levels) between the smoothed
     /// left and right images on 4-px strips beside the segment, the right one shifted by the
     /// match's disparity; the better of the two sides of the edge counts (the other may be
@@ -106,7 +103,6 @@ impl Default for MatchParams {
             max_contrast_ratio: 2.5,
             min_seed_support: 2,
             min_support: 1,
-            ambiguity_ratio: 1.0,
             max_photometric_error: 6.0,
             left_right_check: true,
             match_horizontal: true,
@@ -197,6 +193,8 @@ struct Candidate {
     tight: bool,
     horizontal: bool,
     support: u32,
+    /// Rows of the right segment the match uses (all rows for nearly horizontal pairs).
+    rows: [f32; 2],
 }
 
 impl Candidate {
@@ -252,17 +250,26 @@ pub struct MatchWorkspace {
     neighbours: Vec<Neighbour>,
     neighbour_start: Vec<u32>,
     neighbour_pairs: Vec<(u32, Neighbour)>,
-    best_for_right: Vec<u32>,
     best_for_left: Vec<u32>,
-    second_support_left: Vec<u32>,
-    second_support_right: Vec<u32>,
+    by_right_start: Vec<u32>,
+    by_right: Vec<u32>,
+    right_fill: Vec<u32>,
+    right_taken: Vec<[[f32; 2]; MAX_PIECES_PER_RIGHT]>,
+    right_taken_len: Vec<u8>,
     left_used: Vec<bool>,
-    right_used: Vec<bool>,
     accepted_candidate: Vec<u32>,
     heap: BinaryHeap<Queued>,
 }
 
 const NONE: u32 = u32::MAX;
+
+/// How many left fragments may share one right segment (on disjoint rows).
+const MAX_PIECES_PER_RIGHT: usize = 4;
+
+/// Whether two row intervals overlap by more than one pixel.
+fn rows_overlap(a: [f32; 2], b: [f32; 2]) -> bool {
+    a[1].min(b[1]) - a[0].max(b[0]) > 1.0
+}
 
 impl MatchWorkspace {
     /// An empty workspace.
@@ -445,66 +452,85 @@ impl MatchWorkspace {
     fn best_candidates(&mut self, n_left: usize, n_right: usize) {
         self.best_for_left.clear();
         self.best_for_left.resize(n_left, NONE);
-        self.best_for_right.clear();
-        self.best_for_right.resize(n_right, NONE);
-        self.second_support_left.clear();
-        self.second_support_left.resize(n_left, 0);
-        self.second_support_right.clear();
-        self.second_support_right.resize(n_right, 0);
         for (k, c) in self.candidates.iter().enumerate() {
             if c.horizontal {
                 continue;
-            }
-            let bl = self.best_for_left[c.left as usize];
-            if bl != NONE {
-                let displaced = if c.better_than(&self.candidates[bl as usize]) {
-                    self.candidates[bl as usize].support
-                } else {
-                    c.support
-                };
-                let s = &mut self.second_support_left[c.left as usize];
-                *s = (*s).max(displaced);
-            }
-            let br = self.best_for_right[c.right as usize];
-            if br != NONE {
-                let displaced = if c.better_than(&self.candidates[br as usize]) {
-                    self.candidates[br as usize].support
-                } else {
-                    c.support
-                };
-                let s = &mut self.second_support_right[c.right as usize];
-                *s = (*s).max(displaced);
             }
             let bl = &mut self.best_for_left[c.left as usize];
             if *bl == NONE || c.better_than(&self.candidates[*bl as usize]) {
                 *bl = k as u32;
             }
-            let br = &mut self.best_for_right[c.right as usize];
-            if *br == NONE || c.better_than(&self.candidates[*br as usize]) {
-                *br = k as u32;
-            }
+        }
+        // Candidates grouped by right segment (counting sort).
+        self.by_right_start.clear();
+        self.by_right_start.resize(n_right + 1, 0);
+        for c in &self.candidates {
+            self.by_right_start[c.right as usize + 1] += 1;
+        }
+        for j in 0..n_right {
+            self.by_right_start[j + 1] += self.by_right_start[j];
+        }
+        self.by_right.clear();
+        self.by_right.resize(self.candidates.len(), 0);
+        self.right_fill.clear();
+        self.right_fill.extend_from_slice(&self.by_right_start[..n_right]);
+        for (k, c) in self.candidates.iter().enumerate() {
+            let slot = &mut self.right_fill[c.right as usize];
+            self.by_right[*slot as usize] = k as u32;
+            *slot += 1;
         }
     }
 
+    /// Left-right consistency: the candidate is the best of its left segment, and no other
+    /// left segment's candidate on the same rows of the same right segment is better.
     fn consistent(&self, k: usize, params: &MatchParams) -> bool {
         let c = &self.candidates[k];
         if !params.left_right_check || c.horizontal {
             return true;
         }
-        let support = c.support as f32;
-        self.best_for_left[c.left as usize] == k as u32
-            && self.best_for_right[c.right as usize] == k as u32
-            && support >= params.ambiguity_ratio * self.second_support_left[c.left as usize] as f32
-            && support
-                >= params.ambiguity_ratio * self.second_support_right[c.right as usize] as f32
+        if self.best_for_left[c.left as usize] != k as u32 {
+            return false;
+        }
+        let range = self.by_right_start[c.right as usize] as usize
+            ..self.by_right_start[c.right as usize + 1] as usize;
+        !self.by_right[range].iter().any(|&o| {
+            let other = &self.candidates[o as usize];
+            other.left != c.left
+                && !other.horizontal
+                && rows_overlap(other.rows, c.rows)
+                && other.better_than(c)
+        })
+    }
+
+    /// Whether the rows of `c` on its right segment are still free.
+    fn right_free(&self, c: &Candidate) -> bool {
+        let j = c.right as usize;
+        let n = self.right_taken_len[j] as usize;
+        if n >= MAX_PIECES_PER_RIGHT {
+            return false;
+        }
+        !self.right_taken[j][..n]
+            .iter()
+            .any(|&rows| rows_overlap(rows, c.rows))
+    }
+
+    fn take_right(&mut self, c: &Candidate) {
+        let j = c.right as usize;
+        let n = self.right_taken_len[j] as usize;
+        if n < MAX_PIECES_PER_RIGHT {
+            self.right_taken[j][n] = c.rows;
+            self.right_taken_len[j] += 1;
+        }
     }
 
     fn grow(&mut self, left: &[Segment], right: &[Segment], params: &MatchParams) {
         let (n_left, n_right) = (left.len(), right.len());
         self.left_used.clear();
         self.left_used.resize(n_left, false);
-        self.right_used.clear();
-        self.right_used.resize(n_right, false);
+        self.right_taken.clear();
+        self.right_taken.resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
+        self.right_taken_len.clear();
+        self.right_taken_len.resize(n_right, 0);
         self.accepted_candidate.clear();
         self.accepted_candidate.resize(n_left, NONE);
         self.heap.clear();
@@ -522,7 +548,7 @@ impl MatchWorkspace {
         while let Some(q) = self.heap.pop() {
             let k = q.candidate as usize;
             let cand = self.candidates[k];
-            if self.left_used[cand.left as usize] || self.right_used[cand.right as usize] {
+            if self.left_used[cand.left as usize] || !self.right_free(&cand) {
                 continue;
             }
             if !self.consistent(k, params) {
@@ -530,7 +556,7 @@ impl MatchWorkspace {
             }
 
             self.left_used[cand.left as usize] = true;
-            self.right_used[cand.right as usize] = true;
+            self.take_right(&cand);
             self.accepted_candidate[cand.left as usize] = k as u32;
             if cand.horizontal {
                 // Nearly horizontal matches carry an inherited disparity: no propagation.
@@ -546,7 +572,7 @@ impl MatchWorkspace {
                 let mut best_disparity = context_disparity;
                 for m in self.candidates_of(nb.other) {
                     let other = &self.candidates[m];
-                    if self.right_used[other.right as usize] {
+                    if !self.right_free(other) {
                         continue;
                     }
                     let measured = if other.horizontal {
@@ -772,6 +798,11 @@ fn evaluate_pair(
         tight,
         horizontal: l_horizontal,
         support: 0,
+        rows: if l_horizontal {
+            [f32::NEG_INFINITY, f32::INFINITY]
+        } else {
+            [l.start[1].max(r.start[1]), l.end[1].min(r.end[1])]
+        },
     })
 }
 
