@@ -17,7 +17,7 @@ impl MonoTime {
         self.0 as f64 * 1e-9
     }
     /// This time plus a duration (saturating).
-    pub fn add(self, d: Duration) -> MonoTime {
+    pub fn plus(self, d: Duration) -> MonoTime {
         MonoTime(self.0.saturating_add(d.as_nanos() as u64))
     }
     /// This time plus some nanoseconds (saturating).

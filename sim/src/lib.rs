@@ -1,1 +1,26 @@
-//! placeholder
+//! # videt-sim — the digital twin of the VIDET device
+//!
+//! A physics model of the wire-driven haptic device that implements the `videt-hal` traits, so the
+//! real runtime and the real control code run on it unchanged:
+//!
+//! - [`plant`]: three guide points in the `z = 0` plane, a thimble point mass, elastic
+//!   tension-only wires wound by motors through a worm gear onto pulleys; fixed-step integration
+//!   at >= 10 kHz inside;
+//! - [`operator`]: a virtual operator whose finger follows a scripted path through a
+//!   spring-damper hand, so it pushes into surfaces and slides along them as a person would;
+//! - [`twin`]: the plant behind the HAL — drives with quadrature encoders, strain-gauge tension
+//!   sensors with offset, gain error and seeded noise, an e-stop, recording vibrotactors, and a
+//!   clock that is either simulated (faster than real time, deterministic) or real time.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod operator;
+pub mod plant;
+pub mod twin;
+
+pub use operator::{VirtualOperator, Waypoint};
+pub use plant::{Plant, PlantParams};
+pub use twin::{ClockMode, SensorModel, Twin, TwinError};
+
+/// 3-vector of `f64`.
+pub type Vec3 = nalgebra::Vector3<f64>;

@@ -1,0 +1,217 @@
+//! Real-time process set-up and the system monotonic clock.
+//!
+//! Where the process lacks the rights (no `CAP_SYS_NICE`, a low `RLIMIT_MEMLOCK`), each step
+//! warns clearly and the run goes on degraded: the loop still runs, with worse latency.
+
+use std::io;
+
+use videt_hal::{Clock, MonoTime};
+
+/// `CLOCK_MONOTONIC` with absolute-time sleeps (`clock_nanosleep(TIMER_ABSTIME)`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SystemClock;
+
+impl Clock for SystemClock {
+    fn now(&self) -> MonoTime {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always exists on Linux.
+        unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+        MonoTime(ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64)
+    }
+
+    fn sleep_until(&mut self, deadline: MonoTime) {
+        let ts = libc::timespec {
+            tv_sec: (deadline.0 / 1_000_000_000) as libc::time_t,
+            tv_nsec: (deadline.0 % 1_000_000_000) as libc::c_long,
+        };
+        loop {
+            // SAFETY: `ts` is a valid timespec; a null remainder is allowed with TIMER_ABSTIME.
+            let rc = unsafe {
+                libc::clock_nanosleep(
+                    libc::CLOCK_MONOTONIC,
+                    libc::TIMER_ABSTIME,
+                    &ts,
+                    std::ptr::null_mut(),
+                )
+            };
+            if rc != libc::EINTR {
+                break;
+            }
+        }
+    }
+}
+
+/// What the real-time set-up achieved, for the log and the status.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RtReport {
+    /// Memory is locked.
+    pub memory_locked: bool,
+    /// The calling thread runs SCHED_FIFO.
+    pub fifo: bool,
+    /// The calling thread is pinned to the requested CPU.
+    pub pinned: bool,
+    /// Warnings, one per degraded step.
+    pub warnings: Vec<String>,
+}
+
+/// Lock current and future memory (`mlockall(MCL_CURRENT | MCL_FUTURE)`).
+pub fn lock_memory() -> io::Result<()> {
+    // SAFETY: plain syscall without pointers.
+    let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+    if rc == 0 {
+        Ok(())
+    } else {
+        Err(io::Error::last_os_error())
+    }
+}
+
+/// Touch `bytes` of stack so the pages are resident before the loop starts.
+#[inline(never)]
+pub fn prefault_stack(bytes: usize) {
+    const CHUNK: usize = 16 * 1024;
+    fn touch(remaining: usize) {
+        let mut buf = [0u8; CHUNK];
+        std::hint::black_box(&mut buf);
+        if remaining > CHUNK {
+            touch(remaining - CHUNK);
+        }
+    }
+    touch(bytes);
+}
+
+/// Make the calling thread SCHED_FIFO at `priority` (1..=99).
+pub fn set_fifo(priority: u8) -> Result<(), String> {
+    use thread_priority::unix::{
+        set_thread_priority_and_policy, thread_native_id, RealtimeThreadSchedulePolicy,
+        ThreadSchedulePolicy,
+    };
+    use thread_priority::{ThreadPriority, ThreadPriorityValue};
+    let value =
+        ThreadPriorityValue::try_from(priority).map_err(|e| format!("priority {priority}: {e}"))?;
+    set_thread_priority_and_policy(
+        thread_native_id(),
+        ThreadPriority::Crossplatform(value),
+        ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+    )
+    .map_err(|e| format!("{e:?}"))
+}
+
+/// Give the calling thread a lower real-time priority (the vision thread), or leave it
+/// SCHED_OTHER when `priority` is 0.
+pub fn set_background_priority(priority: u8) -> Option<String> {
+    if priority == 0 {
+        return None;
+    }
+    set_fifo(priority)
+        .err()
+        .map(|e| format!("vision thread stays SCHED_OTHER: SCHED_FIFO {priority} refused ({e})"))
+}
+
+/// Warnings about the machine's real-time fitness: the control CPU not isolated, the kernel not
+/// PREEMPT_RT.
+pub fn platform_warnings(control_cpu: Option<usize>) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let realtime_kernel = std::fs::read_to_string("/sys/kernel/realtime")
+        .is_ok_and(|s| s.trim() == "1")
+        || std::fs::read_to_string("/proc/sys/kernel/version")
+            .is_ok_and(|v| v.contains("PREEMPT_RT"));
+    if !realtime_kernel {
+        warnings.push(
+            "kernel is not PREEMPT_RT: expect occasional wake-up latencies of milliseconds; use a PREEMPT_RT kernel on the device".to_string(),
+        );
+    }
+    if let Some(cpu) = control_cpu {
+        let isolated =
+            std::fs::read_to_string("/sys/devices/system/cpu/isolated").unwrap_or_default();
+        if !cpu_list_contains(isolated.trim(), cpu) {
+            warnings.push(format!(
+                "control CPU {cpu} is not isolated (isolcpus/nohz_full): other tasks and interrupts share it"
+            ));
+        }
+    }
+    warnings
+}
+
+/// Whether a kernel CPU list such as `1,3-5` contains `cpu`.
+pub fn cpu_list_contains(list: &str, cpu: usize) -> bool {
+    list.split(',')
+        .filter(|p| !p.is_empty())
+        .any(|part| match part.split_once('-') {
+            Some((a, b)) => match (a.trim().parse::<usize>(), b.trim().parse::<usize>()) {
+                (Ok(a), Ok(b)) => (a..=b).contains(&cpu),
+                _ => false,
+            },
+            None => part.trim().parse::<usize>() == Ok(cpu),
+        })
+}
+
+/// Pin the calling thread to `cpu`.
+pub fn pin_to_cpu(cpu: usize) -> io::Result<()> {
+    // SAFETY: cpu_set_t is plain data; CPU_ZERO/CPU_SET only write inside it; 0 = this thread.
+    unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_ZERO(&mut set);
+        libc::CPU_SET(cpu, &mut set);
+        if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) == 0 {
+            Ok(())
+        } else {
+            Err(io::Error::last_os_error())
+        }
+    }
+}
+
+/// Set the calling (control) thread up for real time: FIFO priority, CPU pinning, a prefaulted
+/// stack. Each failure is a warning, never an error.
+pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
+    let mut report = RtReport::default();
+    match set_fifo(priority) {
+        Ok(()) => report.fifo = true,
+        Err(e) => report.warnings.push(format!(
+            "control thread stays SCHED_OTHER: SCHED_FIFO {priority} refused ({e}); grant CAP_SYS_NICE or LimitRTPRIO, latency will be worse"
+        )),
+    }
+    if let Some(cpu) = cpu {
+        let online = std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1);
+        if cpu >= online {
+            report.warnings.push(format!(
+                "control CPU {cpu} does not exist ({online} CPUs online); not pinned"
+            ));
+        } else {
+            match pin_to_cpu(cpu) {
+                Ok(()) => report.pinned = true,
+                Err(e) => report
+                    .warnings
+                    .push(format!("control thread not pinned to CPU {cpu}: {e}")),
+            }
+        }
+    }
+    prefault_stack(256 * 1024);
+    report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_lists() {
+        assert!(cpu_list_contains("1,3-5", 4));
+        assert!(cpu_list_contains("1,3-5", 1));
+        assert!(!cpu_list_contains("1,3-5", 2));
+        assert!(!cpu_list_contains("", 0));
+    }
+
+    #[test]
+    fn system_clock_is_monotonic_and_sleeps_to_the_deadline() {
+        let mut c = SystemClock;
+        let a = c.now();
+        let deadline = a.add_nanos(2_000_000);
+        c.sleep_until(deadline);
+        assert!(c.now() >= deadline);
+    }
+}
