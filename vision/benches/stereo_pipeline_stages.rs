@@ -44,7 +44,14 @@ fn stages(c: &mut Criterion) {
     canny.detect(&lv, &params.canny).unwrap();
     let mut chains = Chains::new();
     c.bench_function("chain_linking_640x480", |b| {
-        b.iter(|| chains.link(black_box(canny.edges()), w, h, params.segments.min_chain_pixels))
+        b.iter(|| {
+            chains.link(
+                black_box(canny.edges()),
+                w,
+                h,
+                params.segments.min_chain_pixels,
+            )
+        })
     });
 
     chains.link(canny.edges(), w, h, params.segments.min_chain_pixels);

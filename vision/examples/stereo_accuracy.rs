@@ -74,7 +74,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut best = [f64::INFINITY; 5];
             for _ in 0..30 {
                 let t = pipeline.run(&lv, &rv, None, &params)?.timings;
-                for (b, v) in best.iter_mut().zip([t.edges, t.chains, t.segments, t.matching, t.total]) {
+                for (b, v) in best
+                    .iter_mut()
+                    .zip([t.edges, t.chains, t.segments, t.matching, t.total])
+                {
                     *b = b.min(v.as_secs_f64() * 1e3);
                 }
             }
@@ -174,6 +177,7 @@ fn override_param(p: &mut VisionParams, key: &str, v: f64) -> Result<(), String>
         "matching.disparity_tolerance_px" => m.disparity_tolerance_px = v as f32,
         "matching.max_disparity_slope" => m.max_disparity_slope = v as f32,
         "matching.max_photometric_error" => m.max_photometric_error = v as f32,
+        "matching.max_neighbours" => m.max_neighbours = v as usize,
         "matching.max_intensity_diff" => m.max_intensity_diff = v as f32,
         "matching.max_contrast_ratio" => m.max_contrast_ratio = v as f32,
         "matching.min_seed_support" => m.min_seed_support = v as u32,

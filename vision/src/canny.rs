@@ -287,36 +287,47 @@ impl CannyWorkspace {
             let m_next = &self.magnitude[row + w..row + 2 * w];
             let gxr = &self.gx[row..row + w];
             let gyr = &self.gy[row..row + w];
-            for x in 1..w - 1 {
-                let m = m_cur[x];
-                if m <= low {
+            // Skip runs of 16 pixels below the low threshold with a vectorised maximum.
+            let mut x = 1;
+            while x < w - 1 {
+                let end = (x + 16).min(w - 1);
+                let run_max = m_cur[x..end].iter().fold(i16::MIN, |a, &b| a.max(b));
+                if run_max <= low {
+                    x = end;
                     continue;
                 }
-                let dx = gxr[x] as i32;
-                let dy = gyr[x] as i32;
-                let ax = dx.abs();
-                let ay = dy.abs() << 15;
-                let tg22x = ax * TG22;
-                let is_max = if ay < tg22x {
-                    m > m_cur[x - 1] && m >= m_cur[x + 1]
-                } else {
-                    let tg67x = tg22x + (ax << 16);
-                    if ay > tg67x {
-                        m > m_prev[x] && m >= m_next[x]
-                    } else if (dx ^ dy) < 0 {
-                        m > m_prev[x + 1] && m > m_next[x - 1]
-                    } else {
-                        m > m_prev[x - 1] && m > m_next[x + 1]
+                for x in x..end {
+                    let m = m_cur[x];
+                    if m <= low {
+                        continue;
                     }
-                };
-                if is_max {
-                    if m > high {
-                        out[x] = EDGE;
-                        self.stack.push((row + x) as u32);
+                    let dx = gxr[x] as i32;
+                    let dy = gyr[x] as i32;
+                    let ax = dx.abs();
+                    let ay = dy.abs() << 15;
+                    let tg22x = ax * TG22;
+                    let is_max = if ay < tg22x {
+                        m > m_cur[x - 1] && m >= m_cur[x + 1]
                     } else {
-                        out[x] = WEAK;
+                        let tg67x = tg22x + (ax << 16);
+                        if ay > tg67x {
+                            m > m_prev[x] && m >= m_next[x]
+                        } else if (dx ^ dy) < 0 {
+                            m > m_prev[x + 1] && m > m_next[x - 1]
+                        } else {
+                            m > m_prev[x - 1] && m > m_next[x + 1]
+                        }
+                    };
+                    if is_max {
+                        if m > high {
+                            out[x] = EDGE;
+                            self.stack.push((row + x) as u32);
+                        } else {
+                            out[x] = WEAK;
+                        }
                     }
                 }
+                x = end;
             }
         }
     }

@@ -62,29 +62,37 @@ impl Chains {
         let is_edge = |x: usize, y: usize| -> bool {
             x > 0 && y > 0 && x + 1 < width && y + 1 < height && edges[y * width + x] == EDGE
         };
-        // Pass 1: from curve ends.
-        for y in 1..height - 1 {
-            let row = &edges[y * width..(y + 1) * width];
-            for (x, &value) in row.iter().enumerate().take(width - 1).skip(1) {
-                if value != EDGE || self.visited[y * width + x] {
-                    continue;
-                }
-                let degree = NEIGHBOURS
-                    .iter()
-                    .filter(|&&(dx, dy)| {
-                        is_edge((x as i32 + dx) as usize, (y as i32 + dy) as usize)
-                    })
-                    .count();
-                if degree == 1 {
-                    self.walk_chain(edges, width, height, x, y, false, min_pixels);
-                }
-            }
-        }
-        // Pass 2: what is left (closed curves, junction remainders).
-        for y in 1..height - 1 {
-            for x in 1..width - 1 {
-                if edges[y * width + x] == EDGE && !self.visited[y * width + x] {
-                    self.walk_chain(edges, width, height, x, y, true, min_pixels);
+        // Pass 1: from curve ends; pass 2: what is left (closed curves, junction remainders).
+        for pass in 0..2 {
+            for y in 1..height - 1 {
+                let row = &edges[y * width..(y + 1) * width];
+                let mut x = 1;
+                while x < width - 1 {
+                    // Skip runs of 16 pixels without an edge.
+                    let end = (x + 16).min(width - 1);
+                    if !row[x..end].iter().any(|&v| v == EDGE) {
+                        x = end;
+                        continue;
+                    }
+                    for x in x..end {
+                        if row[x] != EDGE || self.visited[y * width + x] {
+                            continue;
+                        }
+                        if pass == 0 {
+                            let degree = NEIGHBOURS
+                                .iter()
+                                .filter(|&&(dx, dy)| {
+                                    is_edge((x as i32 + dx) as usize, (y as i32 + dy) as usize)
+                                })
+                                .count();
+                            if degree == 1 {
+                                self.walk_chain(edges, width, height, x, y, false, min_pixels);
+                            }
+                        } else {
+                            self.walk_chain(edges, width, height, x, y, true, min_pixels);
+                        }
+                    }
+                    x = end;
                 }
             }
         }

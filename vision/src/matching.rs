@@ -52,6 +52,8 @@ pub struct MatchParams {
     pub propagate_min_length_ratio: f32,
     /// Left segments closer than this (closest points) are neighbours, pixels.
     pub neighbourhood_radius_px: f32,
+    /// At most this many closest neighbours are kept per segment.
+    pub max_neighbours: usize,
     /// Continuity: allowed disparity change per pixel of distance between neighbours.
     pub disparity_gradient_limit: f32,
     /// Continuity: allowed disparity change at zero distance, pixels.
@@ -96,6 +98,7 @@ impl Default for MatchParams {
             propagate_max_angle_diff_deg: 20.0,
             propagate_min_length_ratio: 0.4,
             neighbourhood_radius_px: 70.0,
+            max_neighbours: 24,
             disparity_gradient_limit: 0.3,
             disparity_tolerance_px: 1.5,
             max_disparity_slope: 0.3,
@@ -195,6 +198,8 @@ struct Candidate {
     support: u32,
     /// Rows of the right segment the match uses (all rows for nearly horizontal pairs).
     rows: [f32; 2],
+    /// Left start row, left start column, right start column: the final tie-break.
+    position: [f32; 3],
 }
 
 impl Candidate {
@@ -203,8 +208,18 @@ impl Candidate {
         self.disparity[0] + t * (self.disparity[1] - self.disparity[0])
     }
 
+    /// Ranking: more support, then lower cost, then position (independent of list order).
     fn better_than(&self, other: &Candidate) -> bool {
-        (self.support, -self.cost) > (other.support, -other.cost)
+        self.rank_cmp(other) == Ordering::Greater
+    }
+
+    fn rank_cmp(&self, other: &Candidate) -> Ordering {
+        self.support
+            .cmp(&other.support)
+            .then_with(|| other.cost.total_cmp(&self.cost))
+            .then_with(|| other.position[0].total_cmp(&self.position[0]))
+            .then_with(|| other.position[1].total_cmp(&self.position[1]))
+            .then_with(|| other.position[2].total_cmp(&self.position[2]))
     }
 }
 
@@ -221,6 +236,7 @@ struct Neighbour {
 struct Queued {
     support: u32,
     cost: f32,
+    position: [f32; 3],
     candidate: u32,
 }
 
@@ -231,6 +247,9 @@ impl Ord for Queued {
         self.support
             .cmp(&other.support)
             .then_with(|| other.cost.total_cmp(&self.cost))
+            .then_with(|| other.position[0].total_cmp(&self.position[0]))
+            .then_with(|| other.position[1].total_cmp(&self.position[1]))
+            .then_with(|| other.position[2].total_cmp(&self.position[2]))
             .then_with(|| other.candidate.cmp(&self.candidate))
     }
 }
@@ -250,6 +269,7 @@ pub struct MatchWorkspace {
     neighbours: Vec<Neighbour>,
     neighbour_start: Vec<u32>,
     neighbour_pairs: Vec<(u32, Neighbour)>,
+    left_order: Vec<u32>,
     best_for_left: Vec<u32>,
     by_right_start: Vec<u32>,
     by_right: Vec<u32>,
@@ -362,14 +382,26 @@ impl MatchWorkspace {
         self.candidate_start.push(self.candidates.len() as u32);
     }
 
+    /// Neighbours of each left segment: the `max_neighbours` closest segments within the
+    /// radius (ties broken by position, so that the result does not depend on the order of
+    /// the segments).
     fn build_neighbours(&mut self, left: &[Segment], params: &MatchParams) {
         let radius = params.neighbourhood_radius_px;
         self.neighbour_pairs.clear();
-        for i in 0..left.len() {
-            let a = &left[i];
+        self.left_order.clear();
+        self.left_order.extend(0..left.len() as u32);
+        self.left_order.sort_unstable_by(|&a, &b| {
+            left[a as usize].start[1].total_cmp(&left[b as usize].start[1])
+        });
+        for (oi, &i) in self.left_order.iter().enumerate() {
+            let a = &left[i as usize];
             let (ax0, ax1) = min_max(a.start[0], a.end[0]);
-            for (j, b) in left.iter().enumerate().skip(i + 1) {
-                if b.start[1] > a.end[1] + radius || b.end[1] < a.start[1] - radius {
+            for &j in &self.left_order[oi + 1..] {
+                let b = &left[j as usize];
+                if b.start[1] > a.end[1] + radius {
+                    break;
+                }
+                if b.end[1] < a.start[1] - radius {
                     continue;
                 }
                 let (bx0, bx1) = min_max(b.start[0], b.end[0]);
@@ -379,18 +411,18 @@ impl MatchWorkspace {
                 let (d, ta, tb) = segment_distance(a, b);
                 if d <= radius {
                     self.neighbour_pairs.push((
-                        i as u32,
+                        i,
                         Neighbour {
-                            other: j as u32,
+                            other: j,
                             t_self: ta,
                             t_other: tb,
                             distance: d,
                         },
                     ));
                     self.neighbour_pairs.push((
-                        j as u32,
+                        j,
                         Neighbour {
-                            other: i as u32,
+                            other: i,
                             t_self: tb,
                             t_other: ta,
                             distance: d,
@@ -399,19 +431,60 @@ impl MatchWorkspace {
                 }
             }
         }
-        self.neighbour_pairs
-            .sort_unstable_by_key(|p| (p.0, p.1.other));
-        self.neighbours.clear();
+        // Group by owner (counting sort), keep the closest ones.
+        let n = left.len();
         self.neighbour_start.clear();
-        let mut k = 0;
-        for i in 0..left.len() as u32 {
-            self.neighbour_start.push(self.neighbours.len() as u32);
-            while k < self.neighbour_pairs.len() && self.neighbour_pairs[k].0 == i {
-                self.neighbours.push(self.neighbour_pairs[k].1);
-                k += 1;
-            }
+        self.neighbour_start.resize(n + 1, 0);
+        for p in &self.neighbour_pairs {
+            self.neighbour_start[p.0 as usize + 1] += 1;
         }
-        self.neighbour_start.push(self.neighbours.len() as u32);
+        for i in 0..n {
+            self.neighbour_start[i + 1] += self.neighbour_start[i];
+        }
+        self.neighbours.clear();
+        self.neighbours.resize(
+            self.neighbour_pairs.len(),
+            Neighbour {
+                other: 0,
+                t_self: 0.0,
+                t_other: 0.0,
+                distance: 0.0,
+            },
+        );
+        self.right_fill.clear();
+        self.right_fill
+            .extend_from_slice(&self.neighbour_start[..n]);
+        for p in &self.neighbour_pairs {
+            let slot = &mut self.right_fill[p.0 as usize];
+            self.neighbours[*slot as usize] = p.1;
+            *slot += 1;
+        }
+        // Compact: keep at most `max_neighbours` per owner.
+        let keep = params.max_neighbours;
+        let mut write = 0usize;
+        for i in 0..n {
+            let (s0, s1) = (
+                self.neighbour_start[i] as usize,
+                self.neighbour_start[i + 1] as usize,
+            );
+            let group = &mut self.neighbours[s0..s1];
+            let position = |nb: &Neighbour| {
+                let o = &left[nb.other as usize];
+                (nb.distance, o.start[1], o.start[0])
+            };
+            group.sort_unstable_by(|a, b| {
+                let (pa, pb) = (position(a), position(b));
+                pa.0.total_cmp(&pb.0)
+                    .then(pa.1.total_cmp(&pb.1))
+                    .then(pa.2.total_cmp(&pb.2))
+            });
+            let count = group.len().min(keep);
+            self.neighbours.copy_within(s0..s0 + count, write);
+            self.neighbour_start[i] = write as u32;
+            write += count;
+        }
+        self.neighbour_start[n] = write as u32;
+        self.neighbours.truncate(write);
     }
 
     fn candidates_of(&self, left: u32) -> std::ops::Range<usize> {
@@ -473,7 +546,8 @@ impl MatchWorkspace {
         self.by_right.clear();
         self.by_right.resize(self.candidates.len(), 0);
         self.right_fill.clear();
-        self.right_fill.extend_from_slice(&self.by_right_start[..n_right]);
+        self.right_fill
+            .extend_from_slice(&self.by_right_start[..n_right]);
         for (k, c) in self.candidates.iter().enumerate() {
             let slot = &mut self.right_fill[c.right as usize];
             self.by_right[*slot as usize] = k as u32;
@@ -528,7 +602,8 @@ impl MatchWorkspace {
         self.left_used.clear();
         self.left_used.resize(n_left, false);
         self.right_taken.clear();
-        self.right_taken.resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
+        self.right_taken
+            .resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
         self.right_taken_len.clear();
         self.right_taken_len.resize(n_right, 0);
         self.accepted_candidate.clear();
@@ -540,6 +615,7 @@ impl MatchWorkspace {
                 self.heap.push(Queued {
                     support: c.support,
                     cost: c.cost,
+                    position: c.position,
                     candidate: k as u32,
                 });
             }
@@ -605,6 +681,7 @@ impl MatchWorkspace {
                     self.heap.push(Queued {
                         support: other.support,
                         cost: other.cost,
+                        position: other.position,
                         candidate: m as u32,
                     });
                 }
@@ -798,6 +875,7 @@ fn evaluate_pair(
         tight,
         horizontal: l_horizontal,
         support: 0,
+        position: [l.start[1], l.start[0], r.start[0]],
         rows: if l_horizontal {
             [f32::NEG_INFINITY, f32::INFINITY]
         } else {

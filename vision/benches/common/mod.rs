@@ -8,7 +8,9 @@ use image::{imageops::FilterType, GrayImage};
 pub fn vga_pair() -> (GrayImage, GrayImage) {
     if let Some(dir) = videt_testdata::data_dir("stereo/teddy") {
         let load = |name: &str| {
-            let img = image::open(dir.join(name)).expect("readable bench image").to_luma8();
+            let img = image::open(dir.join(name))
+                .expect("readable bench image")
+                .to_luma8();
             image::imageops::resize(&img, 640, 480, FilterType::Triangle)
         };
         return (load("left.ppm"), load("right.ppm"));
