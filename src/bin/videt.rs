@@ -25,6 +25,8 @@ enum Command {
     Service(tool::service::ServiceArgs),
     /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
     BenchRt(tool::bench_rt::BenchRtArgs),
+    /// Stereo pipeline on a rectified pair: segments, matches, 3D segments, overlays.
+    Vision(tool::vision::VisionArgs),
 }
 
 fn main() -> ExitCode {
@@ -34,6 +36,7 @@ fn main() -> ExitCode {
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),
+        Command::Vision(a) => tool::vision::run(a),
     };
     match result {
         Ok(code) => code,

@@ -5,6 +5,7 @@ pub mod bench_rt;
 pub mod config;
 pub mod log;
 pub mod service;
+pub mod vision;
 
 /// The error a subcommand reports to the user (printed as `videt: <message>`).
 pub type ToolError = Box<dyn std::error::Error + Send + Sync>;

@@ -8,6 +8,7 @@ pub mod chains;
 pub mod error;
 pub mod evaluation;
 pub mod gray;
+pub mod io;
 pub mod matching;
 pub mod pipeline;
 pub mod reconstruct;
