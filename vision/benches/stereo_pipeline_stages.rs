@@ -111,6 +111,45 @@ fn stages(c: &mut Criterion) {
                 .len()
         })
     });
+    // Per-call medians: robust to other processes preempting the bench on a shared machine.
+    let mut medians = Vec::new();
+    medians.push((
+        "canny_640x480 (one image)",
+        per_call_median_ms(|| canny.detect(&lv, &params.canny).unwrap()),
+    ));
+    canny.detect(&lv, &params.canny).unwrap();
+    medians.push((
+        "chain_linking_640x480",
+        per_call_median_ms(|| chains.link(canny.edges(), w, h, params.segments.min_chain_pixels)),
+    ));
+    medians.push((
+        "segment_approximation_640x480",
+        per_call_median_ms(|| {
+            segments_ws.extract(&chains, &canny, (0, 0), &params.segments, &mut segments)
+        }),
+    ));
+    medians.push((
+        "whole_pipeline_640x480",
+        per_call_median_ms(|| {
+            pipeline.run(&lv, &rv, Some(&g), &params).unwrap();
+        }),
+    ));
+    let stage = pipeline.output().timings;
+    medians.push((
+        "  of which matching (last run)",
+        stage.matching.as_secs_f64() * 1e3,
+    ));
+    medians.push((
+        "local_region_100x100",
+        per_call_median_ms(|| {
+            pipeline
+                .run_local(&lv, &rv, Some(&g), &params, &region)
+                .unwrap();
+        }),
+    ));
+    for (name, ms) in medians {
+        eprintln!("per-call median {name:<34} {ms:8.3} ms");
+    }
     let out = pipeline.run(&lv, &rv, Some(&g), &params).unwrap();
     eprintln!(
         "640x480 pair: {} left / {} right segments, {} matches, {} 3D segments",
@@ -119,6 +158,22 @@ fn stages(c: &mut Criterion) {
         out.matches.len(),
         out.segments_3d.len()
     );
+}
+
+/// Median of 200 single calls after 20 warm-up calls, milliseconds.
+fn per_call_median_ms(mut f: impl FnMut()) -> f64 {
+    for _ in 0..20 {
+        f();
+    }
+    let mut times: Vec<f64> = (0..200)
+        .map(|_| {
+            let t = std::time::Instant::now();
+            f();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[100]
 }
 
 criterion_group!(benches, stages);
