@@ -97,7 +97,7 @@ impl Default for MatchParams {
             predict_min_length_px: 20.0,
             propagate_max_angle_diff_deg: 20.0,
             propagate_min_length_ratio: 0.4,
-            neighbourhood_radius_px: 70.0,
+            neighbourhood_radius_px: 50.0,
             max_neighbours: 24,
             disparity_gradient_limit: 0.3,
             disparity_tolerance_px: 1.5,
@@ -227,6 +227,8 @@ impl Candidate {
 #[derive(Debug, Clone, Copy)]
 struct Neighbour {
     other: u32,
+    /// Start point of the other segment (order-independent tie-break).
+    other_start: [f32; 2],
     t_self: f32,
     t_other: f32,
     distance: f32,
@@ -388,8 +390,13 @@ impl MatchWorkspace {
     fn build_neighbours(&mut self, left: &[Segment], params: &MatchParams) {
         let radius = params.neighbourhood_radius_px;
         self.neighbour_pairs.clear();
+        // Segments without candidates neither support nor receive matches: leave them out.
         self.left_order.clear();
-        self.left_order.extend(0..left.len() as u32);
+        self.left_order.extend(
+            (0..left.len() as u32).filter(|&i| {
+                self.candidate_start[i as usize] < self.candidate_start[i as usize + 1]
+            }),
+        );
         self.left_order.sort_unstable_by(|&a, &b| {
             left[a as usize].start[1].total_cmp(&left[b as usize].start[1])
         });
@@ -414,6 +421,7 @@ impl MatchWorkspace {
                         i,
                         Neighbour {
                             other: j,
+                            other_start: b.start,
                             t_self: ta,
                             t_other: tb,
                             distance: d,
@@ -423,6 +431,7 @@ impl MatchWorkspace {
                         j,
                         Neighbour {
                             other: i,
+                            other_start: a.start,
                             t_self: tb,
                             t_other: ta,
                             distance: d,
@@ -446,6 +455,7 @@ impl MatchWorkspace {
             self.neighbour_pairs.len(),
             Neighbour {
                 other: 0,
+                other_start: [0.0; 2],
                 t_self: 0.0,
                 t_other: 0.0,
                 distance: 0.0,
@@ -468,17 +478,17 @@ impl MatchWorkspace {
                 self.neighbour_start[i + 1] as usize,
             );
             let group = &mut self.neighbours[s0..s1];
-            let position = |nb: &Neighbour| {
-                let o = &left[nb.other as usize];
-                (nb.distance, o.start[1], o.start[0])
+            let order = |a: &Neighbour, b: &Neighbour| {
+                a.distance
+                    .total_cmp(&b.distance)
+                    .then(a.other_start[1].total_cmp(&b.other_start[1]))
+                    .then(a.other_start[0].total_cmp(&b.other_start[0]))
             };
-            group.sort_unstable_by(|a, b| {
-                let (pa, pb) = (position(a), position(b));
-                pa.0.total_cmp(&pb.0)
-                    .then(pa.1.total_cmp(&pb.1))
-                    .then(pa.2.total_cmp(&pb.2))
-            });
+            if group.len() > keep {
+                group.select_nth_unstable_by(keep, order);
+            }
             let count = group.len().min(keep);
+            group[..count].sort_unstable_by(order);
             self.neighbours.copy_within(s0..s0 + count, write);
             self.neighbour_start[i] = write as u32;
             write += count;
@@ -788,6 +798,12 @@ fn evaluate_pair(
     params: &MatchParams,
 ) -> Option<Candidate> {
     if l.polarity != r.polarity {
+        return None;
+    }
+    // Cheap disparity-range test on the column extents before anything else.
+    let (lx0, lx1) = min_max(l.start[0], l.end[0]);
+    let (rx0, rx1) = min_max(r.start[0], r.end[0]);
+    if lx0 - rx1 > params.disparity_max_px + 1.0 || lx1 - rx0 < params.disparity_min_px - 1.0 {
         return None;
     }
     let contrast_ratio = l.contrast.max(r.contrast) / l.contrast.min(r.contrast).max(1e-3);
