@@ -70,7 +70,7 @@ impl Chains {
                 while x < width - 1 {
                     // Skip runs of 16 pixels without an edge.
                     let end = (x + 16).min(width - 1);
-                    if !row[x..end].contains(&EDGE) {
+                    if row[x..end].iter().fold(0u8, |acc, &v| acc | v) & EDGE == 0 {
                         x = end;
                         continue;
                     }

@@ -197,24 +197,33 @@ fn split_chain(
 
 /// Index and distance of the pixel of `points[a..=b]` farthest from the chord.
 fn max_deviation(points: &[[u16; 2]], a: usize, b: usize) -> (usize, f32) {
-    let (ax, ay) = (points[a][0] as f32, points[a][1] as f32);
-    let (dx, dy) = (points[b][0] as f32 - ax, points[b][1] as f32 - ay);
-    let norm = (dx * dx + dy * dy).sqrt();
+    let (ax, ay) = (points[a][0] as i32, points[a][1] as i32);
+    let (dx, dy) = (points[b][0] as i32 - ax, points[b][1] as i32 - ay);
+    let norm = ((dx * dx + dy * dy) as f32).sqrt();
     let mut worst = a;
-    let mut worst_d = 0.0f32;
+    let mut worst_d = 0i32;
+    if dx == 0 && dy == 0 {
+        // Closed curve: farthest from the common endpoint.
+        for (i, p) in points.iter().enumerate().take(b + 1).skip(a) {
+            let (px, py) = (p[0] as i32 - ax, p[1] as i32 - ay);
+            let d = px * px + py * py;
+            if d > worst_d {
+                worst_d = d;
+                worst = i;
+            }
+        }
+        return (worst, (worst_d as f32).sqrt());
+    }
+    // |cross| is the distance times the chord length: compare it, divide once.
     for (i, p) in points.iter().enumerate().take(b + 1).skip(a) {
-        let (px, py) = (p[0] as f32 - ax, p[1] as f32 - ay);
-        let d = if norm > 1e-6 {
-            (dx * py - dy * px).abs() / norm
-        } else {
-            (px * px + py * py).sqrt()
-        };
+        let (px, py) = (p[0] as i32 - ax, p[1] as i32 - ay);
+        let d = (dx * py - dy * px).abs();
         if d > worst_d {
             worst_d = d;
             worst = i;
         }
     }
-    (worst, worst_d)
+    (worst, worst_d as f32 / norm)
 }
 
 /// Sub-pixel position of every chain pixel: the vertex of the parabola through the gradient
