@@ -3,26 +3,34 @@
 //!
 //! On rectified images corresponding segments overlap in their row extents (epipolar
 //! constraint). A candidate pair `(left i, right j)` must overlap enough in y, have the same
-//! gradient polarity, similar intensities on at least one side, a disparity within the allowed
-//! range and, depending on the stage, a tight or a weak agreement of orientation and length.
+//! gradient polarity, similar contrast and intensities on at least one side, a disparity within
+//! the allowed range that changes plausibly along the segment, agree in orientation and length
+//! (weak limits), and, when the smoothed images are given, look alike beside the edge once the
+//! right image is shifted by the pair's disparity (photometric check).
 //!
-//! 1. **Prediction**: pairs meeting the tight constraints are hypotheses.
-//! 2. **Propagation**: from the best-supported hypotheses, matches grow best-first to
-//!    neighbouring left segments whose candidates meet the weak constraints and the continuity
-//!    constraint (disparity difference at the closest points of the two neighbours bounded by a
-//!    disparity-gradient limit times their distance plus a tolerance).
-//! 3. **Validation**: a left or right segment is used once (uniqueness); a match is kept only
-//!    if it is the best-supported candidate of its right segment among the left segments and
-//!    of its left segment among the right ones (left-right consistency), and if it has the
-//!    required support.
+//! 1. **Prediction**: pairs that also meet the tight orientation and length limits and have
+//!    enough support (neighbouring left segments with a continuity-compatible candidate) are
+//!    the hypotheses that seed propagation.
+//! 2. **Propagation**: from the hypotheses, best first (support, then cost), matches grow to
+//!    neighbouring left segments (the closest ones within a radius) whose candidates meet the
+//!    continuity constraint: the disparities at the closest points of the two neighbours
+//!    differ by at most a tolerance plus a disparity-gradient limit times their distance.
+//! 3. **Validation**: uniqueness (a left segment matches once; a right segment is shared only
+//!    by left fragments on disjoint rows), left-right consistency (the pair is the best
+//!    candidate of its left segment, and no better candidate of another left segment claims the
+//!    same rows of its right segment), required support.
 //!
 //! Nearly horizontal segments lie along epipolar lines and their disparity is only fixed by
-//! their unstable endpoints: they are matched only during propagation, to a right segment on
-//! the same rows whose endpoint disparities agree with the matched neighbour's; they are
-//! flagged [`SegmentMatch::nearly_horizontal`] and never back-projected.
+//! their unstable endpoints: they are matched only by propagation from a matched neighbour, to
+//! a right segment on the same rows that lies on the left one once shifted by the neighbour's
+//! disparity and has an endpoint disparity agreeing with it (that endpoint disparity is the
+//! match's). They are flagged [`SegmentMatch::nearly_horizontal`] and never back-projected.
 //!
 //! A match's disparity is taken at the left segment's two endpoints: the right segment's line
 //! is intersected with the rows of the left endpoints.
+//!
+//! Every ranking ends with a tie-break on image position, so that the result does not depend
+//! on the order in which segments were extracted (a local run sees them in another order).
 
 use crate::error::VisionError;
 use crate::segments::Segment;
@@ -644,10 +652,6 @@ impl MatchWorkspace {
             self.left_used[cand.left as usize] = true;
             self.take_right(&cand);
             self.accepted_candidate[cand.left as usize] = k as u32;
-            if cand.horizontal {
-                // Nearly horizontal matches carry an inherited disparity: no propagation.
-                continue;
-            }
             for n in self.neighbours_of(cand.left) {
                 let nb = self.neighbours[n];
                 if self.left_used[nb.other as usize] {
@@ -658,7 +662,8 @@ impl MatchWorkspace {
                 let mut best_disparity = context_disparity;
                 for m in self.candidates_of(nb.other) {
                     let other = &self.candidates[m];
-                    if !self.right_free(other) {
+                    // A nearly horizontal match only vouches for other nearly horizontal ones.
+                    if !self.right_free(other) || (cand.horizontal && !other.horizontal) {
                         continue;
                     }
                     let measured = if other.horizontal {
