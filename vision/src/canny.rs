@@ -98,6 +98,7 @@ pub struct CannyWorkspace {
     gy: Vec<i16>,
     magnitude: Vec<i16>,
     edges: Vec<u8>,
+    subpixel: Vec<u8>,
     stack: Vec<u32>,
 }
 
@@ -137,6 +138,14 @@ impl CannyWorkspace {
         &self.magnitude[..self.width * self.height]
     }
 
+    /// Sub-pixel localisation of the edge pixels of the last image: for pixel `i` (valid
+    /// where [`Self::edges`] is [`EDGE`]), the step `(sx, sy)` of the quantised gradient
+    /// direction and the offset along it (pixels, within +-0.5) of the vertex of the parabola
+    /// through the magnitudes before, at and after the pixel.
+    pub fn subpixel_offset(&self, i: usize) -> ((i32, i32), f32) {
+        decode_subpixel(self.subpixel[i])
+    }
+
     /// The smoothed last image.
     pub fn smoothed(&self) -> &[u8] {
         &self.smoothed[..self.width * self.height]
@@ -159,6 +168,7 @@ impl CannyWorkspace {
         grow(&mut self.gy, n);
         grow(&mut self.magnitude, n);
         grow(&mut self.edges, n);
+        grow(&mut self.subpixel, n);
         if self.stack.capacity() < n / 4 {
             self.stack.reserve(n / 4);
         }
@@ -287,6 +297,7 @@ impl CannyWorkspace {
             let m_next = &self.magnitude[row + w..row + 2 * w];
             let gxr = &self.gx[row..row + w];
             let gyr = &self.gy[row..row + w];
+            let subpixel = &mut self.subpixel[row..row + w];
             // Skip runs of 16 pixels below the low threshold with a vectorised maximum.
             let mut x = 1;
             while x < w - 1 {
@@ -306,19 +317,25 @@ impl CannyWorkspace {
                     let ax = dx.abs();
                     let ay = dy.abs() << 15;
                     let tg22x = ax * TG22;
-                    let is_max = if ay < tg22x {
-                        m > m_cur[x - 1] && m >= m_cur[x + 1]
+                    // Neighbours before/after along the quantised gradient direction.
+                    let (code, before, after, is_max) = if ay < tg22x {
+                        let (b, a) = (m_cur[x - 1], m_cur[x + 1]);
+                        (0u8, b, a, m > b && m >= a)
                     } else {
                         let tg67x = tg22x + (ax << 16);
                         if ay > tg67x {
-                            m > m_prev[x] && m >= m_next[x]
+                            let (b, a) = (m_prev[x], m_next[x]);
+                            (1, b, a, m > b && m >= a)
                         } else if (dx ^ dy) < 0 {
-                            m > m_prev[x + 1] && m > m_next[x - 1]
+                            let (b, a) = (m_next[x - 1], m_prev[x + 1]);
+                            (2, b, a, m > a && m > b)
                         } else {
-                            m > m_prev[x - 1] && m > m_next[x + 1]
+                            let (b, a) = (m_prev[x - 1], m_next[x + 1]);
+                            (3, b, a, m > b && m > a)
                         }
                     };
                     if is_max {
+                        subpixel[x] = encode_subpixel(code, before as i32, m as i32, after as i32);
                         if m > high {
                             out[x] = EDGE;
                             self.stack.push((row + x) as u32);
@@ -356,6 +373,30 @@ impl CannyWorkspace {
             }
         }
     }
+}
+
+/// Packs the direction code (2 bits) and the parabola-vertex offset (6 bits, 1/62 px).
+fn encode_subpixel(code: u8, before: i32, at: i32, after: i32) -> u8 {
+    let denom = before - 2 * at + after;
+    let q = if denom < 0 {
+        // offset = 0.5 (before - after) / denom, in [-0.5, 0.5] at a maximum; q = 62 offset.
+        ((31 * (before - after)) as f32 / denom as f32)
+            .round()
+            .clamp(-31.0, 31.0) as i8
+    } else {
+        0
+    };
+    code | ((q as u8) << 2)
+}
+
+fn decode_subpixel(byte: u8) -> ((i32, i32), f32) {
+    let step = match byte & 3 {
+        0 => (1, 0),
+        1 => (0, 1),
+        2 => (1, -1),
+        _ => (1, 1),
+    };
+    (step, ((byte as i8) >> 2) as f32 / 62.0)
 }
 
 fn grow<T: Default + Clone>(buffer: &mut Vec<T>, len: usize) {

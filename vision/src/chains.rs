@@ -9,6 +9,7 @@ pub struct Chains {
     starts: Vec<u32>,
     visited: Vec<bool>,
     backward: Vec<[u16; 2]>,
+    edge_list: Vec<u32>,
 }
 
 /// Offsets of the 8 neighbours, 4-neighbours first so that thin curves are followed pixel by
@@ -59,40 +60,53 @@ impl Chains {
         if width < 3 || height < 3 {
             return;
         }
-        let is_edge = |x: usize, y: usize| -> bool {
-            x > 0 && y > 0 && x + 1 < width && y + 1 < height && edges[y * width + x] == EDGE
-        };
+        // The edge pixels in raster order (runs of 16 pixels without an edge are skipped with
+        // a vectorised OR).
+        self.edge_list.clear();
+        for y in 1..height - 1 {
+            let row = &edges[y * width..(y + 1) * width];
+            let mut x = 1;
+            while x < width - 1 {
+                let end = (x + 16).min(width - 1);
+                if row[x..end].iter().fold(0u8, |acc, &v| acc | v) & EDGE != 0 {
+                    for (xx, &v) in row.iter().enumerate().take(end).skip(x) {
+                        if v == EDGE {
+                            self.edge_list.push((y * width + xx) as u32);
+                        }
+                    }
+                }
+                x = end;
+            }
+        }
         // Pass 1: from curve ends; pass 2: what is left (closed curves, junction remainders).
+        let offsets = [
+            1isize,
+            width as isize,
+            -1,
+            -(width as isize),
+            width as isize + 1,
+            width as isize - 1,
+            -(width as isize) - 1,
+            -(width as isize) + 1,
+        ];
         for pass in 0..2 {
-            for y in 1..height - 1 {
-                let row = &edges[y * width..(y + 1) * width];
-                let mut x = 1;
-                while x < width - 1 {
-                    // Skip runs of 16 pixels without an edge.
-                    let end = (x + 16).min(width - 1);
-                    if row[x..end].iter().fold(0u8, |acc, &v| acc | v) & EDGE == 0 {
-                        x = end;
-                        continue;
+            for k in 0..self.edge_list.len() {
+                let i = self.edge_list[k] as usize;
+                if self.visited[i] {
+                    continue;
+                }
+                let (x, y) = (i % width, i / width);
+                if pass == 0 {
+                    // Edge pixels are at least one pixel inside the border.
+                    let degree = offsets
+                        .iter()
+                        .filter(|&&o| edges[i.wrapping_add_signed(o)] == EDGE)
+                        .count();
+                    if degree == 1 {
+                        self.walk_chain(edges, width, height, x, y, false, min_pixels);
                     }
-                    for x in x..end {
-                        if row[x] != EDGE || self.visited[y * width + x] {
-                            continue;
-                        }
-                        if pass == 0 {
-                            let degree = NEIGHBOURS
-                                .iter()
-                                .filter(|&&(dx, dy)| {
-                                    is_edge((x as i32 + dx) as usize, (y as i32 + dy) as usize)
-                                })
-                                .count();
-                            if degree == 1 {
-                                self.walk_chain(edges, width, height, x, y, false, min_pixels);
-                            }
-                        } else {
-                            self.walk_chain(edges, width, height, x, y, true, min_pixels);
-                        }
-                    }
-                    x = end;
+                } else {
+                    self.walk_chain(edges, width, height, x, y, true, min_pixels);
                 }
             }
         }

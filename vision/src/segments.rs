@@ -227,42 +227,14 @@ fn max_deviation(points: &[[u16; 2]], a: usize, b: usize) -> (usize, f32) {
 }
 
 /// Sub-pixel position of every chain pixel: the vertex of the parabola through the gradient
-/// magnitudes of the pixel and its two neighbours along the quantised gradient direction.
+/// magnitudes of the pixel and its two neighbours along the quantised gradient direction
+/// (computed during non-maximum suppression).
 fn subpixel_positions(points: &[[u16; 2]], canny: &CannyWorkspace, out: &mut Vec<[f32; 2]>) {
     out.clear();
     let w = canny.width();
-    let (gx, gy, mag) = (canny.gx(), canny.gy(), canny.magnitude());
     for p in points {
         let (x, y) = (p[0] as usize, p[1] as usize);
-        let i = y * w + x;
-        let (dx, dy) = (gx[i] as i32, gy[i] as i32);
-        let (ax, ay) = (dx.abs() as f32, dy.abs() as f32);
-        // Direction step (sx, sy) in pixels, as in non-maximum suppression.
-        let (sx, sy): (i32, i32) = if ay < 0.4142 * ax {
-            (1, 0)
-        } else if ay > 2.4142 * ax {
-            (0, 1)
-        } else if (dx ^ dy) < 0 {
-            (1, -1)
-        } else {
-            (1, 1)
-        };
-        let step = sy as isize * w as isize + sx as isize;
-        let (Some(i0), Some(i2)) = (i.checked_add_signed(-step), i.checked_add_signed(step)) else {
-            out.push([x as f32, y as f32]);
-            continue;
-        };
-        if i2 >= mag.len() {
-            out.push([x as f32, y as f32]);
-            continue;
-        }
-        let (m0, m1, m2) = (mag[i0] as f32, mag[i] as f32, mag[i2] as f32);
-        let denom = m0 - 2.0 * m1 + m2;
-        let offset = if denom < -1e-3 {
-            (0.5 * (m0 - m2) / denom).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        };
+        let ((sx, sy), offset) = canny.subpixel_offset(y * w + x);
         out.push([x as f32 + offset * sx as f32, y as f32 + offset * sy as f32]);
     }
 }
