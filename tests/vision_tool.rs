@@ -1,6 +1,6 @@
 //! `videt vision` on a real rectified pair: the files it writes are consistent (indices of
-//! matches point into segments.json, every 3D segment lies in front of the camera), and bad
-//! input gets a clear error.
+//! matches point into segments.json, every 3D segment lies in front of the camera); with a
+//! calibration, a real rig's pair is rectified and matched; bad input gets a clear error.
 
 use std::path::PathBuf;
 use videt::tool::vision::{run, VisionArgs};
@@ -15,6 +15,7 @@ fn args(left: PathBuf, right: PathBuf, out: PathBuf, roi: Option<[u32; 4]>) -> V
         baseline: Some(0.16),
         out,
         roi,
+        max_disparity: 64.0,
     }
 }
 
@@ -106,8 +107,42 @@ fn vision_tool_rejects_bad_images() {
         out.path().into(),
         None,
     );
-    calib.calib = Some("rig.json".into());
+    calib.calib = Some(out.path().join("no-such-rig.json"));
     calib.rectified = false;
     let e = run(&calib).unwrap_err().to_string();
-    assert!(e.contains("not available"), "{e}");
+    assert!(e.contains("no-such-rig.json"), "{e}");
+}
+
+#[test]
+fn vision_tool_rectifies_with_a_calibration() {
+    let Some(rig) = videt_testdata::data_dir("calib/chessboard") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let calib = dir.path().join("rig.json");
+    videt::tool::calibrate_stereo::run(&videt::tool::calibrate_stereo::CalibrateStereoArgs {
+        images: rig.clone(),
+        board: videt::tool::calibrate_stereo::parse_board("9x6").unwrap(),
+        square: 0.025,
+        out: calib.clone(),
+        alpha: 1.0,
+    })
+    .unwrap();
+    let mut a = args(
+        rig.join("left03.jpg"),
+        rig.join("right03.jpg"),
+        dir.path().join("out"),
+        None,
+    );
+    a.calib = Some(calib);
+    a.rectified = false;
+    a.focal = None;
+    a.baseline = None;
+    a.max_disparity = 250.0;
+    run(&a).unwrap();
+    let matches: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out/matches.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(matches["matches"].as_array().unwrap().len() > 20);
 }

@@ -8,7 +8,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
+use image::GrayImage;
+use videt_hal::GrayFrame;
+use videt_vision::calib::StereoCalibration;
 use videt_vision::io::{load_gray_image, write_results};
+use videt_vision::rectify::StereoRectifier;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
 use super::ToolResult;
@@ -22,7 +26,8 @@ pub struct VisionArgs {
     /// Right image.
     #[arg(long, value_name = "R.png")]
     pub right: PathBuf,
-    /// Stereo calibration of the rig (the images are then rectified first).
+    /// Stereo calibration of the rig (`videt calibrate-stereo`): the images are rectified
+    /// with it first, and the 3D geometry comes from its rectified projections.
     #[arg(long, value_name = "FILE", required_unless_present = "rectified")]
     pub calib: Option<PathBuf>,
     /// The images are already rectified; give the rectified focal length and the baseline.
@@ -40,6 +45,9 @@ pub struct VisionArgs {
     /// Process only this region of the left image (local mode): column, row, width, height.
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_roi)]
     pub roi: Option<[u32; 4]>,
+    /// Largest disparity searched, pixels (nearest depth = focal x baseline / this).
+    #[arg(long, value_name = "PX", default_value_t = 64.0)]
+    pub max_disparity: f32,
 }
 
 fn parse_roi(text: &str) -> Result<[u32; 4], String> {
@@ -61,17 +69,6 @@ fn parse_roi(text: &str) -> Result<[u32; 4], String> {
 
 /// Runs the subcommand.
 pub fn run(args: &VisionArgs) -> ToolResult {
-    if let Some(calib) = &args.calib {
-        return Err(format!(
-            "--calib {}: rectification from a stereo calibration is not available in this build; \
-             rectify the images first and use --rectified --focal PX --baseline M",
-            calib.display()
-        )
-        .into());
-    }
-    let (Some(focal_px), Some(baseline_m)) = (args.focal, args.baseline) else {
-        return Err("--rectified needs --focal PX and --baseline M".into());
-    };
     let left = load_gray_image(&args.left)?;
     let right = load_gray_image(&args.right)?;
     if left.dimensions() != right.dimensions() {
@@ -86,14 +83,24 @@ pub fn run(args: &VisionArgs) -> ToolResult {
         )
         .into());
     }
-    let geometry = RectifiedGeometry {
-        focal_px,
-        cx_px: (left.width() as f64 - 1.0) / 2.0,
-        cy_px: (left.height() as f64 - 1.0) / 2.0,
-        baseline_m,
+    let (left, right, geometry) = match &args.calib {
+        Some(path) => rectify_with_calibration(path, left, right)?,
+        None => {
+            let (Some(focal_px), Some(baseline_m)) = (args.focal, args.baseline) else {
+                return Err("--rectified needs --focal PX and --baseline M".into());
+            };
+            let geometry = RectifiedGeometry {
+                focal_px,
+                cx_px: (left.width() as f64 - 1.0) / 2.0,
+                cy_px: (left.height() as f64 - 1.0) / 2.0,
+                baseline_m,
+            };
+            (left, right, geometry)
+        }
     };
     geometry.validate()?;
-    let params = VisionParams::default();
+    let mut params = VisionParams::default();
+    params.matching.disparity_max_px = args.max_disparity;
     let lv = GrayView::from_image(&left)?;
     let rv = GrayView::from_image(&right)?;
     let mut pipeline = StereoPipeline::new();
@@ -135,6 +142,55 @@ pub fn run(args: &VisionArgs) -> ToolResult {
     // A closed pipe (`| head`) is not an error of the computation.
     let _ = std::io::Write::write_all(&mut std::io::stdout(), report.as_bytes());
     Ok(ExitCode::SUCCESS)
+}
+
+/// Rectifies the pair with the calibration's remap tables; the geometry comes from its P1, P2.
+fn rectify_with_calibration(
+    path: &std::path::Path,
+    left: GrayImage,
+    right: GrayImage,
+) -> Result<(GrayImage, GrayImage, RectifiedGeometry), super::ToolError> {
+    let calibration =
+        StereoCalibration::load(path).map_err(|e| format!("--calib {}: {e}", path.display()))?;
+    if left.dimensions() != (calibration.image_width, calibration.image_height) {
+        return Err(format!(
+            "the images are {}x{} but the calibration {} is for {}x{} images",
+            left.width(),
+            left.height(),
+            path.display(),
+            calibration.image_width,
+            calibration.image_height
+        )
+        .into());
+    }
+    let (p1, p2) = (calibration.p1(), calibration.p2());
+    if (p1[(0, 2)] - p2[(0, 2)]).abs() > 1e-6 {
+        return Err(format!(
+            "--calib {}: the rectified principal points differ (cx {} vs {}); \
+             rectify with zero disparity at infinity",
+            path.display(),
+            p1[(0, 2)],
+            p2[(0, 2)]
+        )
+        .into());
+    }
+    let geometry = RectifiedGeometry::from_projections(&p1, &p2)
+        .map_err(|e| format!("--calib {}: {e}", path.display()))?;
+    let rectifier = StereoRectifier::from_calibration(&calibration)
+        .map_err(|e| format!("--calib {}: {e}", path.display()))?;
+    let to_frame = |image: GrayImage| GrayFrame {
+        width: image.width(),
+        height: image.height(),
+        data: image.into_raw(),
+    };
+    let (mut rect_left, mut rect_right) = (GrayFrame::default(), GrayFrame::default());
+    rectifier.left.apply(&to_frame(left), &mut rect_left)?;
+    rectifier.right.apply(&to_frame(right), &mut rect_right)?;
+    let to_image = |frame: GrayFrame| {
+        GrayImage::from_raw(frame.width, frame.height, frame.data)
+            .ok_or("rectified frame has an inconsistent size")
+    };
+    Ok((to_image(rect_left)?, to_image(rect_right)?, geometry))
 }
 
 #[cfg(test)]

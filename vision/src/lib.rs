@@ -1,7 +1,10 @@
-//! VIDET vision: the stereo pipeline from rectified images to 3D line segments (paper section
-//! 3): Canny edges, polygonal approximation, Ayache's segment matching, back-projection.
+//! VIDET vision: camera calibration and rectification, and the stereo pipeline from rectified
+//! images to 3D line segments (paper section 3): Canny edges, polygonal approximation, Ayache's
+//! segment matching, back-projection.
 #![forbid(unsafe_code)]
-#![warn(missing_docs)]
+
+pub mod calib;
+pub mod rectify;
 
 pub mod canny;
 pub mod chains;
