@@ -44,7 +44,8 @@ pub struct LocalWindows {
     /// The region plus context, processed in the left image.
     pub left: PixelRect,
     /// The right-image search band: the left window's rows, its columns shifted by the
-    /// disparity range (plus the context margin).
+    /// disparity range, plus a quarter of the context margin on each side (right segments
+    /// crossing the band border keep most of their length).
     pub right: PixelRect,
 }
 
@@ -107,8 +108,8 @@ pub fn local_windows(
     .unwrap_or(roi);
     let dmin = disparity_min_px.floor() as i64;
     let dmax = disparity_max_px.ceil() as i64;
-    let rx0 = left.x as i64 - dmax - m;
-    let rx1 = (left.x + left.width) as i64 - dmin + m;
+    let rx0 = left.x as i64 - dmax - m / 4;
+    let rx1 = (left.x + left.width) as i64 - dmin + m / 4;
     let right = clip(
         rx0,
         left.y as i64,
@@ -161,9 +162,9 @@ mod tests {
         );
         assert_eq!(w.left.x, 118);
         assert_eq!(w.left.width, 164);
-        // Right band: from 118 - 64 - 32 to 282 + 32.
-        assert_eq!(w.right.x, 22);
-        assert_eq!(w.right.x + w.right.width, 314);
+        // Right band: from 118 - 64 - 8 to 282 + 8.
+        assert_eq!(w.right.x, 46);
+        assert_eq!(w.right.x + w.right.width, 290);
         assert_eq!((w.right.y, w.right.height), (w.left.y, w.left.height));
     }
 
