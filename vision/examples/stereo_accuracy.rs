@@ -26,8 +26,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         override_param(&mut params, key, value.parse()?)?;
     }
     println!(
-        "{:<8} {:>6} {:>6} {:>7} {:>8} {:>6} {:>6} {:>6} {:>8}",
-        "pair", "left", "right", "matched", "fraction", "horiz", "wrong", "uneval", "wrong%"
+        "{:<8} {:>6} {:>6} {:>7} {:>8} {:>6} {:>6} {:>6} {:>8} {:>12}",
+        "pair",
+        "left",
+        "right",
+        "matched",
+        "fraction",
+        "horiz",
+        "wrong",
+        "uneval",
+        "wrong%",
+        "horiz-d>1px"
     );
     for (name, scale) in PAIRS {
         let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
@@ -56,7 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &truth,
         );
         println!(
-            "{:<8} {:>6} {:>6} {:>7} {:>7.1}% {:>6} {:>6} {:>6} {:>7.2}%  ({:.2} ms)",
+            "{:<8} {:>6} {:>6} {:>7} {:>7.1}% {:>6} {:>6} {:>6} {:>7.2}% {:>12}  ({:.2} ms)",
             name,
             r.left_segments,
             r.right_segments,
@@ -66,6 +75,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             r.wrong,
             r.unevaluated,
             100.0 * r.wrong_fraction(),
+            r.horizontal_disparity_wrong,
             out.timings.total.as_secs_f64() * 1e3,
         );
         if std::env::args().any(|a| a == "--timing") {
