@@ -388,6 +388,36 @@ mod tests {
     }
 
     #[test]
+    fn tiny_and_border_regions_do_not_panic() {
+        let (w, h) = (120, 90);
+        let (l, r) = synthetic_pair(w, h, 4, 9);
+        let lv = GrayView::new(&l, w, h).unwrap();
+        let rv = GrayView::new(&r, w, h).unwrap();
+        let mut params = VisionParams::default();
+        let mut pipeline = StereoPipeline::new();
+        for margin in [0, 1, 32] {
+            params.local.context_margin_px = margin;
+            for (cx, cy, size) in [
+                (0.0, 0.0, 1.0),
+                (119.0, 89.0, 2.0),
+                (60.0, 45.0, 3.0),
+                (-3.0, 40.0, 8.0),
+                (60.0, 45.0, 500.0),
+            ] {
+                let region = LocalRegion {
+                    centre_px: [cx, cy],
+                    size_px: [size, size],
+                    velocity_px_per_frame: [30.0, -20.0],
+                };
+                match pipeline.run_local(&lv, &rv, None, &params, &region) {
+                    Ok(out) => assert!(out.local.is_some()),
+                    Err(e) => assert!(matches!(e, VisionError::RoiOutside { .. }), "{e}"),
+                }
+            }
+        }
+    }
+
+    #[test]
     fn mismatched_sizes_are_an_error() {
         let a = vec![0u8; 100];
         let b = vec![0u8; 120];
