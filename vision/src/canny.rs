@@ -377,12 +377,17 @@ impl CannyWorkspace {
 
 /// Packs the direction code (2 bits) and the parabola-vertex offset (6 bits, 1/62 px).
 fn encode_subpixel(code: u8, before: i32, at: i32, after: i32) -> u8 {
-    let denom = before - 2 * at + after;
-    let q = if denom < 0 {
-        // offset = 0.5 (before - after) / denom, in [-0.5, 0.5] at a maximum; q = 62 offset.
-        ((31 * (before - after)) as f32 / denom as f32)
-            .round()
-            .clamp(-31.0, 31.0) as i8
+    // offset = 0.5 (before - after) / (before - 2 at + after), within +-0.5 at a maximum;
+    // q = round(62 offset) in integer arithmetic.
+    let den = 2 * at - before - after;
+    let q = if den > 0 {
+        let n = 31 * (after - before);
+        let q = if n >= 0 {
+            (n + den / 2) / den
+        } else {
+            -((-n + den / 2) / den)
+        };
+        q.clamp(-31, 31) as i8
     } else {
         0
     };
