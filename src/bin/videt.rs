@@ -42,6 +42,8 @@ enum Command {
     BenchRt(tool::bench_rt::BenchRtArgs),
     /// Calibrate the stereo camera pair from chessboard image pairs and write the calibration.
     CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
+    /// Stereo pipeline on a rectified pair: segments, matches, 3D segments, overlays.
+    Vision(tool::vision::VisionArgs),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +60,7 @@ fn main() -> ExitCode {
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),
         Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
+        Command::Vision(a) => tool::vision::run(a),
     };
     match result {
         Ok(code) => code,

@@ -12,6 +12,7 @@ pub mod log;
 pub mod service;
 pub mod status;
 pub mod tension_calibrate;
+pub mod vision;
 pub mod wire;
 
 /// The error a subcommand reports to the user (printed as `videt: <message>`).

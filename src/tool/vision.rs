@@ -1,0 +1,207 @@
+//! `videt vision`: run the stereo pipeline on a rectified image pair and write the segments,
+//! the matches, the 3D segments and overlay images.
+//!
+//! `videt vision --left L.png --right R.png (--calib FILE | --rectified --focal PX --baseline M)
+//! --out DIR [--roi X,Y,W,H]`
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use image::GrayImage;
+use videt_hal::GrayFrame;
+use videt_vision::calib::StereoCalibration;
+use videt_vision::io::{load_gray_image, write_results};
+use videt_vision::rectify::StereoRectifier;
+use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
+
+use super::ToolResult;
+
+/// Run the stereo pipeline (edges, segments, matching, 3D) on an image pair.
+#[derive(Debug, Args)]
+pub struct VisionArgs {
+    /// Left image.
+    #[arg(long, value_name = "L.png")]
+    pub left: PathBuf,
+    /// Right image.
+    #[arg(long, value_name = "R.png")]
+    pub right: PathBuf,
+    /// Stereo calibration of the rig (`videt calibrate-stereo`): the images are rectified
+    /// with it first, and the 3D geometry comes from its rectified projections.
+    #[arg(long, value_name = "FILE", required_unless_present = "rectified")]
+    pub calib: Option<PathBuf>,
+    /// The images are already rectified; give the rectified focal length and the baseline.
+    #[arg(long, conflicts_with = "calib", requires_all = ["focal", "baseline"])]
+    pub rectified: bool,
+    /// Rectified focal length, pixels (with --rectified; principal point = image centre).
+    #[arg(long, value_name = "PX", requires = "rectified")]
+    pub focal: Option<f64>,
+    /// Baseline, metres (with --rectified).
+    #[arg(long, value_name = "M", requires = "rectified")]
+    pub baseline: Option<f64>,
+    /// Output directory.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Process only this region of the left image (local mode): column, row, width, height.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_roi)]
+    pub roi: Option<[u32; 4]>,
+    /// Largest disparity searched, pixels (nearest depth = focal x baseline / this).
+    #[arg(long, value_name = "PX", default_value_t = 64.0)]
+    pub max_disparity: f32,
+}
+
+fn parse_roi(text: &str) -> Result<[u32; 4], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != 4 {
+        return Err(format!("--roi wants X,Y,W,H (4 numbers), got {text:?}"));
+    }
+    let mut roi = [0u32; 4];
+    for (value, (part, name)) in roi.iter_mut().zip(parts.iter().zip(["X", "Y", "W", "H"])) {
+        *value = part
+            .parse()
+            .map_err(|_| format!("--roi {name} = {part:?} is not a non-negative integer"))?;
+    }
+    if roi[2] == 0 || roi[3] == 0 {
+        return Err(format!("--roi width and height must be > 0, got {text:?}"));
+    }
+    Ok(roi)
+}
+
+/// Runs the subcommand.
+pub fn run(args: &VisionArgs) -> ToolResult {
+    let left = load_gray_image(&args.left)?;
+    let right = load_gray_image(&args.right)?;
+    if left.dimensions() != right.dimensions() {
+        return Err(format!(
+            "{} is {}x{} but {} is {}x{}: a rectified pair must have equal sizes",
+            args.left.display(),
+            left.width(),
+            left.height(),
+            args.right.display(),
+            right.width(),
+            right.height()
+        )
+        .into());
+    }
+    let (left, right, geometry) = match &args.calib {
+        Some(path) => rectify_with_calibration(path, left, right)?,
+        None => {
+            let (Some(focal_px), Some(baseline_m)) = (args.focal, args.baseline) else {
+                return Err("--rectified needs --focal PX and --baseline M".into());
+            };
+            let geometry = RectifiedGeometry {
+                focal_px,
+                cx_px: (left.width() as f64 - 1.0) / 2.0,
+                cy_px: (left.height() as f64 - 1.0) / 2.0,
+                baseline_m,
+            };
+            (left, right, geometry)
+        }
+    };
+    geometry.validate()?;
+    let mut params = VisionParams::default();
+    params.matching.disparity_max_px = args.max_disparity;
+    let lv = GrayView::from_image(&left)?;
+    let rv = GrayView::from_image(&right)?;
+    let mut pipeline = StereoPipeline::new();
+    let output = match args.roi {
+        None => pipeline.run(&lv, &rv, Some(&geometry), &params)?,
+        Some([x, y, w, h]) => {
+            let region = LocalRegion {
+                centre_px: [x as f32 + w as f32 / 2.0, y as f32 + h as f32 / 2.0],
+                size_px: [w as f32, h as f32],
+                velocity_px_per_frame: [0.0, 0.0],
+            };
+            pipeline.run_local(&lv, &rv, Some(&geometry), &params, &region)?
+        }
+    };
+    write_results(&args.out, output, &left, &right)?;
+    let t = &output.timings;
+    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    let report = format!(
+        "segments: {} left, {} right; matches: {}; 3D segments: {}\n\
+         edges (Canny, both images)   {:8.3} ms\n\
+         chain linking                {:8.3} ms\n\
+         segment approximation        {:8.3} ms\n\
+         matching                     {:8.3} ms\n\
+         back-projection              {:8.3} ms\n\
+         total                        {:8.3} ms\n\
+         written to {}\n",
+        output.left_segments.len(),
+        output.right_segments.len(),
+        output.matches.len(),
+        output.segments_3d.len(),
+        ms(t.edges),
+        ms(t.chains),
+        ms(t.segments),
+        ms(t.matching),
+        ms(t.reconstruction),
+        ms(t.total),
+        args.out.display()
+    );
+    // A closed pipe (`| head`) is not an error of the computation.
+    let _ = std::io::Write::write_all(&mut std::io::stdout(), report.as_bytes());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Rectifies the pair with the calibration's remap tables; the geometry comes from its P1, P2.
+fn rectify_with_calibration(
+    path: &std::path::Path,
+    left: GrayImage,
+    right: GrayImage,
+) -> Result<(GrayImage, GrayImage, RectifiedGeometry), super::ToolError> {
+    let calibration =
+        StereoCalibration::load(path).map_err(|e| format!("--calib {}: {e}", path.display()))?;
+    if left.dimensions() != (calibration.image_width, calibration.image_height) {
+        return Err(format!(
+            "the images are {}x{} but the calibration {} is for {}x{} images",
+            left.width(),
+            left.height(),
+            path.display(),
+            calibration.image_width,
+            calibration.image_height
+        )
+        .into());
+    }
+    let (p1, p2) = (calibration.p1(), calibration.p2());
+    if (p1[(0, 2)] - p2[(0, 2)]).abs() > 1e-6 {
+        return Err(format!(
+            "--calib {}: the rectified principal points differ (cx {} vs {}); \
+             rectify with zero disparity at infinity",
+            path.display(),
+            p1[(0, 2)],
+            p2[(0, 2)]
+        )
+        .into());
+    }
+    let geometry = RectifiedGeometry::from_projections(&p1, &p2)
+        .map_err(|e| format!("--calib {}: {e}", path.display()))?;
+    let rectifier = StereoRectifier::from_calibration(&calibration)
+        .map_err(|e| format!("--calib {}: {e}", path.display()))?;
+    let to_frame = |image: GrayImage| GrayFrame {
+        width: image.width(),
+        height: image.height(),
+        data: image.into_raw(),
+    };
+    let (mut rect_left, mut rect_right) = (GrayFrame::default(), GrayFrame::default());
+    rectifier.left.apply(&to_frame(left), &mut rect_left)?;
+    rectifier.right.apply(&to_frame(right), &mut rect_right)?;
+    let to_image = |frame: GrayFrame| {
+        GrayImage::from_raw(frame.width, frame.height, frame.data)
+            .ok_or("rectified frame has an inconsistent size")
+    };
+    Ok((to_image(rect_left)?, to_image(rect_right)?, geometry))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roi_parsing() {
+        assert_eq!(parse_roi("10, 20,100,80").unwrap(), [10, 20, 100, 80]);
+        assert!(parse_roi("10,20,100").unwrap_err().contains("4 numbers"));
+        assert!(parse_roi("10,20,-1,5").unwrap_err().contains("W"));
+        assert!(parse_roi("1,2,0,5").unwrap_err().contains("> 0"));
+    }
+}

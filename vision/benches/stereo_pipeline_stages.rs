@@ -1,0 +1,180 @@
+//! Time of each stage of the stereo pipeline and of the whole pipeline (rectified images to 3D
+//! segments) on a 640x480 pair, and of a local run on a 100x100 region.
+//!
+//! `cargo bench -p videt-vision --bench stereo_pipeline_stages`
+
+mod common;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+use videt_vision::canny::CannyWorkspace;
+use videt_vision::chains::Chains;
+use videt_vision::matching::MatchWorkspace;
+use videt_vision::segments::SegmentWorkspace;
+use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
+
+fn geometry() -> RectifiedGeometry {
+    RectifiedGeometry {
+        focal_px: 600.0,
+        cx_px: 320.0,
+        cy_px: 240.0,
+        baseline_m: 0.12,
+    }
+}
+
+fn params() -> VisionParams {
+    let mut p = VisionParams::default();
+    // Teddy upscaled to 640 px has disparities up to ~80 px.
+    p.matching.disparity_max_px = 96.0;
+    p
+}
+
+fn stages(c: &mut Criterion) {
+    let (left, right) = common::vga_pair();
+    let lv = GrayView::from_image(&left).unwrap();
+    let rv = GrayView::from_image(&right).unwrap();
+    let params = params();
+    let (w, h) = (lv.width(), lv.height());
+
+    let mut canny = CannyWorkspace::new();
+    c.bench_function("canny_640x480", |b| {
+        b.iter(|| canny.detect(black_box(&lv), &params.canny).unwrap())
+    });
+
+    canny.detect(&lv, &params.canny).unwrap();
+    let mut chains = Chains::new();
+    c.bench_function("chain_linking_640x480", |b| {
+        b.iter(|| {
+            chains.link(
+                black_box(canny.edges()),
+                w,
+                h,
+                params.segments.min_chain_pixels,
+            )
+        })
+    });
+
+    chains.link(canny.edges(), w, h, params.segments.min_chain_pixels);
+    let mut segments_ws = SegmentWorkspace::new();
+    let mut segments = Vec::new();
+    c.bench_function("segment_approximation_640x480", |b| {
+        b.iter(|| {
+            segments_ws.extract(
+                black_box(&chains),
+                &canny,
+                (0, 0),
+                &params.segments,
+                &mut segments,
+            )
+        })
+    });
+
+    let mut pipeline = StereoPipeline::new();
+    pipeline.run(&lv, &rv, None, &params).unwrap();
+    let out = pipeline.output().clone();
+    let mut matcher = MatchWorkspace::new();
+    let mut matches = Vec::new();
+    c.bench_function("segment_matching_640x480_no_photometric", |b| {
+        b.iter(|| {
+            matcher.match_segments(
+                black_box(&out.left_segments),
+                &out.right_segments,
+                None,
+                &params.matching,
+                &mut matches,
+            )
+        })
+    });
+
+    let g = geometry();
+    c.bench_function("whole_pipeline_640x480", |b| {
+        b.iter(|| {
+            pipeline
+                .run(black_box(&lv), black_box(&rv), Some(&g), &params)
+                .unwrap()
+                .segments_3d
+                .len()
+        })
+    });
+
+    let region = LocalRegion {
+        centre_px: [400.0, 260.0],
+        size_px: [100.0, 100.0],
+        velocity_px_per_frame: [0.0, 0.0],
+    };
+    c.bench_function("local_region_100x100", |b| {
+        b.iter(|| {
+            pipeline
+                .run_local(black_box(&lv), black_box(&rv), Some(&g), &params, &region)
+                .unwrap()
+                .segments_3d
+                .len()
+        })
+    });
+    // Per-call medians: robust to other processes preempting the bench on a shared machine.
+    let mut medians = Vec::new();
+    medians.push((
+        "canny_640x480 (one image)",
+        per_call_median_ms(|| canny.detect(&lv, &params.canny).unwrap()),
+    ));
+    canny.detect(&lv, &params.canny).unwrap();
+    medians.push((
+        "chain_linking_640x480",
+        per_call_median_ms(|| chains.link(canny.edges(), w, h, params.segments.min_chain_pixels)),
+    ));
+    medians.push((
+        "segment_approximation_640x480",
+        per_call_median_ms(|| {
+            segments_ws.extract(&chains, &canny, (0, 0), &params.segments, &mut segments)
+        }),
+    ));
+    medians.push((
+        "whole_pipeline_640x480",
+        per_call_median_ms(|| {
+            pipeline.run(&lv, &rv, Some(&g), &params).unwrap();
+        }),
+    ));
+    let stage = pipeline.output().timings;
+    medians.push((
+        "  of which matching (last run)",
+        stage.matching.as_secs_f64() * 1e3,
+    ));
+    medians.push((
+        "local_region_100x100",
+        per_call_median_ms(|| {
+            pipeline
+                .run_local(&lv, &rv, Some(&g), &params, &region)
+                .unwrap();
+        }),
+    ));
+    for (name, ms) in medians {
+        eprintln!("per-call median {name:<34} {ms:8.3} ms");
+    }
+    let out = pipeline.run(&lv, &rv, Some(&g), &params).unwrap();
+    eprintln!(
+        "640x480 pair: {} left / {} right segments, {} matches, {} 3D segments",
+        out.left_segments.len(),
+        out.right_segments.len(),
+        out.matches.len(),
+        out.segments_3d.len()
+    );
+}
+
+/// Median of 200 single calls after 20 warm-up calls, milliseconds.
+fn per_call_median_ms(mut f: impl FnMut()) -> f64 {
+    for _ in 0..20 {
+        f();
+    }
+    let mut times: Vec<f64> = (0..200)
+        .map(|_| {
+            let t = std::time::Instant::now();
+            f();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[100]
+}
+
+criterion_group!(benches, stages);
+criterion_main!(benches);

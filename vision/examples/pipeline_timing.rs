@@ -1,0 +1,72 @@
+//! Runs one stage or the whole pipeline many times on the 640x480 bench pair (teddy upscaled)
+//! so that its CPU time can be read with `perf stat -e task-clock` on a shared machine, where
+//! wall-clock figures include time taken by other processes:
+//!
+//! `perf stat -e task-clock cargo run --release -p videt-vision --example pipeline_timing -- whole 500`
+//!
+//! Modes: `canny` (one image), `whole` (both images to 3D segments), `local` (100x100 region).
+//! Prints the wall-clock median as well.
+
+use image::imageops::FilterType;
+use std::time::Instant;
+use videt_vision::canny::CannyWorkspace;
+use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let mode = args.next().unwrap_or_else(|| "whole".into());
+    let iterations: usize = args.next().map(|n| n.parse()).transpose()?.unwrap_or(200);
+    let dir = videt_testdata::data_dir("stereo/teddy").ok_or("teddy pair not found")?;
+    let load = |name: &str| -> Result<image::GrayImage, Box<dyn std::error::Error>> {
+        let img = image::open(dir.join(name))?.to_luma8();
+        Ok(image::imageops::resize(
+            &img,
+            640,
+            480,
+            FilterType::Triangle,
+        ))
+    };
+    let (left, right) = (load("left.ppm")?, load("right.ppm")?);
+    let (lv, rv) = (GrayView::from_image(&left)?, GrayView::from_image(&right)?);
+    let mut params = VisionParams::default();
+    params.matching.disparity_max_px = 96.0;
+    let geometry = RectifiedGeometry {
+        focal_px: 600.0,
+        cx_px: 320.0,
+        cy_px: 240.0,
+        baseline_m: 0.12,
+    };
+    let region = LocalRegion {
+        centre_px: [400.0, 260.0],
+        size_px: [100.0, 100.0],
+        velocity_px_per_frame: [0.0, 0.0],
+    };
+    let mut pipeline = StereoPipeline::new();
+    let mut canny = CannyWorkspace::new();
+    let mut run = || -> Result<(), Box<dyn std::error::Error>> {
+        match mode.as_str() {
+            "canny" => canny.detect(&lv, &params.canny)?,
+            "whole" => {
+                pipeline.run(&lv, &rv, Some(&geometry), &params)?;
+            }
+            "local" => {
+                pipeline.run_local(&lv, &rv, Some(&geometry), &params, &region)?;
+            }
+            other => return Err(format!("unknown mode {other} (canny, whole, local)").into()),
+        }
+        Ok(())
+    };
+    let mut times = Vec::with_capacity(iterations);
+    for _ in 0..iterations {
+        let t = Instant::now();
+        run()?;
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(f64::total_cmp);
+    println!(
+        "{mode}: {iterations} runs, wall-clock median {:.3} ms, min {:.3} ms",
+        times[iterations / 2],
+        times[0]
+    );
+    Ok(())
+}

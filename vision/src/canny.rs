@@ -1,0 +1,522 @@
+//! Canny edge detection written for speed: integer separable Gaussian smoothing, Sobel
+//! gradients, non-maximum suppression and hysteresis, all in buffers of a [`CannyWorkspace`]
+//! that are allocated once per image size and reused frame after frame.
+//!
+//! The gradient magnitude is the L1 norm `|gx| + |gy|` of the 3x3 Sobel gradient of the smoothed
+//! image (the convention of OpenCV's `Canny` with `L2gradient = false`); thresholds are in those
+//! units (0..=2040 for 8-bit images).
+
+use crate::error::VisionError;
+use crate::gray::GrayView;
+
+/// Value of an edge pixel in [`CannyWorkspace::edges`].
+pub const EDGE: u8 = 2;
+/// Value of a pixel that survived non-maximum suppression but was not connected to a strong edge.
+const WEAK: u8 = 1;
+
+/// Parameters of the Canny detector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CannyParams {
+    /// Standard deviation of the Gaussian smoothing, pixels (0.5..=4). The kernel has
+    /// `2 * ceil(2 sigma) + 1` taps.
+    pub sigma_px: f32,
+    /// Hysteresis low threshold on the L1 Sobel magnitude.
+    pub low_threshold: u16,
+    /// Hysteresis high threshold on the L1 Sobel magnitude (>= low).
+    pub high_threshold: u16,
+}
+
+impl Default for CannyParams {
+    /// `sigma 1.0 px` (5-tap kernel), thresholds 40 / 100: a good default for indoor scenes at
+    /// VGA resolution.
+    fn default() -> Self {
+        Self {
+            sigma_px: 1.0,
+            low_threshold: 40,
+            high_threshold: 100,
+        }
+    }
+}
+
+impl CannyParams {
+    /// Checks the ranges documented on the fields.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        if !(0.5..=4.0).contains(&self.sigma_px) {
+            return Err(VisionError::Parameter {
+                name: "canny.sigma_px",
+                value: self.sigma_px as f64,
+                allowed: "0.5..=4.0",
+            });
+        }
+        if self.high_threshold < self.low_threshold || self.high_threshold > 2040 {
+            return Err(VisionError::Parameter {
+                name: "canny.high_threshold",
+                value: self.high_threshold as f64,
+                allowed: "low_threshold..=2040",
+            });
+        }
+        Ok(())
+    }
+
+    /// Radius of the smoothing kernel, pixels.
+    pub fn kernel_radius(&self) -> usize {
+        ((2.0 * self.sigma_px).ceil() as usize).max(1)
+    }
+}
+
+/// Integer Gaussian kernel with weights summing to 256.
+fn gaussian_kernel(sigma_px: f32, radius: usize) -> Vec<u16> {
+    let weights: Vec<f64> = (0..=2 * radius)
+        .map(|i| {
+            let d = i as f64 - radius as f64;
+            (-d * d / (2.0 * (sigma_px as f64).powi(2))).exp()
+        })
+        .collect();
+    let sum: f64 = weights.iter().sum();
+    let mut kernel: Vec<u16> = weights
+        .iter()
+        .map(|w| (w / sum * 256.0).round() as u16)
+        .collect();
+    let total: i32 = kernel.iter().map(|&k| k as i32).sum();
+    kernel[radius] = (kernel[radius] as i32 + 256 - total) as u16;
+    kernel
+}
+
+/// Reusable buffers of the Canny detector. Create once, call [`CannyWorkspace::detect`] per
+/// frame: no allocation happens once the buffers have grown to the frame size.
+#[derive(Debug, Default, Clone)]
+pub struct CannyWorkspace {
+    width: usize,
+    height: usize,
+    kernel: Vec<u16>,
+    kernel_sigma: f32,
+    padded_row: Vec<u8>,
+    accumulator: Vec<u16>,
+    horizontal: Vec<u8>,
+    smoothed: Vec<u8>,
+    gx: Vec<i16>,
+    gy: Vec<i16>,
+    magnitude: Vec<i16>,
+    edges: Vec<u8>,
+    subpixel: Vec<u8>,
+    stack: Vec<u32>,
+}
+
+impl CannyWorkspace {
+    /// An empty workspace; buffers grow on first use.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Width of the last processed image, pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height of the last processed image, pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Edge map of the last image, row-major: [`EDGE`] marks an edge pixel.
+    pub fn edges(&self) -> &[u8] {
+        &self.edges[..self.width * self.height]
+    }
+
+    /// Horizontal Sobel gradient of the smoothed last image.
+    pub fn gx(&self) -> &[i16] {
+        &self.gx[..self.width * self.height]
+    }
+
+    /// Vertical Sobel gradient of the smoothed last image.
+    pub fn gy(&self) -> &[i16] {
+        &self.gy[..self.width * self.height]
+    }
+
+    /// L1 gradient magnitude `|gx| + |gy|` of the last image.
+    pub fn magnitude(&self) -> &[i16] {
+        &self.magnitude[..self.width * self.height]
+    }
+
+    /// Sub-pixel localisation of the edge pixels of the last image: for pixel `i` (valid
+    /// where [`Self::edges`] is [`EDGE`]), the step `(sx, sy)` of the quantised gradient
+    /// direction and the offset along it (pixels, within +-0.5) of the vertex of the parabola
+    /// through the magnitudes before, at and after the pixel.
+    pub fn subpixel_offset(&self, i: usize) -> ((i32, i32), f32) {
+        decode_subpixel(self.subpixel[i])
+    }
+
+    /// The smoothed last image.
+    pub fn smoothed(&self) -> &[u8] {
+        &self.smoothed[..self.width * self.height]
+    }
+
+    fn prepare(&mut self, params: &CannyParams, width: usize, height: usize) {
+        let n = width * height;
+        let radius = params.kernel_radius();
+        if self.kernel.is_empty() || self.kernel_sigma != params.sigma_px {
+            self.kernel = gaussian_kernel(params.sigma_px, radius);
+            self.kernel_sigma = params.sigma_px;
+        }
+        self.width = width;
+        self.height = height;
+        grow(&mut self.padded_row, width + 2 * radius);
+        grow(&mut self.accumulator, width);
+        grow(&mut self.horizontal, n);
+        grow(&mut self.smoothed, n);
+        grow(&mut self.gx, n);
+        grow(&mut self.gy, n);
+        grow(&mut self.magnitude, n);
+        grow(&mut self.edges, n);
+        grow(&mut self.subpixel, n);
+        if self.stack.capacity() < n / 4 {
+            self.stack.reserve(n / 4);
+        }
+    }
+
+    /// Runs the detector on `image`; results are read through [`Self::edges`], [`Self::gx`],
+    /// [`Self::gy`] and [`Self::smoothed`].
+    pub fn detect(
+        &mut self,
+        image: &GrayView<'_>,
+        params: &CannyParams,
+    ) -> Result<(), VisionError> {
+        params.validate()?;
+        self.prepare(params, image.width(), image.height());
+        self.smooth(image);
+        self.sobel();
+        self.suppress_non_maxima(params);
+        self.hysteresis();
+        Ok(())
+    }
+
+    /// Smoothing only (Gaussian, replicated borders) into [`Self::smoothed`].
+    fn smooth(&mut self, image: &GrayView<'_>) {
+        let (w, h) = (self.width, self.height);
+        let radius = self.kernel.len() / 2;
+        let taps = self.kernel.len();
+        // Horizontal pass into `horizontal`.
+        for y in 0..h {
+            let src = image.row(y);
+            let pad = &mut self.padded_row[..w + 2 * radius];
+            pad[..radius].fill(src[0]);
+            pad[radius..radius + w].copy_from_slice(src);
+            pad[radius + w..].fill(src[w - 1]);
+            let acc = &mut self.accumulator[..w];
+            acc.fill(128);
+            for (t, &k) in self.kernel.iter().enumerate().take(taps) {
+                for (a, &p) in acc.iter_mut().zip(&pad[t..t + w]) {
+                    *a += k * p as u16;
+                }
+            }
+            let out = &mut self.horizontal[y * w..(y + 1) * w];
+            for (o, &a) in out.iter_mut().zip(acc.iter()) {
+                *o = (a >> 8) as u8;
+            }
+        }
+        // Vertical pass into `smoothed`.
+        for y in 0..h {
+            let acc = &mut self.accumulator[..w];
+            acc.fill(128);
+            for (t, &k) in self.kernel.iter().enumerate() {
+                let sy = (y + t).saturating_sub(radius).min(h - 1);
+                let src = &self.horizontal[sy * w..(sy + 1) * w];
+                for (a, &p) in acc.iter_mut().zip(src) {
+                    *a += k * p as u16;
+                }
+            }
+            let out = &mut self.smoothed[y * w..(y + 1) * w];
+            for (o, &a) in out.iter_mut().zip(acc.iter()) {
+                *o = (a >> 8) as u8;
+            }
+        }
+    }
+
+    /// 3x3 Sobel gradients and L1 magnitude; the first and last columns get zero gradient.
+    fn sobel(&mut self) {
+        let (w, h) = (self.width, self.height);
+        if w < 3 {
+            self.gx[..w * h].fill(0);
+            self.gy[..w * h].fill(0);
+            self.magnitude[..w * h].fill(0);
+            return;
+        }
+        let n = w - 2;
+        for y in 0..h {
+            let ya = y.saturating_sub(1);
+            let yc = (y + 1).min(h - 1);
+            let a = &self.smoothed[ya * w..ya * w + w];
+            let b = &self.smoothed[y * w..y * w + w];
+            let c = &self.smoothed[yc * w..yc * w + w];
+            let (a0, a1, a2) = (&a[..n], &a[1..n + 1], &a[2..n + 2]);
+            let (b0, b2) = (&b[..n], &b[2..n + 2]);
+            let (c0, c1, c2) = (&c[..n], &c[1..n + 1], &c[2..n + 2]);
+            let row = y * w;
+            let gx = &mut self.gx[row + 1..row + 1 + n];
+            let gy = &mut self.gy[row + 1..row + 1 + n];
+            let mag = &mut self.magnitude[row + 1..row + 1 + n];
+            for i in 0..n {
+                let dx = (a2[i] as i16 - a0[i] as i16)
+                    + 2 * (b2[i] as i16 - b0[i] as i16)
+                    + (c2[i] as i16 - c0[i] as i16);
+                let dy = (c0[i] as i16 + 2 * c1[i] as i16 + c2[i] as i16)
+                    - (a0[i] as i16 + 2 * a1[i] as i16 + a2[i] as i16);
+                gx[i] = dx;
+                gy[i] = dy;
+                mag[i] = dx.abs() + dy.abs();
+            }
+            for x in [0, w - 1] {
+                self.gx[row + x] = 0;
+                self.gy[row + x] = 0;
+                self.magnitude[row + x] = 0;
+            }
+        }
+    }
+
+    /// Non-maximum suppression along the quantised gradient direction; strong maxima are
+    /// marked [`EDGE`] and pushed on the hysteresis stack, weak ones marked `WEAK`.
+    fn suppress_non_maxima(&mut self, params: &CannyParams) {
+        let (w, h) = (self.width, self.height);
+        let low = params.low_threshold as i16;
+        let high = params.high_threshold as i16;
+        // tan(22.5 deg) in Q15.
+        const TG22: i32 = 13573;
+        self.stack.clear();
+        self.edges[..w].fill(0);
+        self.edges[(h - 1) * w..h * w].fill(0);
+        if w < 3 || h < 3 {
+            self.edges[..w * h].fill(0);
+            return;
+        }
+        for y in 1..h - 1 {
+            let row = y * w;
+            let out = &mut self.edges[row..row + w];
+            out.fill(0);
+            let m_prev = &self.magnitude[row - w..row];
+            let m_cur = &self.magnitude[row..row + w];
+            let m_next = &self.magnitude[row + w..row + 2 * w];
+            let gxr = &self.gx[row..row + w];
+            let gyr = &self.gy[row..row + w];
+            let subpixel = &mut self.subpixel[row..row + w];
+            // Skip runs of 16 pixels below the low threshold with a vectorised maximum.
+            let mut x = 1;
+            while x < w - 1 {
+                let end = (x + 16).min(w - 1);
+                let run_max = m_cur[x..end].iter().fold(i16::MIN, |a, &b| a.max(b));
+                if run_max <= low {
+                    x = end;
+                    continue;
+                }
+                for x in x..end {
+                    let m = m_cur[x];
+                    if m <= low {
+                        continue;
+                    }
+                    let dx = gxr[x] as i32;
+                    let dy = gyr[x] as i32;
+                    let ax = dx.abs();
+                    let ay = dy.abs() << 15;
+                    let tg22x = ax * TG22;
+                    // Neighbours before/after along the quantised gradient direction.
+                    let (code, before, after, is_max) = if ay < tg22x {
+                        let (b, a) = (m_cur[x - 1], m_cur[x + 1]);
+                        (0u8, b, a, m > b && m >= a)
+                    } else {
+                        let tg67x = tg22x + (ax << 16);
+                        if ay > tg67x {
+                            let (b, a) = (m_prev[x], m_next[x]);
+                            (1, b, a, m > b && m >= a)
+                        } else if (dx ^ dy) < 0 {
+                            let (b, a) = (m_next[x - 1], m_prev[x + 1]);
+                            (2, b, a, m > a && m > b)
+                        } else {
+                            let (b, a) = (m_prev[x - 1], m_next[x + 1]);
+                            (3, b, a, m > b && m > a)
+                        }
+                    };
+                    if is_max {
+                        subpixel[x] = encode_subpixel(code, before as i32, m as i32, after as i32);
+                        if m > high {
+                            out[x] = EDGE;
+                            self.stack.push((row + x) as u32);
+                        } else {
+                            out[x] = WEAK;
+                        }
+                    }
+                }
+                x = end;
+            }
+        }
+    }
+
+    /// Grows strong edges through 8-connected weak pixels.
+    fn hysteresis(&mut self) {
+        let w = self.width;
+        let edges = &mut self.edges;
+        while let Some(i) = self.stack.pop() {
+            let i = i as usize;
+            // Edge pixels never touch the border (NMS leaves it at 0), so the neighbours exist.
+            for j in [
+                i - w - 1,
+                i - w,
+                i - w + 1,
+                i - 1,
+                i + 1,
+                i + w - 1,
+                i + w,
+                i + w + 1,
+            ] {
+                if edges[j] == WEAK {
+                    edges[j] = EDGE;
+                    self.stack.push(j as u32);
+                }
+            }
+        }
+    }
+}
+
+/// Packs the direction code (2 bits) and the parabola-vertex offset (6 bits, 1/62 px).
+fn encode_subpixel(code: u8, before: i32, at: i32, after: i32) -> u8 {
+    // offset = 0.5 (before - after) / (before - 2 at + after), within +-0.5 at a maximum;
+    // q = round(62 offset) in integer arithmetic.
+    let den = 2 * at - before - after;
+    let q = if den > 0 {
+        let n = 31 * (after - before);
+        let q = if n >= 0 {
+            (n + den / 2) / den
+        } else {
+            -((-n + den / 2) / den)
+        };
+        q.clamp(-31, 31) as i8
+    } else {
+        0
+    };
+    code | ((q as u8) << 2)
+}
+
+fn decode_subpixel(byte: u8) -> ((i32, i32), f32) {
+    let step = match byte & 3 {
+        0 => (1, 0),
+        1 => (0, 1),
+        2 => (1, -1),
+        _ => (1, 1),
+    };
+    (step, ((byte as i8) >> 2) as f32 / 62.0)
+}
+
+fn grow<T: Default + Clone>(buffer: &mut Vec<T>, len: usize) {
+    if buffer.len() < len {
+        buffer.resize(len, T::default());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn step_image(w: usize, h: usize, edge_x: usize) -> Vec<u8> {
+        let mut data = vec![40u8; w * h];
+        for y in 0..h {
+            for x in edge_x..w {
+                data[y * w + x] = 200;
+            }
+        }
+        data
+    }
+
+    #[test]
+    fn kernel_sums_to_256_and_is_symmetric() {
+        for sigma in [0.5f32, 1.0, 1.4, 2.0, 3.3] {
+            let p = CannyParams {
+                sigma_px: sigma,
+                ..CannyParams::default()
+            };
+            let k = gaussian_kernel(sigma, p.kernel_radius());
+            assert_eq!(k.iter().map(|&v| v as u32).sum::<u32>(), 256);
+            let r: Vec<u16> = k.iter().rev().copied().collect();
+            assert_eq!(k, r);
+        }
+    }
+
+    #[test]
+    fn vertical_step_gives_one_thin_edge_column() {
+        let (w, h) = (40, 30);
+        let data = step_image(w, h, 20);
+        let view = GrayView::new(&data, w, h).unwrap();
+        let mut ws = CannyWorkspace::new();
+        ws.detect(&view, &CannyParams::default()).unwrap();
+        for y in 2..h - 2 {
+            let cols: Vec<usize> = (0..w).filter(|&x| ws.edges()[y * w + x] == EDGE).collect();
+            assert_eq!(cols.len(), 1, "row {y}: {cols:?}");
+            assert!((19..=20).contains(&cols[0]));
+            assert!(ws.gx()[y * w + cols[0]] > 0);
+        }
+    }
+
+    #[test]
+    fn flat_image_has_no_edges_and_reuse_does_not_leak_state() {
+        let (w, h) = (40, 30);
+        let mut ws = CannyWorkspace::new();
+        let step = step_image(w, h, 10);
+        ws.detect(
+            &GrayView::new(&step, w, h).unwrap(),
+            &CannyParams::default(),
+        )
+        .unwrap();
+        let flat = vec![90u8; 20 * 10];
+        ws.detect(
+            &GrayView::new(&flat, 20, 10).unwrap(),
+            &CannyParams::default(),
+        )
+        .unwrap();
+        assert!(ws.edges().iter().all(|&e| e != EDGE));
+        assert_eq!(ws.edges().len(), 200);
+    }
+
+    #[test]
+    fn weak_edges_survive_only_when_connected() {
+        // A faint vertical line connected to a strong one survives; an isolated faint one does not.
+        let (w, h) = (60, 40);
+        let mut data = vec![60u8; w * h];
+        // Column x = 20: a step fading from 160 grey levels (strong) to 20 (weak) down the rows.
+        for y in 0..h {
+            let step = (160 - 5 * y as i32).max(20) as u8;
+            for x in 20..45 {
+                data[y * w + x] = 60 + step;
+            }
+        }
+        // Column x = 45: a weak step on every row, connected to nothing strong.
+        for y in 0..h {
+            for x in 45..w {
+                data[y * w + x] = data[y * w + 44] + 20;
+            }
+        }
+        let p = CannyParams {
+            sigma_px: 1.0,
+            low_threshold: 30,
+            high_threshold: 200,
+        };
+        let mut ws = CannyWorkspace::new();
+        ws.detect(&GrayView::new(&data, w, h).unwrap(), &p).unwrap();
+        let e = ws.edges();
+        let at = |x: usize, y: usize| (x - 1..=x + 1).any(|xx| e[y * w + xx] == EDGE);
+        assert!(at(20, 10), "strong part");
+        assert!(at(20, 30), "weak part connected to the strong part");
+        assert!(!at(45, 30), "isolated weak edge");
+    }
+
+    #[test]
+    fn bad_parameters_are_rejected() {
+        let p = CannyParams {
+            sigma_px: 9.0,
+            ..CannyParams::default()
+        };
+        assert!(p.validate().is_err());
+        let p = CannyParams {
+            low_threshold: 50,
+            high_threshold: 10,
+            ..CannyParams::default()
+        };
+        assert!(p.validate().is_err());
+    }
+}

@@ -1,0 +1,367 @@
+//! Accuracy of segment matches against a ground-truth disparity map (Middlebury convention:
+//! a left pixel at `x` matches the right pixel at `x - d`; unknown disparities are absent).
+//!
+//! How a match is judged: the left segment is sampled every pixel; at each sample the match's
+//! disparity (interpolated between its two endpoint disparities) is compared with the ground
+//! truth. Samples are skipped where the truth is unknown or occluded (when a right-view map is
+//! available, a pixel is occluded if the two maps disagree by more than 1 px). Edges often lie
+//! on depth discontinuities, where a one-pixel localisation error jumps between surfaces: if the
+//! known truth in the 5x5 window around the sample spans more than 2 px, the sample's error is
+//! the distance to the closest truth value in the window (the edge may belong to either
+//! surface), otherwise it is the distance to the truth at the sample. A match is **wrong** when
+//! the median error of its samples exceeds 1 px; a match with no usable sample is
+//! **unevaluated**.
+//!
+//! Nearly horizontal matches have no measurable disparity along their rows (their endpoints
+//! are unstable, which is why they are never back-projected), so for them the correspondence
+//! itself is judged: each sample is moved by its true disparity into the right image and must
+//! land within 1.5 px of the matched right segment; the match is wrong when fewer than half of
+//! the samples that could land (those within the right segment's column extent) do. Their
+//! endpoint disparity is judged separately by [`judge_match`] and reported as
+//! [`AccuracyReport::horizontal_disparity_wrong`].
+
+use crate::matching::SegmentMatch;
+use crate::segments::Segment;
+
+/// A dense disparity map; `NaN` marks unknown pixels.
+#[derive(Debug, Clone)]
+pub struct DisparityMap {
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Row-major disparities, pixels.
+    pub values: Vec<f32>,
+}
+
+impl DisparityMap {
+    /// From an 8-bit Middlebury map: disparity = value / `scale`, 0 = unknown.
+    pub fn from_scaled(image: &image::GrayImage, scale: f32) -> Self {
+        let values = image
+            .as_raw()
+            .iter()
+            .map(|&v| if v == 0 { f32::NAN } else { v as f32 / scale })
+            .collect();
+        Self {
+            width: image.width() as usize,
+            height: image.height() as usize,
+            values,
+        }
+    }
+
+    /// Disparity at `(x, y)`, `None` outside the map or when unknown.
+    pub fn at(&self, x: i64, y: i64) -> Option<f32> {
+        if x < 0 || y < 0 || x >= self.width as i64 || y >= self.height as i64 {
+            return None;
+        }
+        let v = self.values[y as usize * self.width + x as usize];
+        (!v.is_nan()).then_some(v)
+    }
+
+    /// Marks as unknown the pixels failing the left-right check against `right` (the right
+    /// view's map): occluded pixels and inconsistent ground truth.
+    pub fn mask_occlusions(&mut self, right: &DisparityMap, tolerance_px: f32) {
+        for y in 0..self.height {
+            for x in 0..self.width {
+                let i = y * self.width + x;
+                let d = self.values[i];
+                if d.is_nan() {
+                    continue;
+                }
+                let xr = (x as f32 - d).round() as i64;
+                let ok = right
+                    .at(xr, y as i64)
+                    .is_some_and(|dr| (dr - d).abs() <= tolerance_px);
+                if !ok {
+                    self.values[i] = f32::NAN;
+                }
+            }
+        }
+    }
+}
+
+/// Verdict on one match.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MatchVerdict {
+    /// Median error <= 1 px.
+    Correct,
+    /// Median error > 1 px.
+    Wrong,
+    /// No usable ground truth along the segment.
+    Unevaluated,
+}
+
+/// Judges the correspondence of a nearly horizontal match (see the module documentation).
+pub fn judge_correspondence(left: &Segment, right: &Segment, truth: &DisparityMap) -> MatchVerdict {
+    let steps = left.length_px.ceil().max(1.0) as usize;
+    let (rx0, rx1) = if right.start[0] < right.end[0] {
+        (right.start[0], right.end[0])
+    } else {
+        (right.end[0], right.start[0])
+    };
+    let (mut landing, mut could_land) = (0usize, 0usize);
+    for k in 0..=steps {
+        let t = k as f32 / steps as f32;
+        let x = left.start[0] + t * (left.end[0] - left.start[0]);
+        let y = left.start[1] + t * (left.end[1] - left.start[1]);
+        let (xi, yi) = (x.round() as i64, y.round() as i64);
+        // Any known truth in the 5x5 window may apply (the edge may bound either surface).
+        let mut lands = false;
+        let mut in_extent = false;
+        for dy in -2..=2 {
+            for dx in -2..=2 {
+                let Some(d) = truth.at(xi + dx, yi + dy) else {
+                    continue;
+                };
+                let xr = x - d;
+                if xr < rx0 - 1.0 || xr > rx1 + 1.0 {
+                    continue;
+                }
+                in_extent = true;
+                if point_segment_distance([xr, y], right) <= 1.5 {
+                    lands = true;
+                }
+            }
+        }
+        if in_extent {
+            could_land += 1;
+            if lands {
+                landing += 1;
+            }
+        }
+    }
+    if could_land == 0 {
+        // No true correspondence of the left segment falls on the right segment's columns.
+        return if truth_known_along(left, truth) {
+            MatchVerdict::Wrong
+        } else {
+            MatchVerdict::Unevaluated
+        };
+    }
+    if 2 * landing >= could_land {
+        MatchVerdict::Correct
+    } else {
+        MatchVerdict::Wrong
+    }
+}
+
+fn truth_known_along(s: &Segment, truth: &DisparityMap) -> bool {
+    let steps = s.length_px.ceil().max(1.0) as usize;
+    (0..=steps).any(|k| {
+        let t = k as f32 / steps as f32;
+        let x = s.start[0] + t * (s.end[0] - s.start[0]);
+        let y = s.start[1] + t * (s.end[1] - s.start[1]);
+        truth.at(x.round() as i64, y.round() as i64).is_some()
+    })
+}
+
+fn point_segment_distance(p: [f32; 2], s: &Segment) -> f32 {
+    let (dx, dy) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
+    let len2 = (dx * dx + dy * dy).max(1e-9);
+    let t = (((p[0] - s.start[0]) * dx + (p[1] - s.start[1]) * dy) / len2).clamp(0.0, 1.0);
+    let (qx, qy) = (s.start[0] + t * dx, s.start[1] + t * dy);
+    ((p[0] - qx).powi(2) + (p[1] - qy).powi(2)).sqrt()
+}
+
+/// Judges one match's disparity (see the module documentation).
+pub fn judge_match(left: &Segment, m: &SegmentMatch, truth: &DisparityMap) -> MatchVerdict {
+    let steps = left.length_px.ceil().max(1.0) as usize;
+    let mut errors: Vec<f32> = Vec::with_capacity(steps + 1);
+    for k in 0..=steps {
+        let t = k as f32 / steps as f32;
+        let x = left.start[0] + t * (left.end[0] - left.start[0]);
+        let y = left.start[1] + t * (left.end[1] - left.start[1]);
+        let d = m.disparity_px[0] + t * (m.disparity_px[1] - m.disparity_px[0]);
+        let (xi, yi) = (x.round() as i64, y.round() as i64);
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        let mut closest = f32::INFINITY;
+        for dy in -2..=2 {
+            for dx in -2..=2 {
+                if let Some(v) = truth.at(xi + dx, yi + dy) {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                    closest = closest.min((v - d).abs());
+                }
+            }
+        }
+        if !closest.is_finite() {
+            continue;
+        }
+        if hi - lo > 2.0 {
+            errors.push(closest);
+        } else if let Some(v) = truth.at(xi, yi) {
+            errors.push((v - d).abs());
+        }
+    }
+    if errors.is_empty() {
+        return MatchVerdict::Unevaluated;
+    }
+    errors.sort_by(|a, b| a.total_cmp(b));
+    if errors[errors.len() / 2] > 1.0 {
+        MatchVerdict::Wrong
+    } else {
+        MatchVerdict::Correct
+    }
+}
+
+/// Matching accuracy of one image pair.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct AccuracyReport {
+    /// Segments extracted from the left image.
+    pub left_segments: usize,
+    /// Segments extracted from the right image.
+    pub right_segments: usize,
+    /// Accepted matches (= matched left segments).
+    pub matches: usize,
+    /// Matches of nearly horizontal segments among them.
+    pub horizontal_matches: usize,
+    /// Matches judged wrong (disparity for ordinary matches, correspondence for nearly
+    /// horizontal ones).
+    pub wrong: usize,
+    /// Nearly horizontal matches whose endpoint disparity is off by more than 1 px (informative:
+    /// that disparity is never used for 3D).
+    pub horizontal_disparity_wrong: usize,
+    /// Matches without usable ground truth.
+    pub unevaluated: usize,
+}
+
+impl AccuracyReport {
+    /// Matched left segments / extracted left segments.
+    pub fn matched_fraction(&self) -> f64 {
+        self.matches as f64 / self.left_segments.max(1) as f64
+    }
+
+    /// Wrong matches / evaluated matches.
+    pub fn wrong_fraction(&self) -> f64 {
+        self.wrong as f64 / (self.matches - self.unevaluated).max(1) as f64
+    }
+}
+
+/// Evaluates all matches of a run.
+pub fn evaluate(
+    left: &[Segment],
+    right: &[Segment],
+    matches: &[SegmentMatch],
+    truth: &DisparityMap,
+) -> AccuracyReport {
+    let mut report = AccuracyReport {
+        left_segments: left.len(),
+        right_segments: right.len(),
+        matches: matches.len(),
+        ..AccuracyReport::default()
+    };
+    for m in matches {
+        let l = &left[m.left as usize];
+        let verdict = if m.nearly_horizontal {
+            report.horizontal_matches += 1;
+            if judge_match(l, m, truth) == MatchVerdict::Wrong {
+                report.horizontal_disparity_wrong += 1;
+            }
+            judge_correspondence(l, &right[m.right as usize], truth)
+        } else {
+            judge_match(l, m, truth)
+        };
+        match verdict {
+            MatchVerdict::Correct => {}
+            MatchVerdict::Wrong => report.wrong += 1,
+            MatchVerdict::Unevaluated => report.unevaluated += 1,
+        }
+    }
+    report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn vertical(x: f32) -> Segment {
+        Segment {
+            start: [x, 5.0],
+            end: [x, 25.0],
+            length_px: 20.0,
+            angle_rad: std::f32::consts::FRAC_PI_2,
+            polarity: 1,
+            contrast: 50.0,
+            side_intensity: [0.0, 0.0],
+            chain: 0,
+        }
+    }
+
+    fn m(d: f32) -> SegmentMatch {
+        SegmentMatch {
+            left: 0,
+            right: 0,
+            disparity_px: [d, d],
+            support: 1,
+            predicted: true,
+            nearly_horizontal: false,
+        }
+    }
+
+    #[test]
+    fn correct_wrong_and_unknown_are_told_apart() {
+        // Two surfaces: d = 10 left of x = 20, d = 20 from x = 20 on.
+        let (w, h) = (40, 30);
+        let mut values = vec![0.0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                values[y * w + x] = if x < 20 { 10.0 } else { 20.0 };
+            }
+        }
+        let truth = DisparityMap {
+            width: w,
+            height: h,
+            values,
+        };
+        assert_eq!(
+            judge_match(&vertical(8.0), &m(10.5), &truth),
+            MatchVerdict::Correct
+        );
+        assert_eq!(
+            judge_match(&vertical(8.0), &m(12.0), &truth),
+            MatchVerdict::Wrong
+        );
+        // On the discontinuity either surface is accepted, nothing in between.
+        assert_eq!(
+            judge_match(&vertical(19.0), &m(20.0), &truth),
+            MatchVerdict::Correct
+        );
+        assert_eq!(
+            judge_match(&vertical(19.0), &m(10.0), &truth),
+            MatchVerdict::Correct
+        );
+        assert_eq!(
+            judge_match(&vertical(19.0), &m(15.0), &truth),
+            MatchVerdict::Wrong
+        );
+        let unknown = DisparityMap {
+            width: w,
+            height: h,
+            values: vec![f32::NAN; w * h],
+        };
+        assert_eq!(
+            judge_match(&vertical(8.0), &m(10.0), &unknown),
+            MatchVerdict::Unevaluated
+        );
+    }
+
+    #[test]
+    fn occlusion_mask_drops_inconsistent_pixels() {
+        let mut left = DisparityMap {
+            width: 10,
+            height: 1,
+            values: vec![2.0; 10],
+        };
+        let mut right_values = vec![2.0; 10];
+        right_values[3] = 5.0; // left x = 5 maps to right x = 3, which disagrees
+        let right = DisparityMap {
+            width: 10,
+            height: 1,
+            values: right_values,
+        };
+        left.mask_occlusions(&right, 1.0);
+        assert!(left.values[5].is_nan());
+        assert!(left.values[0].is_nan(), "maps outside the right image");
+        assert_eq!(left.values[6], 2.0);
+    }
+}

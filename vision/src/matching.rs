@@ -1,0 +1,1082 @@
+//! Segment matching after Ayache: hypothesis prediction, propagation under the continuity
+//! constraint, validation (uniqueness and left-right consistency).
+//!
+//! On rectified images corresponding segments overlap in their row extents (epipolar
+//! constraint). A candidate pair `(left i, right j)` must overlap enough in y, have the same
+//! gradient polarity, similar contrast and intensities on at least one side, a disparity within
+//! the allowed range that changes plausibly along the segment, agree in orientation and length
+//! (weak limits), and, when the smoothed images are given, look alike beside the edge once the
+//! right image is shifted by the pair's disparity (photometric check).
+//!
+//! 1. **Prediction**: pairs that also meet the tight orientation and length limits and have
+//!    enough support (neighbouring left segments with a continuity-compatible candidate) are
+//!    the hypotheses that seed propagation.
+//! 2. **Propagation**: from the hypotheses, best first (support, then cost), matches grow to
+//!    neighbouring left segments (the closest ones within a radius) whose candidates meet the
+//!    continuity constraint: the disparities at the closest points of the two neighbours
+//!    differ by at most a tolerance plus a disparity-gradient limit times their distance.
+//! 3. **Validation**: uniqueness (a left segment matches once; a right segment is shared only
+//!    by left fragments on disjoint rows), left-right consistency (the pair is the best
+//!    candidate of its left segment, and no better candidate of another left segment claims the
+//!    same rows of its right segment), required support.
+//!
+//! Nearly horizontal segments lie along epipolar lines and their disparity is only fixed by
+//! their unstable endpoints: they are matched only by propagation from a matched neighbour, to
+//! a right segment on the same rows that lies on the left one once shifted by the neighbour's
+//! disparity and has an endpoint disparity agreeing with it (that endpoint disparity is the
+//! match's). They are flagged [`SegmentMatch::nearly_horizontal`] and never back-projected.
+//!
+//! A match's disparity is taken at the left segment's two endpoints: the right segment's line
+//! is intersected with the rows of the left endpoints.
+//!
+//! Every ranking ends with a tie-break on image position, so that the result does not depend
+//! on the order in which segments were extracted (a local run sees them in another order).
+
+use crate::error::VisionError;
+use crate::segments::Segment;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Parameters of the matcher. See the module documentation for the stages.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchParams {
+    /// Smallest disparity searched, pixels.
+    pub disparity_min_px: f32,
+    /// Largest disparity searched, pixels.
+    pub disparity_max_px: f32,
+    /// Segments within this angle of horizontal are "nearly horizontal", degrees.
+    pub horizontal_angle_deg: f32,
+    /// Row overlap of a pair divided by the shorter row extent must reach this.
+    pub min_row_overlap_ratio: f32,
+    /// Prediction: maximum orientation difference, degrees.
+    pub predict_max_angle_diff_deg: f32,
+    /// Prediction: minimum ratio shorter/longer length.
+    pub predict_min_length_ratio: f32,
+    /// Prediction: minimum length of both segments, pixels.
+    pub predict_min_length_px: f32,
+    /// Propagation: maximum orientation difference, degrees.
+    pub propagate_max_angle_diff_deg: f32,
+    /// Propagation: minimum ratio shorter/longer length.
+    pub propagate_min_length_ratio: f32,
+    /// Left segments closer than this (closest points) are neighbours, pixels.
+    pub neighbourhood_radius_px: f32,
+    /// At most this many closest neighbours are kept per segment.
+    pub max_neighbours: usize,
+    /// Continuity: allowed disparity change per pixel of distance between neighbours.
+    pub disparity_gradient_limit: f32,
+    /// Continuity: allowed disparity change at zero distance, pixels.
+    pub disparity_tolerance_px: f32,
+    /// Maximum change of disparity along a segment per pixel of its height (a segment on a
+    /// plausible surface, and right/left orientations that agree).
+    pub max_disparity_slope: f32,
+    /// Maximum difference of mean intensity on the better-agreeing side, grey levels.
+    pub max_intensity_diff: f32,
+    /// Maximum ratio of the two segments' contrasts.
+    pub max_contrast_ratio: f32,
+    /// Minimum number of neighbours supporting a hypothesis to seed propagation.
+    pub min_seed_support: u32,
+    /// Minimum number of neighbours supporting a propagated match.
+    pub min_support: u32,
+    /// Photometric validation: mean absolute difference (grey levels) between the smoothed
+    /// left and right images on 4-px strips beside the segment, the right one shifted by the
+    /// match's disparity; the better of the two sides of the edge counts (the other may be
+    /// occluded).
+    pub max_photometric_error: f32,
+    /// Enforce left-right consistency (mutual best candidate) at validation.
+    pub left_right_check: bool,
+    /// Match nearly horizontal segments during propagation.
+    pub match_horizontal: bool,
+}
+
+impl Default for MatchParams {
+    /// Disparities 0..64 px; 15 deg horizontal band; overlap >= 50 %; prediction within 8 deg and
+    /// length ratio >= 0.7 for segments >= 20 px; propagation within 20 deg and ratio >= 0.4;
+    /// neighbours within 30 px; disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
+    /// levels, contrast ratio <= 2.5; seeds need 2 supporting neighbours, other matches 1;
+    /// left-right check on; horizontal segments matched.
+    fn default() -> Self {
+        Self {
+            disparity_min_px: 0.0,
+            disparity_max_px: 64.0,
+            horizontal_angle_deg: 15.0,
+            min_row_overlap_ratio: 0.5,
+            predict_max_angle_diff_deg: 8.0,
+            predict_min_length_ratio: 0.7,
+            predict_min_length_px: 20.0,
+            propagate_max_angle_diff_deg: 20.0,
+            propagate_min_length_ratio: 0.4,
+            neighbourhood_radius_px: 50.0,
+            max_neighbours: 24,
+            disparity_gradient_limit: 0.3,
+            disparity_tolerance_px: 1.5,
+            max_disparity_slope: 0.3,
+            max_intensity_diff: 30.0,
+            max_contrast_ratio: 2.5,
+            min_seed_support: 2,
+            min_support: 1,
+            max_photometric_error: 6.0,
+            left_right_check: true,
+            match_horizontal: true,
+        }
+    }
+}
+
+impl MatchParams {
+    /// Checks the parameter ranges.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        let checks: [(&'static str, f32, bool, &'static str); 6] = [
+            (
+                "matching.disparity_max_px",
+                self.disparity_max_px,
+                self.disparity_max_px > self.disparity_min_px && self.disparity_max_px <= 4096.0,
+                "disparity_min_px < value <= 4096",
+            ),
+            (
+                "matching.horizontal_angle_deg",
+                self.horizontal_angle_deg,
+                (0.0..=45.0).contains(&self.horizontal_angle_deg),
+                "0..=45",
+            ),
+            (
+                "matching.min_row_overlap_ratio",
+                self.min_row_overlap_ratio,
+                (0.0..=1.0).contains(&self.min_row_overlap_ratio),
+                "0..=1",
+            ),
+            (
+                "matching.neighbourhood_radius_px",
+                self.neighbourhood_radius_px,
+                (0.0..=500.0).contains(&self.neighbourhood_radius_px),
+                "0..=500",
+            ),
+            (
+                "matching.propagate_max_angle_diff_deg",
+                self.propagate_max_angle_diff_deg,
+                self.propagate_max_angle_diff_deg >= self.predict_max_angle_diff_deg
+                    && self.propagate_max_angle_diff_deg <= 90.0,
+                "predict_max_angle_diff_deg..=90",
+            ),
+            (
+                "matching.max_contrast_ratio",
+                self.max_contrast_ratio,
+                self.max_contrast_ratio >= 1.0,
+                ">= 1",
+            ),
+        ];
+        for (name, value, ok, allowed) in checks {
+            if !ok {
+                return Err(VisionError::Parameter {
+                    name,
+                    value: value as f64,
+                    allowed,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// An accepted correspondence between a left and a right segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentMatch {
+    /// Index into the left segments.
+    pub left: u32,
+    /// Index into the right segments.
+    pub right: u32,
+    /// Disparity at the left segment's `start` and `end`, pixels (`x_left - x_right`).
+    pub disparity_px: [f32; 2],
+    /// Number of neighbouring left segments with a continuity-compatible candidate.
+    pub support: u32,
+    /// Whether the pair met the tight prediction constraints.
+    pub predicted: bool,
+    /// Whether the left segment is nearly horizontal (matched, but not back-projected).
+    pub nearly_horizontal: bool,
+}
+
+/// A candidate pair.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    left: u32,
+    right: u32,
+    /// Disparity at the left start and end rows.
+    disparity: [f32; 2],
+    cost: f32,
+    tight: bool,
+    horizontal: bool,
+    support: u32,
+    /// Rows of the right segment the match uses (all rows for nearly horizontal pairs).
+    rows: [f32; 2],
+    /// Left start row, left start column, right start column: the final tie-break.
+    position: [f32; 3],
+}
+
+impl Candidate {
+    /// Disparity at parameter `t` in `[0, 1]` along the left segment.
+    fn disparity_at(&self, t: f32) -> f32 {
+        self.disparity[0] + t * (self.disparity[1] - self.disparity[0])
+    }
+
+    /// Ranking: more support, then lower cost, then position (independent of list order).
+    fn better_than(&self, other: &Candidate) -> bool {
+        self.rank_cmp(other) == Ordering::Greater
+    }
+
+    fn rank_cmp(&self, other: &Candidate) -> Ordering {
+        self.support
+            .cmp(&other.support)
+            .then_with(|| other.cost.total_cmp(&self.cost))
+            .then_with(|| other.position[0].total_cmp(&self.position[0]))
+            .then_with(|| other.position[1].total_cmp(&self.position[1]))
+            .then_with(|| other.position[2].total_cmp(&self.position[2]))
+    }
+}
+
+/// Two neighbouring left segments and the parameters of their closest points.
+#[derive(Debug, Clone, Copy)]
+struct Neighbour {
+    other: u32,
+    /// Start point of the other segment (order-independent tie-break).
+    other_start: [f32; 2],
+    t_self: f32,
+    t_other: f32,
+    distance: f32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Queued {
+    support: u32,
+    cost: f32,
+    position: [f32; 3],
+    candidate: u32,
+}
+
+impl Eq for Queued {}
+
+impl Ord for Queued {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.support
+            .cmp(&other.support)
+            .then_with(|| other.cost.total_cmp(&self.cost))
+            .then_with(|| other.position[0].total_cmp(&self.position[0]))
+            .then_with(|| other.position[1].total_cmp(&self.position[1]))
+            .then_with(|| other.position[2].total_cmp(&self.position[2]))
+            .then_with(|| other.candidate.cmp(&self.candidate))
+    }
+}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// Reusable buffers of the matcher.
+#[derive(Debug, Default, Clone)]
+pub struct MatchWorkspace {
+    right_order: Vec<u32>,
+    candidates: Vec<Candidate>,
+    candidate_start: Vec<u32>,
+    neighbours: Vec<Neighbour>,
+    neighbour_start: Vec<u32>,
+    neighbour_pairs: Vec<(u32, Neighbour)>,
+    left_order: Vec<u32>,
+    best_for_left: Vec<u32>,
+    by_right_start: Vec<u32>,
+    by_right: Vec<u32>,
+    right_fill: Vec<u32>,
+    right_taken: Vec<[[f32; 2]; MAX_PIECES_PER_RIGHT]>,
+    right_taken_len: Vec<u8>,
+    left_used: Vec<bool>,
+    accepted_candidate: Vec<u32>,
+    heap: BinaryHeap<Queued>,
+}
+
+const NONE: u32 = u32::MAX;
+
+/// How many left fragments may share one right segment (on disjoint rows).
+const MAX_PIECES_PER_RIGHT: usize = 4;
+
+/// Whether two row intervals overlap by more than one pixel.
+fn rows_overlap(a: [f32; 2], b: [f32; 2]) -> bool {
+    a[1].min(b[1]) - a[0].max(b[0]) > 1.0
+}
+
+impl MatchWorkspace {
+    /// An empty workspace.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Matches `left` against `right` segments, writing the accepted matches to `out`
+    /// (cleared first), sorted by left index.
+    ///
+    /// With `images`, a match is also validated photometrically (see
+    /// [`MatchParams::max_photometric_error`]).
+    pub fn match_segments(
+        &mut self,
+        left: &[Segment],
+        right: &[Segment],
+        images: Option<&StereoImages<'_>>,
+        params: &MatchParams,
+        out: &mut Vec<SegmentMatch>,
+    ) {
+        out.clear();
+        self.build_candidates(left, right, images, params);
+        self.build_neighbours(left, params);
+        self.compute_support(params);
+        self.best_candidates(left.len(), right.len());
+        self.grow(left, right, params);
+        for (i, &c) in self.accepted_candidate.iter().enumerate() {
+            if c == NONE {
+                continue;
+            }
+            let cand = self.candidates[c as usize];
+            debug_assert_eq!(cand.left as usize, i);
+            out.push(SegmentMatch {
+                left: cand.left,
+                right: cand.right,
+                disparity_px: cand.disparity,
+                support: cand.support,
+                predicted: cand.tight,
+                nearly_horizontal: cand.horizontal,
+            });
+        }
+    }
+
+    fn build_candidates(
+        &mut self,
+        left: &[Segment],
+        right: &[Segment],
+        images: Option<&StereoImages<'_>>,
+        params: &MatchParams,
+    ) {
+        self.candidates.clear();
+        self.candidate_start.clear();
+        self.right_order.clear();
+        self.right_order.extend(0..right.len() as u32);
+        self.right_order.sort_unstable_by(|&a, &b| {
+            right[a as usize].start[1].total_cmp(&right[b as usize].start[1])
+        });
+        let horizontal = params.horizontal_angle_deg.to_radians();
+        for (i, l) in left.iter().enumerate() {
+            self.candidate_start.push(self.candidates.len() as u32);
+            let l_horizontal = l.is_nearly_horizontal(horizontal);
+            if l_horizontal && !params.match_horizontal {
+                continue;
+            }
+            // Right segments starting above the left segment's lower end (plus slack for
+            // horizontal segments whose rows must agree within 2 px).
+            let slack = if l_horizontal { 2.0 } else { 0.0 };
+            let upper = l.end[1] + slack;
+            let count = self
+                .right_order
+                .partition_point(|&j| right[j as usize].start[1] <= upper);
+            for &j in &self.right_order[..count] {
+                let r = &right[j as usize];
+                if r.end[1] + slack < l.start[1] {
+                    continue;
+                }
+                let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params) else {
+                    continue;
+                };
+                if let Some(images) = images {
+                    if !c.horizontal
+                        && photometric_error(l, &c, images) > params.max_photometric_error
+                    {
+                        continue;
+                    }
+                }
+                self.candidates.push(c);
+            }
+        }
+        self.candidate_start.push(self.candidates.len() as u32);
+    }
+
+    /// Neighbours of each left segment: the `max_neighbours` closest segments within the
+    /// radius (ties broken by position, so that the result does not depend on the order of
+    /// the segments).
+    fn build_neighbours(&mut self, left: &[Segment], params: &MatchParams) {
+        let radius = params.neighbourhood_radius_px;
+        self.neighbour_pairs.clear();
+        // Segments without candidates neither support nor receive matches: leave them out.
+        self.left_order.clear();
+        self.left_order.extend(
+            (0..left.len() as u32).filter(|&i| {
+                self.candidate_start[i as usize] < self.candidate_start[i as usize + 1]
+            }),
+        );
+        self.left_order.sort_unstable_by(|&a, &b| {
+            left[a as usize].start[1].total_cmp(&left[b as usize].start[1])
+        });
+        for (oi, &i) in self.left_order.iter().enumerate() {
+            let a = &left[i as usize];
+            let (ax0, ax1) = min_max(a.start[0], a.end[0]);
+            for &j in &self.left_order[oi + 1..] {
+                let b = &left[j as usize];
+                if b.start[1] > a.end[1] + radius {
+                    break;
+                }
+                if b.end[1] < a.start[1] - radius {
+                    continue;
+                }
+                let (bx0, bx1) = min_max(b.start[0], b.end[0]);
+                if bx0 > ax1 + radius || bx1 < ax0 - radius {
+                    continue;
+                }
+                let (d, ta, tb) = segment_distance(a, b);
+                if d <= radius {
+                    self.neighbour_pairs.push((
+                        i,
+                        Neighbour {
+                            other: j,
+                            other_start: b.start,
+                            t_self: ta,
+                            t_other: tb,
+                            distance: d,
+                        },
+                    ));
+                    self.neighbour_pairs.push((
+                        j,
+                        Neighbour {
+                            other: i,
+                            other_start: a.start,
+                            t_self: tb,
+                            t_other: ta,
+                            distance: d,
+                        },
+                    ));
+                }
+            }
+        }
+        // Group by owner (counting sort), keep the closest ones.
+        let n = left.len();
+        self.neighbour_start.clear();
+        self.neighbour_start.resize(n + 1, 0);
+        for p in &self.neighbour_pairs {
+            self.neighbour_start[p.0 as usize + 1] += 1;
+        }
+        for i in 0..n {
+            self.neighbour_start[i + 1] += self.neighbour_start[i];
+        }
+        self.neighbours.clear();
+        self.neighbours.resize(
+            self.neighbour_pairs.len(),
+            Neighbour {
+                other: 0,
+                other_start: [0.0; 2],
+                t_self: 0.0,
+                t_other: 0.0,
+                distance: 0.0,
+            },
+        );
+        self.right_fill.clear();
+        self.right_fill
+            .extend_from_slice(&self.neighbour_start[..n]);
+        for p in &self.neighbour_pairs {
+            let slot = &mut self.right_fill[p.0 as usize];
+            self.neighbours[*slot as usize] = p.1;
+            *slot += 1;
+        }
+        // Compact: keep at most `max_neighbours` per owner.
+        let keep = params.max_neighbours;
+        let mut write = 0usize;
+        for i in 0..n {
+            let (s0, s1) = (
+                self.neighbour_start[i] as usize,
+                self.neighbour_start[i + 1] as usize,
+            );
+            let group = &mut self.neighbours[s0..s1];
+            let order = |a: &Neighbour, b: &Neighbour| {
+                a.distance
+                    .total_cmp(&b.distance)
+                    .then(a.other_start[1].total_cmp(&b.other_start[1]))
+                    .then(a.other_start[0].total_cmp(&b.other_start[0]))
+            };
+            if group.len() > keep {
+                group.select_nth_unstable_by(keep, order);
+            }
+            let count = group.len().min(keep);
+            group[..count].sort_unstable_by(order);
+            self.neighbours.copy_within(s0..s0 + count, write);
+            self.neighbour_start[i] = write as u32;
+            write += count;
+        }
+        self.neighbour_start[n] = write as u32;
+        self.neighbours.truncate(write);
+    }
+
+    fn candidates_of(&self, left: u32) -> std::ops::Range<usize> {
+        self.candidate_start[left as usize] as usize
+            ..self.candidate_start[left as usize + 1] as usize
+    }
+
+    fn neighbours_of(&self, left: u32) -> std::ops::Range<usize> {
+        self.neighbour_start[left as usize] as usize
+            ..self.neighbour_start[left as usize + 1] as usize
+    }
+
+    /// Support of each candidate: neighbouring left segments (not nearly horizontal) having a
+    /// non-horizontal candidate compatible under the continuity constraint.
+    fn compute_support(&mut self, params: &MatchParams) {
+        for c in 0..self.candidates.len() {
+            let cand = self.candidates[c];
+            if cand.horizontal {
+                continue;
+            }
+            let mut support = 0;
+            for n in self.neighbours_of(cand.left) {
+                let nb = self.neighbours[n];
+                let compatible = self.candidates_of(nb.other).any(|k| {
+                    let other = &self.candidates[k];
+                    !other.horizontal
+                        && other.right != cand.right
+                        && continuous(&cand, other, &nb, params)
+                });
+                if compatible {
+                    support += 1;
+                }
+            }
+            self.candidates[c].support = support;
+        }
+    }
+
+    fn best_candidates(&mut self, n_left: usize, n_right: usize) {
+        self.best_for_left.clear();
+        self.best_for_left.resize(n_left, NONE);
+        for (k, c) in self.candidates.iter().enumerate() {
+            if c.horizontal {
+                continue;
+            }
+            let bl = &mut self.best_for_left[c.left as usize];
+            if *bl == NONE || c.better_than(&self.candidates[*bl as usize]) {
+                *bl = k as u32;
+            }
+        }
+        // Candidates grouped by right segment (counting sort).
+        self.by_right_start.clear();
+        self.by_right_start.resize(n_right + 1, 0);
+        for c in &self.candidates {
+            self.by_right_start[c.right as usize + 1] += 1;
+        }
+        for j in 0..n_right {
+            self.by_right_start[j + 1] += self.by_right_start[j];
+        }
+        self.by_right.clear();
+        self.by_right.resize(self.candidates.len(), 0);
+        self.right_fill.clear();
+        self.right_fill
+            .extend_from_slice(&self.by_right_start[..n_right]);
+        for (k, c) in self.candidates.iter().enumerate() {
+            let slot = &mut self.right_fill[c.right as usize];
+            self.by_right[*slot as usize] = k as u32;
+            *slot += 1;
+        }
+    }
+
+    /// Left-right consistency: the candidate is the best of its left segment, and no other
+    /// left segment's candidate on the same rows of the same right segment is better.
+    fn consistent(&self, k: usize, params: &MatchParams) -> bool {
+        let c = &self.candidates[k];
+        if !params.left_right_check || c.horizontal {
+            return true;
+        }
+        if self.best_for_left[c.left as usize] != k as u32 {
+            return false;
+        }
+        let range = self.by_right_start[c.right as usize] as usize
+            ..self.by_right_start[c.right as usize + 1] as usize;
+        !self.by_right[range].iter().any(|&o| {
+            let other = &self.candidates[o as usize];
+            other.left != c.left
+                && !other.horizontal
+                && rows_overlap(other.rows, c.rows)
+                && other.better_than(c)
+        })
+    }
+
+    /// Whether the rows of `c` on its right segment are still free.
+    fn right_free(&self, c: &Candidate) -> bool {
+        let j = c.right as usize;
+        let n = self.right_taken_len[j] as usize;
+        if n >= MAX_PIECES_PER_RIGHT {
+            return false;
+        }
+        !self.right_taken[j][..n]
+            .iter()
+            .any(|&rows| rows_overlap(rows, c.rows))
+    }
+
+    fn take_right(&mut self, c: &Candidate) {
+        let j = c.right as usize;
+        let n = self.right_taken_len[j] as usize;
+        if n < MAX_PIECES_PER_RIGHT {
+            self.right_taken[j][n] = c.rows;
+            self.right_taken_len[j] += 1;
+        }
+    }
+
+    fn grow(&mut self, left: &[Segment], right: &[Segment], params: &MatchParams) {
+        let (n_left, n_right) = (left.len(), right.len());
+        self.left_used.clear();
+        self.left_used.resize(n_left, false);
+        self.right_taken.clear();
+        self.right_taken
+            .resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
+        self.right_taken_len.clear();
+        self.right_taken_len.resize(n_right, 0);
+        self.accepted_candidate.clear();
+        self.accepted_candidate.resize(n_left, NONE);
+        self.heap.clear();
+        // Prediction: seeds.
+        for (k, c) in self.candidates.iter().enumerate() {
+            if c.tight && !c.horizontal && c.support >= params.min_seed_support {
+                self.heap.push(Queued {
+                    support: c.support,
+                    cost: c.cost,
+                    position: c.position,
+                    candidate: k as u32,
+                });
+            }
+        }
+        // Propagation, best first.
+        while let Some(q) = self.heap.pop() {
+            let k = q.candidate as usize;
+            let cand = self.candidates[k];
+            if self.left_used[cand.left as usize] || !self.right_free(&cand) {
+                continue;
+            }
+            if !self.consistent(k, params) {
+                continue;
+            }
+
+            self.left_used[cand.left as usize] = true;
+            self.take_right(&cand);
+            self.accepted_candidate[cand.left as usize] = k as u32;
+            for n in self.neighbours_of(cand.left) {
+                let nb = self.neighbours[n];
+                if self.left_used[nb.other as usize] {
+                    continue;
+                }
+                let context_disparity = cand.disparity_at(nb.t_self);
+                let mut best: Option<usize> = None;
+                let mut best_disparity = context_disparity;
+                for m in self.candidates_of(nb.other) {
+                    let other = &self.candidates[m];
+                    // A nearly horizontal match only vouches for other nearly horizontal ones.
+                    if !self.right_free(other) || (cand.horizontal && !other.horizontal) {
+                        continue;
+                    }
+                    let measured = if other.horizontal {
+                        fits_shifted(
+                            &left[other.left as usize],
+                            &right[other.right as usize],
+                            context_disparity,
+                            params,
+                        )
+                    } else if other.support >= params.min_support
+                        && continuous(&cand, other, &nb, params)
+                    {
+                        Some(0.0)
+                    } else {
+                        None
+                    };
+                    let Some(measured) = measured else {
+                        continue;
+                    };
+                    if best.is_none_or(|b| other.better_than(&self.candidates[b])) {
+                        best = Some(m);
+                        best_disparity = measured;
+                    }
+                }
+                if let Some(m) = best {
+                    if self.candidates[m].horizontal {
+                        self.candidates[m].disparity = [best_disparity; 2];
+                    }
+                    let other = &self.candidates[m];
+                    self.heap.push(Queued {
+                        support: other.support,
+                        cost: other.cost,
+                        position: other.position,
+                        candidate: m as u32,
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// A smoothed image (or window of one) that segments were extracted from.
+#[derive(Debug, Clone, Copy)]
+pub struct ImagePatch<'a> {
+    /// Row-major pixels.
+    pub data: &'a [u8],
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// Top-left corner in the frame, pixels.
+    pub origin_px: (usize, usize),
+}
+
+impl ImagePatch<'_> {
+    /// Intensity at frame coordinates (`x` interpolated linearly, `y` rounded); `None` outside.
+    fn sample(&self, x: f32, y: f32) -> Option<f32> {
+        let xl = x - self.origin_px.0 as f32;
+        let yl = (y - self.origin_px.1 as f32).round();
+        if xl < 0.0 || yl < 0.0 || xl >= (self.width - 1) as f32 || yl >= self.height as f32 {
+            return None;
+        }
+        let x0 = xl as usize;
+        let f = xl - x0 as f32;
+        let row = yl as usize * self.width;
+        let a = self.data[row + x0] as f32;
+        let b = self.data[row + x0 + 1] as f32;
+        Some(a + f * (b - a))
+    }
+}
+
+/// The smoothed left and right images of a pair.
+#[derive(Debug, Clone, Copy)]
+pub struct StereoImages<'a> {
+    /// Left image.
+    pub left: ImagePatch<'a>,
+    /// Right image.
+    pub right: ImagePatch<'a>,
+}
+
+/// Photometric error of a candidate (see [`MatchParams::max_photometric_error`]).
+fn photometric_error(l: &Segment, c: &Candidate, images: &StereoImages<'_>) -> f32 {
+    const SAMPLES: usize = 12;
+    let mut sums = [0.0f32; 2];
+    let mut counts = [0u32; 2];
+    for k in 0..SAMPLES {
+        let t = (k as f32 + 0.5) / SAMPLES as f32;
+        let x = l.start[0] + t * (l.end[0] - l.start[0]);
+        let y = l.start[1] + t * (l.end[1] - l.start[1]);
+        let d = c.disparity_at(t);
+        for (side, offsets) in [
+            (0usize, [-4.0f32, -3.0, -2.0, -1.0]),
+            (1, [1.0, 2.0, 3.0, 4.0]),
+        ] {
+            for o in offsets {
+                if let (Some(a), Some(b)) = (
+                    images.left.sample(x + o, y),
+                    images.right.sample(x - d + o, y),
+                ) {
+                    sums[side] += (a - b).abs();
+                    counts[side] += 1;
+                }
+            }
+        }
+    }
+    let mut best = f32::INFINITY;
+    for side in 0..2 {
+        if counts[side] >= (SAMPLES * 2) as u32 {
+            best = best.min(sums[side] / counts[side] as f32);
+        }
+    }
+    best
+}
+
+/// Continuity between candidate `a` (on left segment `n`'s owner) and `b` (on `n.other`).
+fn continuous(a: &Candidate, b: &Candidate, n: &Neighbour, params: &MatchParams) -> bool {
+    let da = a.disparity_at(n.t_self);
+    let db = b.disparity_at(n.t_other);
+    (da - db).abs() <= params.disparity_tolerance_px + params.disparity_gradient_limit * n.distance
+}
+
+fn min_max(a: f32, b: f32) -> (f32, f32) {
+    if a < b {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// Evaluates the pair against the weak constraints; `None` when it fails them.
+fn evaluate_pair(
+    i: u32,
+    l: &Segment,
+    j: u32,
+    r: &Segment,
+    l_horizontal: bool,
+    params: &MatchParams,
+) -> Option<Candidate> {
+    if l.polarity != r.polarity {
+        return None;
+    }
+    // Cheap disparity-range test on the column extents before anything else.
+    let (lx0, lx1) = min_max(l.start[0], l.end[0]);
+    let (rx0, rx1) = min_max(r.start[0], r.end[0]);
+    if lx0 - rx1 > params.disparity_max_px + 1.0 || lx1 - rx0 < params.disparity_min_px - 1.0 {
+        return None;
+    }
+    let contrast_ratio = l.contrast.max(r.contrast) / l.contrast.min(r.contrast).max(1e-3);
+    if contrast_ratio > params.max_contrast_ratio {
+        return None;
+    }
+    let di0 = (l.side_intensity[0] - r.side_intensity[0]).abs();
+    let di1 = (l.side_intensity[1] - r.side_intensity[1]).abs();
+    if di0.min(di1) > params.max_intensity_diff {
+        return None;
+    }
+    let mut angle_diff = (l.angle_rad - r.angle_rad).abs();
+    if angle_diff > std::f32::consts::FRAC_PI_2 {
+        angle_diff = std::f32::consts::PI - angle_diff;
+    }
+    let angle_diff_deg = angle_diff.to_degrees();
+    if angle_diff_deg > params.propagate_max_angle_diff_deg {
+        return None;
+    }
+    let length_ratio = l.length_px.min(r.length_px) / l.length_px.max(r.length_px);
+    if length_ratio < params.propagate_min_length_ratio {
+        return None;
+    }
+    let (dmin, dmax) = (params.disparity_min_px, params.disparity_max_px);
+    let disparity = if l_horizontal {
+        // Rows must agree (within 2 px) and some disparity in range must make the columns
+        // overlap; the disparity itself is inherited during propagation.
+        if l.start[1].max(r.start[1]) > l.end[1].min(r.end[1]) + 2.0 {
+            return None;
+        }
+        let (a0, a1) = min_max(l.start[0], l.end[0]);
+        let (b0, b1) = min_max(r.start[0], r.end[0]);
+        let lo = (a0 - b1).max(dmin);
+        let hi = (a1 - b0).min(dmax);
+        if lo > hi {
+            return None;
+        }
+        [0.5 * (lo + hi); 2]
+    } else {
+        let y0 = l.start[1].max(r.start[1]);
+        let y1 = l.end[1].min(r.end[1]);
+        let overlap = y1 - y0;
+        if overlap <= 0.0
+            || overlap < params.min_row_overlap_ratio * l.height_px().min(r.height_px())
+        {
+            return None;
+        }
+        let (Some(xr0), Some(xr1)) = (r.x_at_row(l.start[1]), r.x_at_row(l.end[1])) else {
+            return None;
+        };
+        let d = [l.start[0] - xr0, l.end[0] - xr1];
+        if (d[1] - d[0]).abs() > 1.0 + params.max_disparity_slope * l.height_px() {
+            return None;
+        }
+        // The disparity must be in range over the overlapping rows.
+        let (Some(xa), Some(xb)) = (l.x_at_row(y0), l.x_at_row(y1)) else {
+            return None;
+        };
+        let (Some(ra), Some(rb)) = (r.x_at_row(y0), r.x_at_row(y1)) else {
+            return None;
+        };
+        for dd in [xa - ra, xb - rb] {
+            if dd < dmin - 0.5 || dd > dmax + 0.5 {
+                return None;
+            }
+        }
+        d
+    };
+    let mean_d = 0.5 * (disparity[0] + disparity[1]);
+    if mean_d < dmin - 0.5 || mean_d > dmax + 0.5 {
+        return None;
+    }
+    let tight = angle_diff_deg <= params.predict_max_angle_diff_deg
+        && length_ratio >= params.predict_min_length_ratio
+        && l.length_px.min(r.length_px) >= params.predict_min_length_px
+        && di0.max(di1) <= params.max_intensity_diff;
+    let cost = angle_diff_deg / params.propagate_max_angle_diff_deg
+        + (1.0 - length_ratio)
+        + (di0 + di1) / (2.0 * params.max_intensity_diff);
+    Some(Candidate {
+        left: i,
+        right: j,
+        disparity,
+        cost,
+        tight,
+        horizontal: l_horizontal,
+        support: 0,
+        position: [l.start[1], l.start[0], r.start[0]],
+        rows: if l_horizontal {
+            [f32::NEG_INFINITY, f32::INFINITY]
+        } else {
+            [l.start[1].max(r.start[1]), l.end[1].min(r.end[1])]
+        },
+    })
+}
+
+/// Whether the right segment `r` shifted right by the context `disparity` lies on the left
+/// segment `l` (nearly horizontal pairs): the left midpoint within the continuity tolerance of
+/// the shifted line, the columns overlapping by at least half the shorter extent, and an
+/// endpoint disparity agreeing with the context. Returns the measured disparity.
+fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) -> Option<f32> {
+    let (dx, dy) = (r.end[0] - r.start[0], r.end[1] - r.start[1]);
+    let m = l.midpoint();
+    let (px, py) = (m[0] - (r.start[0] + disparity), m[1] - r.start[1]);
+    let distance = (dx * py - dy * px).abs() / r.length_px.max(1e-3);
+    if distance > params.disparity_tolerance_px {
+        return None;
+    }
+    // The measured disparity: the mean of the endpoint disparities that agree with the
+    // context (at least one must, typically the corner shared with the neighbour).
+    let (mut sum, mut count) = (0.0f32, 0u32);
+    for (a, b) in [(l.start, r.start), (l.end, r.end)] {
+        let d = a[0] - b[0];
+        if (d - disparity).abs() <= params.disparity_tolerance_px {
+            sum += d;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    let (a0, a1) = min_max(l.start[0], l.end[0]);
+    let (b0, b1) = min_max(r.start[0] + disparity, r.end[0] + disparity);
+    let overlap = a1.min(b1) - a0.max(b0);
+    (overlap >= 0.5 * (a1 - a0).min(b1 - b0)).then_some(sum / count as f32)
+}
+
+/// Distance between two segments and the parameters (0 at `start`, 1 at `end`) of the closest
+/// points.
+fn segment_distance(a: &Segment, b: &Segment) -> (f32, f32, f32) {
+    let mut best = (f32::INFINITY, 0.0, 0.0);
+    // Segments that do not cross are closest at an endpoint of one of them.
+    for (p, on_a, t_fixed) in [
+        (a.start, false, 0.0),
+        (a.end, false, 1.0),
+        (b.start, true, 0.0),
+        (b.end, true, 1.0),
+    ] {
+        let s = if on_a { a } else { b };
+        let t = project_param(s, p);
+        let q = lerp(s, t);
+        let d = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt();
+        if d < best.0 {
+            best = if on_a {
+                (d, t, t_fixed)
+            } else {
+                (d, t_fixed, t)
+            };
+        }
+    }
+    best
+}
+
+fn project_param(s: &Segment, p: [f32; 2]) -> f32 {
+    let (dx, dy) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
+    let len2 = dx * dx + dy * dy;
+    if len2 < 1e-9 {
+        return 0.0;
+    }
+    (((p[0] - s.start[0]) * dx + (p[1] - s.start[1]) * dy) / len2).clamp(0.0, 1.0)
+}
+
+fn lerp(s: &Segment, t: f32) -> [f32; 2] {
+    [
+        s.start[0] + t * (s.end[0] - s.start[0]),
+        s.start[1] + t * (s.end[1] - s.start[1]),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seg(x0: f32, y0: f32, x1: f32, y1: f32, polarity: i8, sides: [f32; 2]) -> Segment {
+        let (mut s, mut e) = ([x0, y0], [x1, y1]);
+        if e[1] < s[1] {
+            std::mem::swap(&mut s, &mut e);
+        }
+        let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
+        let mut angle = dy.atan2(dx);
+        if angle >= std::f32::consts::PI {
+            angle -= std::f32::consts::PI;
+        }
+        Segment {
+            start: s,
+            end: e,
+            length_px: (dx * dx + dy * dy).sqrt(),
+            angle_rad: angle,
+            polarity,
+            contrast: 100.0,
+            side_intensity: sides,
+            chain: 0,
+        }
+    }
+
+    /// A synthetic scene: a fan of segments on a fronto-parallel plane at disparity `d`.
+    fn scene(d: f32) -> (Vec<Segment>, Vec<Segment>) {
+        let mut left = Vec::new();
+        let mut right = Vec::new();
+        for k in 0..12 {
+            let x = 80.0 + 17.0 * k as f32;
+            let y = 40.0 + 6.0 * (k % 3) as f32;
+            let slant = 0.15 * (k % 4) as f32;
+            let sides = [40.0 + 12.0 * k as f32, 200.0 - 9.0 * k as f32];
+            let pol = if k % 2 == 0 { 1 } else { -1 };
+            let l = seg(
+                x,
+                y,
+                x + 40.0 * slant,
+                y + 40.0 + 3.0 * k as f32,
+                pol,
+                sides,
+            );
+            let mut r = l;
+            r.start[0] -= d;
+            r.end[0] -= d;
+            left.push(l);
+            right.push(r);
+        }
+        (left, right)
+    }
+
+    #[test]
+    fn a_plane_of_segments_is_matched_exactly() {
+        let (left, right) = scene(23.0);
+        let mut ws = MatchWorkspace::new();
+        let mut out = Vec::new();
+        ws.match_segments(&left, &right, None, &MatchParams::default(), &mut out);
+        assert_eq!(out.len(), left.len());
+        for m in &out {
+            assert_eq!(m.left, m.right);
+            assert!((m.disparity_px[0] - 23.0).abs() < 1e-3);
+            assert!((m.disparity_px[1] - 23.0).abs() < 1e-3);
+        }
+    }
+
+    #[test]
+    fn disparity_outside_the_range_is_not_matched() {
+        let (left, right) = scene(80.0);
+        let mut ws = MatchWorkspace::new();
+        let mut out = Vec::new();
+        ws.match_segments(&left, &right, None, &MatchParams::default(), &mut out);
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn endpoint_disparity_comes_from_the_right_line_at_the_left_rows() {
+        // Right segment is shorter (fragmented) but on the same line shifted by 10 px.
+        let l = seg(100.0, 10.0, 120.0, 90.0, 1, [50.0, 150.0]);
+        let r = seg(92.5, 20.0, 107.5, 80.0, 1, [50.0, 150.0]);
+        let c = evaluate_pair(0, &l, 0, &r, false, &MatchParams::default()).unwrap();
+        assert!((c.disparity[0] - 10.0).abs() < 1e-3, "{:?}", c.disparity);
+        assert!((c.disparity[1] - 10.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn opposite_polarity_is_rejected() {
+        let l = seg(100.0, 10.0, 120.0, 90.0, 1, [50.0, 150.0]);
+        let r = seg(90.0, 10.0, 110.0, 90.0, -1, [50.0, 150.0]);
+        assert!(evaluate_pair(0, &l, 0, &r, false, &MatchParams::default()).is_none());
+    }
+
+    #[test]
+    fn closest_points_of_two_segments() {
+        let a = seg(0.0, 0.0, 0.0, 10.0, 1, [0.0, 0.0]);
+        let b = seg(3.0, 12.0, 3.0, 20.0, 1, [0.0, 0.0]);
+        let (d, ta, tb) = segment_distance(&a, &b);
+        assert!((d - (9.0f32 + 4.0).sqrt()).abs() < 1e-5);
+        assert_eq!((ta, tb), (1.0, 0.0));
+    }
+}

@@ -1,0 +1,429 @@
+//! The stereo pipeline from a rectified pair to 3D segments, whole-image or local, with
+//! per-stage timings. [`StereoPipeline`] keeps every buffer between frames; [`run_pipeline`]
+//! is the one-shot convenience.
+
+use crate::canny::{CannyParams, CannyWorkspace};
+use crate::chains::Chains;
+use crate::error::VisionError;
+use crate::gray::{GrayView, PixelRect};
+use crate::matching::{ImagePatch, MatchParams, MatchWorkspace, SegmentMatch, StereoImages};
+use crate::reconstruct::{back_project_matches, RectifiedGeometry, Segment3d};
+use crate::roi::{local_windows, LocalParams, LocalRegion, LocalWindows};
+use crate::segments::{Segment, SegmentParams, SegmentWorkspace};
+use std::time::{Duration, Instant};
+
+/// All parameters of the pipeline. The defaults are one set tuned on the Middlebury pairs
+/// (tsukuba, venus, cones, teddy) and meant for indoor scenes at 320x240..640x480.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VisionParams {
+    /// Edge detection.
+    pub canny: CannyParams,
+    /// Polygonal approximation.
+    pub segments: SegmentParams,
+    /// Matching.
+    pub matching: MatchParams,
+    /// Disparity error assumed for the 3D uncertainty, pixels (default 0.5).
+    pub disparity_sigma_px: f64,
+    /// Local mode.
+    pub local: LocalParams,
+}
+
+impl Default for VisionParams {
+    fn default() -> Self {
+        Self {
+            canny: CannyParams::default(),
+            segments: SegmentParams::default(),
+            matching: MatchParams::default(),
+            disparity_sigma_px: 0.5,
+            local: LocalParams::default(),
+        }
+    }
+}
+
+impl VisionParams {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        self.canny.validate()?;
+        self.segments.validate()?;
+        self.matching.validate()?;
+        if !(self.disparity_sigma_px > 0.0 && self.disparity_sigma_px <= 10.0) {
+            return Err(VisionError::Parameter {
+                name: "disparity_sigma_px",
+                value: self.disparity_sigma_px,
+                allowed: "(0, 10]",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Wall-clock time of each stage of the last run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimings {
+    /// Canny on both images.
+    pub edges: Duration,
+    /// Chain linking on both images.
+    pub chains: Duration,
+    /// Segment approximation on both images.
+    pub segments: Duration,
+    /// Matching.
+    pub matching: Duration,
+    /// Back-projection.
+    pub reconstruction: Duration,
+    /// Whole run.
+    pub total: Duration,
+}
+
+/// Results of a run (reused between runs by [`StereoPipeline`]).
+#[derive(Debug, Clone, Default)]
+pub struct PipelineOutput {
+    /// Segments of the left image (frame pixels).
+    pub left_segments: Vec<Segment>,
+    /// Segments of the right image (frame pixels).
+    pub right_segments: Vec<Segment>,
+    /// Accepted matches (indices into the segment lists).
+    pub matches: Vec<SegmentMatch>,
+    /// Back-projected matches (only when a geometry was given).
+    pub segments_3d: Vec<Segment3d>,
+    /// Stage timings.
+    pub timings: StageTimings,
+    /// The windows of a local run (`None` for a whole-image run).
+    pub local: Option<LocalWindows>,
+}
+
+/// The stereo pipeline with all its reusable buffers.
+#[derive(Debug, Default, Clone)]
+pub struct StereoPipeline {
+    canny: CannyWorkspace,
+    canny_right: CannyWorkspace,
+    chains: Chains,
+    segments: SegmentWorkspace,
+    matcher: MatchWorkspace,
+    output: PipelineOutput,
+}
+
+impl StereoPipeline {
+    /// A pipeline with empty buffers (they grow during the first frames).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The results of the last run.
+    pub fn output(&self) -> &PipelineOutput {
+        &self.output
+    }
+
+    /// Whole-image run on a rectified pair.
+    pub fn run(
+        &mut self,
+        left: &GrayView<'_>,
+        right: &GrayView<'_>,
+        geometry: Option<&RectifiedGeometry>,
+        params: &VisionParams,
+    ) -> Result<&PipelineOutput, VisionError> {
+        check_pair(left, right)?;
+        params.validate()?;
+        self.output.local = None;
+        self.process(left, right, geometry, params)?;
+        Ok(&self.output)
+    }
+
+    /// Local run: only the windows around `region` are processed (see [`local_windows`]);
+    /// matches whose left segment does not touch the region of interest are dropped.
+    /// Inside the region, the matches equal those of a whole-image run whenever the context
+    /// margin covers the chains and neighbourhoods involved.
+    pub fn run_local(
+        &mut self,
+        left: &GrayView<'_>,
+        right: &GrayView<'_>,
+        geometry: Option<&RectifiedGeometry>,
+        params: &VisionParams,
+        region: &LocalRegion,
+    ) -> Result<&PipelineOutput, VisionError> {
+        check_pair(left, right)?;
+        params.validate()?;
+        let windows = local_windows(
+            region,
+            &params.local,
+            left.width(),
+            left.height(),
+            params.matching.disparity_min_px,
+            params.matching.disparity_max_px,
+        )?;
+        let left_view = left.window(windows.left).ok_or(VisionError::EmptyImage {
+            width: 0,
+            height: 0,
+        })?;
+        let right_view = right.window(windows.right).ok_or(VisionError::EmptyImage {
+            width: 0,
+            height: 0,
+        })?;
+        let start = Instant::now();
+        self.process(&left_view, &right_view, None, params)?;
+        let roi = windows.roi;
+        let left_segments = &self.output.left_segments;
+        self.output
+            .matches
+            .retain(|m| touches(&left_segments[m.left as usize], &roi));
+        if let Some(g) = geometry {
+            let t = Instant::now();
+            back_project_matches(
+                g,
+                &self.output.left_segments,
+                &self.output.matches,
+                params.disparity_sigma_px,
+                &mut self.output.segments_3d,
+            );
+            self.output.timings.reconstruction = t.elapsed();
+        }
+        self.output.timings.total = start.elapsed();
+        self.output.local = Some(windows);
+        Ok(&self.output)
+    }
+
+    fn process(
+        &mut self,
+        left: &GrayView<'_>,
+        right: &GrayView<'_>,
+        geometry: Option<&RectifiedGeometry>,
+        params: &VisionParams,
+    ) -> Result<(), VisionError> {
+        let start = Instant::now();
+        let mut timings = StageTimings::default();
+        let out = &mut self.output;
+        for (view, canny, segments) in [
+            (left, &mut self.canny, &mut out.left_segments),
+            (right, &mut self.canny_right, &mut out.right_segments),
+        ] {
+            let t = Instant::now();
+            canny.detect(view, &params.canny)?;
+            timings.edges += t.elapsed();
+            let t = Instant::now();
+            self.chains.link(
+                canny.edges(),
+                view.width(),
+                view.height(),
+                params.segments.min_chain_pixels,
+            );
+            timings.chains += t.elapsed();
+            let t = Instant::now();
+            self.segments.extract(
+                &self.chains,
+                canny,
+                view.origin_px(),
+                &params.segments,
+                segments,
+            );
+            timings.segments += t.elapsed();
+        }
+        let t = Instant::now();
+        let images = StereoImages {
+            left: patch(&self.canny, left),
+            right: patch(&self.canny_right, right),
+        };
+        self.matcher.match_segments(
+            &out.left_segments,
+            &out.right_segments,
+            Some(&images),
+            &params.matching,
+            &mut out.matches,
+        );
+        timings.matching = t.elapsed();
+        out.segments_3d.clear();
+        if let Some(g) = geometry {
+            g.validate()?;
+            let t = Instant::now();
+            back_project_matches(
+                g,
+                &out.left_segments,
+                &out.matches,
+                params.disparity_sigma_px,
+                &mut out.segments_3d,
+            );
+            timings.reconstruction = t.elapsed();
+        }
+        timings.total = start.elapsed();
+        out.timings = timings;
+        Ok(())
+    }
+}
+
+/// The smoothed image held by `canny` for the view `v`.
+fn patch<'a>(canny: &'a CannyWorkspace, v: &GrayView<'_>) -> ImagePatch<'a> {
+    ImagePatch {
+        data: canny.smoothed(),
+        width: canny.width(),
+        height: canny.height(),
+        origin_px: v.origin_px(),
+    }
+}
+
+/// Whether any part of `s` lies inside `roi` (sampled every pixel along the segment).
+fn touches(s: &Segment, roi: &PixelRect) -> bool {
+    let steps = s.length_px.ceil().max(1.0) as usize;
+    (0..=steps).any(|k| {
+        let t = k as f32 / steps as f32;
+        roi.contains(
+            s.start[0] + t * (s.end[0] - s.start[0]),
+            s.start[1] + t * (s.end[1] - s.start[1]),
+        )
+    })
+}
+
+fn check_pair(left: &GrayView<'_>, right: &GrayView<'_>) -> Result<(), VisionError> {
+    if left.width() != right.width() || left.height() != right.height() {
+        return Err(VisionError::SizeMismatch {
+            left_width: left.width(),
+            left_height: left.height(),
+            right_width: right.width(),
+            right_height: right.height(),
+        });
+    }
+    if left.width() < 8 || left.height() < 8 {
+        return Err(VisionError::EmptyImage {
+            width: left.width(),
+            height: left.height(),
+        });
+    }
+    Ok(())
+}
+
+/// One-shot whole-image run (allocates its buffers; use [`StereoPipeline`] for video).
+pub fn run_pipeline(
+    left: &GrayView<'_>,
+    right: &GrayView<'_>,
+    geometry: Option<&RectifiedGeometry>,
+    params: &VisionParams,
+) -> Result<PipelineOutput, VisionError> {
+    let mut pipeline = StereoPipeline::new();
+    pipeline.run(left, right, geometry, params)?;
+    Ok(pipeline.output)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A textured synthetic pair: random rectangles at two depths.
+    fn synthetic_pair(w: usize, h: usize, d_back: usize, d_front: usize) -> (Vec<u8>, Vec<u8>) {
+        let mut state = 12345u64;
+        let mut rnd = move |n: u64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) % n
+        };
+        let mut back = vec![0u8; w * h];
+        let mut front = vec![0u8; w * h];
+        for layer in [&mut back, &mut front] {
+            for _ in 0..40 {
+                let (x0, y0) = (rnd(w as u64) as usize, rnd(h as u64) as usize);
+                let (rw, rh) = (8 + rnd(40) as usize, 8 + rnd(40) as usize);
+                let v = 20 + rnd(220) as u8;
+                for y in y0..(y0 + rh).min(h) {
+                    for x in x0..(x0 + rw).min(w) {
+                        layer[y * w + x] = v;
+                    }
+                }
+            }
+        }
+        let mut left = vec![0u8; w * h];
+        let mut right = vec![0u8; w * h];
+        // Front layer is a central square.
+        let inside = |x: usize, y: usize| (60..160).contains(&x) && (40..140).contains(&y);
+        for y in 0..h {
+            for x in 0..w {
+                left[y * w + x] = if inside(x, y) {
+                    front[y * w + x]
+                } else {
+                    back[y * w + x]
+                };
+                let xb = x + d_back;
+                let xf = x + d_front;
+                right[y * w + x] = if xf < w && inside(xf, y) {
+                    front[y * w + xf]
+                } else if xb < w {
+                    back[y * w + xb]
+                } else {
+                    0
+                };
+            }
+        }
+        (left, right)
+    }
+
+    #[test]
+    fn synthetic_two_depth_scene_is_matched_with_correct_disparities() {
+        let (w, h) = (220, 180);
+        let (l, r) = synthetic_pair(w, h, 6, 18);
+        let lv = GrayView::new(&l, w, h).unwrap();
+        let rv = GrayView::new(&r, w, h).unwrap();
+        let g = RectifiedGeometry {
+            focal_px: 400.0,
+            cx_px: 110.0,
+            cy_px: 90.0,
+            baseline_m: 0.12,
+        };
+        let out = run_pipeline(&lv, &rv, Some(&g), &VisionParams::default()).unwrap();
+        assert!(out.left_segments.len() > 30, "{}", out.left_segments.len());
+        let matched = out.matches.len() as f32 / out.left_segments.len() as f32;
+        assert!(matched > 0.4, "matched {matched}");
+        let wrong = out
+            .matches
+            .iter()
+            .filter(|m| {
+                let d = 0.5 * (m.disparity_px[0] + m.disparity_px[1]);
+                (d - 6.0).abs() > 1.0 && (d - 18.0).abs() > 1.0
+            })
+            .count();
+        assert!(
+            wrong * 20 <= out.matches.len(),
+            "{wrong} wrong of {}",
+            out.matches.len()
+        );
+        assert!(!out.segments_3d.is_empty());
+        for s in &out.segments_3d {
+            assert!(s.start_m.z > 0.0 && s.start_sigma_m.z > 0.0);
+        }
+    }
+
+    #[test]
+    fn tiny_and_border_regions_do_not_panic() {
+        let (w, h) = (120, 90);
+        let (l, r) = synthetic_pair(w, h, 4, 9);
+        let lv = GrayView::new(&l, w, h).unwrap();
+        let rv = GrayView::new(&r, w, h).unwrap();
+        let mut params = VisionParams::default();
+        let mut pipeline = StereoPipeline::new();
+        for margin in [0, 1, 32] {
+            params.local.context_margin_px = margin;
+            for (cx, cy, size) in [
+                (0.0, 0.0, 1.0),
+                (119.0, 89.0, 2.0),
+                (60.0, 45.0, 3.0),
+                (-3.0, 40.0, 8.0),
+                (60.0, 45.0, 500.0),
+            ] {
+                let region = LocalRegion {
+                    centre_px: [cx, cy],
+                    size_px: [size, size],
+                    velocity_px_per_frame: [30.0, -20.0],
+                };
+                match pipeline.run_local(&lv, &rv, None, &params, &region) {
+                    Ok(out) => assert!(out.local.is_some()),
+                    Err(e) => assert!(matches!(e, VisionError::RoiOutside { .. }), "{e}"),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn mismatched_sizes_are_an_error() {
+        let a = vec![0u8; 100];
+        let b = vec![0u8; 120];
+        let lv = GrayView::new(&a, 10, 10).unwrap();
+        let rv = GrayView::new(&b, 12, 10).unwrap();
+        let e = run_pipeline(&lv, &rv, None, &VisionParams::default()).unwrap_err();
+        assert!(e.to_string().contains("10x10"), "{e}");
+    }
+}

@@ -1,0 +1,53 @@
+//! Matching accuracy on the Middlebury pairs of the shared data (one parameter set, the
+//! defaults). Guards the measured levels: on every pair at least 45 % of the left segments are
+//! matched and at most 3 % of the matches are wrong (see `videt_vision::evaluation` for how a
+//! match is judged). The full table: `cargo run --release -p videt-vision --example
+//! stereo_accuracy`.
+
+use videt_vision::evaluation::{evaluate, DisparityMap};
+use videt_vision::{run_pipeline, GrayView, VisionParams};
+
+#[test]
+fn every_middlebury_pair_is_matched_reliably() {
+    let params = VisionParams::default();
+    for (name, scale) in [
+        ("tsukuba", 16.0),
+        ("venus", 8.0),
+        ("cones", 4.0),
+        ("teddy", 4.0),
+    ] {
+        let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
+            return;
+        };
+        let left = image::open(dir.join("left.ppm")).unwrap().to_luma8();
+        let right = image::open(dir.join("right.ppm")).unwrap().to_luma8();
+        let mut truth = DisparityMap::from_scaled(
+            &image::open(dir.join("disp_left.pgm")).unwrap().to_luma8(),
+            scale,
+        );
+        if dir.join("disp_right.pgm").exists() {
+            let r = DisparityMap::from_scaled(
+                &image::open(dir.join("disp_right.pgm")).unwrap().to_luma8(),
+                scale,
+            );
+            truth.mask_occlusions(&r, 1.0);
+        }
+        let out = run_pipeline(
+            &GrayView::from_image(&left).unwrap(),
+            &GrayView::from_image(&right).unwrap(),
+            None,
+            &params,
+        )
+        .unwrap();
+        let report = evaluate(
+            &out.left_segments,
+            &out.right_segments,
+            &out.matches,
+            &truth,
+        );
+        eprintln!("{name}: {report:?}");
+        assert!(report.left_segments > 200, "{name}: {report:?}");
+        assert!(report.matched_fraction() >= 0.45, "{name}: {report:?}");
+        assert!(report.wrong_fraction() <= 0.03, "{name}: {report:?}");
+    }
+}
