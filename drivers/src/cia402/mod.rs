@@ -1,0 +1,14 @@
+//! CiA 402 wire drives: the power state machine ([`state`]), the process data ([`pdo`]),
+//! configuration ([`config`]), errors ([`error`]) and the three-drive set implementing the
+//! HAL ([`drive_set`]).
+
+pub mod config;
+pub mod drive_set;
+pub mod error;
+pub mod pdo;
+pub mod state;
+
+pub use config::{ConfigError, DriveSetConfig};
+pub use drive_set::{wire_length_m, Cia402DriveSet};
+pub use error::DriveError;
+pub use state::{PowerGoal, PowerSequencer, PowerState};
