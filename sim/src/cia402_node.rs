@@ -315,6 +315,7 @@ pub struct SimDriveNode {
     host_heard: Option<Instant>,
     comm_lost: bool,
     applied_torque_nm: f64,
+    error_code: u16,
 }
 
 impl SimDriveNode {
@@ -333,6 +334,7 @@ impl SimDriveNode {
             host_heard: None,
             comm_lost: false,
             applied_torque_nm: 0.0,
+            error_code: 0,
         }
     }
 
@@ -379,17 +381,16 @@ impl SimDriveNode {
     fn publish_status(&mut self) {
         let sw = self.power.statusword();
         self.set(0x6041, Value::Unsigned16(sw));
-        let code = if self.power == DrivePower::Fault {
-            self.faults
-                .fault_code()
-                .max(u16::from(self.comm_lost) * 0x8130)
-        } else {
-            0
-        };
-        self.set(0x603F, Value::Unsigned16(code));
+        if self.power != DrivePower::Fault {
+            self.error_code = 0;
+        }
+        self.set(0x603F, Value::Unsigned16(self.error_code));
     }
 
     fn enter_fault(&mut self, code: u16, out: &mut impl FnMut(SimFrame)) {
+        if self.power != DrivePower::Fault {
+            self.error_code = code;
+        }
         self.power = DrivePower::Fault;
         let f = self.node.raise_emergency(code, ErrorRegister(0x01), [0; 5]);
         if let Some(fr) = SimFrame::standard(f.cob_id, f.data()) {
@@ -424,7 +425,9 @@ impl SimDriveNode {
             return;
         }
         if cob == 0x700 + u16::from(self.host_node_id()) && self.host_node_id() != 0 {
+            // The host is back: a communication-loss fault may now be reset.
             self.host_heard = Some(Instant::now());
+            self.comm_lost = false;
             return;
         }
         let before = self.node.state();
@@ -583,7 +586,11 @@ impl SimDriveNode {
                 if let Some(fr) = SimFrame::standard(f.cob_id, f.data()) {
                     out(fr);
                 }
+                if self.power != DrivePower::Fault && reaction == 1 {
+                    self.error_code = 0x8130;
+                }
                 self.power = match reaction {
+                    _ if self.power == DrivePower::Fault => DrivePower::Fault,
                     1 => DrivePower::Fault,
                     3 if self.power == DrivePower::OperationEnabled => DrivePower::QuickStopActive,
                     0 => self.power,

@@ -159,7 +159,7 @@ impl DriveSetConfig {
                 "> 0",
             ));
         }
-        if !(self.overspeed_trip_factor >= 1.0) {
+        if self.overspeed_trip_factor.is_nan() || self.overspeed_trip_factor < 1.0 {
             return Err(err(
                 "overspeed_trip_factor",
                 self.overspeed_trip_factor,

@@ -582,8 +582,8 @@ impl<P: CanPort> Cia402DriveSet<P> {
             let cycle_start = Instant::now();
             self.exchange(false)?;
             let mut all = true;
-            for i in 0..WIRES {
-                let step = seq[i]
+            for (i, sequencer) in seq.iter_mut().enumerate() {
+                let step = sequencer
                     .step(self.nodes[i].status.statusword, now_ns(Instant::now()))
                     .map_err(|e| {
                         DriveError::from_power(self.nodes[i].id, e, self.nodes[i].status.error_code)
@@ -726,10 +726,10 @@ impl<P: CanPort> WireDrives for Cia402DriveSet<P> {
                 Err(e) => return Err(self.fail(e)),
             }
         }
-        for i in 0..WIRES {
+        for (i, target) in permille.into_iter().enumerate() {
             let cmd = Command {
                 controlword: controlword::ENABLE_OPERATION,
-                target_torque_permille: permille[i],
+                target_torque_permille: target,
             };
             let cob = cob::RPDO_BASE[0] + u16::from(self.nodes[i].id);
             if let Err(e) = self.send(cob, &cmd.encode()) {

@@ -8,6 +8,9 @@ pub mod error;
 pub mod pdo;
 pub mod state;
 
+#[cfg(test)]
+mod sim_tests;
+
 pub use config::{ConfigError, DriveSetConfig};
 pub use drive_set::{wire_length_m, Cia402DriveSet};
 pub use error::DriveError;

@@ -114,40 +114,38 @@ impl InProcessEndpoint {
     /// Receive the next frame, waiting at most `timeout`; `Ok(None)` when none arrived in time.
     pub fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
         let deadline = Instant::now() + timeout;
-        loop {
+        if self.faults.is_bus_off() {
+            return Err(BusError::BusOff);
+        }
+        let envelope = match self.pending.take() {
+            Some(e) => e,
+            None => {
+                let now = Instant::now();
+                match self
+                    .rx
+                    .recv_timeout(deadline.saturating_duration_since(now))
+                {
+                    Ok(e) => e,
+                    Err(RecvTimeoutError::Timeout) => return Ok(None),
+                    Err(RecvTimeoutError::Disconnected) => return Err(BusError::Disconnected),
+                }
+            }
+        };
+        let now = Instant::now();
+        if envelope.deliver_at <= now {
+            return Ok(Some(envelope.frame));
+        }
+        if envelope.deliver_at <= deadline {
+            std::thread::sleep(envelope.deliver_at - now);
             if self.faults.is_bus_off() {
                 return Err(BusError::BusOff);
             }
-            let envelope = match self.pending.take() {
-                Some(e) => e,
-                None => {
-                    let now = Instant::now();
-                    match self
-                        .rx
-                        .recv_timeout(deadline.saturating_duration_since(now))
-                    {
-                        Ok(e) => e,
-                        Err(RecvTimeoutError::Timeout) => return Ok(None),
-                        Err(RecvTimeoutError::Disconnected) => return Err(BusError::Disconnected),
-                    }
-                }
-            };
-            let now = Instant::now();
-            if envelope.deliver_at <= now {
-                return Ok(Some(envelope.frame));
-            }
-            if envelope.deliver_at <= deadline {
-                std::thread::sleep(envelope.deliver_at - now);
-                if self.faults.is_bus_off() {
-                    return Err(BusError::BusOff);
-                }
-                return Ok(Some(envelope.frame));
-            }
-            // Not deliverable before the deadline: keep it for a later call.
-            self.pending = Some(envelope);
-            std::thread::sleep(deadline.saturating_duration_since(now));
-            return Ok(None);
+            return Ok(Some(envelope.frame));
         }
+        // Not deliverable before the deadline: keep it for a later call.
+        self.pending = Some(envelope);
+        std::thread::sleep(deadline.saturating_duration_since(now));
+        Ok(None)
     }
 
     /// Receive without waiting: `WouldBlock` when no frame is deliverable now.
