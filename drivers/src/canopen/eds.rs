@@ -1,7 +1,7 @@
 //! A reader for CANopen electronic data sheets (EDS) and device configuration files (DCF),
 //! CiA 306 INI format: `[1018sub1]` sections with `ParameterName`, `DataType`, `AccessType`,
 //! `DefaultValue` (and `ParameterValue` in a DCF). Accepts CRLF or LF line endings, comments
-//! (`;` lines, `# ...` after a section header), decimal and `0x` hex numbers, and
+//! (`;` lines, `# ...` after a section header or a value), decimal and `0x` hex numbers, and
 //! `$NODEID+0x..` / `0x..+$NODEID` expressions. **non-RT** (allocates).
 
 use std::collections::BTreeMap;
@@ -168,6 +168,11 @@ impl Eds {
             let Some((key, value)) = line.split_once('=') else {
                 continue; // not a key=value line: tolerated as a comment
             };
+            // A trailing ` # comment` (seen in generic sample sheets) is not part of the value.
+            let value = match value.find(" #").or_else(|| value.find("\t#")) {
+                Some(cut) => &value[..cut],
+                None => value,
+            };
             let (key, value) = (key.trim(), value.trim());
             let number = |v: &str| -> Result<i128, EdsError> {
                 parse_value(v, 0).map_err(|_| EdsError::BadNumber {
@@ -245,7 +250,7 @@ mod tests {
 
     #[test]
     fn parses_crlf_sections_subindices_and_comments() {
-        let text = "[DeviceInfo]\r\nProductName=Drive X\r\n\r\n[1017]\r\nParameterName=Producer heartbeat time\r\nObjectType=0x7\r\nDataType=0x0006\r\nAccessType=RW\r\nDefaultValue=0\r\nPDOMapping=0\r\n[1800sub1] # comment\r\nParameterName=COB-ID\r\nDataType=0x0007\r\nDefaultValue=$NODEID+0x40000180\r\nParameterValue=0x181\r\n";
+        let text = "[DeviceInfo]\r\nProductName=Drive X\r\n\r\n[1017]\r\nParameterName=Producer heartbeat time\r\nObjectType=0x07 # VAR\r\nDataType=0x0006\r\nAccessType=RW\r\nDefaultValue=0\r\nPDOMapping=0\r\n[1800sub1] # comment\r\nParameterName=COB-ID\r\nDataType=0x0007\r\nDefaultValue=$NODEID+0x40000180\r\nParameterValue=0x181\r\n";
         let eds = Eds::parse(text).unwrap();
         assert_eq!(eds.product_name.as_deref(), Some("Drive X"));
         let e = eds.entry(0x1017, 0).unwrap();

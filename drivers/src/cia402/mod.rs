@@ -2,6 +2,7 @@
 //! configuration ([`config`]), errors ([`error`]) and the three-drive set implementing the
 //! HAL ([`drive_set`]).
 
+pub mod compat;
 pub mod config;
 pub mod drive_set;
 pub mod error;
