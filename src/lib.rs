@@ -1,1 +1,14 @@
-//! VIDET runtime
+//! # videt — the VIDET runtime
+//!
+//! Threads, scheduling, snapshots and the command-line tools of the VIDET haptic interface. The
+//! math lives in `videt-control`, the device traits in `videt-hal`, the digital twin in
+//! `videt-sim`; this crate wires them together for the `videtd` service and the `videt` tool.
+#![warn(missing_docs)]
+
+pub mod control_loop;
+pub mod cycle;
+pub mod rt;
+pub mod setup;
+pub mod status;
+pub mod tool;
+pub mod twin_rt;

@@ -17,6 +17,7 @@ extern crate std;
 
 pub mod distribution;
 pub mod kinematics;
+pub mod safety;
 pub mod scene_map;
 pub mod step;
 pub mod surface;
@@ -24,6 +25,7 @@ pub mod tension_pi;
 
 pub use distribution::{Algorithm, Distribution, ForceLimits};
 pub use kinematics::{ForwardSolution, Rig3, RigError};
+pub use safety::{SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor};
 pub use scene_map::SceneMap;
 pub use step::{ControlParams, ControlStep, StepInput, StepOutput};
 pub use surface::{Contact, FreeSpace, Plane, Surface};

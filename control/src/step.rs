@@ -35,6 +35,8 @@ pub struct StepInput {
     pub dt_s: f64,
     /// False in the safe state: no force is rendered and every wire is held at `t_min`.
     pub render_forces: bool,
+    /// Scale in `[0, 1]` applied to the desired force (ramps on start-up and shutdown).
+    pub force_scale: f64,
 }
 
 /// What the step produces each period.
@@ -123,6 +125,7 @@ impl ControlStep {
             }
             None => Vec3::zeros(),
         };
+        out.desired_force_n *= input.force_scale.clamp(0.0, 1.0);
         out.distribution = distribute(
             &self.rig,
             &out.position_m,

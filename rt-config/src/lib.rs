@@ -1,1 +1,313 @@
-//! placeholder
+//! # videt-rt-config — the daemon's configuration
+//!
+//! One TOML file (`/etc/videt/videt.toml` on the device; `config/videt.example.toml` in the
+//! repository) with sections for the rig geometry, the transmission, control gains and limits, and
+//! real-time settings. Unknown keys are rejected; every value is validated on load with an error
+//! that names the field, its value and the allowed range.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// A configuration error: what is wrong, in which field.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML for the schema (syntax, unknown key, wrong type).
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file.
+        path: String,
+        /// The parser's message (names the key and line).
+        message: String,
+    },
+    /// A value is outside its allowed range.
+    #[error("{field} = {value}: must be {allowed}")]
+    Invalid {
+        /// Dotted field name, e.g. `control.rate_hz`.
+        field: String,
+        /// The value found.
+        value: String,
+        /// The allowed range.
+        allowed: String,
+    },
+}
+
+/// The whole configuration.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Config {
+    /// Rig geometry.
+    pub rig: RigConfig,
+    /// Motor-to-wire transmission.
+    pub transmission: TransmissionConfig,
+    /// Control loop.
+    pub control: ControlConfig,
+    /// Real-time settings.
+    pub realtime: RealtimeConfig,
+}
+
+/// Rig geometry (used until an auto-initialization calibration is available).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigConfig {
+    /// Guide points in the frame plane `z = 0`, metres, as `[x, y]` pairs.
+    pub guides_m: [[f64; 2]; 3],
+}
+
+/// Motor-to-wire transmission of every wire module.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TransmissionConfig {
+    /// Encoder counts per motor revolution (500 lines x4 = 2000).
+    pub counts_per_motor_rev: u32,
+    /// Gear reduction (motor turns per pulley turn).
+    pub gear_ratio: f64,
+    /// Pulley radius, metres.
+    pub pulley_radius_m: f64,
+    /// Gear efficiency in (0, 1].
+    pub efficiency: f64,
+}
+
+/// Control loop settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ControlConfig {
+    /// Loop rate, Hz (1000..=10000).
+    pub rate_hz: u32,
+    /// Contact stiffness, N/m.
+    pub stiffness_n_per_m: f64,
+    /// Contact damping, N·s/m.
+    pub damping_n_s_per_m: f64,
+    /// Projection algorithm name (`P1`, `P2`, ...).
+    pub algorithm: String,
+    /// Minimum wire tension, N.
+    pub t_min_n: f64,
+    /// Maximum wire tension, N (the device's limit is 15 N).
+    pub t_max_n: f64,
+    /// Largest wire speed before the safety supervisor stops rendering, m/s (device: 0.8).
+    pub max_wire_speed_m_s: f64,
+    /// Tension loop proportional gain, N·m per N.
+    pub tension_kp_nm_per_n: f64,
+    /// Tension loop integral gain, N·m per N·s.
+    pub tension_ki_nm_per_n_s: f64,
+    /// Time over which tensions ramp down to `t_min` on shutdown, seconds.
+    pub ramp_down_s: f64,
+}
+
+/// Real-time process settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RealtimeConfig {
+    /// SCHED_FIFO priority of the control thread (1..=99).
+    pub control_priority: u8,
+    /// CPU the control thread is pinned to (`-1` = no pinning).
+    pub control_cpu: i32,
+    /// Lock all memory (`mlockall`).
+    pub lock_memory: bool,
+}
+
+impl Default for RigConfig {
+    fn default() -> Self {
+        // A frame of the paper's size (370 mm x 300 mm).
+        RigConfig {
+            guides_m: [[0.0, 0.0], [0.37, 0.0], [0.185, 0.30]],
+        }
+    }
+}
+
+impl Default for TransmissionConfig {
+    fn default() -> Self {
+        TransmissionConfig {
+            counts_per_motor_rev: 2000,
+            gear_ratio: 25.0,
+            pulley_radius_m: 0.020,
+            efficiency: 1.0,
+        }
+    }
+}
+
+impl Default for ControlConfig {
+    fn default() -> Self {
+        ControlConfig {
+            rate_hz: 1000,
+            stiffness_n_per_m: 800.0,
+            damping_n_s_per_m: 2.0,
+            algorithm: "P2".to_string(),
+            t_min_n: 0.3,
+            t_max_n: 15.0,
+            max_wire_speed_m_s: 0.8,
+            tension_kp_nm_per_n: 0.0004,
+            tension_ki_nm_per_n_s: 0.04,
+            ramp_down_s: 0.5,
+        }
+    }
+}
+
+impl Default for RealtimeConfig {
+    fn default() -> Self {
+        RealtimeConfig {
+            control_priority: 80,
+            control_cpu: 1,
+            lock_memory: true,
+        }
+    }
+}
+
+/// Check that `value` lies in `[lo, hi]` (and is finite), naming `field` otherwise.
+fn in_range(field: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            field: field.to_string(),
+            value: value.to_string(),
+            allowed: format!("in [{lo}, {hi}]"),
+        })
+    }
+}
+
+impl Config {
+    /// Parse and validate TOML text; `origin` names the source in errors.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Config, ConfigError> {
+        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Read, parse and validate a file.
+    pub fn load(path: &Path) -> Result<Config, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Config::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Check every value against its allowed range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for (i, g) in self.rig.guides_m.iter().enumerate() {
+            for (axis, v) in ["x", "y"].iter().zip(g) {
+                in_range(&format!("rig.guides_m[{i}].{axis}"), *v, -2.0, 2.0)?;
+            }
+        }
+        let t = &self.transmission;
+        if !(1..=1_000_000).contains(&t.counts_per_motor_rev) {
+            return Err(ConfigError::Invalid {
+                field: "transmission.counts_per_motor_rev".into(),
+                value: t.counts_per_motor_rev.to_string(),
+                allowed: "in [1, 1000000]".into(),
+            });
+        }
+        in_range("transmission.gear_ratio", t.gear_ratio, 1.0, 1000.0)?;
+        in_range(
+            "transmission.pulley_radius_m",
+            t.pulley_radius_m,
+            0.001,
+            0.2,
+        )?;
+        in_range("transmission.efficiency", t.efficiency, 0.05, 1.0)?;
+        let c = &self.control;
+        in_range("control.rate_hz", c.rate_hz as f64, 1000.0, 10000.0)?;
+        in_range(
+            "control.stiffness_n_per_m",
+            c.stiffness_n_per_m,
+            0.0,
+            20000.0,
+        )?;
+        in_range("control.damping_n_s_per_m", c.damping_n_s_per_m, 0.0, 100.0)?;
+        if !["P1", "P2"].contains(&c.algorithm.as_str()) {
+            return Err(ConfigError::Invalid {
+                field: "control.algorithm".into(),
+                value: c.algorithm.clone(),
+                allowed: "one of P1, P2".into(),
+            });
+        }
+        in_range("control.t_max_n", c.t_max_n, 0.5, 15.0)?;
+        in_range("control.t_min_n", c.t_min_n, 0.05, c.t_max_n)?;
+        in_range(
+            "control.max_wire_speed_m_s",
+            c.max_wire_speed_m_s,
+            0.01,
+            0.8,
+        )?;
+        in_range(
+            "control.tension_kp_nm_per_n",
+            c.tension_kp_nm_per_n,
+            0.0,
+            0.1,
+        )?;
+        in_range(
+            "control.tension_ki_nm_per_n_s",
+            c.tension_ki_nm_per_n_s,
+            0.0,
+            10.0,
+        )?;
+        in_range("control.ramp_down_s", c.ramp_down_s, 0.0, 10.0)?;
+        in_range(
+            "realtime.control_priority",
+            self.realtime.control_priority as f64,
+            1.0,
+            99.0,
+        )?;
+        in_range(
+            "realtime.control_cpu",
+            self.realtime.control_cpu as f64,
+            -1.0,
+            1023.0,
+        )?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_the_example_file_parses() {
+        Config::default().validate().unwrap();
+        let example = include_str!("../../config/videt.example.toml");
+        let c = Config::from_toml_str(example, "videt.example.toml").unwrap();
+        assert_eq!(c.control.rate_hz, 1000);
+    }
+
+    #[test]
+    fn errors_name_the_field_value_and_range() {
+        let e = Config::from_toml_str("[control]\nrate_hz = 50\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("control.rate_hz") && e.contains("50") && e.contains("1000"),
+            "{e}"
+        );
+        let e = Config::from_toml_str("[control]\nt_max_n = 40.0\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("control.t_max_n") && e.contains("40"), "{e}");
+        let e = Config::from_toml_str("[control]\nalgorithm = \"X9\"\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("control.algorithm") && e.contains("X9"), "{e}");
+    }
+
+    #[test]
+    fn unknown_keys_are_rejected() {
+        let e = Config::from_toml_str("[control]\nrate_hzz = 1000\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("rate_hzz"), "{e}");
+    }
+}

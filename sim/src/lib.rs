@@ -1,8 +1,34 @@
-//! # videt-sim — the digital twin
+//! # videt-sim — the digital twin of the VIDET device
 //!
-//! Protocol-level twins of devices: a userspace CAN bus ([`can_bus`]) and a simulated
-//! CiA 402 drive node ([`cia402_node`]) so the real drive driver runs end to end without
-//! hardware.
+//! A physics model of the wire-driven haptic device that implements the `videt-hal` traits, so the
+//! real runtime and the real control code run on it unchanged:
+//!
+//! - [`plant`]: three guide points in the `z = 0` plane, a thimble point mass, elastic
+//!   tension-only wires wound by motors through a worm gear onto pulleys; fixed-step integration
+//!   at >= 10 kHz inside;
+//! - [`operator`]: a virtual operator whose finger follows a scripted path through a
+//!   spring-damper hand, so it pushes into surfaces and slides along them as a person would;
+//! - [`twin`]: the plant behind the HAL — drives with quadrature encoders, strain-gauge tension
+//!   sensors with offset, gain error and seeded noise, an e-stop, recording vibrotactors, and a
+//!   clock that is either simulated (faster than real time, deterministic) or real time.
+//!
+//! Protocol-level twins of devices, so the real drive driver runs end to end without hardware:
+//!
+//! - [`can_bus`]: a userspace CAN bus (in-process, or across processes over loopback UDP) with
+//!   fault injection;
+//! - [`cia402_node`]: a simulated CiA 402 drive node on that bus, its motor given by a plant.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod can_bus;
 pub mod cia402_node;
+pub mod operator;
+pub mod plant;
+pub mod twin;
+
+pub use operator::{VirtualOperator, Waypoint};
+pub use plant::{Plant, PlantParams};
+pub use twin::{ClockMode, SensorModel, Twin, TwinError};
+
+/// 3-vector of `f64`.
+pub type Vec3 = nalgebra::Vector3<f64>;

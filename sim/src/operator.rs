@@ -1,0 +1,155 @@
+//! The virtual operator: a finger that follows a scripted path through a spring-damper hand.
+
+use crate::Vec3;
+
+/// A point of the operator's scripted path: where the hand aims at a given time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Waypoint {
+    /// Time, seconds from the start of the script.
+    pub time_s: f64,
+    /// Hand target, metres.
+    pub target_m: Vec3,
+}
+
+/// A hand that pulls the thimble towards a moving target with a spring and a damper.
+/// The path is piecewise linear between waypoints and holds the last one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VirtualOperator {
+    waypoints: Vec<Waypoint>,
+    /// Hand stiffness, N/m.
+    pub stiffness_n_per_m: f64,
+    /// Hand damping, N·s/m (relative to the target's velocity).
+    pub damping_n_s_per_m: f64,
+    /// When set, the script repeats with this period, seconds.
+    pub repeat_period_s: Option<f64>,
+}
+
+impl VirtualOperator {
+    /// An operator following `waypoints` (sorted by time; at least one).
+    pub fn new(
+        mut waypoints: Vec<Waypoint>,
+        stiffness_n_per_m: f64,
+        damping_n_s_per_m: f64,
+    ) -> VirtualOperator {
+        waypoints.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+        assert!(
+            !waypoints.is_empty(),
+            "a virtual operator needs at least one waypoint"
+        );
+        VirtualOperator {
+            waypoints,
+            stiffness_n_per_m,
+            damping_n_s_per_m,
+            repeat_period_s: None,
+        }
+    }
+
+    /// The same script, repeated every `period_s` seconds (at least as long as the script).
+    pub fn repeating(mut self, period_s: f64) -> VirtualOperator {
+        let last = self.waypoints[self.waypoints.len() - 1].time_s;
+        self.repeat_period_s = Some(period_s.max(last).max(1e-3));
+        self
+    }
+
+    /// A hand holding still at `position_m`.
+    pub fn holding(position_m: Vec3) -> VirtualOperator {
+        VirtualOperator::new(
+            vec![Waypoint {
+                time_s: 0.0,
+                target_m: position_m,
+            }],
+            200.0,
+            6.0,
+        )
+    }
+
+    /// Touch-and-slide: approach a wall at `wall_z_m` (solid beyond it, towards `+z`) from
+    /// `start_m`, press `press_depth_m` past it, then slide `slide_m` along `x` and back, over
+    /// about `duration_s` seconds, pressing all the while.
+    pub fn touch_and_slide(
+        start_m: Vec3,
+        wall_z_m: f64,
+        press_depth_m: f64,
+        slide_m: f64,
+        duration_s: f64,
+    ) -> VirtualOperator {
+        let press = Vec3::new(start_m.x, start_m.y, wall_z_m + press_depth_m);
+        let d = duration_s.max(1.0);
+        let wp = |f: f64, p: Vec3| Waypoint {
+            time_s: f * d,
+            target_m: p,
+        };
+        VirtualOperator::new(
+            vec![
+                wp(0.0, start_m),
+                wp(0.15, press),
+                wp(0.45, press + Vec3::new(slide_m, 0.0, 0.0)),
+                wp(0.75, press),
+                wp(0.85, press),
+            ],
+            200.0,
+            6.0,
+        )
+    }
+
+    /// The hand target and its velocity at time `t_s`.
+    pub fn target(&self, t_s: f64) -> (Vec3, Vec3) {
+        let t_s = match self.repeat_period_s {
+            Some(period) if t_s > 0.0 => t_s % period,
+            _ => t_s,
+        };
+        let w = &self.waypoints;
+        if t_s <= w[0].time_s {
+            return (w[0].target_m, Vec3::zeros());
+        }
+        for pair in w.windows(2) {
+            let (a, b) = (pair[0], pair[1]);
+            if t_s < b.time_s {
+                let span = (b.time_s - a.time_s).max(1e-9);
+                let s = (t_s - a.time_s) / span;
+                let velocity = (b.target_m - a.target_m) / span;
+                return (a.target_m + (b.target_m - a.target_m) * s, velocity);
+            }
+        }
+        (w[w.len() - 1].target_m, Vec3::zeros())
+    }
+
+    /// The force of the hand on the thimble at `position_m`, `velocity_m_s`, time `t_s`.
+    pub fn force_n(&self, t_s: f64, position_m: &Vec3, velocity_m_s: &Vec3) -> Vec3 {
+        let (target, target_velocity) = self.target(t_s);
+        (target - position_m) * self.stiffness_n_per_m
+            + (target_velocity - velocity_m_s) * self.damping_n_s_per_m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn path_interpolates_and_holds() {
+        let op = VirtualOperator::new(
+            vec![
+                Waypoint {
+                    time_s: 0.0,
+                    target_m: Vec3::zeros(),
+                },
+                Waypoint {
+                    time_s: 1.0,
+                    target_m: Vec3::new(1.0, 0.0, 0.0),
+                },
+            ],
+            100.0,
+            0.0,
+        );
+        assert_eq!(op.target(0.5).0, Vec3::new(0.5, 0.0, 0.0));
+        assert_eq!(op.target(0.5).1, Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(op.target(7.0), (Vec3::new(1.0, 0.0, 0.0), Vec3::zeros()));
+        assert_eq!(
+            op.force_n(7.0, &Vec3::zeros(), &Vec3::zeros()),
+            Vec3::new(100.0, 0.0, 0.0)
+        );
+        let looped = op.repeating(2.0);
+        assert_eq!(looped.target(2.5).0, Vec3::new(0.5, 0.0, 0.0));
+    }
+}

@@ -1,0 +1,287 @@
+//! Plant physics: thimble point mass, elastic tension-only wires, motor + worm gear + pulley.
+//!
+//! Conventions (those of `videt-hal`): a positive motor torque winds the wire in; the pulley
+//! angle `theta` grows when winding; the unstretched wire length from guide ring to thimble is
+//! `free_length = free_length_at_zero - pulley_radius * theta`.
+
+use videt_hal::{Transmission, WIRES};
+
+use crate::operator::VirtualOperator;
+use crate::Vec3;
+
+/// Physical parameters of the twin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlantParams {
+    /// Guide-ring positions, metres (`z = 0`).
+    pub guides_m: [Vec3; WIRES],
+    /// Motor-to-wire transmission.
+    pub transmission: Transmission,
+    /// Axial stiffness of the wire, `EA`, newtons (Kevlar: ~3% strain at 250 N → ~8 kN).
+    pub wire_ea_n: f64,
+    /// Wire damping per unit of strain rate, N·s (internal friction of the yarn).
+    pub wire_damping_n_s: f64,
+    /// Rotor + worm inertia at the motor shaft, kg·m².
+    pub motor_inertia_kg_m2: f64,
+    /// Pulley inertia, kg·m².
+    pub pulley_inertia_kg_m2: f64,
+    /// Viscous friction at the pulley, N·m·s/rad.
+    pub pulley_friction_nm_s: f64,
+    /// Mass moved with the thimble (thimble + the finger's effective mass), kg.
+    pub thimble_mass_kg: f64,
+    /// Integration step, seconds (<= 1e-4, i.e. >= 10 kHz).
+    pub step_s: f64,
+}
+
+impl PlantParams {
+    /// The paper's device on a frame of the paper's size (370 mm x 300 mm).
+    pub fn paper_default() -> PlantParams {
+        PlantParams {
+            guides_m: [
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(0.37, 0.0, 0.0),
+                Vec3::new(0.185, 0.30, 0.0),
+            ],
+            transmission: Transmission::PAPER,
+            wire_ea_n: 8000.0,
+            wire_damping_n_s: 4.0,
+            motor_inertia_kg_m2: 1.0e-7,
+            pulley_inertia_kg_m2: 2.0e-6,
+            pulley_friction_nm_s: 8.0e-4,
+            thimble_mass_kg: 0.1,
+            step_s: 5.0e-5,
+        }
+    }
+
+    /// Inertia reflected to the pulley, kg·m².
+    fn pulley_side_inertia(&self) -> f64 {
+        let g = self.transmission.gear_ratio;
+        self.pulley_inertia_kg_m2 + self.motor_inertia_kg_m2 * g * g
+    }
+}
+
+/// The plant's state and its integrator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plant {
+    params: PlantParams,
+    /// Thimble position, metres.
+    position_m: Vec3,
+    /// Thimble velocity, m/s.
+    velocity_m_s: Vec3,
+    /// Pulley angle, rad (positive = wound in).
+    pulley_angle_rad: [f64; WIRES],
+    /// Pulley speed, rad/s.
+    pulley_speed_rad_s: [f64; WIRES],
+    /// Unstretched wire length at pulley angle zero, metres.
+    free_length_at_zero_m: [f64; WIRES],
+    /// Wire tensions of the last step, newtons (never negative).
+    tension_n: [f64; WIRES],
+    /// Whether each wire is intact (a broken wire carries no tension).
+    intact: [bool; WIRES],
+    /// Last hand force on the thimble, newtons.
+    hand_force_n: Vec3,
+    /// Simulated time, seconds.
+    time_s: f64,
+}
+
+impl Plant {
+    /// A plant at rest with the thimble at `position_m` and every wire just taut (zero stretch),
+    /// pulley angles zero.
+    pub fn new(params: PlantParams, position_m: Vec3) -> Plant {
+        let mut free = [0.0; WIRES];
+        for (f, g) in free.iter_mut().zip(params.guides_m.iter()) {
+            *f = (position_m - g).norm();
+        }
+        Plant {
+            params,
+            position_m,
+            velocity_m_s: Vec3::zeros(),
+            pulley_angle_rad: [0.0; WIRES],
+            pulley_speed_rad_s: [0.0; WIRES],
+            free_length_at_zero_m: free,
+            tension_n: [0.0; WIRES],
+            intact: [true; WIRES],
+            hand_force_n: Vec3::zeros(),
+            time_s: 0.0,
+        }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &PlantParams {
+        &self.params
+    }
+    /// Thimble position, metres.
+    pub fn position_m(&self) -> Vec3 {
+        self.position_m
+    }
+    /// Thimble velocity, m/s.
+    pub fn velocity_m_s(&self) -> Vec3 {
+        self.velocity_m_s
+    }
+    /// True wire tensions, newtons.
+    pub fn tension_n(&self) -> [f64; WIRES] {
+        self.tension_n
+    }
+    /// Last hand force on the thimble, newtons.
+    pub fn hand_force_n(&self) -> Vec3 {
+        self.hand_force_n
+    }
+    /// Simulated time, seconds.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+    /// Pulley angles, rad (positive = wound in).
+    pub fn pulley_angle_rad(&self) -> [f64; WIRES] {
+        self.pulley_angle_rad
+    }
+    /// Pulley speeds, rad/s.
+    pub fn pulley_speed_rad_s(&self) -> [f64; WIRES] {
+        self.pulley_speed_rad_s
+    }
+    /// Unstretched free length of each wire, metres.
+    pub fn free_length_m(&self) -> [f64; WIRES] {
+        let r = self.params.transmission.pulley_radius_m;
+        let mut l = [0.0; WIRES];
+        for i in 0..WIRES {
+            l[i] = self.free_length_at_zero_m[i] - r * self.pulley_angle_rad[i];
+        }
+        l
+    }
+    /// Cut wire `i` (it carries no tension from now on).
+    pub fn break_wire(&mut self, i: usize) {
+        self.intact[i] = false;
+    }
+    /// Place the thimble (e.g. to start a scenario), keeping the wires' free lengths.
+    pub fn set_thimble(&mut self, position_m: Vec3, velocity_m_s: Vec3) {
+        self.position_m = position_m;
+        self.velocity_m_s = velocity_m_s;
+    }
+
+    /// Tension of wire `i` for the current state (elastic, tension-only, with damping that can
+    /// only reduce a positive tension to zero, never push).
+    fn wire_tension(&self, i: usize, free_length_m: f64) -> (f64, Vec3) {
+        let d = self.position_m - self.params.guides_m[i];
+        let length = d.norm();
+        let unit = if length > 1e-12 {
+            d / length
+        } else {
+            Vec3::z()
+        };
+        if !self.intact[i] || free_length_m <= 0.0 || length <= free_length_m {
+            return (0.0, unit);
+        }
+        let strain = (length - free_length_m) / free_length_m;
+        let r = self.params.transmission.pulley_radius_m;
+        // Strain rate: geometric lengthening plus paying out at the pulley.
+        let strain_rate =
+            (self.velocity_m_s.dot(&unit) + r * self.pulley_speed_rad_s[i]) / free_length_m;
+        let t = self.params.wire_ea_n * strain + self.params.wire_damping_n_s * strain_rate;
+        (t.max(0.0), unit)
+    }
+
+    /// Advance by one integration step under motor torques (N·m, positive = winding) and the
+    /// operator's hand (semi-implicit Euler).
+    pub fn step(&mut self, motor_torque_nm: &[f64; WIRES], operator: &VirtualOperator) {
+        let h = self.params.step_s;
+        let tr = self.params.transmission;
+        let free = self.free_length_m();
+        let mut wire_force = Vec3::zeros();
+        for (i, free_i) in free.iter().enumerate() {
+            let (t, unit) = self.wire_tension(i, *free_i);
+            self.tension_n[i] = t;
+            wire_force -= unit * t;
+        }
+        self.hand_force_n = operator.force_n(self.time_s, &self.position_m, &self.velocity_m_s);
+        let accel = (wire_force + self.hand_force_n) / self.params.thimble_mass_kg;
+        self.velocity_m_s += accel * h;
+        self.position_m += self.velocity_m_s * h;
+
+        let inertia = self.params.pulley_side_inertia();
+        for i in 0..WIRES {
+            let drive = motor_torque_nm[i] * tr.gear_ratio * tr.efficiency;
+            let load = self.tension_n[i] * tr.pulley_radius_m;
+            let friction = self.params.pulley_friction_nm_s * self.pulley_speed_rad_s[i];
+            let alpha = (drive - load - friction) / inertia;
+            self.pulley_speed_rad_s[i] += alpha * h;
+            self.pulley_angle_rad[i] += self.pulley_speed_rad_s[i] * h;
+        }
+        self.time_s += h;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn centre() -> Vec3 {
+        Vec3::new(0.185, 0.12, 0.30)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, rng_seed: proptest::test_runner::RngSeed::Fixed(11), ..ProptestConfig::default() })]
+        /// Whatever the motors and the hand do, a wire never pushes: every tension is >= 0 and
+        /// the wire force on the thimble always points into the guides' side.
+        #[test]
+        fn a_wire_never_pushes(torques in proptest::array::uniform3(-0.02f64..0.02),
+                               tx in -0.2f64..0.6, ty in -0.2f64..0.5, tz in 0.05f64..0.7) {
+            let mut plant = Plant::new(PlantParams::paper_default(), centre());
+            let op = VirtualOperator::new(vec![crate::Waypoint { time_s: 0.0, target_m: Vec3::new(tx, ty, tz) }], 300.0, 5.0);
+            for _ in 0..4000 {
+                // Tensions of a step are computed from the state before it.
+                let free = plant.free_length_m();
+                let slack: [bool; WIRES] = core::array::from_fn(|i| {
+                    (plant.position_m() - plant.params().guides_m[i]).norm() <= free[i]
+                });
+                plant.step(&torques, &op);
+                for (i, t) in plant.tension_n().iter().enumerate() {
+                    prop_assert!(*t >= 0.0);
+                    if slack[i] {
+                        prop_assert_eq!(*t, 0.0, "a slack wire carries no tension");
+                    }
+                }
+            }
+        }
+    }
+
+    /// With the tensions balancing the hand's force, a thimble held still stays still.
+    #[test]
+    fn balanced_tensions_hold_the_thimble_still() {
+        let params = PlantParams::paper_default();
+        let p0 = centre();
+        let mut plant = Plant::new(params.clone(), p0);
+        // Pre-stretch: wind each wire by the stretch that gives 2 N, and hold with the static
+        // torque; the hand pushes away from the frame with exactly the wires' resultant.
+        let tensions = [2.0; WIRES];
+        let r = params.transmission.pulley_radius_m;
+        let mut resultant = Vec3::zeros();
+        for i in 0..WIRES {
+            let l = (p0 - params.guides_m[i]).norm();
+            let free = l / (1.0 + tensions[i] / params.wire_ea_n);
+            plant.free_length_at_zero_m[i] = free;
+            resultant -= (p0 - params.guides_m[i]) / l * tensions[i];
+            let _ = r;
+        }
+        let torques: [f64; WIRES] =
+            core::array::from_fn(|i| params.transmission.torque_for_tension(tensions[i]));
+        // A hand whose spring force at p0 is exactly -resultant.
+        let op = VirtualOperator::new(
+            vec![crate::Waypoint {
+                time_s: 0.0,
+                target_m: p0 - resultant / 200.0,
+            }],
+            200.0,
+            6.0,
+        );
+        for _ in 0..40_000 {
+            plant.step(&torques, &op);
+        }
+        assert!(
+            (plant.position_m() - p0).norm() < 1e-6,
+            "moved {:?}",
+            plant.position_m() - p0
+        );
+        for t in plant.tension_n() {
+            assert!((t - 2.0).abs() < 1e-3, "{t}");
+        }
+    }
+}

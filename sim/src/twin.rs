@@ -1,0 +1,430 @@
+//! The plant behind the HAL: drives, encoders, tension sensors, e-stop and a simulated clock.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use videt_hal::{
+    Clock, DriveSample, DriveState, EStop, Error, ErrorKind, ErrorType, Lifecycle, LifecycleState,
+    MonoTime, TensionSensors, WireDrives, WIRES,
+};
+
+use crate::operator::VirtualOperator;
+use crate::plant::{Plant, PlantParams};
+use crate::Vec3;
+
+/// A twin device error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TwinError {
+    /// What kind of failure.
+    pub kind: ErrorKind,
+    /// Which wire (drive or sensor), when it concerns one.
+    pub wire: Option<usize>,
+}
+
+impl Error for TwinError {
+    fn kind(&self) -> ErrorKind {
+        self.kind
+    }
+}
+
+impl core::fmt::Display for TwinError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.wire {
+            Some(w) => write!(f, "simulated device {} on wire {w}", self.kind),
+            None => write!(f, "simulated device {}", self.kind),
+        }
+    }
+}
+
+impl std::error::Error for TwinError {}
+
+/// How the twin's strain gauges err.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorModel {
+    /// Offset of each sensor, newtons.
+    pub offset_n: [f64; WIRES],
+    /// Relative gain error of each sensor (0.02 = reads 2% high).
+    pub gain_error: [f64; WIRES],
+    /// Standard deviation of the white noise, newtons.
+    pub noise_std_n: f64,
+    /// Seed of the noise generator (runs are reproducible).
+    pub seed: u64,
+}
+
+impl Default for SensorModel {
+    fn default() -> Self {
+        SensorModel {
+            offset_n: [0.02, -0.03, 0.01],
+            gain_error: [0.01, -0.015, 0.005],
+            noise_std_n: 0.02,
+            seed: 1,
+        }
+    }
+}
+
+impl SensorModel {
+    /// Ideal sensors (no offset, gain error or noise).
+    pub fn ideal() -> SensorModel {
+        SensorModel {
+            offset_n: [0.0; WIRES],
+            gain_error: [0.0; WIRES],
+            noise_std_n: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// How the twin's clock runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClockMode {
+    /// `sleep_until` advances the physics to the deadline at once: faster than real time and
+    /// deterministic. For tests and replays.
+    Simulated,
+    /// Time is kept by a real clock outside the twin, which calls [`Twin::advance_to`].
+    External,
+}
+
+/// The digital twin of the whole device, implementing the HAL traits.
+#[derive(Debug)]
+pub struct Twin {
+    plant: Plant,
+    operator: VirtualOperator,
+    sensors: SensorModel,
+    rng: ChaCha8Rng,
+    lifecycle: LifecycleState,
+    drives_enabled: bool,
+    torque_command_nm: [f64; WIRES],
+    /// Largest torque the simulated motors deliver, N·m.
+    motor_torque_limit_nm: f64,
+    estop_held: bool,
+    estop_latched: bool,
+    failed_sensor: Option<usize>,
+    faulted_drive: Option<usize>,
+    clock_mode: ClockMode,
+    steps_done: u64,
+    step_ns: u64,
+}
+
+impl Twin {
+    /// A twin with the thimble at `start_m` (wires just taut), an operator, and sensor errors.
+    pub fn new(
+        params: PlantParams,
+        start_m: Vec3,
+        operator: VirtualOperator,
+        sensors: SensorModel,
+    ) -> Twin {
+        let step_ns = (params.step_s * 1e9).round() as u64;
+        assert!(
+            step_ns > 0 && step_ns <= 100_000,
+            "integration step must be in (0, 100 µs]"
+        );
+        let rng = ChaCha8Rng::seed_from_u64(sensors.seed);
+        Twin {
+            plant: Plant::new(params, start_m),
+            operator,
+            sensors,
+            rng,
+            lifecycle: LifecycleState::Unconfigured,
+            drives_enabled: false,
+            torque_command_nm: [0.0; WIRES],
+            motor_torque_limit_nm: 0.03,
+            estop_held: false,
+            estop_latched: false,
+            failed_sensor: None,
+            faulted_drive: None,
+            clock_mode: ClockMode::Simulated,
+            steps_done: 0,
+            step_ns,
+        }
+    }
+
+    /// Choose how the clock runs (default [`ClockMode::Simulated`]).
+    pub fn set_clock_mode(&mut self, mode: ClockMode) {
+        self.clock_mode = mode;
+    }
+    /// The plant (true state, for tests and status).
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+    /// The plant, mutably (fault injection, scenario set-up).
+    pub fn plant_mut(&mut self) -> &mut Plant {
+        &mut self.plant
+    }
+    /// The virtual operator.
+    pub fn operator(&self) -> &VirtualOperator {
+        &self.operator
+    }
+    /// Replace the virtual operator's script.
+    pub fn set_operator(&mut self, operator: VirtualOperator) {
+        self.operator = operator;
+    }
+    /// Press (`true`) or release the e-stop button. A press latches.
+    pub fn set_estop_button(&mut self, held: bool) {
+        self.estop_held = held;
+        if held {
+            self.estop_latched = true;
+        }
+    }
+    /// Make tension sensor `wire` fail (reads return `Disconnected`), or heal it with `None`.
+    pub fn fail_tension_sensor(&mut self, wire: Option<usize>) {
+        self.failed_sensor = wire;
+    }
+    /// Latch a fault in drive `wire` (it stops delivering torque and reports `Fault`).
+    pub fn fault_drive(&mut self, wire: usize) {
+        self.faulted_drive = Some(wire);
+    }
+    /// The torques the drives are applying, N·m.
+    pub fn applied_torque_nm(&self) -> [f64; WIRES] {
+        let mut t = [0.0; WIRES];
+        if self.drives_enabled {
+            for (i, ti) in t.iter_mut().enumerate() {
+                if self.faulted_drive != Some(i) {
+                    *ti = self.torque_command_nm[i]
+                        .clamp(-self.motor_torque_limit_nm, self.motor_torque_limit_nm);
+                }
+            }
+        }
+        t
+    }
+    /// Whether the drives are powered.
+    pub fn drives_enabled(&self) -> bool {
+        self.drives_enabled
+    }
+    /// Simulated time.
+    pub fn sim_time(&self) -> MonoTime {
+        MonoTime(self.steps_done * self.step_ns)
+    }
+
+    /// Advance the physics to `t` (no-op when `t` is not later than the simulated time).
+    /// Allocation-free; cost is one plant step per integration step.
+    pub fn advance_to(&mut self, t: MonoTime) {
+        while self.sim_time() < t {
+            let torque = self.applied_torque_nm();
+            self.plant.step(&torque, &self.operator);
+            self.steps_done += 1;
+        }
+    }
+
+    /// Standard normal sample (Box-Muller).
+    fn gaussian(&mut self) -> f64 {
+        let u1: f64 = self.rng.random::<f64>().max(1e-300);
+        let u2: f64 = self.rng.random::<f64>();
+        (-2.0 * u1.ln()).sqrt() * (core::f64::consts::TAU * u2).cos()
+    }
+}
+
+impl ErrorType for Twin {
+    type Error = TwinError;
+}
+
+impl Lifecycle for Twin {
+    fn configure(&mut self) -> Result<(), TwinError> {
+        self.lifecycle = LifecycleState::Inactive;
+        Ok(())
+    }
+    fn activate(&mut self) -> Result<(), TwinError> {
+        if self.lifecycle == LifecycleState::Unconfigured {
+            return Err(TwinError {
+                kind: ErrorKind::NotReady,
+                wire: None,
+            });
+        }
+        self.lifecycle = LifecycleState::Active;
+        Ok(())
+    }
+    fn deactivate(&mut self) -> Result<(), TwinError> {
+        self.drives_enabled = false;
+        self.torque_command_nm = [0.0; WIRES];
+        if self.lifecycle != LifecycleState::Unconfigured {
+            self.lifecycle = LifecycleState::Inactive;
+        }
+        Ok(())
+    }
+    fn lifecycle_state(&self) -> LifecycleState {
+        self.lifecycle
+    }
+}
+
+impl WireDrives for Twin {
+    fn enable(&mut self) -> Result<(), TwinError> {
+        if self.lifecycle != LifecycleState::Active {
+            return Err(TwinError {
+                kind: ErrorKind::NotReady,
+                wire: None,
+            });
+        }
+        if let Some(w) = self.faulted_drive {
+            return Err(TwinError {
+                kind: ErrorKind::Fault,
+                wire: Some(w),
+            });
+        }
+        self.drives_enabled = true;
+        Ok(())
+    }
+
+    fn disable(&mut self) -> Result<(), TwinError> {
+        self.drives_enabled = false;
+        self.torque_command_nm = [0.0; WIRES];
+        Ok(())
+    }
+
+    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), TwinError> {
+        let tr = self.plant.params().transmission;
+        let counts_per_pulley_rad =
+            tr.counts_per_motor_rev as f64 * tr.gear_ratio / core::f64::consts::TAU;
+        let free = self.plant.free_length_m();
+        let speed = self.plant.pulley_speed_rad_s();
+        for i in 0..WIRES {
+            // Encoder zero = wire fully wound (free length 0), as after homing.
+            let wound_rad = -free[i] / tr.pulley_radius_m;
+            out[i] = DriveSample {
+                position_counts: (wound_rad * counts_per_pulley_rad).floor() as i64,
+                velocity_counts_per_s: speed[i] * counts_per_pulley_rad,
+                state: if self.faulted_drive == Some(i) {
+                    DriveState::Fault
+                } else if self.drives_enabled {
+                    DriveState::Enabled
+                } else {
+                    DriveState::Disabled
+                },
+                error_code: if self.faulted_drive == Some(i) {
+                    0x2310
+                } else {
+                    0
+                },
+            };
+        }
+        match self.faulted_drive {
+            Some(w) => Err(TwinError {
+                kind: ErrorKind::Fault,
+                wire: Some(w),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), TwinError> {
+        if !self.drives_enabled {
+            return Err(TwinError {
+                kind: ErrorKind::NotReady,
+                wire: None,
+            });
+        }
+        self.torque_command_nm = *torque_nm;
+        Ok(())
+    }
+}
+
+impl TensionSensors for Twin {
+    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), TwinError> {
+        if let Some(w) = self.failed_sensor {
+            return Err(TwinError {
+                kind: ErrorKind::Disconnected,
+                wire: Some(w),
+            });
+        }
+        let truth = self.plant.tension_n();
+        for (i, out) in out_n.iter_mut().enumerate() {
+            let noise = self.sensors.noise_std_n * self.gaussian();
+            *out = truth[i] * (1.0 + self.sensors.gain_error[i]) + self.sensors.offset_n[i] + noise;
+        }
+        Ok(())
+    }
+}
+
+impl EStop for Twin {
+    fn is_pressed(&mut self) -> Result<bool, TwinError> {
+        Ok(self.estop_latched)
+    }
+    fn reset(&mut self) -> Result<(), TwinError> {
+        if self.estop_held {
+            return Err(TwinError {
+                kind: ErrorKind::Fault,
+                wire: None,
+            });
+        }
+        self.estop_latched = false;
+        Ok(())
+    }
+}
+
+impl Clock for Twin {
+    fn now(&self) -> MonoTime {
+        self.sim_time()
+    }
+    fn sleep_until(&mut self, deadline: MonoTime) {
+        if self.clock_mode == ClockMode::Simulated {
+            self.advance_to(deadline);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn twin() -> Twin {
+        let start = Vec3::new(0.185, 0.12, 0.30);
+        Twin::new(
+            PlantParams::paper_default(),
+            start,
+            VirtualOperator::holding(start),
+            SensorModel::default(),
+        )
+    }
+
+    #[test]
+    fn encoders_report_the_free_length_from_the_homed_zero() {
+        let mut t = twin();
+        let mut s = [DriveSample::default(); WIRES];
+        t.read_drives(&mut s).unwrap();
+        let mpc = t.plant().params().transmission.metres_per_count();
+        for i in 0..WIRES {
+            let length = -(s[i].position_counts as f64) * mpc;
+            assert!(
+                (length - t.plant().free_length_m()[i]).abs() <= mpc,
+                "wire {i}"
+            );
+        }
+    }
+
+    #[test]
+    fn lifecycle_gates_commands() {
+        let mut t = twin();
+        assert_eq!(t.enable().unwrap_err().kind, ErrorKind::NotReady);
+        t.configure().unwrap();
+        t.activate().unwrap();
+        t.enable().unwrap();
+        t.write_torques(&[0.001; WIRES]).unwrap();
+        t.deactivate().unwrap();
+        assert!(!t.drives_enabled());
+        assert_eq!(
+            t.write_torques(&[0.001; WIRES]).unwrap_err().kind,
+            ErrorKind::NotReady
+        );
+    }
+
+    #[test]
+    fn estop_latches_until_reset_after_release() {
+        let mut t = twin();
+        t.set_estop_button(true);
+        t.set_estop_button(false);
+        assert!(t.is_pressed().unwrap());
+        t.set_estop_button(true);
+        assert!(t.reset().is_err(), "cannot reset while held");
+        t.set_estop_button(false);
+        t.reset().unwrap();
+        assert!(!t.is_pressed().unwrap());
+    }
+
+    #[test]
+    fn noise_is_reproducible() {
+        let (mut a, mut b) = (twin(), twin());
+        let (mut ta, mut tb) = ([0.0; WIRES], [0.0; WIRES]);
+        for _ in 0..10 {
+            a.read_tensions(&mut ta).unwrap();
+            b.read_tensions(&mut tb).unwrap();
+            assert_eq!(ta, tb);
+        }
+    }
+}

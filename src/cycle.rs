@@ -1,0 +1,262 @@
+//! One control period on real or simulated hardware: read the devices, supervise, compute, write.
+//!
+//! Generic over the HAL capabilities; allocation-free. The math is `videt-control`'s; this module
+//! only moves data between the devices and the pure functions.
+
+use videt_control::safety::{
+    SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor,
+};
+use videt_control::{ControlStep, StepInput, StepOutput, Surface};
+use videt_hal::{
+    DriveSample, DriveState, EStop, MonoTime, TensionSensors, Transmission, WireDrives, WIRES,
+};
+
+/// Everything the device did in one period: the telemetry record.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CycleRecord {
+    /// Period number since start.
+    pub cycle: u64,
+    /// Start of the period (wake-up), clock time.
+    pub time: MonoTime,
+    /// How late the wake-up was, nanoseconds.
+    pub wake_latency_ns: u64,
+    /// Time from wake-up to the end of the period's work, nanoseconds (filled in by the loop).
+    pub compute_ns: u64,
+    /// Wire lengths, metres.
+    pub lengths_m: [f64; WIRES],
+    /// Tension set-points, newtons.
+    pub tension_setpoint_n: [f64; WIRES],
+    /// Measured tensions, newtons.
+    pub tension_measured_n: [f64; WIRES],
+    /// Motor torque commands, N·m.
+    pub torque_nm: [f64; WIRES],
+    /// Thimble position, metres.
+    pub position_m: [f64; 3],
+    /// Thimble velocity, m/s.
+    pub velocity_m_s: [f64; 3],
+    /// Desired force, newtons.
+    pub desired_force_n: [f64; 3],
+    /// Force the set-points render, newtons.
+    pub rendered_force_n: [f64; 3],
+    /// Penetration depth, metres (0 when not in contact).
+    pub contact_depth_m: f64,
+    /// In contact with the surface.
+    pub in_contact: bool,
+    /// Safety state after this period.
+    pub safety: SafetyState,
+    /// Force scale of the start/stop ramp, `[0, 1]`.
+    pub force_scale: f64,
+}
+
+/// How the encoder counts become wire lengths: `length = length_at_zero_m - counts * m/count`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WireZero {
+    /// Wire length at encoder count zero, metres (0 after homing against the guide ring).
+    pub length_at_zero_m: [f64; WIRES],
+}
+
+impl Default for WireZero {
+    fn default() -> Self {
+        WireZero {
+            length_at_zero_m: [0.0; WIRES],
+        }
+    }
+}
+
+/// Settings of the cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleSettings {
+    /// Transmission of every wire.
+    pub transmission: Transmission,
+    /// Encoder zero of every wire.
+    pub wire_zero: WireZero,
+    /// Period, seconds.
+    pub period_s: f64,
+    /// Duration of the start and stop force ramps, seconds.
+    pub ramp_s: f64,
+    /// The rig has a valid calibration (forces are rendered only then).
+    pub calibrated: bool,
+}
+
+/// Where the force ramp is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Ramp {
+    Up,
+    Steady,
+    Down,
+    Finished,
+}
+
+/// The control cycle: devices in, devices out, one period at a time.
+#[derive(Debug, Clone)]
+pub struct ControlCycle {
+    step: ControlStep,
+    safety: SafetySupervisor,
+    settings: CycleSettings,
+    samples: [DriveSample; WIRES],
+    output: StepOutput,
+    ramp: Ramp,
+    force_scale: f64,
+    cycle: u64,
+    powered_off: bool,
+}
+
+impl ControlCycle {
+    /// A cycle for a control step, safety limits and settings.
+    pub fn new(step: ControlStep, limits: SafetyLimits, settings: CycleSettings) -> ControlCycle {
+        ControlCycle {
+            step,
+            safety: SafetySupervisor::new(limits),
+            settings,
+            samples: [DriveSample::default(); WIRES],
+            output: StepOutput::default(),
+            ramp: Ramp::Up,
+            force_scale: 0.0,
+            cycle: 0,
+            powered_off: false,
+        }
+    }
+
+    /// The current safety state.
+    pub fn safety_state(&self) -> SafetyState {
+        self.safety.state()
+    }
+
+    /// Begin the shutdown ramp: forces fade to zero (every wire to `t_min`) over the ramp time.
+    pub fn request_stop(&mut self) {
+        if self.ramp != Ramp::Finished {
+            self.ramp = Ramp::Down;
+        }
+    }
+
+    /// Whether the shutdown ramp has finished (or the drives are already off).
+    pub fn stop_finished(&self) -> bool {
+        self.ramp == Ramp::Finished || (self.ramp == Ramp::Down && self.powered_off)
+    }
+
+    /// Force the safe state from outside (stale surface, overruns, an operator's stop).
+    pub fn trip(&mut self, state: SafetyState) {
+        self.safety.trip(state);
+    }
+
+    /// The last step output.
+    pub fn output(&self) -> &StepOutput {
+        &self.output
+    }
+
+    /// Run one period: read, supervise, compute, write; fill `record`.
+    pub fn run<H, S>(
+        &mut self,
+        hw: &mut H,
+        surface: &S,
+        now: MonoTime,
+        deadline_overrun: bool,
+        record: &mut CycleRecord,
+    ) where
+        H: WireDrives + TensionSensors + EStop,
+        S: Surface + ?Sized,
+    {
+        let dt = self.settings.period_s;
+        let mut input = SafetyInput {
+            dt_s: dt,
+            deadline_overrun,
+            calibrated: self.settings.calibrated,
+            drives_enabled: !self.powered_off,
+            setpoint_tension_n: self.output.distribution.tensions_n,
+            ..SafetyInput::default()
+        };
+        if hw.read_drives(&mut self.samples).is_err() {
+            input.drive_fault = Some(None);
+        }
+        for (i, s) in self.samples.iter().enumerate() {
+            if s.state == DriveState::Fault {
+                input.drive_fault = Some(Some(i as u8));
+            }
+        }
+        let mut measured = [0.0; WIRES];
+        if hw.read_tensions(&mut measured).is_err() {
+            input.sensor_fault = Some(None);
+            measured = self.output.distribution.tensions_n;
+        }
+        input.measured_tension_n = measured;
+        input.estop_pressed = hw.is_pressed().unwrap_or(true);
+
+        let tr = &self.settings.transmission;
+        let mpc = tr.metres_per_count();
+        let mut step_in = StepInput {
+            measured_tension_n: measured,
+            dt_s: dt,
+            ..StepInput::default()
+        };
+        for i in 0..WIRES {
+            step_in.lengths_m[i] = self.settings.wire_zero.length_at_zero_m[i]
+                - self.samples[i].position_counts as f64 * mpc;
+            // Winding (positive counts/s) shortens the wire.
+            step_in.length_rates_m_s[i] = -tr.wire_speed(self.samples[i].velocity_counts_per_s);
+            input.wire_speed_m_s[i] = step_in.length_rates_m_s[i];
+        }
+        let state = self.safety.update(&input);
+
+        // Ramp the rendered force in on start and out on stop.
+        let ramp_step = if self.settings.ramp_s > 0.0 {
+            dt / self.settings.ramp_s
+        } else {
+            1.0
+        };
+        match self.ramp {
+            Ramp::Up => {
+                self.force_scale = (self.force_scale + ramp_step).min(1.0);
+                if self.force_scale >= 1.0 {
+                    self.ramp = Ramp::Steady;
+                }
+            }
+            Ramp::Steady => {}
+            Ramp::Down => {
+                self.force_scale = (self.force_scale - ramp_step).max(0.0);
+                if self.force_scale <= 0.0 {
+                    self.ramp = Ramp::Finished;
+                }
+            }
+            Ramp::Finished => self.force_scale = 0.0,
+        }
+        step_in.render_forces = state.renders_forces();
+        step_in.force_scale = self.force_scale;
+        self.step.update(&step_in, surface, &mut self.output);
+
+        if state.power_off() {
+            if !self.powered_off {
+                // Power off is the safe state itself: a failing disable cannot make it safer.
+                let _ = hw.disable();
+                self.powered_off = true;
+                self.step.reset();
+            }
+            self.output.torque_nm = [0.0; WIRES];
+        } else if hw.write_torques(&self.output.torque_nm).is_err() {
+            self.safety
+                .trip(SafetyState::PowerOff(SafetyReason::DriveFault {
+                    wire: None,
+                }));
+        }
+
+        let o = &self.output;
+        *record = CycleRecord {
+            cycle: self.cycle,
+            time: now,
+            wake_latency_ns: record.wake_latency_ns,
+            compute_ns: record.compute_ns,
+            lengths_m: step_in.lengths_m,
+            tension_setpoint_n: o.distribution.tensions_n,
+            tension_measured_n: measured,
+            torque_nm: o.torque_nm,
+            position_m: o.position_m.into(),
+            velocity_m_s: o.velocity_m_s.into(),
+            desired_force_n: o.desired_force_n.into(),
+            rendered_force_n: o.distribution.rendered_n.into(),
+            contact_depth_m: o.contact.map_or(0.0, |c| c.depth_m),
+            in_contact: o.contact.is_some(),
+            safety: self.safety.state(),
+            force_scale: self.force_scale,
+        };
+        self.cycle += 1;
+    }
+}

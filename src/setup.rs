@@ -1,0 +1,122 @@
+//! Building the runtime's pieces from the configuration: rig, control step, cycle, and the
+//! digital twin's demonstration scene.
+
+use videt_control::safety::SafetyLimits;
+use videt_control::{
+    Algorithm, ControlParams, ControlStep, ForceLimits, Plane, Rig3, RigError, TensionPiGains,
+};
+use videt_hal::Transmission;
+use videt_rt_config::Config;
+use videt_sim::{PlantParams, SensorModel, Twin, VirtualOperator};
+
+use crate::cycle::{ControlCycle, CycleSettings, WireZero};
+
+/// The transmission the configuration describes.
+pub fn transmission(config: &Config) -> Transmission {
+    let t = &config.transmission;
+    Transmission {
+        counts_per_motor_rev: t.counts_per_motor_rev,
+        gear_ratio: t.gear_ratio,
+        pulley_radius_m: t.pulley_radius_m,
+        efficiency: t.efficiency,
+    }
+}
+
+/// The rig geometry of the configuration.
+pub fn rig(config: &Config) -> Result<Rig3, RigError> {
+    let g = &config.rig.guides_m;
+    Rig3::new(core::array::from_fn(|i| {
+        videt_control::Vec3::new(g[i][0], g[i][1], 0.0)
+    }))
+}
+
+/// The control step for a rig.
+pub fn control_step(config: &Config, rig: Rig3) -> ControlStep {
+    let c = &config.control;
+    let tr = transmission(config);
+    let feedforward = tr.torque_for_tension(1.0);
+    let algorithm = match c.algorithm.as_str() {
+        "P1" => Algorithm::P1,
+        _ => Algorithm::P2,
+    };
+    ControlStep::new(
+        rig,
+        ControlParams {
+            stiffness_n_per_m: c.stiffness_n_per_m,
+            damping_n_s_per_m: c.damping_n_s_per_m,
+            algorithm,
+            limits: ForceLimits {
+                t_min_n: c.t_min_n,
+                t_max_n: c.t_max_n,
+            },
+            pi: TensionPiGains {
+                feedforward_nm_per_n: feedforward,
+                kp_nm_per_n: c.tension_kp_nm_per_n,
+                ki_nm_per_n_s: c.tension_ki_nm_per_n_s,
+                torque_limit_nm: 1.25 * tr.torque_for_tension(c.t_max_n),
+            },
+        },
+    )
+}
+
+/// The control cycle for a rig, with the encoder zero and whether the rig is calibrated.
+pub fn control_cycle(
+    config: &Config,
+    rig: Rig3,
+    wire_zero: WireZero,
+    calibrated: bool,
+) -> ControlCycle {
+    let c = &config.control;
+    ControlCycle::new(
+        control_step(config, rig),
+        SafetyLimits::for_device(c.t_min_n, c.t_max_n, c.max_wire_speed_m_s),
+        CycleSettings {
+            transmission: transmission(config),
+            wire_zero,
+            period_s: 1.0 / f64::from(c.rate_hz),
+            ramp_s: c.ramp_down_s,
+            calibrated,
+        },
+    )
+}
+
+/// The twin's demonstration scene: a wall in front of the frame, and a virtual operator who
+/// touches it, slides along it and comes back, over and over.
+#[derive(Debug)]
+pub struct DemoScene {
+    /// The twin, with the thimble in front of the frame's centre.
+    pub twin: Twin,
+    /// The wall (solid beyond `z = wall_z_m`, outward normal towards the user, `-z`).
+    pub wall: Plane,
+    /// Where the wall is, metres.
+    pub wall_z_m: f64,
+}
+
+/// Build the demonstration scene for the configured rig (the twin's guides are the configured
+/// ones: on the twin the configuration is the truth).
+pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
+    let g = &config.rig.guides_m;
+    let mut params = PlantParams::paper_default();
+    params.guides_m = core::array::from_fn(|i| videt_sim::Vec3::new(g[i][0], g[i][1], 0.0));
+    params.transmission = transmission(config);
+    let centre = (params.guides_m[0] + params.guides_m[1] + params.guides_m[2]) / 3.0;
+    let start = centre + videt_sim::Vec3::new(0.0, 0.0, 0.30);
+    let wall_z_m = 0.33;
+    let operator =
+        VirtualOperator::touch_and_slide(start, wall_z_m, 0.02, 0.08, 6.0).repeating(6.0);
+    let sensors = SensorModel {
+        seed: sensor_seed,
+        ..SensorModel::default()
+    };
+    let twin = Twin::new(params, start, operator, sensors);
+    let wall = Plane::new(
+        videt_control::Vec3::new(0.0, 0.0, wall_z_m),
+        videt_control::Vec3::new(0.0, 0.0, -1.0),
+    )
+    .expect("constant wall is valid");
+    DemoScene {
+        twin,
+        wall,
+        wall_z_m,
+    }
+}

@@ -1,0 +1,85 @@
+//! The status the control thread publishes for the supervisor: a lock-free, wait-free triple
+//! buffer of a plain `Copy` snapshot, written every period.
+
+use videt_control::safety::SafetyState;
+
+use crate::control_loop::{CycleObserver, WindowStats};
+use crate::cycle::CycleRecord;
+
+/// The latest period and the last one-second window.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StatusSnapshot {
+    /// The latest period.
+    pub record: CycleRecord,
+    /// The last complete one-second window.
+    pub window: WindowStats,
+}
+
+impl StatusSnapshot {
+    /// One human-readable status line.
+    pub fn line(&self) -> String {
+        let r = &self.record;
+        let p = r.position_m;
+        let t = r.tension_measured_n;
+        let contact_n = if r.in_contact {
+            (r.rendered_force_n[0].powi(2)
+                + r.rendered_force_n[1].powi(2)
+                + r.rendered_force_n[2].powi(2))
+            .sqrt()
+        } else {
+            0.0
+        };
+        let state = match r.safety {
+            SafetyState::Normal => "normal".to_string(),
+            SafetyState::MinimumTension(reason) => format!("min-tension ({})", reason.as_str()),
+            SafetyState::PowerOff(reason) => format!("power-off ({})", reason.as_str()),
+        };
+        format!(
+            "t={:7.2}s rate {:7.1} Hz  worst cycle {:6.1} µs (wake-up {:6.1} µs)  x=({:+.4}, {:+.4}, {:+.4}) m  T=({:5.2}, {:5.2}, {:5.2}) N  contact {:5.2} N  {}",
+            r.time.as_secs_f64(),
+            self.window.rate_hz,
+            self.window.worst_compute_ns as f64 * 1e-3,
+            self.window.worst_latency_ns as f64 * 1e-3,
+            p[0],
+            p[1],
+            p[2],
+            t[0],
+            t[1],
+            t[2],
+            contact_n,
+            state
+        )
+    }
+}
+
+/// Publishes every period into a triple buffer (wait-free, no allocation).
+pub struct StatusPublisher {
+    input: triple_buffer::Input<StatusSnapshot>,
+}
+
+/// Reads the latest published status.
+pub struct StatusReader {
+    output: triple_buffer::Output<StatusSnapshot>,
+}
+
+/// A connected publisher/reader pair.
+pub fn status_channel() -> (StatusPublisher, StatusReader) {
+    let (input, output) = triple_buffer::triple_buffer(&StatusSnapshot::default());
+    (StatusPublisher { input }, StatusReader { output })
+}
+
+impl CycleObserver for StatusPublisher {
+    fn observe(&mut self, record: &CycleRecord, window: &WindowStats) {
+        self.input.write(StatusSnapshot {
+            record: *record,
+            window: *window,
+        });
+    }
+}
+
+impl StatusReader {
+    /// The latest snapshot.
+    pub fn latest(&mut self) -> StatusSnapshot {
+        *self.output.read()
+    }
+}

@@ -1,0 +1,31 @@
+//! `videt config check FILE`: validate a configuration and print the resolved settings.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Subcommand;
+use videt_rt_config::Config;
+
+use super::ToolResult;
+
+/// Configuration subcommands.
+#[derive(Debug, Subcommand)]
+pub enum ConfigCommand {
+    /// Validate FILE; on success print the resolved settings (defaults filled in) as TOML.
+    Check {
+        /// The configuration file (e.g. /etc/videt/videt.toml).
+        file: PathBuf,
+    },
+}
+
+/// Run a configuration subcommand.
+pub fn run(command: &ConfigCommand) -> ToolResult {
+    match command {
+        ConfigCommand::Check { file } => {
+            let config = Config::load(file)?;
+            let resolved = toml::to_string_pretty(&config)?;
+            println!("# {}: valid\n{resolved}", file.display());
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}

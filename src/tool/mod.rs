@@ -1,0 +1,10 @@
+//! Subcommands of the `videt` tool, one module each. Each exposes its clap arguments and a `run`
+//! function returning the process exit code or an error to print.
+
+pub mod config;
+
+/// The error a subcommand reports to the user (printed as `videt: <message>`).
+pub type ToolError = Box<dyn std::error::Error + Send + Sync>;
+
+/// What a subcommand returns: the exit code, or an error to print (exit code 1).
+pub type ToolResult = Result<std::process::ExitCode, ToolError>;
