@@ -42,6 +42,51 @@ impl<P: MotorPlant> MotorPlant for Arc<Mutex<P>> {
     }
 }
 
+/// A wait-free mailbox between simulated drives and a physics model that another thread
+/// steps (the twin): the drives write torques and read encoders; the model's owner reads the
+/// torques and publishes the encoders. Atomics only: neither side ever blocks.
+#[derive(Debug)]
+pub struct SharedMotors {
+    torque_bits: Vec<std::sync::atomic::AtomicU64>,
+    counts: Vec<std::sync::atomic::AtomicI64>,
+    speed_bits: Vec<std::sync::atomic::AtomicU64>,
+}
+
+impl SharedMotors {
+    /// `axes` motors, zero torque, encoders at zero.
+    pub fn new(axes: usize) -> SharedMotors {
+        use std::sync::atomic::{AtomicI64, AtomicU64};
+        SharedMotors {
+            torque_bits: (0..axes).map(|_| AtomicU64::new(0)).collect(),
+            counts: (0..axes).map(|_| AtomicI64::new(0)).collect(),
+            speed_bits: (0..axes).map(|_| AtomicU64::new(0)).collect(),
+        }
+    }
+
+    /// The torque the drive of `axis` applies now, N·m.
+    pub fn torque_nm(&self, axis: usize) -> f64 {
+        f64::from_bits(self.torque_bits[axis].load(Ordering::Acquire))
+    }
+
+    /// Publish the encoder of `axis` (counts, counts/s) as the physics computed it.
+    pub fn publish_encoder(&self, axis: usize, counts: i64, counts_per_s: f64) {
+        self.counts[axis].store(counts, Ordering::Release);
+        self.speed_bits[axis].store(counts_per_s.to_bits(), Ordering::Release);
+    }
+}
+
+impl MotorPlant for Arc<SharedMotors> {
+    fn apply_torque(&mut self, axis: usize, torque_nm: f64) {
+        self.torque_bits[axis].store(torque_nm.to_bits(), Ordering::Release);
+    }
+    fn encoder(&self, axis: usize) -> (i64, f64) {
+        (
+            self.counts[axis].load(Ordering::Acquire),
+            f64::from_bits(self.speed_bits[axis].load(Ordering::Acquire)),
+        )
+    }
+}
+
 /// A free motor per axis: rotor inertia and viscous friction, integrated on the wall clock
 /// (for tests and demos without the twin's physics).
 #[derive(Debug, Clone)]
@@ -644,6 +689,82 @@ impl SimPort for crate::can_bus::udp::UdpEndpoint {
     }
     fn receive_frame(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
         self.receive_timeout(timeout)
+    }
+}
+
+/// Simulated drives answering inline, without a thread: frames sent to the bus reach the nodes
+/// at once and their answers wait in a preallocated queue. Deterministic, for tests on the
+/// twin's simulated clock (the threaded [`SimDriveBank`] is the real-time variant).
+pub struct SteppedDriveBus<M: MotorPlant> {
+    nodes: Vec<SimDriveNode>,
+    faults: Vec<Arc<NodeFaults>>,
+    plant: M,
+    rx: std::collections::VecDeque<SimFrame>,
+}
+
+impl<M: MotorPlant> core::fmt::Debug for SteppedDriveBus<M> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SteppedDriveBus")
+            .field("nodes", &self.nodes.len())
+            .finish()
+    }
+}
+
+impl<M: MotorPlant> SteppedDriveBus<M> {
+    /// The drives `specs`, their motors in `plant`.
+    pub fn new(specs: &[SimDriveSpec], plant: M) -> Self {
+        let faults: Vec<Arc<NodeFaults>> = specs
+            .iter()
+            .map(|_| Arc::new(NodeFaults::default()))
+            .collect();
+        let nodes = specs
+            .iter()
+            .zip(&faults)
+            .map(|(s, f)| SimDriveNode::new(*s, f.clone()))
+            .collect();
+        SteppedDriveBus {
+            nodes,
+            faults,
+            plant,
+            rx: std::collections::VecDeque::with_capacity(256),
+        }
+    }
+
+    /// Fault injector of node `i`.
+    pub fn faults(&self, i: usize) -> &Arc<NodeFaults> {
+        &self.faults[i]
+    }
+
+    /// The nodes.
+    pub fn nodes(&self) -> &[SimDriveNode] {
+        &self.nodes
+    }
+
+    /// Deliver a frame to every node; their answers are queued.
+    pub fn send(&mut self, frame: &SimFrame) {
+        let rx = &mut self.rx;
+        for n in self.nodes.iter_mut() {
+            n.on_frame(frame, &mut self.plant, &mut |f| {
+                if rx.len() < rx.capacity() {
+                    rx.push_back(f)
+                }
+            });
+        }
+    }
+
+    /// The next queued answer, after letting the nodes do their time-driven work (boot-up,
+    /// heartbeats). Never waits.
+    pub fn receive(&mut self) -> Option<SimFrame> {
+        let now = Instant::now();
+        let rx = &mut self.rx;
+        for n in self.nodes.iter_mut() {
+            n.poll(now, &mut self.plant, &mut |f| {
+                if rx.len() < rx.capacity() {
+                    rx.push_back(f)
+                }
+            });
+        }
+        self.rx.pop_front()
     }
 }
 

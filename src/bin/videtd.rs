@@ -12,6 +12,7 @@ use std::time::Duration;
 
 use clap::{Parser, ValueEnum};
 use tracing::{error, info, warn};
+use videt::can_twin::{self, CanTwin};
 use videt::control_loop::{run_control_loop, start_hardware, LoopSettings};
 use videt::cycle::WireZero;
 use videt::status::status_channel;
@@ -24,6 +25,9 @@ use videt_rt_config::Config;
 enum SimMode {
     /// The HAL-level physics twin (fast).
     Hal,
+    /// The twin's motors behind three simulated CiA 402 drives on a userspace CAN bus, driven
+    /// by the real CANopen drive driver.
+    Can,
 }
 
 /// VIDET service: the real-time control loop of the haptic interface.
@@ -78,14 +82,14 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    if args.sim.is_none() {
+    let Some(mode) = args.sim else {
         error!("no device backend is built into this videtd: run with --sim for the digital twin");
         return ExitCode::from(2);
-    }
-    run_on_twin(&config, args.duration)
+    };
+    run_on_twin(&config, mode, args.duration)
 }
 
-fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
+fn run_on_twin(config: &Config, mode: SimMode, duration_s: Option<f64>) -> ExitCode {
     let rig = match setup::rig(config) {
         Ok(r) => r,
         Err(e) => {
@@ -118,6 +122,14 @@ fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
     let priority = config.realtime.control_priority;
     let cpu = usize::try_from(config.realtime.control_cpu).ok();
     let thread_stop = Arc::clone(&stop);
+    let drive_config = can_twin::drive_config(config);
+    info!(
+        backend = match mode {
+            SimMode::Hal => "hal twin",
+            SimMode::Can => "CiA 402 drives on a userspace CAN bus",
+        },
+        "drive backend"
+    );
     info!(
         rate_hz = settings.rate_hz,
         wall_z_m = scene.wall_z_m,
@@ -130,16 +142,32 @@ fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
             for w in &report.warnings {
                 warn!("{w}");
             }
-            let mut hw = RealTimeTwin::new(scene.twin);
-            start_hardware(&mut hw).map_err(|e| e.to_string())?;
-            Ok::<_, String>(run_control_loop(
-                &mut hw,
-                &wall,
-                &mut cycle,
-                &settings,
-                &thread_stop,
-                &mut publisher,
-            ))
+            match mode {
+                SimMode::Hal => {
+                    let mut hw = RealTimeTwin::new(scene.twin);
+                    start_hardware(&mut hw).map_err(|e| e.to_string())?;
+                    Ok::<_, String>(run_control_loop(
+                        &mut hw,
+                        &wall,
+                        &mut cycle,
+                        &settings,
+                        &thread_stop,
+                        &mut publisher,
+                    ))
+                }
+                SimMode::Can => {
+                    let mut hw = CanTwin::new(scene.twin, drive_config)?;
+                    start_hardware(&mut hw).map_err(|e| e.to_string())?;
+                    Ok(run_control_loop(
+                        &mut hw,
+                        &wall,
+                        &mut cycle,
+                        &settings,
+                        &thread_stop,
+                        &mut publisher,
+                    ))
+                }
+            }
         });
     let control = match control {
         Ok(handle) => handle,

@@ -120,6 +120,11 @@ impl<P: CanPort> Cia402DriveSet<P> {
         self.port
     }
 
+    /// The port (for inspection; the set keeps using it).
+    pub fn port(&self) -> &P {
+        &self.port
+    }
+
     /// The configuration.
     pub fn config(&self) -> &DriveSetConfig {
         &self.cfg
@@ -654,7 +659,7 @@ impl<P: CanPort> Lifecycle for Cia402DriveSet<P> {
         }
         match self.power_sequence(PowerGoal::Disabled) {
             Ok(()) => {
-                self.latched = None;
+                // The latched error stays readable until the next configure/activate.
                 self.lifecycle = LifecycleState::Inactive;
                 Ok(())
             }
