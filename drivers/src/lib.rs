@@ -10,6 +10,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod adc;
 pub mod can;
 pub mod canopen;
 pub mod cia402;
