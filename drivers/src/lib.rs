@@ -14,3 +14,4 @@ pub mod adc;
 pub mod can;
 pub mod canopen;
 pub mod cia402;
+pub mod gpio;
