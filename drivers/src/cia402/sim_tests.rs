@@ -408,3 +408,56 @@ fn the_driver_runs_over_the_cross_process_bus() {
     }
     assert!((bank.views()[1].applied_torque_nm - 0.01).abs() < 1e-4);
 }
+
+#[test]
+fn back_to_back_cycles_against_inline_nodes_stay_healthy() {
+    let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    use videt_sim::cia402_node::SteppedDriveBus;
+    struct Inline(SteppedDriveBus<Arc<Mutex<FreeMotorPlant>>>);
+    impl embedded_can::blocking::Can for Inline {
+        type Frame = SimFrame;
+        type Error = BusError;
+        fn transmit(&mut self, f: &SimFrame) -> Result<(), BusError> {
+            self.0.send(f);
+            Ok(())
+        }
+        fn receive(&mut self) -> Result<SimFrame, BusError> {
+            loop {
+                if let Some(f) = self.0.receive() {
+                    return Ok(f);
+                }
+                std::thread::sleep(Duration::from_micros(100));
+            }
+        }
+    }
+    impl CanPort for Inline {
+        fn receive_timeout(&mut self, t: Duration) -> Result<Option<SimFrame>, BusError> {
+            if let Some(f) = self.0.receive() {
+                return Ok(Some(f));
+            }
+            if !t.is_zero() {
+                std::thread::sleep(t.min(Duration::from_micros(200)));
+            }
+            Ok(self.0.receive())
+        }
+    }
+    let plant = Arc::new(Mutex::new(FreeMotorPlant::new(WIRES, 1e-5, 1e-3, 2000.0)));
+    let mut c = config();
+    c.drive_heartbeat_timeout = Duration::from_secs(10);
+    c.max_missed_cycles = u32::MAX;
+    let mut set = Cia402DriveSet::new(Inline(SteppedDriveBus::new(&specs(), plant)), c).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    let t0 = Instant::now();
+    let mut n = 0;
+    while t0.elapsed() < Duration::from_millis(300) {
+        n += 1;
+        if let Err(e) = set.read_drives(&mut out) {
+            panic!("cycle {n} at {:?}: {e}", t0.elapsed());
+        }
+        set.write_torques(&[0.001; WIRES]).unwrap();
+    }
+    assert!(n > 100, "{n} cycles");
+    assert!(out.iter().all(|s| s.state == DriveState::Enabled));
+}
