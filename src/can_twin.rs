@@ -155,6 +155,10 @@ pub fn drive_config(config: &Config) -> DriveSetConfig {
     );
     c.transmission = setup::transmission(config);
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
+    // The simulated drives share the host's CPUs: on a kernel without PREEMPT_RT their thread
+    // can be woken milliseconds late, which real drives never are. Tolerate up to 20 periods
+    // without process data here (a real drive set keeps the default of 1).
+    c.max_missed_cycles = 20;
     c
 }
 
@@ -208,14 +212,28 @@ impl CanTwin<Twin> {
 }
 
 impl CanTwin<RealTimeTwin> {
-    /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver.
-    pub fn new(twin: Twin, drive_config: DriveSetConfig) -> Result<CanTwin<RealTimeTwin>, String> {
+    /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver. The nodes
+    /// run on their own thread, at SCHED_FIFO `drive_priority` when given (they stand for
+    /// hardware that answers SYNC whatever the host's load; use the control thread's priority).
+    pub fn new(
+        twin: Twin,
+        drive_config: DriveSetConfig,
+        drive_priority: Option<u8>,
+    ) -> Result<CanTwin<RealTimeTwin>, String> {
         let bus_faults = Arc::new(BusFaults::default());
         let mut eps = InProcessBus::with_endpoints(2, 256, bus_faults.clone());
         let node_side = eps.pop().ok_or("bus without endpoints")?;
         let host_side = eps.pop().ok_or("bus without endpoints")?;
         let motors = Arc::new(SharedMotors::new(WIRES));
-        let bank = SimDriveBank::spawn(node_side, &node_specs(), motors.clone());
+        let bank = SimDriveBank::spawn_with(node_side, &node_specs(), motors.clone(), move || {
+            if let Some(p) = drive_priority {
+                if let Err(e) = crate::rt::set_fifo(p) {
+                    tracing::warn!(
+                        "simulated drives stay SCHED_OTHER ({e}): a loaded host may delay their answers"
+                    );
+                }
+            }
+        });
         let drives = Cia402DriveSet::new(SimCanPort::Threaded(host_side), drive_config)
             .map_err(|e| e.to_string())?;
         let mut can_twin = CanTwin {

@@ -7,7 +7,8 @@ use std::sync::atomic::AtomicBool;
 
 use videt::can_twin::{drive_config, CanTwin};
 use videt::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopSettings, WindowStats,
+    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
+    WindowStats,
 };
 use videt::cycle::{CycleRecord, WireZero};
 use videt::setup;
@@ -65,13 +66,15 @@ fn the_wall_is_rendered_through_cia402_drives_on_the_can_bus() {
         .iter()
         .all(|v| v.power == DrivePower::OperationEnabled));
     let mut recorder = Recorder(Vec::with_capacity(4000));
+    let stop = AtomicBool::new(false);
     let report = run_control_loop(
         &mut hw,
-        &scene.wall,
+        &mut videt::snapshot::FixedSurface(scene.wall),
         &mut cycle,
         &settings,
-        &AtomicBool::new(false),
+        &mut LoopControl::stop_flag(&stop),
         &mut recorder,
+        &mut LoopStats::default(),
     );
     let first_trip = recorder.0.iter().find(|r| r.safety != SafetyState::Normal);
     assert_eq!(

@@ -798,9 +798,20 @@ impl core::fmt::Debug for SimDriveBank {
 impl SimDriveBank {
     /// Start the drives `specs` on `port`, their motors in `plant`.
     pub fn spawn<P: SimPort + 'static, M: MotorPlant + 'static>(
+        port: P,
+        specs: &[SimDriveSpec],
+        plant: M,
+    ) -> SimDriveBank {
+        Self::spawn_with(port, specs, plant, || {})
+    }
+
+    /// As [`SimDriveBank::spawn`], running `on_start` first on the new thread (e.g. to raise
+    /// its scheduling priority).
+    pub fn spawn_with<P: SimPort + 'static, M: MotorPlant + 'static>(
         mut port: P,
         specs: &[SimDriveSpec],
         mut plant: M,
+        on_start: impl FnOnce() + Send + 'static,
     ) -> SimDriveBank {
         let faults: Vec<Arc<NodeFaults>> = specs
             .iter()
@@ -826,6 +837,7 @@ impl SimDriveBank {
         let thread = std::thread::Builder::new()
             .name("sim-drives".into())
             .spawn(move || {
+                on_start();
                 let mut outbox: Vec<SimFrame> = Vec::with_capacity(64);
                 while !stop_t.load(Ordering::Relaxed) {
                     let now = Instant::now();
