@@ -10,6 +10,8 @@ pub mod pdo;
 pub mod state;
 
 #[cfg(test)]
+mod scripted_tests;
+#[cfg(test)]
 mod sim_tests;
 
 pub use config::{ConfigError, DriveSetConfig};
