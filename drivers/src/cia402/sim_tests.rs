@@ -30,7 +30,9 @@ impl CanPort for UdpEndpoint {
     }
 }
 
-const PERIOD: Duration = Duration::from_millis(5);
+/// The control period of these tests: long enough that a shared, loaded test machine rarely
+/// wakes a thread two periods late (the fault-detection bounds are counted in periods).
+const PERIOD: Duration = Duration::from_millis(10);
 const RATED_MNM: u32 = 100;
 
 fn specs() -> Vec<SimDriveSpec> {
@@ -85,6 +87,13 @@ fn rig_with(cfg: DriveSetConfig, damping: f64) -> Rig {
 
 fn rig() -> Rig {
     rig_with(config(), 1e-4)
+}
+
+/// For tests that are not about fault detection: ride out a few late answers.
+fn tolerant() -> DriveSetConfig {
+    let mut c = config();
+    c.max_missed_cycles = 5;
+    c
 }
 
 fn active_rig() -> Rig {
@@ -154,7 +163,7 @@ fn assert_safe_state(r: &Rig) {
 
 #[test]
 fn boots_enables_and_follows_cyclic_torque() {
-    let mut r = rig();
+    let mut r = rig_with(tolerant(), 1e-4);
     assert_eq!(r.set.lifecycle_state(), LifecycleState::Unconfigured);
     let t0 = Instant::now();
     r.set.configure().unwrap();
@@ -223,6 +232,7 @@ fn dropped_frames_end_in_pdo_timeout_and_the_drives_stop_by_themselves() {
     let mut r = active_rig();
     let (n, e) = cycles_to_error(&mut r, |r| r.bus.set_drop_rate(1.0));
     assert!(n <= 2, "took {n} cycles");
+    eprintln!("dropped frames: error after {n} cycle(s): {e}");
     assert!(matches!(e, DriveError::PdoTimeout { .. }), "{e}");
     // The safe commands are lost too: the drives' heartbeat consumers stop them.
     assert_safe_state(&r);
@@ -231,7 +241,7 @@ fn dropped_frames_end_in_pdo_timeout_and_the_drives_stop_by_themselves() {
 #[test]
 fn delayed_frames_end_in_pdo_timeout_and_the_safe_state() {
     let mut r = active_rig();
-    let (n, e) = cycles_to_error(&mut r, |r| r.bus.set_delay(Duration::from_millis(8)));
+    let (n, e) = cycles_to_error(&mut r, |r| r.bus.set_delay(Duration::from_millis(9)));
     assert!(n <= 2, "took {n} cycles");
     assert!(matches!(e, DriveError::PdoTimeout { .. }), "{e}");
     assert_safe_state(&r);
@@ -365,6 +375,7 @@ fn a_silent_host_makes_the_drives_stop_by_themselves() {
         Duration::from_millis(300)
     ));
     let stopped_after = t0.elapsed();
+    eprintln!("drives stopped {stopped_after:?} after the host went silent (consumer time 50 ms)");
     assert!(
         stopped_after >= Duration::from_millis(40),
         "{stopped_after:?}"
@@ -375,13 +386,13 @@ fn a_silent_host_makes_the_drives_stop_by_themselves() {
 #[test]
 fn the_wire_speed_limit_cuts_torque_that_would_run_faster() {
     // An undamped motor under full torque would pass 0.8 m/s within 0.4 s.
-    let mut r = rig_with(config(), 0.0);
+    let mut r = rig_with(tolerant(), 0.0);
     r.set.configure().unwrap();
     r.set.activate().unwrap();
     let t = r.set.config().transmission;
     let mut out = [DriveSample::default(); WIRES];
     let mut max_speed: f64 = 0.0;
-    for _ in 0..140 {
+    for _ in 0..70 {
         cycle(&mut r.set, [1.0, 0.0, 0.0], &mut out).unwrap();
         max_speed = max_speed.max(t.wire_speed(out[0].velocity_counts_per_s));
     }
