@@ -1,1 +1,4 @@
 //! placeholder
+
+pub mod calib;
+pub mod rectify;
