@@ -157,8 +157,11 @@ pub fn drive_config(config: &Config) -> DriveSetConfig {
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
     // The simulated drives share the host's CPUs: on a kernel without PREEMPT_RT their thread
     // can be woken milliseconds late, which real drives never are. Tolerate up to 20 periods
-    // without process data here (a real drive set keeps the default of 1).
+    // without process data and 100 ms of silence either way here (a real drive set keeps the
+    // defaults: 1 period, 35 ms, 50 ms).
     c.max_missed_cycles = 20;
+    c.drive_heartbeat_timeout = Duration::from_millis(100);
+    c.host_silence_timeout_ms = 100;
     c
 }
 

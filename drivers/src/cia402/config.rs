@@ -20,7 +20,8 @@ pub struct DriveSetConfig {
     pub t_max_n: f64,
     /// Wire speed limit, m/s: above it, torque that would drive the wire faster is cut.
     pub max_wire_speed_m_per_s: f64,
-    /// Above this multiple of the speed limit the set trips into its safe state.
+    /// A wire wound in faster than this multiple of the speed limit trips the set into its safe
+    /// state (unwinding, driven by the operator, never trips).
     pub overspeed_trip_factor: f64,
     /// Control period (one SYNC per period).
     pub control_period: Duration,

@@ -357,7 +357,8 @@ impl<P: CanPort> Cia402DriveSet<P> {
     }
 
     /// The torque actually sent for wire `i`: clamped to ±torque(t_max), cut when the wire
-    /// already runs faster than the speed limit in the torque's direction. **RT**.
+    /// already runs faster than the speed limit in the torque's direction; a winding speed
+    /// above the trip speed is an error. **RT**.
     fn limited_torque(&self, i: usize, torque_nm: f64) -> Result<f64, DriveError> {
         if !torque_nm.is_finite() {
             return Err(DriveError::InvalidTorque { wire: i });
@@ -369,7 +370,10 @@ impl<P: CanPort> Cia402DriveSet<P> {
             .transmission
             .wire_speed(self.sample(i).velocity_counts_per_s);
         let max = self.cfg.max_wire_speed_m_per_s;
-        if speed.abs() > max * self.cfg.overspeed_trip_factor {
+        // Only winding is driven by the motor: a wire wound in faster than the trip speed
+        // despite the cut torque is a drive or encoder fault. Fast unwinding is the operator
+        // pulling the thimble away, which the motor merely resists.
+        if speed > max * self.cfg.overspeed_trip_factor {
             return Err(DriveError::OverSpeed {
                 wire: i,
                 speed_mm_per_s: (speed * 1000.0) as i32,

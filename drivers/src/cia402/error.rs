@@ -111,7 +111,7 @@ pub enum DriveError {
         /// The NMT state byte it reported (0 = boot-up).
         nmt_state: u8,
     },
-    /// A wire ran faster than the trip speed.
+    /// A wire was wound in faster than the trip speed.
     OverSpeed {
         /// Wire index.
         wire: usize,
