@@ -20,6 +20,7 @@ struct ScriptedDrives {
     statusword: [u16; WIRES],
     error_code: [u16; WIRES],
     positions: VecDeque<i32>,
+    velocity: i32,
     last_cw: [u16; WIRES],
 }
 
@@ -42,7 +43,7 @@ impl ScriptedDrives {
                     let i = n as usize - 1;
                     let m = Motion {
                         position: pos,
-                        velocity: 0,
+                        velocity: self.velocity,
                     };
                     self.push(0x180 + n, &m.encode());
                     let s = Status {
@@ -117,6 +118,7 @@ fn drives(positions: &[i32]) -> ScriptedDrives {
         statusword: [0x0218, 0x0250, 0x0250],
         error_code: [0x81B0, 0, 0],
         positions: positions.iter().copied().collect(),
+        velocity: 0,
         last_cw: [0; WIRES],
     }
 }
@@ -200,4 +202,50 @@ fn positions_unwrap_across_the_32_bit_rollover_and_torques_are_per_mille() {
     // 0.05 N·m is above the 40 N limit (0.032 N·m): clamped to -320 per mille.
     assert_eq!(rpdo(0x202).target_torque_permille, -320);
     assert_eq!(rpdo(0x201).controlword, 0x0F);
+}
+
+#[test]
+fn fast_unwinding_is_resisted_but_fast_winding_trips() {
+    let t = videt_hal::Transmission::PAPER;
+    let two_m_per_s = (2.0 / t.metres_per_count()) as i32;
+    // The operator pulls the thimble away at 2 m/s: the winding torque still goes out.
+    let mut d = drives(&[]);
+    d.velocity = -two_m_per_s;
+    let mut set = Cia402DriveSet::new(d, config()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    set.read_drives(&mut out).unwrap();
+    set.write_torques(&[0.01; WIRES]).unwrap();
+    let sent = &set.port().sent;
+    let last = sent.iter().rev().find(|(c, _)| *c == 0x201).unwrap();
+    assert_eq!(
+        Command::decode(&last.1).unwrap().target_torque_permille,
+        100
+    );
+    // Winding at 2 m/s (above 1.5 x 0.8 m/s) is a runaway: trip, safe state.
+    let mut d = drives(&[]);
+    d.velocity = two_m_per_s;
+    let mut set = Cia402DriveSet::new(d, config()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    set.read_drives(&mut out).unwrap();
+    let e = set.write_torques(&[0.01; WIRES]).unwrap_err();
+    assert!(
+        matches!(e, super::DriveError::OverSpeed { wire: 0, .. }),
+        "{e}"
+    );
+    assert_eq!(set.lifecycle_state(), videt_hal::LifecycleState::Faulted);
+    let last = set
+        .port()
+        .sent
+        .iter()
+        .rev()
+        .find(|(c, _)| *c == 0x201)
+        .unwrap();
+    assert_eq!(
+        Command::decode(&last.1).unwrap(),
+        Command::default(),
+        "disable voltage, zero torque"
+    );
 }
