@@ -336,6 +336,10 @@ impl<T: TwinDevice> Lifecycle for CanTwin<T> {
         logged(r, "activate")
     }
     fn deactivate(&mut self) -> Result<(), CanTwinError> {
+        // Non-RT: say why the drives went to their safe state, if they did.
+        if let Some(e) = self.drives.latched_error() {
+            tracing::warn!("CAN drives had entered their safe state: {e}");
+        }
         let r = self.drives.deactivate().map_err(CanTwinError::Drives);
         self.twin.deactivate().map_err(twin_err)?;
         r
