@@ -10,6 +10,7 @@ pub mod colour_thread;
 pub mod control_loop;
 pub mod cycle;
 pub mod histogram;
+pub mod init;
 pub mod rt;
 pub mod service;
 pub mod setup;
