@@ -11,9 +11,17 @@
 //! - [`twin`]: the plant behind the HAL — drives with quadrature encoders, strain-gauge tension
 //!   sensors with offset, gain error and seeded noise, an e-stop, recording vibrotactors, and a
 //!   clock that is either simulated (faster than real time, deterministic) or real time.
+//!
+//! Protocol-level twins of devices, so the real drive driver runs end to end without hardware:
+//!
+//! - [`can_bus`]: a userspace CAN bus (in-process, or across processes over loopback UDP) with
+//!   fault injection;
+//! - [`cia402_node`]: a simulated CiA 402 drive node on that bus, its motor given by a plant.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod can_bus;
+pub mod cia402_node;
 pub mod operator;
 pub mod plant;
 pub mod twin;

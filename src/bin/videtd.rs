@@ -1,7 +1,9 @@
 //! `videtd` — the VIDET service: runs the real-time control loop of the haptic interface.
 //!
 //! `videtd --sim` runs the real runtime and control code on the digital twin (a virtual wall and
-//! a virtual operator who touches it and slides along it). One status line per second; Ctrl-C or
+//! a virtual operator who touches it and slides along it); `videtd --sim can` runs the same with
+//! the twin's motors behind three simulated CiA 402 drives on a userspace CAN bus, through the
+//! real CANopen drive driver. One status line per second; Ctrl-C or
 //! SIGTERM ramps the forces out, powers the drives off and exits 0. Under systemd
 //! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
 //! control loop is healthy.
@@ -16,6 +18,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
 use tracing::{error, info, warn};
+use videt::can_twin::{self, CanTwin};
 use videt::cycle::WireZero;
 use videt::service::{run_service, ServiceOptions};
 use videt::setup;
@@ -28,6 +31,9 @@ use videt_rt_config::Config;
 enum SimMode {
     /// The HAL-level physics twin (fast).
     Hal,
+    /// The twin's motors behind three simulated CiA 402 drives on a userspace CAN bus, driven
+    /// by the real CANopen drive driver.
+    Can,
 }
 
 /// Where the twin's calibration comes from.
@@ -206,6 +212,33 @@ fn main() -> ExitCode {
                     )
                 }
             }
+        }
+        Some(SimMode::Can) => {
+            let mut scene = setup::demo_scene(&config, 1);
+            tracing::info!(
+                rate_hz = config.control.rate_hz,
+                wall_z_m = scene.wall_z_m,
+                "digital twin behind CiA 402 drives on a userspace CAN bus: a virtual wall, a virtual operator touching it and sliding along it"
+            );
+            let (rig, wire_zero, calibrated) =
+                calibrate_twin(&config, &mut scene, rig, args.sim_calibration);
+            let cycle = setup::control_cycle(&config, rig, wire_zero, calibrated);
+            match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
+                Ok(source) => options.colour = Some(source),
+                Err(e) => tracing::warn!("colour rendering disabled: {e}"),
+            }
+            let hw = match CanTwin::new(
+                scene.twin,
+                can_twin::drive_config(&config),
+                Some(config.realtime.control_priority),
+            ) {
+                Ok(hw) => hw,
+                Err(e) => {
+                    error!("simulated CAN drives: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
+            run_service(hw, FixedSurface(scene.wall), cycle, &options)
         }
         None => {
             let path = args

@@ -1,0 +1,8 @@
+//! The CiA 301 pieces the drive driver needs on top of `canopen-rs` (which provides the SDO,
+//! NMT, EMCY and PDO codecs): COB-ID classification, readable EMCY and SDO-abort texts, a
+//! candump trace reader and an EDS/DCF reader.
+
+pub mod cob;
+pub mod codes;
+pub mod eds;
+pub mod trace;

@@ -1,0 +1,757 @@
+//! The three wire drives on one CAN bus, driven through CiA 402 cyclic synchronous torque
+//! mode: `impl WireDrives + Lifecycle` over any [`CanPort`].
+//!
+//! Per control cycle ([`WireDrives::read_drives`] then [`WireDrives::write_torques`]):
+//! stale frames are drained, SYNC is sent, the TPDOs of every drive are awaited until
+//! `pdo_timeout`, heartbeats and EMCYs are checked, then the RPDOs (controlword + target
+//! torque) are sent. Any failure latches an error, sends "disable voltage, zero torque" to every
+//! drive (the safe state) and fails every later cycle until the set is deactivated and
+//! reconfigured, or re-activated. The cycle methods allocate nothing and block only in the
+//! bus receive, never past `pdo_timeout`.
+
+use std::time::{Duration, Instant};
+
+use canopen_rs::nmt::NmtCommand;
+use canopen_rs::sdo::{SdoEvent, SdoPayload};
+use canopen_rs::{Address, DataType, EmergencyMessage, NodeId, SdoClient, Value};
+use embedded_can::{Frame, Id, StandardId};
+use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives, WIRES};
+
+use super::config::{ConfigError, DriveSetConfig};
+use super::error::DriveError;
+use super::pdo::{Command, DriveSetup, Motion, Status};
+use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
+use crate::can::CanPort;
+use crate::canopen::cob::{self, classify, CobKind};
+
+/// Most frames handled in one cycle (bounds the receive loop).
+const MAX_FRAMES_PER_CYCLE: usize = 64;
+/// Fault-reset edges tried when enabling a faulted drive.
+const MAX_FAULT_RESETS: u32 = 3;
+/// SDO abort "object does not exist in the object dictionary".
+const ABORT_NO_OBJECT: u32 = 0x0602_0000;
+/// NMT state byte of "operational".
+const NMT_OPERATIONAL: u8 = 0x05;
+
+/// Length of wire (m) for an encoder position: `length_at_zero - counts * metres_per_count`.
+pub fn wire_length_m(t: &Transmission, length_at_zero_m: f64, position_counts: i64) -> f64 {
+    length_at_zero_m - position_counts as f64 * t.metres_per_count()
+}
+
+/// What the host knows of one drive.
+#[derive(Debug, Clone, Copy)]
+struct NodeLink {
+    id: u8,
+    last_heard: Instant,
+    nmt_state: u8,
+    booted: bool,
+    rebooted: bool,
+    emcy: Option<(u16, u8)>,
+    motion: Motion,
+    status: Status,
+    got_motion: bool,
+    got_status: bool,
+    missed: u32,
+    position_counts: i64,
+    last_raw_position: Option<i32>,
+}
+
+impl NodeLink {
+    fn new(id: u8, now: Instant) -> NodeLink {
+        NodeLink {
+            id,
+            last_heard: now,
+            nmt_state: 0xFF,
+            booted: false,
+            rebooted: false,
+            emcy: None,
+            motion: Motion::default(),
+            status: Status::default(),
+            got_motion: false,
+            got_status: false,
+            missed: 0,
+            position_counts: 0,
+            last_raw_position: None,
+        }
+    }
+
+    fn power_state(&self) -> PowerState {
+        PowerState::from_statusword(self.status.statusword)
+    }
+}
+
+/// Three CiA 402 wire drives on one CAN port.
+#[derive(Debug)]
+pub struct Cia402DriveSet<P: CanPort> {
+    port: P,
+    cfg: DriveSetConfig,
+    nodes: [NodeLink; WIRES],
+    lifecycle: LifecycleState,
+    latched: Option<DriveError>,
+    host_heartbeat_due: Instant,
+    operational_expected: bool,
+    epoch: Instant,
+}
+
+impl<P: CanPort> Cia402DriveSet<P> {
+    /// Take the port and a validated configuration. Nothing is sent yet (`Unconfigured`).
+    pub fn new(port: P, cfg: DriveSetConfig) -> Result<Self, ConfigError> {
+        cfg.validate()?;
+        let now = Instant::now();
+        let nodes = [
+            NodeLink::new(cfg.node_ids[0], now),
+            NodeLink::new(cfg.node_ids[1], now),
+            NodeLink::new(cfg.node_ids[2], now),
+        ];
+        Ok(Cia402DriveSet {
+            port,
+            cfg,
+            nodes,
+            lifecycle: LifecycleState::Unconfigured,
+            latched: None,
+            host_heartbeat_due: now,
+            operational_expected: false,
+            epoch: now,
+        })
+    }
+
+    /// Give the port back.
+    pub fn release(self) -> P {
+        self.port
+    }
+
+    /// The port (for inspection; the set keeps using it).
+    pub fn port(&self) -> &P {
+        &self.port
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &DriveSetConfig {
+        &self.cfg
+    }
+
+    /// The error that put the set into its safe state, if any.
+    pub fn latched_error(&self) -> Option<DriveError> {
+        self.latched
+    }
+
+    /// The decoded power state of each drive (from the last statusword).
+    pub fn power_states(&self) -> [PowerState; WIRES] {
+        [
+            self.nodes[0].power_state(),
+            self.nodes[1].power_state(),
+            self.nodes[2].power_state(),
+        ]
+    }
+
+    // ----- frame I/O -------------------------------------------------------------------
+
+    fn bus_error(&self, e: &P::Error) -> DriveError {
+        if self.port.is_bus_off() {
+            DriveError::BusOff
+        } else {
+            DriveError::Bus(embedded_can::Error::kind(e))
+        }
+    }
+
+    fn send(&mut self, cob_id: u16, data: &[u8]) -> Result<(), DriveError> {
+        // COB-IDs are built here from validated node ids: always below 0x800.
+        let id = StandardId::new(cob_id).unwrap_or(StandardId::ZERO);
+        let Some(frame) = P::Frame::new(id, data) else {
+            return Err(DriveError::Bus(embedded_can::ErrorKind::Other));
+        };
+        self.port.transmit(&frame).map_err(|e| self.bus_error(&e))
+    }
+
+    fn receive(&mut self, timeout: Duration) -> Result<Option<P::Frame>, DriveError> {
+        self.port
+            .receive_timeout(timeout)
+            .map_err(|e| self.bus_error(&e))
+    }
+
+    fn node_index(&self, id: u8) -> Option<usize> {
+        self.nodes.iter().position(|n| n.id == id)
+    }
+
+    /// Book-keep one received frame. `fresh` marks frames of the current cycle (after SYNC).
+    fn absorb(&mut self, frame: &P::Frame, fresh: bool, now: Instant) {
+        let Id::Standard(id) = frame.id() else {
+            return;
+        };
+        let data = frame.data();
+        match classify(id.as_raw()) {
+            CobKind::Heartbeat(n) => {
+                let Some(i) = self.node_index(n) else { return };
+                let node = &mut self.nodes[i];
+                node.last_heard = now;
+                if let [state] = data {
+                    if *state == 0 {
+                        node.booted = true;
+                        if self.operational_expected {
+                            node.rebooted = true;
+                        }
+                    }
+                    node.nmt_state = state & 0x7F;
+                }
+            }
+            CobKind::Emcy(n) => {
+                let Some(i) = self.node_index(n) else { return };
+                if let Ok(m) = EmergencyMessage::decode(data) {
+                    self.nodes[i].emcy = if m.is_error_reset() {
+                        None
+                    } else {
+                        Some((m.error_code, m.error_register.0))
+                    };
+                }
+            }
+            CobKind::Tpdo(0, n) => {
+                let Some(i) = self.node_index(n) else { return };
+                if let Some(m) = Motion::decode(data) {
+                    let node = &mut self.nodes[i];
+                    let delta = match node.last_raw_position {
+                        Some(prev) => i64::from(m.position.wrapping_sub(prev)),
+                        None => i64::from(m.position),
+                    };
+                    node.position_counts += delta;
+                    node.last_raw_position = Some(m.position);
+                    node.motion = m;
+                    node.got_motion |= fresh;
+                }
+            }
+            CobKind::Tpdo(1, n) => {
+                let Some(i) = self.node_index(n) else { return };
+                if let Some(s) = Status::decode(data) {
+                    self.nodes[i].status = s;
+                    self.nodes[i].got_status |= fresh;
+                }
+            }
+            _ => {}
+        }
+    }
+
+    // ----- the cycle -------------------------------------------------------------------
+
+    /// SYNC, collect the TPDOs, check the drives. **RT**.
+    fn exchange(&mut self, strict_faults: bool) -> Result<(), DriveError> {
+        // Frames still queued belong to earlier cycles (late or unsolicited).
+        for _ in 0..MAX_FRAMES_PER_CYCLE {
+            match self.receive(Duration::ZERO)? {
+                Some(f) => self.absorb(&f, false, Instant::now()),
+                None => break,
+            }
+        }
+        for n in &mut self.nodes {
+            n.got_motion = false;
+            n.got_status = false;
+        }
+        let start = Instant::now();
+        self.send(cob::SYNC, &[])?;
+        if start >= self.host_heartbeat_due {
+            let host = cob::HEARTBEAT_BASE + u16::from(self.cfg.host_node_id);
+            self.send(host, &[NMT_OPERATIONAL])?;
+            self.host_heartbeat_due =
+                start + Duration::from_millis(u64::from(self.cfg.host_heartbeat_ms));
+        }
+        let deadline = start + self.cfg.pdo_timeout;
+        for _ in 0..MAX_FRAMES_PER_CYCLE {
+            if self.nodes.iter().all(|n| n.got_motion && n.got_status) {
+                break;
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                break;
+            }
+            match self.receive(deadline - now)? {
+                Some(f) => self.absorb(&f, true, Instant::now()),
+                None => break,
+            }
+        }
+        self.check_nodes(strict_faults, Instant::now())
+    }
+
+    fn check_nodes(&mut self, strict_faults: bool, now: Instant) -> Result<(), DriveError> {
+        let hb_timeout = self.cfg.drive_heartbeat_timeout;
+        let max_missed = self.cfg.max_missed_cycles;
+        for node in &mut self.nodes {
+            if node.rebooted {
+                return Err(DriveError::NotOperational {
+                    node: node.id,
+                    nmt_state: 0,
+                });
+            }
+            if strict_faults {
+                if let Some((code, register)) = node.emcy {
+                    return Err(DriveError::Emergency {
+                        node: node.id,
+                        code,
+                        register,
+                    });
+                }
+            }
+            let silent = now.saturating_duration_since(node.last_heard);
+            if silent > hb_timeout {
+                return Err(DriveError::HeartbeatLost {
+                    node: node.id,
+                    silent_ms: silent.as_millis() as u64,
+                });
+            }
+            if node.nmt_state != NMT_OPERATIONAL {
+                return Err(DriveError::NotOperational {
+                    node: node.id,
+                    nmt_state: node.nmt_state,
+                });
+            }
+            if node.got_motion && node.got_status {
+                node.missed = 0;
+            } else {
+                node.missed += 1;
+                if node.missed > max_missed {
+                    return Err(DriveError::PdoTimeout {
+                        node: node.id,
+                        missed_cycles: node.missed,
+                    });
+                }
+            }
+            if strict_faults && node.power_state() == PowerState::Fault {
+                return Err(DriveError::DriveFault {
+                    node: node.id,
+                    error_code: node.status.error_code,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Latch `e`, command every drive off with zero torque, and return `e`. **RT**.
+    fn fail(&mut self, e: DriveError) -> DriveError {
+        if self.latched.is_none() {
+            self.latched = Some(e);
+        }
+        self.lifecycle = LifecycleState::Faulted;
+        self.send_safe_commands();
+        e
+    }
+
+    fn send_safe_commands(&mut self) {
+        let off = Command {
+            controlword: controlword::DISABLE_VOLTAGE,
+            target_torque_permille: 0,
+        }
+        .encode();
+        for i in 0..WIRES {
+            let cob = cob::RPDO_BASE[0] + u16::from(self.nodes[i].id);
+            let _ = self.send(cob, &off);
+        }
+    }
+
+    fn sample(&self, i: usize) -> DriveSample {
+        let n = &self.nodes[i];
+        DriveSample {
+            position_counts: (n.position_counts as f64 * self.cfg.counts_per_position_unit).round()
+                as i64,
+            velocity_counts_per_s: f64::from(n.motion.velocity)
+                * self.cfg.counts_per_s_per_velocity_unit,
+            state: n.power_state().to_hal(),
+            error_code: n.status.error_code,
+        }
+    }
+
+    /// The torque actually sent for wire `i`: clamped to ±torque(t_max), cut when the wire
+    /// already runs faster than the speed limit in the torque's direction; a winding speed
+    /// above the trip speed is an error. **RT**.
+    fn limited_torque(&self, i: usize, torque_nm: f64) -> Result<f64, DriveError> {
+        if !torque_nm.is_finite() {
+            return Err(DriveError::InvalidTorque { wire: i });
+        }
+        let limit = self.cfg.max_torque_nm();
+        let t = torque_nm.clamp(-limit, limit);
+        let speed = self
+            .cfg
+            .transmission
+            .wire_speed(self.sample(i).velocity_counts_per_s);
+        let max = self.cfg.max_wire_speed_m_per_s;
+        // Only winding is driven by the motor: a wire wound in faster than the trip speed
+        // despite the cut torque is a drive or encoder fault. Fast unwinding is the operator
+        // pulling the thimble away, which the motor merely resists.
+        if speed > max * self.cfg.overspeed_trip_factor {
+            return Err(DriveError::OverSpeed {
+                wire: i,
+                speed_mm_per_s: (speed * 1000.0) as i32,
+            });
+        }
+        if speed.abs() > max && t * speed > 0.0 {
+            return Ok(0.0);
+        }
+        Ok(t)
+    }
+
+    // ----- non-RT sequences --------------------------------------------------------------
+
+    fn sdo(
+        &mut self,
+        i: usize,
+        client: &mut SdoClient,
+        first: SdoPayload,
+        addr: Address,
+    ) -> Result<Option<Value>, DriveError> {
+        let node = self.nodes[i].id;
+        let req = cob::SDO_REQUEST_BASE + u16::from(node);
+        let resp = cob::SDO_RESPONSE_BASE + u16::from(node);
+        let mut payload = first;
+        loop {
+            self.send(req, &payload)?;
+            let deadline = Instant::now() + self.cfg.sdo_timeout;
+            let answer = loop {
+                let now = Instant::now();
+                if now >= deadline {
+                    return Err(DriveError::SdoTimeout {
+                        node,
+                        index: addr.index,
+                        subindex: addr.subindex,
+                    });
+                }
+                let Some(f) = self.receive(deadline - now)? else {
+                    continue;
+                };
+                match f.id() {
+                    Id::Standard(id) if id.as_raw() == resp && f.data().len() == 8 => {
+                        let mut p = [0u8; 8];
+                        p.copy_from_slice(f.data());
+                        break p;
+                    }
+                    _ => self.absorb(&f, false, Instant::now()),
+                }
+            };
+            match client.on_response(&answer) {
+                SdoEvent::Send(next) => payload = next,
+                SdoEvent::Complete(v) => return Ok(v),
+                SdoEvent::Aborted(code) => {
+                    return Err(DriveError::SdoAbort {
+                        node,
+                        index: addr.index,
+                        subindex: addr.subindex,
+                        code,
+                    })
+                }
+            }
+        }
+    }
+
+    fn sdo_write(&mut self, i: usize, addr: Address, value: Value) -> Result<(), DriveError> {
+        let mut client = SdoClient::new(NodeId::new(self.nodes[i].id).unwrap_or(NodeId::BROADCAST));
+        let first = client.write(addr, value);
+        self.sdo(i, &mut client, first, addr).map(|_| ())
+    }
+
+    fn sdo_read(&mut self, i: usize, addr: Address, ty: DataType) -> Result<Value, DriveError> {
+        let mut client = SdoClient::new(NodeId::new(self.nodes[i].id).unwrap_or(NodeId::BROADCAST));
+        let first = client.read(addr, ty);
+        self.sdo(i, &mut client, first, addr)?
+            .ok_or(DriveError::SdoUnexpectedValue {
+                node: self.nodes[i].id,
+                index: addr.index,
+            })
+    }
+
+    fn nmt(&mut self, command: NmtCommand, node: u8) -> Result<(), DriveError> {
+        self.send(cob::NMT, &[command as u8, node])
+    }
+
+    fn configure_inner(&mut self) -> Result<(), DriveError> {
+        self.operational_expected = false;
+        self.latched = None;
+        let now = Instant::now();
+        for i in 0..WIRES {
+            self.nodes[i] = NodeLink::new(self.cfg.node_ids[i], now);
+        }
+        // Drain whatever is queued, then reset communication so every drive boots afresh.
+        while self.receive(Duration::ZERO)?.is_some() {}
+        for i in 0..WIRES {
+            self.nmt(NmtCommand::ResetCommunication, self.nodes[i].id)?;
+        }
+        let start = Instant::now();
+        let deadline = start + self.cfg.boot_timeout;
+        while !self.nodes.iter().all(|n| n.booted) {
+            let now = Instant::now();
+            if now >= deadline {
+                let missing = self.nodes.iter().find(|n| !n.booted).map_or(0, |n| n.id);
+                return Err(DriveError::NeverBooted {
+                    node: missing,
+                    waited_ms: (now - start).as_millis() as u64,
+                });
+            }
+            if let Some(f) = self.receive(deadline - now)? {
+                self.absorb(&f, false, Instant::now());
+            }
+        }
+        let rated_mnm = (self.cfg.rated_torque_nm * 1000.0).round() as u32;
+        let max_permille = self
+            .cfg
+            .torque_to_permille(self.cfg.max_torque_nm())
+            .unsigned_abs()
+            .max(1);
+        for i in 0..WIRES {
+            if self.cfg.verify_rated_torque {
+                match self.sdo_read(i, Address::new(0x6076, 0), DataType::Unsigned32) {
+                    Ok(Value::Unsigned32(v)) if v == rated_mnm => {}
+                    Ok(Value::Unsigned32(v)) => {
+                        return Err(DriveError::RatedTorqueMismatch {
+                            node: self.nodes[i].id,
+                            drive_mnm: v,
+                            configured_mnm: rated_mnm,
+                        })
+                    }
+                    Ok(_) => {
+                        return Err(DriveError::SdoUnexpectedValue {
+                            node: self.nodes[i].id,
+                            index: 0x6076,
+                        })
+                    }
+                    // A drive without 0x6076 cannot be checked: the configuration rules.
+                    Err(DriveError::SdoAbort {
+                        code: ABORT_NO_OBJECT,
+                        ..
+                    }) => {}
+                    Err(e) => return Err(e),
+                }
+            }
+            let setup = DriveSetup {
+                node_id: self.nodes[i].id,
+                host_node_id: self.cfg.host_node_id,
+                drive_heartbeat_ms: self.cfg.drive_heartbeat_ms,
+                host_silence_timeout_ms: self.cfg.host_silence_timeout_ms,
+                comm_loss_reaction: self.cfg.comm_loss_reaction,
+                max_torque_permille: max_permille,
+            };
+            for (addr, value) in setup.sdo_writes() {
+                match self.sdo_write(i, addr, value) {
+                    // The drive-side torque limit is optional (e.g. EPOS4 has no 0x6072);
+                    // the host-side clamp still applies.
+                    Err(DriveError::SdoAbort {
+                        index: 0x6072,
+                        code: ABORT_NO_OBJECT,
+                        ..
+                    }) => {}
+                    r => r?,
+                }
+            }
+        }
+        // Host heartbeat first, so the drives' consumers start on a live host.
+        self.host_heartbeat_due = Instant::now();
+        for i in 0..WIRES {
+            self.nmt(NmtCommand::StartRemoteNode, self.nodes[i].id)?;
+        }
+        // Cycle until every drive is operational and answers SYNC.
+        let start = Instant::now();
+        let mut last_err;
+        loop {
+            let cycle_start = Instant::now();
+            for n in &mut self.nodes {
+                n.missed = 0;
+            }
+            match self.exchange(false) {
+                Ok(()) if self.nodes.iter().all(|n| n.got_motion && n.got_status) => break,
+                Ok(()) => last_err = None,
+                Err(e) => last_err = Some(e),
+            }
+            if cycle_start - start > self.cfg.boot_timeout {
+                return Err(last_err.unwrap_or(DriveError::PdoTimeout {
+                    node: self
+                        .nodes
+                        .iter()
+                        .find(|n| !n.got_status)
+                        .map_or(0, |n| n.id),
+                    missed_cycles: 0,
+                }));
+            }
+            self.sleep_rest_of_cycle(cycle_start);
+        }
+        self.operational_expected = true;
+        Ok(())
+    }
+
+    fn sleep_rest_of_cycle(&self, cycle_start: Instant) {
+        let end = cycle_start + self.cfg.control_period;
+        let now = Instant::now();
+        if end > now {
+            std::thread::sleep(end - now);
+        }
+    }
+
+    /// Run every drive's power sequencer to `goal`, cycling at the control period.
+    fn power_sequence(&mut self, goal: PowerGoal) -> Result<(), DriveError> {
+        let t0 = Instant::now();
+        let now_ns = |t: Instant| t.duration_since(t0).as_nanos() as u64;
+        let timeout_ns = self.cfg.power_timeout.as_nanos() as u64;
+        let mut seq = [PowerSequencer::new(goal, 0, timeout_ns, MAX_FAULT_RESETS); WIRES];
+        for n in &mut self.nodes {
+            n.emcy = None;
+        }
+        loop {
+            let cycle_start = Instant::now();
+            self.exchange(false)?;
+            let mut all = true;
+            for (i, sequencer) in seq.iter_mut().enumerate() {
+                let step = sequencer
+                    .step(self.nodes[i].status.statusword, now_ns(Instant::now()))
+                    .map_err(|e| {
+                        DriveError::from_power(self.nodes[i].id, e, self.nodes[i].status.error_code)
+                    })?;
+                all &= step.reached;
+                let cmd = Command {
+                    controlword: step.controlword,
+                    target_torque_permille: 0,
+                };
+                let cob = cob::RPDO_BASE[0] + u16::from(self.nodes[i].id);
+                self.send(cob, &cmd.encode())?;
+            }
+            if all {
+                return Ok(());
+            }
+            self.sleep_rest_of_cycle(cycle_start);
+        }
+    }
+}
+
+impl<P: CanPort> videt_hal::ErrorType for Cia402DriveSet<P> {
+    type Error = DriveError;
+}
+
+impl<P: CanPort> Lifecycle for Cia402DriveSet<P> {
+    /// Reset the drives' communication, wait for their boot-up, configure them over SDO
+    /// (CST mode, PDO mapping, heartbeats, communication-loss reaction), start them and wait
+    /// until all three answer SYNC. Ends `Inactive`.
+    fn configure(&mut self) -> Result<(), DriveError> {
+        if self.lifecycle == LifecycleState::Active {
+            return Err(DriveError::NotReady {
+                state: self.lifecycle,
+            });
+        }
+        match self.configure_inner() {
+            Ok(()) => {
+                self.lifecycle = LifecycleState::Inactive;
+                Ok(())
+            }
+            Err(e) => {
+                self.lifecycle = LifecycleState::Unconfigured;
+                Err(e)
+            }
+        }
+    }
+
+    /// Walk every drive to "operation enabled" (resetting a latched fault). Ends `Active`.
+    fn activate(&mut self) -> Result<(), DriveError> {
+        match self.lifecycle {
+            LifecycleState::Inactive | LifecycleState::Faulted => {}
+            LifecycleState::Active => return Ok(()),
+            state @ LifecycleState::Unconfigured => return Err(DriveError::NotReady { state }),
+        }
+        self.latched = None;
+        match self.power_sequence(PowerGoal::Enabled) {
+            Ok(()) => {
+                self.lifecycle = LifecycleState::Active;
+                Ok(())
+            }
+            Err(e) => Err(self.fail(e)),
+        }
+    }
+
+    /// Walk every drive to "switch on disabled". Ends `Inactive`.
+    fn deactivate(&mut self) -> Result<(), DriveError> {
+        if self.lifecycle == LifecycleState::Unconfigured {
+            return Ok(());
+        }
+        match self.power_sequence(PowerGoal::Disabled) {
+            Ok(()) => {
+                // The latched error stays readable until the next configure/activate.
+                self.lifecycle = LifecycleState::Inactive;
+                Ok(())
+            }
+            Err(e) => Err(self.fail(e)),
+        }
+    }
+
+    fn lifecycle_state(&self) -> LifecycleState {
+        self.lifecycle
+    }
+}
+
+impl<P: CanPort> WireDrives for Cia402DriveSet<P> {
+    fn enable(&mut self) -> Result<(), DriveError> {
+        self.activate()
+    }
+
+    fn disable(&mut self) -> Result<(), DriveError> {
+        self.send_safe_commands();
+        if self.lifecycle == LifecycleState::Active {
+            self.lifecycle = LifecycleState::Inactive;
+        }
+        Ok(())
+    }
+
+    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), DriveError> {
+        match self.lifecycle {
+            LifecycleState::Unconfigured => {
+                return Err(DriveError::NotReady {
+                    state: self.lifecycle,
+                })
+            }
+            LifecycleState::Faulted => {
+                let _ = self.exchange(false);
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = self.sample(i);
+                }
+                self.send_safe_commands();
+                return Err(self.latched.unwrap_or(DriveError::NotReady {
+                    state: LifecycleState::Faulted,
+                }));
+            }
+            LifecycleState::Inactive | LifecycleState::Active => {}
+        }
+        let strict = self.lifecycle == LifecycleState::Active;
+        let r = self.exchange(strict);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.sample(i);
+        }
+        r.map_err(|e| self.fail(e))
+    }
+
+    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), DriveError> {
+        if self.lifecycle != LifecycleState::Active {
+            if self.lifecycle == LifecycleState::Faulted {
+                self.send_safe_commands();
+                return Err(self.latched.unwrap_or(DriveError::NotReady {
+                    state: self.lifecycle,
+                }));
+            }
+            return Err(DriveError::NotReady {
+                state: self.lifecycle,
+            });
+        }
+        let mut permille = [0i16; WIRES];
+        for i in 0..WIRES {
+            match self.limited_torque(i, torque_nm[i]) {
+                Ok(t) => permille[i] = self.cfg.torque_to_permille(t),
+                Err(e) => return Err(self.fail(e)),
+            }
+        }
+        for (i, target) in permille.into_iter().enumerate() {
+            let cmd = Command {
+                controlword: controlword::ENABLE_OPERATION,
+                target_torque_permille: target,
+            };
+            let cob = cob::RPDO_BASE[0] + u16::from(self.nodes[i].id);
+            if let Err(e) = self.send(cob, &cmd.encode()) {
+                return Err(self.fail(e));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<P: CanPort> Cia402DriveSet<P> {
+    /// Seconds since the set was created (for logs).
+    pub fn uptime_s(&self) -> f64 {
+        self.epoch.elapsed().as_secs_f64()
+    }
+}

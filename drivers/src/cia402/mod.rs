@@ -1,0 +1,20 @@
+//! CiA 402 wire drives: the power state machine ([`state`]), the process data ([`pdo`]),
+//! configuration ([`config`]), errors ([`error`]) and the three-drive set implementing the
+//! HAL ([`drive_set`]).
+
+pub mod compat;
+pub mod config;
+pub mod drive_set;
+pub mod error;
+pub mod pdo;
+pub mod state;
+
+#[cfg(test)]
+mod scripted_tests;
+#[cfg(test)]
+mod sim_tests;
+
+pub use config::{ConfigError, DriveSetConfig};
+pub use drive_set::{wire_length_m, Cia402DriveSet};
+pub use error::DriveError;
+pub use state::{PowerGoal, PowerSequencer, PowerState};

@@ -1,0 +1,251 @@
+//! The drive set against a scripted drive on a recording port: the frames it puts on the bus,
+//! frame by frame (SDO setup, NMT, fault-reset edge, controlwords), and the position unwrap.
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+use embedded_can::{Frame, Id};
+use videt_hal::{DriveSample, Lifecycle, WireDrives, WIRES};
+use videt_sim::can_bus::{BusError, SimFrame};
+
+use super::pdo::{Command, Motion, Status};
+use super::{Cia402DriveSet, DriveSetConfig};
+use crate::can::CanPort;
+
+/// A minimal scripted CiA 402 drive per node: boots on reset, acknowledges every SDO write,
+/// answers 0x6076 with 100 mN·m, and answers SYNC with its statusword and a scripted position.
+struct ScriptedDrives {
+    sent: Vec<(u16, Vec<u8>)>,
+    inbox: VecDeque<SimFrame>,
+    statusword: [u16; WIRES],
+    error_code: [u16; WIRES],
+    positions: VecDeque<i32>,
+    velocity: i32,
+    last_cw: [u16; WIRES],
+}
+
+impl ScriptedDrives {
+    fn push(&mut self, cob: u16, data: &[u8]) {
+        self.inbox.push_back(SimFrame::standard(cob, data).unwrap());
+    }
+
+    fn react(&mut self, cob: u16, data: &[u8]) {
+        match cob {
+            0x000 if data[0] == 0x82 => self.push(0x700 + u16::from(data[1]), &[0]),
+            0x080 => {
+                // The script's last position holds once the script is played.
+                let pos = if self.positions.len() > 1 {
+                    self.positions.pop_front().unwrap_or(0)
+                } else {
+                    self.positions.front().copied().unwrap_or(0)
+                };
+                for n in 1..=WIRES as u16 {
+                    let i = n as usize - 1;
+                    let m = Motion {
+                        position: pos,
+                        velocity: self.velocity,
+                    };
+                    self.push(0x180 + n, &m.encode());
+                    let s = Status {
+                        statusword: self.statusword[i],
+                        error_code: self.error_code[i],
+                    };
+                    self.push(0x280 + n, &s.encode());
+                    self.push(0x700 + n, &[0x05]);
+                }
+            }
+            0x601..=0x603 => {
+                let mut r = [0u8; 8];
+                r[1..4].copy_from_slice(&data[1..4]);
+                if data[0] == 0x40 {
+                    r[0] = 0x43;
+                    r[4] = 100; // 0x6076 = 100 mN·m
+                } else {
+                    r[0] = 0x60;
+                }
+                self.push(cob - 0x600 + 0x580, &r);
+            }
+            0x201..=0x203 => {
+                let i = usize::from(cob - 0x201);
+                let cw = Command::decode(data).unwrap().controlword;
+                let edge = cw & 0x80 != 0 && self.last_cw[i] & 0x80 == 0;
+                self.statusword[i] = match (self.statusword[i], cw & 0x8F) {
+                    (0x0218, _) if edge => 0x0250,
+                    (0x0218, _) => 0x0218,
+                    (_, 0x06) => 0x0231,
+                    (0x0231, 0x07) => 0x0233,
+                    (0x0233, 0x0F) | (0x0237, 0x0F) => 0x0237,
+                    (_, c) if c & 0x02 == 0 => 0x0250,
+                    (s, _) => s,
+                };
+                if self.statusword[i] != 0x0218 {
+                    self.error_code[i] = 0;
+                }
+                self.last_cw[i] = cw;
+            }
+            _ => {}
+        }
+    }
+}
+
+impl embedded_can::blocking::Can for ScriptedDrives {
+    type Frame = SimFrame;
+    type Error = BusError;
+    fn transmit(&mut self, f: &SimFrame) -> Result<(), BusError> {
+        let Id::Standard(id) = f.id() else {
+            panic!("extended id sent")
+        };
+        self.sent.push((id.as_raw(), f.data().to_vec()));
+        self.react(id.as_raw(), f.data());
+        Ok(())
+    }
+    fn receive(&mut self) -> Result<SimFrame, BusError> {
+        self.inbox.pop_front().ok_or(BusError::Disconnected)
+    }
+}
+
+impl CanPort for ScriptedDrives {
+    fn receive_timeout(&mut self, _t: Duration) -> Result<Option<SimFrame>, BusError> {
+        Ok(self.inbox.pop_front())
+    }
+}
+
+fn drives(positions: &[i32]) -> ScriptedDrives {
+    ScriptedDrives {
+        sent: vec![],
+        inbox: VecDeque::new(),
+        // Node 1 boots into fault, as in the recorded trace (statusword 0x0218).
+        statusword: [0x0218, 0x0250, 0x0250],
+        error_code: [0x81B0, 0, 0],
+        positions: positions.iter().copied().collect(),
+        velocity: 0,
+        last_cw: [0; WIRES],
+    }
+}
+
+fn config() -> DriveSetConfig {
+    let mut c = DriveSetConfig::new([1, 2, 3], Duration::from_millis(1), 0.1, 40.0);
+    c.drive_heartbeat_timeout = Duration::from_secs(1);
+    c
+}
+
+#[test]
+fn boot_setup_and_enable_put_the_expected_frames_on_the_bus() {
+    let mut set = Cia402DriveSet::new(drives(&[]), config()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let port = set.release();
+    let sent = &port.sent;
+    // Reset communication of each node first.
+    assert_eq!(sent[0], (0x000, vec![0x82, 1]));
+    assert_eq!(sent[2], (0x000, vec![0x82, 3]));
+    // Node 1's SDO setup: rated-torque read, then CST mode among the writes.
+    let sdo1: Vec<&Vec<u8>> = sent
+        .iter()
+        .filter(|(c, _)| *c == 0x601)
+        .map(|(_, d)| d)
+        .collect();
+    assert_eq!(sdo1[0], &vec![0x40, 0x76, 0x60, 0, 0, 0, 0, 0]);
+    assert!(sdo1.contains(&&vec![0x2F, 0x60, 0x60, 0x00, 10, 0, 0, 0]));
+    assert!(sdo1.contains(&&vec![0x23, 0x16, 0x10, 0x01, 50, 0, 0x7F, 0]));
+    // NMT start after the setup, then SYNC.
+    let start = sent
+        .iter()
+        .position(|f| f == &(0x000, vec![0x01, 1]))
+        .unwrap();
+    assert!(start > sent.iter().rposition(|(c, _)| *c == 0x601).unwrap());
+    // Node 1 (booted in fault): fault-reset edge, shutdown, switch on, enable operation.
+    let cws: Vec<u16> = sent
+        .iter()
+        .filter(|(c, _)| *c == 0x201)
+        .map(|(_, d)| Command::decode(d).unwrap().controlword)
+        .collect();
+    assert_eq!(cws, vec![0x80, 0x06, 0x07, 0x0F, 0x0F]);
+    // Node 2 started from switch-on-disabled: no fault reset.
+    let cws2: Vec<u16> = sent
+        .iter()
+        .filter(|(c, _)| *c == 0x202)
+        .map(|(_, d)| Command::decode(d).unwrap().controlword)
+        .collect();
+    assert_eq!(cws2[..4], [0x06, 0x07, 0x0F, 0x0F]);
+}
+
+#[test]
+fn positions_unwrap_across_the_32_bit_rollover_and_torques_are_per_mille() {
+    // Enough idle SYNCs for configure and activate, then the rollover.
+    let mut script = vec![i32::MAX - 10; 64];
+    script.extend([i32::MIN + 10, i32::MIN + 1000]);
+    let mut set = Cia402DriveSet::new(drives(&script), config()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    let mut positions = vec![];
+    for _ in 0..80 {
+        set.read_drives(&mut out).unwrap();
+        positions.push(out[0].position_counts);
+    }
+    assert_eq!(positions[0], i64::from(i32::MAX) - 10, "{positions:?}");
+    let last = *positions.last().unwrap();
+    // MAX-10 -> MIN+10 is +21 counts; MIN+10 -> MIN+1000 is +990.
+    assert_eq!(last, i64::from(i32::MAX) - 10 + 21 + 990);
+    set.write_torques(&[0.0123, -0.05, 0.0]).unwrap();
+    let port = set.release();
+    let rpdo = |cob| {
+        port.sent
+            .iter()
+            .rev()
+            .find(|(c, _)| *c == cob)
+            .map(|(_, d)| Command::decode(d).unwrap())
+            .unwrap()
+    };
+    assert_eq!(rpdo(0x201).target_torque_permille, 123);
+    // 0.05 N·m is above the 40 N limit (0.032 N·m): clamped to -320 per mille.
+    assert_eq!(rpdo(0x202).target_torque_permille, -320);
+    assert_eq!(rpdo(0x201).controlword, 0x0F);
+}
+
+#[test]
+fn fast_unwinding_is_resisted_but_fast_winding_trips() {
+    let t = videt_hal::Transmission::PAPER;
+    let two_m_per_s = (2.0 / t.metres_per_count()) as i32;
+    // The operator pulls the thimble away at 2 m/s: the winding torque still goes out.
+    let mut d = drives(&[]);
+    d.velocity = -two_m_per_s;
+    let mut set = Cia402DriveSet::new(d, config()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    set.read_drives(&mut out).unwrap();
+    set.write_torques(&[0.01; WIRES]).unwrap();
+    let sent = &set.port().sent;
+    let last = sent.iter().rev().find(|(c, _)| *c == 0x201).unwrap();
+    assert_eq!(
+        Command::decode(&last.1).unwrap().target_torque_permille,
+        100
+    );
+    // Winding at 2 m/s (above 1.5 x 0.8 m/s) is a runaway: trip, safe state.
+    let mut d = drives(&[]);
+    d.velocity = two_m_per_s;
+    let mut set = Cia402DriveSet::new(d, config()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    set.read_drives(&mut out).unwrap();
+    let e = set.write_torques(&[0.01; WIRES]).unwrap_err();
+    assert!(
+        matches!(e, super::DriveError::OverSpeed { wire: 0, .. }),
+        "{e}"
+    );
+    assert_eq!(set.lifecycle_state(), videt_hal::LifecycleState::Faulted);
+    let last = set
+        .port()
+        .sent
+        .iter()
+        .rev()
+        .find(|(c, _)| *c == 0x201)
+        .unwrap();
+    assert_eq!(
+        Command::decode(&last.1).unwrap(),
+        Command::default(),
+        "disable voltage, zero torque"
+    );
+}

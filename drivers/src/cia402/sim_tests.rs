@@ -1,0 +1,486 @@
+//! The whole drive driver against three simulated CiA 402 nodes on the twin's userspace CAN
+//! bus: boot, enable, cyclic torque, every injected fault, recovery.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use videt_hal::{DriveSample, DriveState, Lifecycle, LifecycleState, WireDrives, WIRES};
+use videt_sim::can_bus::udp::{UdpEndpoint, UdpHub};
+use videt_sim::can_bus::{BusError, BusFaults, InProcessBus, InProcessEndpoint, SimFrame};
+use videt_sim::cia402_node::{DrivePower, FreeMotorPlant, SimDriveBank, SimDriveSpec};
+
+use super::{Cia402DriveSet, DriveError, DriveSetConfig};
+use crate::can::CanPort;
+
+impl CanPort for InProcessEndpoint {
+    fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        InProcessEndpoint::receive_timeout(self, timeout)
+    }
+    fn is_bus_off(&self) -> bool {
+        InProcessEndpoint::is_bus_off(self)
+    }
+}
+
+impl CanPort for UdpEndpoint {
+    fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        UdpEndpoint::receive_timeout(self, timeout)
+    }
+    fn is_bus_off(&self) -> bool {
+        UdpEndpoint::is_bus_off(self)
+    }
+}
+
+/// The control period of these tests: long enough that a shared, loaded test machine rarely
+/// wakes a thread two periods late (the fault-detection bounds are counted in periods).
+const PERIOD: Duration = Duration::from_millis(10);
+const RATED_MNM: u32 = 100;
+
+fn specs() -> Vec<SimDriveSpec> {
+    (0..WIRES)
+        .map(|i| SimDriveSpec {
+            node_id: i as u8 + 1,
+            axis: i,
+            rated_torque_mnm: RATED_MNM,
+            boot_delay: Duration::from_millis(5),
+        })
+        .collect()
+}
+
+fn config() -> DriveSetConfig {
+    let mut c = DriveSetConfig::new([1, 2, 3], PERIOD, RATED_MNM as f64 / 1000.0, 40.0);
+    c.boot_timeout = Duration::from_millis(800);
+    // Heartbeat times scaled to the 10 ms period (the defaults suit 1 ms).
+    c.drive_heartbeat_timeout = Duration::from_millis(60);
+    c.host_silence_timeout_ms = 100;
+    c
+}
+
+type Plant = Arc<Mutex<FreeMotorPlant>>;
+
+/// The rigs run one at a time: each has a drive thread with millisecond deadlines.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+struct Rig {
+    _serial: std::sync::MutexGuard<'static, ()>,
+    set: Cia402DriveSet<InProcessEndpoint>,
+    bank: SimDriveBank,
+    bus: Arc<BusFaults>,
+    plant: Plant,
+}
+
+fn rig_with(cfg: DriveSetConfig, damping: f64) -> Rig {
+    let serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let bus = Arc::new(BusFaults::new(11));
+    let mut eps = InProcessBus::with_endpoints(2, 256, bus.clone());
+    let drives = eps.pop().unwrap();
+    let host = eps.pop().unwrap();
+    let plant = Arc::new(Mutex::new(FreeMotorPlant::new(
+        WIRES, 1e-5, damping, 2000.0,
+    )));
+    let bank = SimDriveBank::spawn(drives, &specs(), plant.clone());
+    let set = Cia402DriveSet::new(host, cfg).unwrap();
+    Rig {
+        _serial: serial,
+        set,
+        bank,
+        bus,
+        plant,
+    }
+}
+
+fn rig() -> Rig {
+    rig_with(config(), 1e-4)
+}
+
+/// For tests that are not about fault detection: ride out a few late answers.
+fn tolerant() -> DriveSetConfig {
+    let mut c = config();
+    c.max_missed_cycles = 5;
+    c.drive_heartbeat_timeout = Duration::from_millis(200);
+    c.host_silence_timeout_ms = 300;
+    c
+}
+
+fn active_rig() -> Rig {
+    let mut r = rig();
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    r
+}
+
+/// One control cycle at the period: read, write, sleep to the next period boundary.
+fn cycle(
+    set: &mut Cia402DriveSet<impl CanPort>,
+    torque: [f64; WIRES],
+    out: &mut [DriveSample; WIRES],
+) -> Result<(), DriveError> {
+    let start = Instant::now();
+    let r = set
+        .read_drives(out)
+        .and_then(|()| set.write_torques(&torque));
+    let end = start + PERIOD;
+    if let Some(d) = end.checked_duration_since(Instant::now()) {
+        std::thread::sleep(d);
+    }
+    r
+}
+
+/// Run healthy cycles, inject, and count cycles until the first error (at most 40).
+fn cycles_to_error(r: &mut Rig, inject: impl FnOnce(&Rig)) -> (u32, DriveError) {
+    let mut out = [DriveSample::default(); WIRES];
+    for _ in 0..10 {
+        cycle(&mut r.set, [0.005; WIRES], &mut out).unwrap();
+    }
+    inject(r);
+    for n in 1..=40 {
+        if let Err(e) = cycle(&mut r.set, [0.005; WIRES], &mut out) {
+            return (n, e);
+        }
+    }
+    panic!("no error within 40 cycles after the fault");
+}
+
+fn wait_for(mut cond: impl FnMut() -> bool, within: Duration) -> bool {
+    let t0 = Instant::now();
+    while t0.elapsed() < within {
+        if cond() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    cond()
+}
+
+fn all_drives_off(bank: &SimDriveBank) -> bool {
+    bank.views()
+        .iter()
+        .all(|v| v.applied_torque_nm == 0.0 && v.power != DrivePower::OperationEnabled)
+}
+
+fn assert_safe_state(r: &Rig) {
+    assert_eq!(r.set.lifecycle_state(), LifecycleState::Faulted);
+    assert!(
+        wait_for(|| all_drives_off(&r.bank), Duration::from_millis(400)),
+        "drives still powered: {:?}",
+        r.bank.views()
+    );
+}
+
+#[test]
+fn boots_enables_and_follows_cyclic_torque() {
+    let mut r = rig_with(tolerant(), 1e-4);
+    assert_eq!(r.set.lifecycle_state(), LifecycleState::Unconfigured);
+    let t0 = Instant::now();
+    r.set.configure().unwrap();
+    let configure_ms = t0.elapsed().as_millis();
+    assert_eq!(r.set.lifecycle_state(), LifecycleState::Inactive);
+    // Inactive: state readable, commands refused, drives off.
+    let mut out = [DriveSample::default(); WIRES];
+    r.set.read_drives(&mut out).unwrap();
+    assert!(out.iter().all(|s| s.state == DriveState::Disabled));
+    assert!(matches!(
+        r.set.write_torques(&[0.01; WIRES]),
+        Err(DriveError::NotReady { .. })
+    ));
+    let t1 = Instant::now();
+    r.set.activate().unwrap();
+    let activate_ms = t1.elapsed().as_millis();
+    eprintln!("configure {configure_ms} ms, activate {activate_ms} ms");
+    assert_eq!(r.set.lifecycle_state(), LifecycleState::Active);
+
+    let torque = [0.01, -0.005, 1.0]; // the last one above the 40 N torque limit
+    for _ in 0..60 {
+        cycle(&mut r.set, torque, &mut out).unwrap();
+    }
+    assert!(
+        out.iter().all(|s| s.state == DriveState::Enabled),
+        "{out:?}"
+    );
+    let views = r.bank.views();
+    assert!(
+        (views[0].applied_torque_nm - 0.01).abs() < 1e-4,
+        "{views:?}"
+    );
+    assert!((views[1].applied_torque_nm + 0.005).abs() < 1e-4);
+    let limit = r.set.config().max_torque_nm();
+    assert!(
+        (views[2].applied_torque_nm - limit).abs() < 1e-4,
+        "clamped to {limit}"
+    );
+    // Encoders move the way the torques push; the samples match the plant.
+    assert!(out[0].position_counts > 100 && out[0].velocity_counts_per_s > 0.0);
+    assert!(out[1].position_counts < -100 && out[1].velocity_counts_per_s < 0.0);
+    let plant_counts = r.plant.lock().unwrap().encoder_counts(0);
+    assert!((plant_counts - out[0].position_counts).abs() < 200);
+    let len = super::wire_length_m(&r.set.config().transmission, 1.0, out[0].position_counts);
+    assert!(len < 1.0, "winding shortens the wire");
+
+    r.set.deactivate().unwrap();
+    assert_eq!(r.set.lifecycle_state(), LifecycleState::Inactive);
+    assert!(wait_for(
+        || all_drives_off(&r.bank),
+        Duration::from_millis(50)
+    ));
+}
+
+trait EncoderCounts {
+    fn encoder_counts(&self, axis: usize) -> i64;
+}
+impl EncoderCounts for FreeMotorPlant {
+    fn encoder_counts(&self, axis: usize) -> i64 {
+        videt_sim::cia402_node::MotorPlant::encoder(self, axis).0
+    }
+}
+
+#[test]
+fn dropped_frames_end_in_pdo_timeout_and_the_drives_stop_by_themselves() {
+    let mut r = active_rig();
+    let (n, e) = cycles_to_error(&mut r, |r| r.bus.set_drop_rate(1.0));
+    assert!(n <= 2, "took {n} cycles");
+    eprintln!("dropped frames: error after {n} cycle(s): {e}");
+    assert!(matches!(e, DriveError::PdoTimeout { .. }), "{e}");
+    // The safe commands are lost too: the drives' heartbeat consumers stop them.
+    assert_safe_state(&r);
+}
+
+#[test]
+fn delayed_frames_end_in_pdo_timeout_and_the_safe_state() {
+    let mut r = active_rig();
+    let (n, e) = cycles_to_error(&mut r, |r| r.bus.set_delay(Duration::from_millis(9)));
+    assert!(n <= 2, "took {n} cycles");
+    assert!(matches!(e, DriveError::PdoTimeout { .. }), "{e}");
+    assert_safe_state(&r);
+}
+
+#[test]
+fn heartbeat_loss_is_detected_after_the_consumer_time() {
+    let mut r = active_rig();
+    let mut injected = Instant::now();
+    let (_, e) = cycles_to_error(&mut r, |r| {
+        r.bank.faults(1).set_mute_heartbeat(true);
+        injected = Instant::now();
+    });
+    let after = injected.elapsed();
+    eprintln!("heartbeat loss reported {after:?} after the heartbeat stopped: {e}");
+    assert!(
+        matches!(e, DriveError::HeartbeatLost { node: 2, .. }),
+        "{e}"
+    );
+    // Detected within the consumer time (+ one heartbeat period of slack) + two cycles.
+    let bound = r.set.config().drive_heartbeat_timeout + Duration::from_millis(10) + 2 * PERIOD;
+    assert!(after <= bound, "detected after {after:?}, bound {bound:?}");
+    assert_safe_state(&r);
+}
+
+#[test]
+fn an_emergency_ends_in_its_readable_error_and_recovery_works() {
+    let mut r = active_rig();
+    let (n, e) = cycles_to_error(&mut r, |r| r.bank.faults(0).raise_fault(0x2310));
+    assert!(n <= 2, "took {n} cycles");
+    assert_eq!(
+        e,
+        DriveError::Emergency {
+            node: 1,
+            code: 0x2310,
+            register: 0x01
+        }
+    );
+    assert!(e.to_string().contains("continuous over-current"), "{e}");
+    assert_safe_state(&r);
+    // While the cause persists, enabling fails with the drive's fault code.
+    let err = r.set.activate().unwrap_err();
+    assert_eq!(
+        err,
+        DriveError::FaultPersists {
+            node: 1,
+            error_code: 0x2310
+        }
+    );
+    // Cause removed: fault reset and back to torque control.
+    r.bank.faults(0).clear_fault();
+    r.set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    for _ in 0..10 {
+        cycle(&mut r.set, [0.01; WIRES], &mut out).unwrap();
+    }
+    assert!(out.iter().all(|s| s.state == DriveState::Enabled));
+    assert!((r.bank.views()[0].applied_torque_nm - 0.01).abs() < 1e-4);
+}
+
+#[test]
+fn bus_off_ends_in_bus_off_and_the_drives_stop_by_themselves() {
+    let mut r = active_rig();
+    let (n, e) = cycles_to_error(&mut r, |r| r.bus.set_bus_off(true));
+    assert!(n <= 2, "took {n} cycles");
+    assert_eq!(e, DriveError::BusOff);
+    assert_eq!(
+        videt_hal::Error::kind(&e),
+        videt_hal::ErrorKind::Disconnected
+    );
+    // Nothing gets through; the drives' heartbeat consumers (50 ms) stop the motors.
+    assert_safe_state(&r);
+    // Bus back: reconfigure and run again.
+    r.bus.set_bus_off(false);
+    r.set.deactivate().ok();
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+}
+
+#[test]
+fn a_drive_that_stops_answering_sync_ends_in_pdo_timeout() {
+    let mut r = active_rig();
+    let (n, e) = cycles_to_error(&mut r, |r| r.bank.faults(2).set_ignore_sync(true));
+    assert!(n <= 2, "took {n} cycles");
+    assert_eq!(
+        e,
+        DriveError::PdoTimeout {
+            node: 3,
+            missed_cycles: 2
+        }
+    );
+    assert_safe_state(&r);
+}
+
+#[test]
+fn a_drive_that_never_boots_is_named() {
+    let mut r = rig();
+    r.bank.faults(2).set_never_boot(true);
+    let e = r.set.configure().unwrap_err();
+    assert!(matches!(e, DriveError::NeverBooted { node: 3, .. }), "{e}");
+    assert_eq!(r.set.lifecycle_state(), LifecycleState::Unconfigured);
+}
+
+#[test]
+fn a_wrong_rated_torque_is_refused_at_configuration() {
+    let mut cfg = config();
+    cfg.rated_torque_nm = 0.2;
+    let mut r = rig_with(cfg, 1e-4);
+    let e = r.set.configure().unwrap_err();
+    assert_eq!(
+        e,
+        DriveError::RatedTorqueMismatch {
+            node: 1,
+            drive_mnm: 100,
+            configured_mnm: 200
+        }
+    );
+}
+
+#[test]
+fn a_silent_host_makes_the_drives_stop_by_themselves() {
+    let mut r = active_rig();
+    let mut out = [DriveSample::default(); WIRES];
+    for _ in 0..10 {
+        cycle(&mut r.set, [0.01; WIRES], &mut out).unwrap();
+    }
+    assert!(r.bank.views().iter().all(|v| v.applied_torque_nm > 0.0));
+    let port = r.set.release(); // the host process "crashes": no more SYNC nor heartbeat
+    let t0 = Instant::now();
+    assert!(wait_for(
+        || all_drives_off(&r.bank),
+        Duration::from_millis(400)
+    ));
+    let stopped_after = t0.elapsed();
+    eprintln!("drives stopped {stopped_after:?} after the host went silent (consumer time 100 ms)");
+    assert!(
+        stopped_after >= Duration::from_millis(80),
+        "{stopped_after:?}"
+    );
+    drop(port);
+}
+
+#[test]
+fn the_wire_speed_limit_cuts_torque_that_would_run_faster() {
+    // An undamped motor under full torque would pass 0.8 m/s within 0.4 s.
+    let mut r = rig_with(tolerant(), 0.0);
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    let t = r.set.config().transmission;
+    let mut out = [DriveSample::default(); WIRES];
+    let mut max_speed: f64 = 0.0;
+    for _ in 0..70 {
+        cycle(&mut r.set, [1.0, 0.0, 0.0], &mut out).unwrap();
+        max_speed = max_speed.max(t.wire_speed(out[0].velocity_counts_per_s));
+    }
+    let speed = t.wire_speed(out[0].velocity_counts_per_s);
+    assert!(max_speed < 0.8 * 1.1, "max {max_speed} m/s");
+    assert!(speed > 0.7, "{speed} m/s");
+}
+
+#[test]
+fn the_driver_runs_over_the_cross_process_bus() {
+    let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let hub = UdpHub::spawn("127.0.0.1:0").unwrap();
+    let host = UdpEndpoint::connect(hub.addr(), Arc::new(BusFaults::new(1))).unwrap();
+    let drives = UdpEndpoint::connect(hub.addr(), Arc::new(BusFaults::new(2))).unwrap();
+    std::thread::sleep(Duration::from_millis(50)); // both registered before the nodes boot
+    let plant = Arc::new(Mutex::new(FreeMotorPlant::new(WIRES, 1e-5, 1e-4, 2000.0)));
+    let bank = SimDriveBank::spawn(drives, &specs(), plant);
+    // Four UDP hops through the hub per exchange on a shared test machine: this test is about
+    // the transport, so it tolerates late answers (the fault tests above check the limits).
+    let mut cfg = config();
+    cfg.max_missed_cycles = 20;
+    cfg.drive_heartbeat_timeout = Duration::from_millis(300);
+    cfg.host_silence_timeout_ms = 500;
+    let mut set = Cia402DriveSet::new(host, cfg).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    for _ in 0..20 {
+        cycle(&mut set, [0.01; WIRES], &mut out).unwrap();
+    }
+    assert!((bank.views()[1].applied_torque_nm - 0.01).abs() < 1e-4);
+}
+
+#[test]
+fn back_to_back_cycles_against_inline_nodes_stay_healthy() {
+    let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    use videt_sim::cia402_node::SteppedDriveBus;
+    struct Inline(SteppedDriveBus<Arc<Mutex<FreeMotorPlant>>>);
+    impl embedded_can::blocking::Can for Inline {
+        type Frame = SimFrame;
+        type Error = BusError;
+        fn transmit(&mut self, f: &SimFrame) -> Result<(), BusError> {
+            self.0.send(f);
+            Ok(())
+        }
+        fn receive(&mut self) -> Result<SimFrame, BusError> {
+            loop {
+                if let Some(f) = self.0.receive() {
+                    return Ok(f);
+                }
+                std::thread::sleep(Duration::from_micros(100));
+            }
+        }
+    }
+    impl CanPort for Inline {
+        fn receive_timeout(&mut self, t: Duration) -> Result<Option<SimFrame>, BusError> {
+            if let Some(f) = self.0.receive() {
+                return Ok(Some(f));
+            }
+            if !t.is_zero() {
+                std::thread::sleep(t.min(Duration::from_micros(200)));
+            }
+            Ok(self.0.receive())
+        }
+    }
+    let plant = Arc::new(Mutex::new(FreeMotorPlant::new(WIRES, 1e-5, 1e-3, 2000.0)));
+    let mut c = config();
+    c.drive_heartbeat_timeout = Duration::from_secs(10);
+    c.max_missed_cycles = u32::MAX;
+    let mut set = Cia402DriveSet::new(Inline(SteppedDriveBus::new(&specs(), plant)), c).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    let t0 = Instant::now();
+    let mut n = 0;
+    while t0.elapsed() < Duration::from_millis(300) {
+        n += 1;
+        if let Err(e) = set.read_drives(&mut out) {
+            panic!("cycle {n} at {:?}: {e}", t0.elapsed());
+        }
+        set.write_torques(&[0.001; WIRES]).unwrap();
+    }
+    assert!(n > 100, "{n} cycles");
+    assert!(out.iter().all(|s| s.state == DriveState::Enabled));
+}

@@ -1,0 +1,89 @@
+//! The e-stop and vibrotactors on Linux GPIO character devices (`/dev/gpiochipN`), through
+//! linux-embedded-hal's `CdevPin` (pure Rust, no system library).
+
+use gpio_cdev::{Chip, LineRequestFlags};
+use linux_embedded_hal::CdevPin;
+use videt_hal::VIBROTACTORS;
+
+use super::estop::EStopInput;
+use super::vibro::VibrotactorOutputs;
+
+/// A GPIO line that could not be opened.
+#[derive(Debug, thiserror::Error)]
+#[error("GPIO {chip} line {line} ({role}): {source}")]
+pub struct OpenError {
+    /// Chip device path.
+    pub chip: String,
+    /// Line offset.
+    pub line: u32,
+    /// What the line is for.
+    pub role: &'static str,
+    /// The underlying error.
+    #[source]
+    pub source: gpio_cdev::errors::Error,
+}
+
+fn open(
+    chip_path: &str,
+    line: u32,
+    role: &'static str,
+    output: bool,
+) -> Result<CdevPin, OpenError> {
+    let err = |source| OpenError {
+        chip: chip_path.to_string(),
+        line,
+        role,
+        source,
+    };
+    let mut chip = Chip::new(chip_path).map_err(err)?;
+    let flags = if output {
+        LineRequestFlags::OUTPUT
+    } else {
+        LineRequestFlags::INPUT
+    };
+    let handle = chip
+        .get_line(line)
+        .and_then(|l| l.request(flags, 0, "videt"))
+        .map_err(err)?;
+    CdevPin::new(handle).map_err(err)
+}
+
+/// The e-stop on `line` of `chip_path`, debounced over `debounce_samples` reads.
+pub fn estop(
+    chip_path: &str,
+    line: u32,
+    debounce_samples: u8,
+) -> Result<EStopInput<CdevPin>, OpenError> {
+    Ok(EStopInput::new(
+        open(chip_path, line, "e-stop", false)?,
+        debounce_samples,
+    ))
+}
+
+/// The three vibrotactors on `lines` of `chip_path`, switched off.
+pub fn vibrotactors(
+    chip_path: &str,
+    lines: [u32; VIBROTACTORS],
+) -> Result<VibrotactorOutputs<CdevPin>, Box<dyn std::error::Error + Send + Sync>> {
+    let pins = [
+        open(chip_path, lines[0], "vibrotactor 0", true)?,
+        open(chip_path, lines[1], "vibrotactor 1", true)?,
+        open(chip_path, lines[2], "vibrotactor 2", true)?,
+    ];
+    Ok(VibrotactorOutputs::new(pins)?)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_missing_chip_is_a_clear_error() {
+        let Err(e) = super::estop("/dev/no-such-gpiochip", 4, 3) else {
+            panic!("opened a missing chip");
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("/dev/no-such-gpiochip line 4 (e-stop)"),
+            "{text}"
+        );
+    }
+}

@@ -1,0 +1,54 @@
+//! A userspace CAN bus for the digital twin, so the real drive driver and simulated CiA 402
+//! nodes exchange real CAN frames without hardware.
+//!
+//! Two transports share one frame type ([`SimFrame`]) and one fault model ([`BusFaults`]):
+//! - [`InProcessBus`]: several endpoints in one process. Every frame an endpoint transmits is
+//!   delivered to every *other* endpoint through a bounded, preallocated queue (a full queue drops
+//!   the frame for that receiver and counts an overrun, as a CAN controller FIFO would).
+//! - [`udp`]: endpoints in separate processes, linked by a tiny hub over UDP on the loopback
+//!   interface ([`udp::UdpHub`], [`udp::UdpEndpoint`]).
+//!
+//! Both implement `embedded_can::blocking::Can`, `embedded_can::nb::Can`, and a receive with a
+//! timeout ([`SimFrame`]-returning `receive_timeout`).
+//!
+//! Fault injection ([`BusFaults`], changeable at run time): a frame drop rate, a delivery delay,
+//! and bus-off (every transmit and receive fails with [`BusError::BusOff`]).
+
+mod faults;
+mod frame;
+mod in_process;
+pub mod udp;
+
+pub use faults::BusFaults;
+pub use frame::SimFrame;
+pub use in_process::{InProcessBus, InProcessEndpoint};
+
+/// An error of the userspace CAN bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BusError {
+    /// The bus is off (injected fault): nothing is sent or received.
+    BusOff,
+    /// Every other endpoint is gone.
+    Disconnected,
+    /// A socket error of the cross-process transport (its `std::io::ErrorKind`).
+    Io(std::io::ErrorKind),
+}
+
+impl core::fmt::Display for BusError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            BusError::BusOff => f.write_str("CAN bus off"),
+            BusError::Disconnected => f.write_str("CAN bus disconnected (no other endpoint)"),
+            BusError::Io(kind) => write!(f, "CAN bus socket error: {kind}"),
+        }
+    }
+}
+
+impl std::error::Error for BusError {}
+
+impl embedded_can::Error for BusError {
+    fn kind(&self) -> embedded_can::ErrorKind {
+        // embedded-can has no bus-off kind; callers ask the endpoint's `is_bus_off`.
+        embedded_can::ErrorKind::Other
+    }
+}

@@ -1,0 +1,288 @@
+//! The cross-process bus: endpoints in separate processes exchange frames as UDP datagrams
+//! on the loopback interface through a tiny hub that forwards every frame to every other
+//! registered endpoint.
+//!
+//! Datagrams: a frame is 16 bytes ([`SimFrame::to_wire`]); a 1-byte `0xFF` is an endpoint's
+//! registration ("hello"). The hub learns endpoints by their source address.
+
+use std::net::{SocketAddr, UdpSocket};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use super::{BusError, BusFaults, SimFrame};
+
+/// The registration datagram an endpoint sends to the hub.
+const HELLO: [u8; 1] = [0xFF];
+/// Most endpoints a hub forwards to.
+pub const MAX_HUB_ENDPOINTS: usize = 64;
+
+/// The hub: forwards every frame to every other endpoint. Runs on its own thread.
+#[derive(Debug)]
+pub struct UdpHub {
+    addr: SocketAddr,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl UdpHub {
+    /// Bind the hub (e.g. `"127.0.0.1:0"` for any free port) and start forwarding.
+    pub fn spawn(bind: &str) -> std::io::Result<UdpHub> {
+        let socket = UdpSocket::bind(bind)?;
+        socket.set_read_timeout(Some(Duration::from_millis(50)))?;
+        let addr = socket.local_addr()?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_flag = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name("can-hub".into())
+            .spawn(move || run_hub(&socket, &stop_flag))?;
+        Ok(UdpHub {
+            addr,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// The address endpoints connect to.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Serve on the calling thread until the process ends (for the hub binary).
+    pub fn serve_forever(bind: &str) -> std::io::Result<()> {
+        let socket = UdpSocket::bind(bind)?;
+        run_hub(&socket, &AtomicBool::new(false));
+        Ok(())
+    }
+}
+
+impl Drop for UdpHub {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn run_hub(socket: &UdpSocket, stop: &AtomicBool) {
+    let mut clients: Vec<SocketAddr> = Vec::with_capacity(MAX_HUB_ENDPOINTS);
+    let mut buf = [0u8; 64];
+    while !stop.load(Ordering::Relaxed) {
+        let (n, from) = match socket.recv_from(&mut buf) {
+            Ok(x) => x,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                continue
+            }
+            Err(_) => continue,
+        };
+        if !clients.contains(&from) && clients.len() < MAX_HUB_ENDPOINTS {
+            clients.push(from);
+        }
+        if n == 16 && SimFrame::from_wire(&buf[..16]).is_some() {
+            for c in clients.iter().filter(|c| **c != from) {
+                let _ = socket.send_to(&buf[..16], c);
+            }
+        }
+    }
+}
+
+/// One station on a hub-linked bus, usable from any process on the host.
+#[derive(Debug)]
+pub struct UdpEndpoint {
+    socket: UdpSocket,
+    faults: Arc<BusFaults>,
+    read_timeout: Option<Duration>,
+    pending: Option<(SimFrame, Instant)>,
+}
+
+impl UdpEndpoint {
+    /// Connect to the hub at `hub` and register.
+    pub fn connect(hub: SocketAddr, faults: Arc<BusFaults>) -> std::io::Result<UdpEndpoint> {
+        let socket = UdpSocket::bind((hub.ip(), 0))?;
+        socket.connect(hub)?;
+        socket.send(&HELLO)?;
+        Ok(UdpEndpoint {
+            socket,
+            faults,
+            read_timeout: None,
+            pending: None,
+        })
+    }
+
+    /// The fault injector of this endpoint.
+    pub fn faults(&self) -> &Arc<BusFaults> {
+        &self.faults
+    }
+
+    /// Whether the bus is off.
+    pub fn is_bus_off(&self) -> bool {
+        self.faults.is_bus_off()
+    }
+
+    /// Send a frame to every other endpoint.
+    pub fn send(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+        if self.faults.is_bus_off() {
+            return Err(BusError::BusOff);
+        }
+        if self.faults.should_drop() {
+            return Ok(());
+        }
+        self.socket
+            .send(&frame.to_wire())
+            .map(|_| ())
+            .map_err(|e| BusError::Io(e.kind()))
+    }
+
+    /// Receive the next frame, waiting at most `timeout`; `Ok(None)` when none arrived in time.
+    pub fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if self.faults.is_bus_off() {
+                return Err(BusError::BusOff);
+            }
+            let now = Instant::now();
+            if let Some((frame, at)) = self.pending {
+                if at <= now {
+                    self.pending = None;
+                    return Ok(Some(frame));
+                }
+                std::thread::sleep(at.min(deadline) - now);
+                if at <= deadline {
+                    self.pending = None;
+                    return Ok(Some(frame));
+                }
+                return Ok(None);
+            }
+            let left = deadline.saturating_duration_since(now);
+            // A zero read timeout means "block forever" to the OS: poll non-blockingly instead.
+            let wanted = if left.is_zero() { None } else { Some(left) };
+            if wanted != self.read_timeout || wanted.is_none() {
+                self.socket
+                    .set_nonblocking(wanted.is_none())
+                    .map_err(|e| BusError::Io(e.kind()))?;
+                if wanted.is_some() {
+                    self.socket
+                        .set_read_timeout(wanted)
+                        .map_err(|e| BusError::Io(e.kind()))?;
+                }
+                self.read_timeout = wanted;
+            }
+            let mut buf = [0u8; 32];
+            match self.socket.recv(&mut buf) {
+                Ok(n) => {
+                    let Some(frame) = SimFrame::from_wire(&buf[..n]) else {
+                        continue; // not a frame: ignore it
+                    };
+                    let at = Instant::now() + self.faults.delay();
+                    self.pending = Some((frame, at));
+                }
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) =>
+                {
+                    return Ok(None)
+                }
+                Err(e) => return Err(BusError::Io(e.kind())),
+            }
+        }
+    }
+}
+
+impl embedded_can::blocking::Can for UdpEndpoint {
+    type Frame = SimFrame;
+    type Error = BusError;
+
+    fn transmit(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+        self.send(frame)
+    }
+
+    fn receive(&mut self) -> Result<SimFrame, BusError> {
+        loop {
+            if let Some(f) = self.receive_timeout(Duration::from_millis(100))? {
+                return Ok(f);
+            }
+        }
+    }
+}
+
+impl embedded_can::nb::Can for UdpEndpoint {
+    type Frame = SimFrame;
+    type Error = BusError;
+
+    fn transmit(&mut self, frame: &SimFrame) -> nb::Result<Option<SimFrame>, BusError> {
+        self.send(frame).map(|()| None).map_err(nb::Error::Other)
+    }
+
+    fn receive(&mut self) -> nb::Result<SimFrame, BusError> {
+        match self.receive_timeout(Duration::ZERO) {
+            Ok(Some(f)) => Ok(f),
+            Ok(None) => Err(nb::Error::WouldBlock),
+            Err(e) => Err(nb::Error::Other(e)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn wait_registered(eps: &mut [&mut UdpEndpoint]) {
+        // Registration is a datagram: give the hub a moment to learn every endpoint.
+        for e in eps.iter_mut() {
+            e.socket.send(&HELLO).unwrap();
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+
+    #[test]
+    fn two_endpoints_exchange_frames_through_the_hub_over_loopback() {
+        let hub = UdpHub::spawn("127.0.0.1:0").unwrap();
+        let faults = Arc::new(BusFaults::new(3));
+        let mut a = UdpEndpoint::connect(hub.addr(), faults.clone()).unwrap();
+        let mut b = UdpEndpoint::connect(hub.addr(), faults.clone()).unwrap();
+        wait_registered(&mut [&mut a, &mut b]);
+        let f = SimFrame::standard(0x601, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]).unwrap();
+        a.send(&f).unwrap();
+        assert_eq!(b.receive_timeout(Duration::from_secs(2)).unwrap(), Some(f));
+        let g = SimFrame::standard(0x581, &[0x43, 0x00, 0x10, 0, 0x92, 1, 2, 0]).unwrap();
+        b.send(&g).unwrap();
+        assert_eq!(a.receive_timeout(Duration::from_secs(2)).unwrap(), Some(g));
+        // The sender does not hear itself.
+        assert_eq!(a.receive_timeout(Duration::from_millis(30)).unwrap(), None);
+        // Many frames in a row keep their order.
+        for i in 0..100u8 {
+            a.send(&SimFrame::standard(0x180, &[i]).unwrap()).unwrap();
+        }
+        for i in 0..100u8 {
+            let f = b.receive_timeout(Duration::from_secs(2)).unwrap().unwrap();
+            assert_eq!(embedded_can::Frame::data(&f), &[i]);
+        }
+    }
+
+    #[test]
+    fn bus_off_and_drops_apply_to_the_cross_process_bus() {
+        let hub = UdpHub::spawn("127.0.0.1:0").unwrap();
+        let faults = Arc::new(BusFaults::new(3));
+        let mut a = UdpEndpoint::connect(hub.addr(), faults.clone()).unwrap();
+        let mut b = UdpEndpoint::connect(hub.addr(), Arc::new(BusFaults::new(4))).unwrap();
+        wait_registered(&mut [&mut a, &mut b]);
+        faults.set_drop_rate(1.0);
+        a.send(&SimFrame::standard(0x1, &[]).unwrap()).unwrap();
+        assert_eq!(b.receive_timeout(Duration::from_millis(50)).unwrap(), None);
+        faults.set_bus_off(true);
+        assert_eq!(
+            a.send(&SimFrame::standard(0x1, &[]).unwrap()),
+            Err(BusError::BusOff)
+        );
+        assert_eq!(a.receive_timeout(Duration::ZERO), Err(BusError::BusOff));
+    }
+}

@@ -1,0 +1,1030 @@
+//! A simulated CiA 402 drive node on the userspace CAN bus: the protocol twin of a real wire
+//! drive, so the real driver code runs end to end without hardware.
+//!
+//! Speaks CiA 301 through `canopen-rs`'s device runtime (object dictionary served over SDO,
+//! NMT, RPDO/TPDO configured from the dictionary, EMCY, heartbeat producer) plus what a CiA 402
+//! drive adds: the power state machine driven by the controlword, cyclic synchronous torque
+//! mode (target torque in per mille of rated torque 0x6076, applied at SYNC), a heartbeat
+//! consumer with a communication-loss reaction (0x6007), and a motor given by a
+//! [`MotorPlant`] so the twin's physics can be connected.
+//!
+//! Faults to inject at run time ([`NodeFaults`]): never boots, heartbeat stops, stays silent on
+//! SYNC, an emergency with a latched fault; bus-level faults (drops, delay, bus-off) live in
+//! [`crate::can_bus::BusFaults`].
+
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use canopen_rs::nmt::NmtState;
+use canopen_rs::{Address, Entry, ErrorRegister, Node, NodeId, ObjectDictionary, Value};
+use embedded_can::{Frame, Id};
+
+use crate::can_bus::{BusError, InProcessEndpoint, SimFrame};
+
+/// The motor(s) behind simulated drives: one axis per drive.
+pub trait MotorPlant: Send {
+    /// Apply a motor torque (N·m, positive = winding) on `axis` until the next call.
+    fn apply_torque(&mut self, axis: usize, torque_nm: f64);
+    /// Encoder position (counts, positive = wound in) and velocity (counts/s) of `axis`.
+    fn encoder(&self, axis: usize) -> (i64, f64);
+}
+
+/// A shared plant: several node threads and the twin may hold it.
+impl<P: MotorPlant> MotorPlant for Arc<Mutex<P>> {
+    fn apply_torque(&mut self, axis: usize, torque_nm: f64) {
+        if let Ok(mut p) = self.lock() {
+            p.apply_torque(axis, torque_nm);
+        }
+    }
+    fn encoder(&self, axis: usize) -> (i64, f64) {
+        self.lock().map(|p| p.encoder(axis)).unwrap_or((0, 0.0))
+    }
+}
+
+/// A wait-free mailbox between simulated drives and a physics model that another thread
+/// steps (the twin): the drives write torques and read encoders; the model's owner reads the
+/// torques and publishes the encoders. Atomics only: neither side ever blocks.
+#[derive(Debug)]
+pub struct SharedMotors {
+    torque_bits: Vec<std::sync::atomic::AtomicU64>,
+    counts: Vec<std::sync::atomic::AtomicI64>,
+    speed_bits: Vec<std::sync::atomic::AtomicU64>,
+}
+
+impl SharedMotors {
+    /// `axes` motors, zero torque, encoders at zero.
+    pub fn new(axes: usize) -> SharedMotors {
+        use std::sync::atomic::{AtomicI64, AtomicU64};
+        SharedMotors {
+            torque_bits: (0..axes).map(|_| AtomicU64::new(0)).collect(),
+            counts: (0..axes).map(|_| AtomicI64::new(0)).collect(),
+            speed_bits: (0..axes).map(|_| AtomicU64::new(0)).collect(),
+        }
+    }
+
+    /// The torque the drive of `axis` applies now, N·m.
+    pub fn torque_nm(&self, axis: usize) -> f64 {
+        f64::from_bits(self.torque_bits[axis].load(Ordering::Acquire))
+    }
+
+    /// Publish the encoder of `axis` (counts, counts/s) as the physics computed it.
+    pub fn publish_encoder(&self, axis: usize, counts: i64, counts_per_s: f64) {
+        self.counts[axis].store(counts, Ordering::Release);
+        self.speed_bits[axis].store(counts_per_s.to_bits(), Ordering::Release);
+    }
+}
+
+impl MotorPlant for Arc<SharedMotors> {
+    fn apply_torque(&mut self, axis: usize, torque_nm: f64) {
+        self.torque_bits[axis].store(torque_nm.to_bits(), Ordering::Release);
+    }
+    fn encoder(&self, axis: usize) -> (i64, f64) {
+        (
+            self.counts[axis].load(Ordering::Acquire),
+            f64::from_bits(self.speed_bits[axis].load(Ordering::Acquire)),
+        )
+    }
+}
+
+/// A free motor per axis: rotor inertia and viscous friction, integrated on the wall clock
+/// (for tests and demos without the twin's physics).
+#[derive(Debug, Clone)]
+pub struct FreeMotorPlant {
+    /// Rotor inertia seen at the motor shaft, kg·m².
+    pub inertia_kg_m2: f64,
+    /// Viscous friction, N·m per rad/s.
+    pub damping_nm_s: f64,
+    /// Encoder counts per motor revolution.
+    pub counts_per_rev: f64,
+    angle_rad: Vec<f64>,
+    speed_rad_s: Vec<f64>,
+    torque_nm: Vec<f64>,
+    last: Vec<Option<Instant>>,
+}
+
+impl FreeMotorPlant {
+    /// `axes` motors at rest at angle zero.
+    pub fn new(axes: usize, inertia_kg_m2: f64, damping_nm_s: f64, counts_per_rev: f64) -> Self {
+        FreeMotorPlant {
+            inertia_kg_m2,
+            damping_nm_s,
+            counts_per_rev,
+            angle_rad: vec![0.0; axes],
+            speed_rad_s: vec![0.0; axes],
+            torque_nm: vec![0.0; axes],
+            last: vec![None; axes],
+        }
+    }
+
+    /// The torque last applied on `axis`.
+    pub fn torque_nm(&self, axis: usize) -> f64 {
+        self.torque_nm[axis]
+    }
+
+    fn advance(&mut self, axis: usize) {
+        let now = Instant::now();
+        if let Some(t) = self.last[axis] {
+            let dt = (now - t).as_secs_f64().min(0.1);
+            // Semi-implicit Euler with exact damping decay over the step.
+            let acc = self.torque_nm[axis] / self.inertia_kg_m2;
+            let decay = (-self.damping_nm_s / self.inertia_kg_m2 * dt).exp();
+            self.speed_rad_s[axis] = self.speed_rad_s[axis] * decay + acc * dt;
+            self.angle_rad[axis] += self.speed_rad_s[axis] * dt;
+        }
+        self.last[axis] = Some(now);
+    }
+}
+
+impl MotorPlant for FreeMotorPlant {
+    fn apply_torque(&mut self, axis: usize, torque_nm: f64) {
+        self.advance(axis);
+        self.torque_nm[axis] = torque_nm;
+    }
+    fn encoder(&self, axis: usize) -> (i64, f64) {
+        let k = self.counts_per_rev / core::f64::consts::TAU;
+        (
+            (self.angle_rad[axis] * k).round() as i64,
+            self.speed_rad_s[axis] * k,
+        )
+    }
+}
+
+/// Faults of one node, adjustable at run time from another thread.
+#[derive(Debug, Default)]
+pub struct NodeFaults {
+    never_boot: AtomicBool,
+    mute_heartbeat: AtomicBool,
+    ignore_sync: AtomicBool,
+    pending_emcy: AtomicU32,
+    fault_cause: AtomicU32,
+}
+
+impl NodeFaults {
+    /// The node never sends its boot-up message and answers nothing.
+    pub fn set_never_boot(&self, on: bool) {
+        self.never_boot.store(on, Ordering::Relaxed);
+    }
+    /// The node stops producing its heartbeat.
+    pub fn set_mute_heartbeat(&self, on: bool) {
+        self.mute_heartbeat.store(on, Ordering::Relaxed);
+    }
+    /// The node stops answering SYNC (no TPDOs).
+    pub fn set_ignore_sync(&self, on: bool) {
+        self.ignore_sync.store(on, Ordering::Relaxed);
+    }
+    /// Raise an emergency `code` with a latched drive fault that persists until
+    /// [`NodeFaults::clear_fault`] (then a fault reset clears it).
+    pub fn raise_fault(&self, code: u16) {
+        self.fault_cause.store(u32::from(code), Ordering::Relaxed);
+        self.pending_emcy
+            .store(0x1_0000 | u32::from(code), Ordering::Relaxed);
+    }
+    /// Remove the cause of the fault.
+    pub fn clear_fault(&self) {
+        self.fault_cause.store(0, Ordering::Relaxed);
+    }
+    fn take_emcy(&self) -> Option<u16> {
+        let v = self.pending_emcy.swap(0, Ordering::Relaxed);
+        (v != 0).then_some(v as u16)
+    }
+    fn fault_code(&self) -> u16 {
+        self.fault_cause.load(Ordering::Relaxed) as u16
+    }
+}
+
+/// CiA 402 power state of the simulated drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DrivePower {
+    /// Switch on disabled.
+    SwitchOnDisabled,
+    /// Ready to switch on.
+    ReadyToSwitchOn,
+    /// Switched on.
+    SwitchedOn,
+    /// Operation enabled.
+    OperationEnabled,
+    /// Quick stop active.
+    QuickStopActive,
+    /// Fault.
+    Fault,
+}
+
+impl DrivePower {
+    /// The statusword reporting this state (remote bit set; voltage-enabled when powered).
+    pub const fn statusword(self) -> u16 {
+        match self {
+            DrivePower::SwitchOnDisabled => 0x0250,
+            DrivePower::ReadyToSwitchOn => 0x0231,
+            DrivePower::SwitchedOn => 0x0233,
+            DrivePower::OperationEnabled => 0x0237,
+            DrivePower::QuickStopActive => 0x0217,
+            DrivePower::Fault => 0x0218,
+        }
+    }
+
+    /// The drive side of the CiA 402 state machine: the state after controlword `cw`
+    /// (`prev_cw` is the previous one, for the fault-reset edge; `fault_active` keeps a fault
+    /// whose cause is still present).
+    pub fn on_controlword(self, cw: u16, prev_cw: u16, fault_active: bool) -> DrivePower {
+        use DrivePower::*;
+        let reset_edge = cw & 0x80 != 0 && prev_cw & 0x80 == 0;
+        if self == Fault {
+            return if reset_edge && !fault_active {
+                SwitchOnDisabled
+            } else {
+                Fault
+            };
+        }
+        if cw & 0x80 != 0 {
+            return self; // fault reset outside fault: no effect
+        }
+        let disable_voltage = cw & 0x02 == 0;
+        let quick_stop = cw & 0x06 == 0x02;
+        let shutdown = cw & 0x07 == 0x06;
+        let switch_on = cw & 0x0F == 0x07;
+        let enable = cw & 0x0F == 0x0F;
+        match self {
+            _ if disable_voltage => SwitchOnDisabled,
+            OperationEnabled if quick_stop => QuickStopActive,
+            QuickStopActive => QuickStopActive,
+            _ if quick_stop => SwitchOnDisabled,
+            SwitchOnDisabled if shutdown => ReadyToSwitchOn,
+            SwitchedOn | OperationEnabled if shutdown => ReadyToSwitchOn,
+            ReadyToSwitchOn if switch_on => SwitchedOn,
+            ReadyToSwitchOn if enable => OperationEnabled,
+            OperationEnabled if switch_on => SwitchedOn,
+            SwitchedOn if enable => OperationEnabled,
+            s => s,
+        }
+    }
+}
+
+/// Static description of a simulated drive.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimDriveSpec {
+    /// CANopen node id.
+    pub node_id: u8,
+    /// Plant axis driven by this node.
+    pub axis: usize,
+    /// Motor rated torque (0x6076), mN·m.
+    pub rated_torque_mnm: u32,
+    /// Delay from power-up / reset to the boot-up message.
+    pub boot_delay: Duration,
+}
+
+/// Object dictionary capacity of the simulated drive.
+pub const OD_CAPACITY: usize = 96;
+
+fn build_od(spec: &SimDriveSpec) -> ObjectDictionary<OD_CAPACITY> {
+    use Value::*;
+    let n = u32::from(spec.node_id);
+    let mut od = ObjectDictionary::<OD_CAPACITY>::new();
+    let a = Address::new;
+    let mut put = |addr: Address, e: Entry| {
+        od.insert(addr, e)
+            .expect("OD_CAPACITY covers the dictionary");
+    };
+    put(a(0x1000, 0), Entry::constant(Unsigned32(0x0002_0192)));
+    put(a(0x1001, 0), Entry::ro(Unsigned8(0)));
+    put(a(0x1003, 0), Entry::rw(Unsigned8(0)));
+    for s in 1..=4 {
+        put(a(0x1003, s), Entry::ro(Unsigned32(0)));
+    }
+    put(a(0x1016, 0), Entry::constant(Unsigned8(1)));
+    put(a(0x1016, 1), Entry::rw(Unsigned32(0)));
+    put(a(0x1017, 0), Entry::rw(Unsigned16(0)));
+    put(a(0x1018, 0), Entry::constant(Unsigned8(4)));
+    put(a(0x1018, 1), Entry::constant(Unsigned32(0x0000_0F1D)));
+    put(a(0x1018, 2), Entry::constant(Unsigned32(0x0402_0001)));
+    put(a(0x1018, 3), Entry::constant(Unsigned32(0x0001_0000)));
+    put(a(0x1018, 4), Entry::constant(Unsigned32(n)));
+    // PDO communication and mapping parameters: RPDO1, TPDO1, TPDO2 (CiA 301 defaults:
+    // predefined COB-IDs, TPDOs disabled until mapped, asynchronous).
+    for (comm, map, cob) in [
+        (0x1400u16, 0x1600u16, 0x200 + n),
+        (0x1800, 0x1A00, 0x8000_0180 + n),
+        (0x1801, 0x1A01, 0x8000_0280 + n),
+    ] {
+        put(a(comm, 0), Entry::constant(Unsigned8(2)));
+        put(a(comm, 1), Entry::rw(Unsigned32(cob)));
+        put(a(comm, 2), Entry::rw(Unsigned8(0xFF)));
+        put(a(map, 0), Entry::rw(Unsigned8(0)));
+        for s in 1..=4 {
+            put(a(map, s), Entry::rw(Unsigned32(0)));
+        }
+    }
+    put(a(0x603F, 0), Entry::ro(Unsigned16(0)));
+    put(a(0x6007, 0), Entry::rw(Integer16(1)));
+    put(a(0x6040, 0), Entry::rw(Unsigned16(0)));
+    put(
+        a(0x6041, 0),
+        Entry::ro(Unsigned16(DrivePower::SwitchOnDisabled.statusword())),
+    );
+    put(a(0x6060, 0), Entry::rw(Integer8(0)));
+    put(a(0x6061, 0), Entry::ro(Integer8(0)));
+    put(a(0x6064, 0), Entry::ro(Integer32(0)));
+    put(a(0x606C, 0), Entry::ro(Integer32(0)));
+    put(a(0x6071, 0), Entry::rw(Integer16(0)));
+    put(a(0x6072, 0), Entry::rw(Unsigned16(3000)));
+    put(a(0x6076, 0), Entry::rw(Unsigned32(spec.rated_torque_mnm)));
+    put(a(0x6077, 0), Entry::ro(Integer16(0)));
+    put(a(0x6502, 0), Entry::constant(Unsigned32(0x0000_0380)));
+    od
+}
+
+fn od_u16(node: &Node<OD_CAPACITY>, index: u16, sub: u8) -> u16 {
+    match node.od().read(Address::new(index, sub)) {
+        Ok(Value::Unsigned16(v)) => v,
+        _ => 0,
+    }
+}
+
+fn od_i16(node: &Node<OD_CAPACITY>, index: u16) -> i16 {
+    match node.od().read(Address::new(index, 0)) {
+        Ok(Value::Integer16(v)) => v,
+        _ => 0,
+    }
+}
+
+/// One simulated CiA 402 drive.
+#[derive(Debug)]
+pub struct SimDriveNode {
+    spec: SimDriveSpec,
+    node: Node<OD_CAPACITY>,
+    power: DrivePower,
+    last_controlword: u16,
+    faults: Arc<NodeFaults>,
+    boot_at: Option<Instant>,
+    next_heartbeat: Instant,
+    host_heard: Option<Instant>,
+    comm_lost: bool,
+    applied_torque_nm: f64,
+    error_code: u16,
+}
+
+impl SimDriveNode {
+    /// A drive that powers up now (boot-up after `spec.boot_delay`).
+    pub fn new(spec: SimDriveSpec, faults: Arc<NodeFaults>) -> SimDriveNode {
+        let node_id = NodeId::new(spec.node_id).unwrap_or(NodeId::new(1).expect("1 is valid"));
+        let now = Instant::now();
+        SimDriveNode {
+            spec,
+            node: Node::new(node_id, build_od(&spec)),
+            power: DrivePower::SwitchOnDisabled,
+            last_controlword: 0,
+            faults,
+            boot_at: Some(now + spec.boot_delay),
+            next_heartbeat: now,
+            host_heard: None,
+            comm_lost: false,
+            applied_torque_nm: 0.0,
+            error_code: 0,
+        }
+    }
+
+    /// The node's CiA 402 power state.
+    pub fn power(&self) -> DrivePower {
+        self.power
+    }
+
+    /// The node's NMT state.
+    pub fn nmt_state(&self) -> NmtState {
+        self.node.state()
+    }
+
+    /// The torque the node applies to its motor now, N·m.
+    pub fn applied_torque_nm(&self) -> f64 {
+        self.applied_torque_nm
+    }
+
+    /// Read an object of the dictionary (as the drive sees it).
+    pub fn read_object(&self, index: u16, sub: u8) -> Option<Value> {
+        self.node
+            .od()
+            .entry(Address::new(index, sub))
+            .map(|e| e.value)
+    }
+
+    /// Every object address of the dictionary.
+    pub fn object_addresses(&self) -> Vec<(u16, u8)> {
+        let mut v = Vec::new();
+        for index in 0x1000..=0x6FFFu16 {
+            for sub in 0..=8u8 {
+                if self.node.od().entry(Address::new(index, sub)).is_some() {
+                    v.push((index, sub));
+                }
+            }
+        }
+        v
+    }
+
+    fn set(&mut self, index: u16, value: Value) {
+        let _ = self.node.od_mut().set(Address::new(index, 0), value);
+    }
+
+    fn publish_status(&mut self) {
+        let sw = self.power.statusword();
+        self.set(0x6041, Value::Unsigned16(sw));
+        if self.power != DrivePower::Fault {
+            self.error_code = 0;
+        }
+        self.set(0x603F, Value::Unsigned16(self.error_code));
+    }
+
+    fn enter_fault(&mut self, code: u16, out: &mut impl FnMut(SimFrame)) {
+        if self.power != DrivePower::Fault {
+            self.error_code = code;
+        }
+        self.power = DrivePower::Fault;
+        let f = self.node.raise_emergency(code, ErrorRegister(0x01), [0; 5]);
+        if let Some(fr) = SimFrame::standard(f.cob_id, f.data()) {
+            out(fr);
+        }
+        self.applied_torque_nm = 0.0;
+        self.publish_status();
+    }
+
+    fn torque_nm(&self) -> f64 {
+        let rated = match self.node.od().read(Address::new(0x6076, 0)) {
+            Ok(Value::Unsigned32(v)) => f64::from(v) / 1000.0,
+            _ => 0.0,
+        };
+        f64::from(od_i16(&self.node, 0x6071)) / 1000.0 * rated
+    }
+
+    /// Handle one received frame; frames to transmit go to `out`.
+    pub fn on_frame(
+        &mut self,
+        frame: &SimFrame,
+        plant: &mut dyn MotorPlant,
+        out: &mut impl FnMut(SimFrame),
+    ) {
+        if self.boot_at.is_some() || self.faults.never_boot.load(Ordering::Relaxed) {
+            return; // still initialising: deaf
+        }
+        let Id::Standard(id) = frame.id() else { return };
+        let cob = id.as_raw();
+        if cob == 0x080 {
+            self.on_sync(plant, out);
+            return;
+        }
+        if cob == 0x700 + u16::from(self.host_node_id()) && self.host_node_id() != 0 {
+            // The host is back: a communication-loss fault may now be reset.
+            self.host_heard = Some(Instant::now());
+            self.comm_lost = false;
+            return;
+        }
+        let before = self.node.state();
+        let reply = self.node.on_frame(cob, frame.data());
+        if let Some(r) = reply {
+            if let Some(fr) = SimFrame::standard(r.cob_id, r.data()) {
+                out(fr);
+            }
+        }
+        if let Some(addr) = self.node.take_written_object() {
+            if (0x1400..=0x1BFF).contains(&addr.index) {
+                self.node.configure_pdos_from_od();
+            }
+            if addr.index == 0x6060 {
+                let m = match self.node.od().read(addr) {
+                    Ok(Value::Integer8(m)) => m,
+                    _ => 0,
+                };
+                self.set(0x6061, Value::Integer8(m));
+            }
+            if addr.index == 0x1016 {
+                self.host_heard = None;
+            }
+        }
+        if self.node.state() == NmtState::Initialising && before != NmtState::Initialising {
+            // NMT reset node / communication: communication parameters back to defaults,
+            // then a fresh boot-up. A latched fault survives (its cause is in the drive).
+            self.reset_communication();
+        }
+        if self.node.state() != NmtState::Operational && before == NmtState::Operational {
+            self.stop_motor(plant);
+        }
+    }
+
+    fn host_node_id(&self) -> u8 {
+        match self.node.od().read(Address::new(0x1016, 1)) {
+            Ok(Value::Unsigned32(v)) => ((v >> 16) & 0x7F) as u8,
+            _ => 0,
+        }
+    }
+
+    fn host_timeout(&self) -> Option<Duration> {
+        match self.node.od().read(Address::new(0x1016, 1)) {
+            Ok(Value::Unsigned32(v)) if v & 0xFFFF != 0 => {
+                Some(Duration::from_millis(u64::from(v & 0xFFFF)))
+            }
+            _ => None,
+        }
+    }
+
+    fn reset_communication(&mut self) {
+        let keep_fault = self.power == DrivePower::Fault;
+        let node_id = self.node.node_id();
+        self.node = Node::new(node_id, build_od(&self.spec));
+        self.power = if keep_fault {
+            DrivePower::Fault
+        } else {
+            DrivePower::SwitchOnDisabled
+        };
+        self.last_controlword = 0;
+        self.host_heard = None;
+        self.comm_lost = false;
+        self.publish_status();
+        self.boot_at = Some(Instant::now());
+    }
+
+    fn stop_motor(&mut self, plant: &mut dyn MotorPlant) {
+        self.applied_torque_nm = 0.0;
+        plant.apply_torque(self.spec.axis, 0.0);
+    }
+
+    fn on_sync(&mut self, plant: &mut dyn MotorPlant, out: &mut impl FnMut(SimFrame)) {
+        if self.node.state() != NmtState::Operational {
+            return;
+        }
+        // The RPDO received since the last SYNC takes effect now.
+        let cw = od_u16(&self.node, 0x6040, 0);
+        let fault_active = self.faults.fault_code() != 0 || self.comm_lost;
+        let was_fault = self.power == DrivePower::Fault;
+        self.power = self
+            .power
+            .on_controlword(cw, self.last_controlword, fault_active);
+        self.last_controlword = cw;
+        if was_fault && self.power != DrivePower::Fault {
+            self.comm_lost = false;
+            let f = self.node.clear_errors();
+            if let Some(fr) = SimFrame::standard(f.cob_id, f.data()) {
+                out(fr);
+            }
+        }
+        let cst = matches!(
+            self.node.od().read(Address::new(0x6060, 0)),
+            Ok(Value::Integer8(10))
+        );
+        let torque = if self.power == DrivePower::OperationEnabled && cst {
+            self.torque_nm()
+        } else {
+            0.0
+        };
+        self.applied_torque_nm = torque;
+        plant.apply_torque(self.spec.axis, torque);
+        let (counts, cps) = plant.encoder(self.spec.axis);
+        self.set(0x6064, Value::Integer32(counts as i32));
+        self.set(0x606C, Value::Integer32(cps.round() as i32));
+        let t_permille = if self.power == DrivePower::OperationEnabled {
+            od_i16(&self.node, 0x6071)
+        } else {
+            0
+        };
+        self.set(0x6077, Value::Integer16(t_permille));
+        self.publish_status();
+        if self.faults.ignore_sync.load(Ordering::Relaxed) {
+            return;
+        }
+        for t in self.node.sync_tpdos() {
+            if let Some(fr) = SimFrame::standard(t.cob_id, t.data()) {
+                out(fr);
+            }
+        }
+    }
+
+    /// Time-driven work: boot-up, heartbeat production, heartbeat consumer, injected faults.
+    /// Returns when this node next needs a `poll`.
+    pub fn poll(
+        &mut self,
+        now: Instant,
+        plant: &mut dyn MotorPlant,
+        out: &mut impl FnMut(SimFrame),
+    ) -> Instant {
+        if self.faults.never_boot.load(Ordering::Relaxed) {
+            return now + Duration::from_millis(10);
+        }
+        if let Some(at) = self.boot_at {
+            if now < at {
+                return at;
+            }
+            self.boot_at = None;
+            let f = self.node.boot();
+            if let Some(fr) = SimFrame::standard(f.cob_id, f.data()) {
+                out(fr);
+            }
+            self.next_heartbeat = now;
+        }
+        if let Some(code) = self.faults.take_emcy() {
+            self.enter_fault(code, out);
+            self.stop_motor(plant);
+        }
+        // Heartbeat consumer: a silent host triggers the communication-loss reaction.
+        if let (Some(heard), Some(timeout)) = (self.host_heard, self.host_timeout()) {
+            if !self.comm_lost && now.duration_since(heard) > timeout {
+                self.comm_lost = true;
+                let reaction = od_i16(&self.node, 0x6007);
+                let f = self
+                    .node
+                    .raise_emergency(0x8130, ErrorRegister(0x10), [0; 5]);
+                if let Some(fr) = SimFrame::standard(f.cob_id, f.data()) {
+                    out(fr);
+                }
+                if self.power != DrivePower::Fault && reaction == 1 {
+                    self.error_code = 0x8130;
+                }
+                self.power = match reaction {
+                    _ if self.power == DrivePower::Fault => DrivePower::Fault,
+                    1 => DrivePower::Fault,
+                    3 if self.power == DrivePower::OperationEnabled => DrivePower::QuickStopActive,
+                    0 => self.power,
+                    _ => DrivePower::SwitchOnDisabled,
+                };
+                if self.power != DrivePower::Fault {
+                    self.comm_lost = false;
+                    self.host_heard = None;
+                }
+                self.stop_motor(plant);
+                self.publish_status();
+            }
+        }
+        let period_ms = od_u16(&self.node, 0x1017, 0);
+        if period_ms == 0 {
+            return now + Duration::from_millis(10);
+        }
+        if now >= self.next_heartbeat {
+            if !self.faults.mute_heartbeat.load(Ordering::Relaxed) {
+                let f = self.node.heartbeat();
+                if let Some(fr) = SimFrame::standard(f.cob_id, f.data()) {
+                    out(fr);
+                }
+            }
+            self.next_heartbeat = now + Duration::from_millis(u64::from(period_ms));
+        }
+        self.next_heartbeat.min(now + Duration::from_millis(5))
+    }
+}
+
+/// A station of the userspace bus the simulated drives can sit on.
+pub trait SimPort: Send {
+    /// Send a frame.
+    fn send_frame(&mut self, frame: &SimFrame) -> Result<(), BusError>;
+    /// Receive with a timeout.
+    fn receive_frame(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError>;
+}
+
+impl SimPort for InProcessEndpoint {
+    fn send_frame(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+        self.send(frame)
+    }
+    fn receive_frame(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        self.receive_timeout(timeout)
+    }
+}
+
+impl SimPort for crate::can_bus::udp::UdpEndpoint {
+    fn send_frame(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+        self.send(frame)
+    }
+    fn receive_frame(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        self.receive_timeout(timeout)
+    }
+}
+
+/// Simulated drives answering inline, without a thread: frames sent to the bus reach the nodes
+/// at once and their answers wait in a preallocated queue. Deterministic, for tests on the
+/// twin's simulated clock (the threaded [`SimDriveBank`] is the real-time variant).
+pub struct SteppedDriveBus<M: MotorPlant> {
+    nodes: Vec<SimDriveNode>,
+    faults: Vec<Arc<NodeFaults>>,
+    plant: M,
+    rx: std::collections::VecDeque<SimFrame>,
+}
+
+impl<M: MotorPlant> core::fmt::Debug for SteppedDriveBus<M> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SteppedDriveBus")
+            .field("nodes", &self.nodes.len())
+            .finish()
+    }
+}
+
+impl<M: MotorPlant> SteppedDriveBus<M> {
+    /// The drives `specs`, their motors in `plant`.
+    pub fn new(specs: &[SimDriveSpec], plant: M) -> Self {
+        let faults: Vec<Arc<NodeFaults>> = specs
+            .iter()
+            .map(|_| Arc::new(NodeFaults::default()))
+            .collect();
+        let nodes = specs
+            .iter()
+            .zip(&faults)
+            .map(|(s, f)| SimDriveNode::new(*s, f.clone()))
+            .collect();
+        SteppedDriveBus {
+            nodes,
+            faults,
+            plant,
+            rx: std::collections::VecDeque::with_capacity(256),
+        }
+    }
+
+    /// Fault injector of node `i`.
+    pub fn faults(&self, i: usize) -> &Arc<NodeFaults> {
+        &self.faults[i]
+    }
+
+    /// The nodes.
+    pub fn nodes(&self) -> &[SimDriveNode] {
+        &self.nodes
+    }
+
+    /// Deliver a frame to every node; their answers are queued.
+    pub fn send(&mut self, frame: &SimFrame) {
+        let rx = &mut self.rx;
+        for n in self.nodes.iter_mut() {
+            n.on_frame(frame, &mut self.plant, &mut |f| {
+                if rx.len() < rx.capacity() {
+                    rx.push_back(f)
+                }
+            });
+        }
+    }
+
+    /// The next queued answer, after letting the nodes do their time-driven work (boot-up,
+    /// heartbeats). Never waits.
+    pub fn receive(&mut self) -> Option<SimFrame> {
+        let now = Instant::now();
+        let rx = &mut self.rx;
+        for n in self.nodes.iter_mut() {
+            n.poll(now, &mut self.plant, &mut |f| {
+                if rx.len() < rx.capacity() {
+                    rx.push_back(f)
+                }
+            });
+        }
+        self.rx.pop_front()
+    }
+}
+
+/// Observable state of a bank's nodes, refreshed by the bank thread.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeView {
+    /// CiA 402 power state.
+    pub power: DrivePower,
+    /// NMT state.
+    pub nmt: NmtState,
+    /// Torque applied to the motor, N·m.
+    pub applied_torque_nm: f64,
+}
+
+/// Several simulated drives sharing one bus station and one plant, run on a thread.
+pub struct SimDriveBank {
+    stop: Arc<AtomicBool>,
+    views: Arc<Mutex<Vec<NodeView>>>,
+    faults: Vec<Arc<NodeFaults>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl core::fmt::Debug for SimDriveBank {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SimDriveBank")
+            .field("nodes", &self.faults.len())
+            .finish()
+    }
+}
+
+impl SimDriveBank {
+    /// Start the drives `specs` on `port`, their motors in `plant`.
+    pub fn spawn<P: SimPort + 'static, M: MotorPlant + 'static>(
+        port: P,
+        specs: &[SimDriveSpec],
+        plant: M,
+    ) -> SimDriveBank {
+        Self::spawn_with(port, specs, plant, || {})
+    }
+
+    /// As [`SimDriveBank::spawn`], running `on_start` first on the new thread (e.g. to raise
+    /// its scheduling priority).
+    pub fn spawn_with<P: SimPort + 'static, M: MotorPlant + 'static>(
+        mut port: P,
+        specs: &[SimDriveSpec],
+        mut plant: M,
+        on_start: impl FnOnce() + Send + 'static,
+    ) -> SimDriveBank {
+        let faults: Vec<Arc<NodeFaults>> = specs
+            .iter()
+            .map(|_| Arc::new(NodeFaults::default()))
+            .collect();
+        let mut nodes: Vec<SimDriveNode> = specs
+            .iter()
+            .zip(&faults)
+            .map(|(s, f)| SimDriveNode::new(*s, f.clone()))
+            .collect();
+        let stop = Arc::new(AtomicBool::new(false));
+        let views = Arc::new(Mutex::new(
+            nodes
+                .iter()
+                .map(|n| NodeView {
+                    power: n.power(),
+                    nmt: n.nmt_state(),
+                    applied_torque_nm: 0.0,
+                })
+                .collect::<Vec<_>>(),
+        ));
+        let (stop_t, views_t) = (stop.clone(), views.clone());
+        let thread = std::thread::Builder::new()
+            .name("sim-drives".into())
+            .spawn(move || {
+                on_start();
+                let mut outbox: Vec<SimFrame> = Vec::with_capacity(64);
+                while !stop_t.load(Ordering::Relaxed) {
+                    let now = Instant::now();
+                    let mut next = now + Duration::from_millis(5);
+                    for n in nodes.iter_mut() {
+                        next = next.min(n.poll(now, &mut plant, &mut |f| outbox.push(f)));
+                    }
+                    for f in outbox.drain(..) {
+                        let _ = port.send_frame(&f);
+                    }
+                    let wait = next.saturating_duration_since(Instant::now());
+                    match port.receive_frame(wait) {
+                        Ok(Some(frame)) => {
+                            for n in nodes.iter_mut() {
+                                n.on_frame(&frame, &mut plant, &mut |f| outbox.push(f));
+                            }
+                            for f in outbox.drain(..) {
+                                let _ = port.send_frame(&f);
+                            }
+                        }
+                        Ok(None) => {}
+                        Err(_) => std::thread::sleep(Duration::from_millis(1)),
+                    }
+                    if let Ok(mut v) = views_t.lock() {
+                        for (view, n) in v.iter_mut().zip(&nodes) {
+                            *view = NodeView {
+                                power: n.power(),
+                                nmt: n.nmt_state(),
+                                applied_torque_nm: n.applied_torque_nm(),
+                            };
+                        }
+                    }
+                }
+            })
+            .expect("spawning the simulated drive thread");
+        SimDriveBank {
+            stop,
+            views,
+            faults,
+            thread: Some(thread),
+        }
+    }
+
+    /// Fault injectors, one per node (same order as the specs).
+    pub fn faults(&self, node: usize) -> &Arc<NodeFaults> {
+        &self.faults[node]
+    }
+
+    /// The latest view of every node.
+    pub fn views(&self) -> Vec<NodeView> {
+        self.views.lock().map(|v| v.clone()).unwrap_or_default()
+    }
+}
+
+impl Drop for SimDriveBank {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::can_bus::{BusFaults, InProcessBus};
+
+    fn spec(id: u8) -> SimDriveSpec {
+        SimDriveSpec {
+            node_id: id,
+            axis: 0,
+            rated_torque_mnm: 100,
+            boot_delay: Duration::from_millis(1),
+        }
+    }
+
+    #[test]
+    fn drive_state_machine_follows_the_cia402_transitions() {
+        use DrivePower::*;
+        assert_eq!(
+            SwitchOnDisabled.on_controlword(0x06, 0, false),
+            ReadyToSwitchOn
+        );
+        assert_eq!(
+            ReadyToSwitchOn.on_controlword(0x07, 0x06, false),
+            SwitchedOn
+        );
+        assert_eq!(
+            SwitchedOn.on_controlword(0x0F, 0x07, false),
+            OperationEnabled
+        );
+        assert_eq!(
+            OperationEnabled.on_controlword(0x02, 0x0F, false),
+            QuickStopActive
+        );
+        assert_eq!(
+            QuickStopActive.on_controlword(0x00, 0x02, false),
+            SwitchOnDisabled
+        );
+        assert_eq!(
+            OperationEnabled.on_controlword(0x07, 0x0F, false),
+            SwitchedOn
+        );
+        assert_eq!(Fault.on_controlword(0x80, 0x00, true), Fault);
+        assert_eq!(Fault.on_controlword(0x80, 0x80, false), Fault);
+        assert_eq!(Fault.on_controlword(0x80, 0x00, false), SwitchOnDisabled);
+        assert_eq!(
+            SwitchOnDisabled.on_controlword(0x0F, 0, false),
+            SwitchOnDisabled
+        );
+    }
+
+    #[test]
+    fn node_boots_serves_sdo_and_answers_sync_with_mapped_tpdos() {
+        let mut plant = FreeMotorPlant::new(1, 1e-5, 1e-5, 2000.0);
+        let faults = Arc::new(NodeFaults::default());
+        let mut node = SimDriveNode::new(spec(5), faults);
+        let mut out = Vec::new();
+        std::thread::sleep(Duration::from_millis(2));
+        node.poll(Instant::now(), &mut plant, &mut |f| out.push(f));
+        assert_eq!(out[0], SimFrame::standard(0x705, &[0]).unwrap(), "boot-up");
+        out.clear();
+        // SDO read of the device type, as in the traced boot sequence.
+        let req = SimFrame::standard(0x605, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]).unwrap();
+        node.on_frame(&req, &mut plant, &mut |f| out.push(f));
+        assert_eq!(
+            out.pop().unwrap(),
+            SimFrame::standard(0x585, &[0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x02, 0x00]).unwrap()
+        );
+        // Map TPDO2 = statusword + error code, synchronous, then start and SYNC.
+        let writes: [[u8; 8]; 6] = [
+            [0x2F, 0x01, 0x1A, 0x00, 0, 0, 0, 0],
+            [0x23, 0x01, 0x1A, 0x01, 0x10, 0x00, 0x41, 0x60],
+            [0x23, 0x01, 0x1A, 0x02, 0x10, 0x00, 0x3F, 0x60],
+            [0x2F, 0x01, 0x1A, 0x00, 2, 0, 0, 0],
+            [0x2F, 0x01, 0x18, 0x02, 1, 0, 0, 0],
+            [0x23, 0x01, 0x18, 0x01, 0x85, 0x02, 0, 0],
+        ];
+        for w in writes {
+            node.on_frame(
+                &SimFrame::standard(0x605, &w).unwrap(),
+                &mut plant,
+                &mut |f| out.push(f),
+            );
+            assert_eq!(out.pop().unwrap().data()[0], 0x60, "download acknowledged");
+        }
+        node.on_frame(
+            &SimFrame::standard(0x000, &[0x01, 5]).unwrap(),
+            &mut plant,
+            &mut |f| out.push(f),
+        );
+        node.on_frame(
+            &SimFrame::standard(0x080, &[]).unwrap(),
+            &mut plant,
+            &mut |f| out.push(f),
+        );
+        assert_eq!(
+            out,
+            vec![SimFrame::standard(0x285, &[0x50, 0x02, 0, 0]).unwrap()]
+        );
+    }
+
+    #[test]
+    fn a_bank_on_the_in_process_bus_boots_its_nodes() {
+        let faults = Arc::new(BusFaults::new(1));
+        let mut eps = InProcessBus::with_endpoints(2, 64, faults);
+        let host = eps.pop().unwrap();
+        let drives = eps.pop().unwrap();
+        let bank = SimDriveBank::spawn(
+            drives,
+            &[spec(1), spec(2)],
+            FreeMotorPlant::new(1, 1e-5, 1e-5, 2000.0),
+        );
+        let mut host = host;
+        let mut booted = vec![];
+        let t0 = Instant::now();
+        while booted.len() < 2 && t0.elapsed() < Duration::from_secs(2) {
+            if let Some(f) = host.receive_timeout(Duration::from_millis(50)).unwrap() {
+                if f.data() == [0] {
+                    booted.push(f.raw_id());
+                }
+            }
+        }
+        booted.sort();
+        assert_eq!(booted, vec![0x701, 0x702]);
+        std::thread::sleep(Duration::from_millis(30));
+        assert_eq!(bank.views()[0].nmt, NmtState::PreOperational);
+    }
+}

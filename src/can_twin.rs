@@ -1,0 +1,395 @@
+//! The digital twin behind the real CAN drive driver (`videtd --sim can`): the control loop talks
+//! CiA 402 over the userspace CAN bus to three simulated drive nodes, whose motors are the twin's
+//! motors. Tensions, e-stop and the clock come from the twin directly.
+//!
+//! Per cycle: `read_drives` runs the driver's SYNC exchange (the nodes apply the torque latched
+//! from the previous RPDO and report the twin's encoders), then hands the nodes' torques to the
+//! twin's motors; `sleep_until` advances the twin's physics and publishes its encoders to the
+//! nodes. The hand-over is wait-free ([`SharedMotors`]).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use videt_drivers::can::CanPort;
+use videt_drivers::cia402::{Cia402DriveSet, DriveError, DriveSetConfig};
+use videt_hal::{
+    Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState, MonoTime,
+    TensionSensors, WireDrives, WIRES,
+};
+use videt_sim::can_bus::{BusError, BusFaults, InProcessBus, InProcessEndpoint, SimFrame};
+use videt_sim::cia402_node::{NodeView, SharedMotors, SimDriveBank, SimDriveSpec, SteppedDriveBus};
+use videt_sim::{Twin, TwinError};
+
+use crate::setup;
+use crate::twin_rt::RealTimeTwin;
+use videt_rt_config::Config;
+
+/// Node ids of the simulated drives (wire 0, 1, 2).
+pub const NODE_IDS: [u8; WIRES] = [1, 2, 3];
+/// Rated torque of the simulated motors (0x6076), mN·m.
+pub const RATED_TORQUE_MNM: u32 = 25;
+
+/// The driver's CAN port onto the simulated drives.
+#[derive(Debug)]
+pub enum SimCanPort {
+    /// The host's station on the in-process bus; the drives run on their own thread.
+    Threaded(InProcessEndpoint),
+    /// The drives answer inline (deterministic, for the twin's simulated clock).
+    Stepped(Box<SteppedDriveBus<Arc<SharedMotors>>>),
+}
+
+impl embedded_can::blocking::Can for SimCanPort {
+    type Frame = SimFrame;
+    type Error = BusError;
+    fn transmit(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+        match self {
+            SimCanPort::Threaded(ep) => ep.send(frame),
+            SimCanPort::Stepped(bus) => {
+                bus.send(frame);
+                Ok(())
+            }
+        }
+    }
+    fn receive(&mut self) -> Result<SimFrame, BusError> {
+        loop {
+            if let Some(f) = self.receive_timeout(Duration::from_millis(100))? {
+                return Ok(f);
+            }
+        }
+    }
+}
+
+impl CanPort for SimCanPort {
+    fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        match self {
+            SimCanPort::Threaded(ep) => ep.receive_timeout(timeout),
+            SimCanPort::Stepped(bus) => {
+                if let Some(f) = bus.receive() {
+                    return Ok(Some(f));
+                }
+                if !timeout.is_zero() {
+                    // Time-driven answers (boot-up, heartbeat): look again a little later.
+                    std::thread::sleep(timeout.min(Duration::from_micros(200)));
+                }
+                Ok(bus.receive())
+            }
+        }
+    }
+    fn is_bus_off(&self) -> bool {
+        match self {
+            SimCanPort::Threaded(ep) => ep.is_bus_off(),
+            SimCanPort::Stepped(_) => false,
+        }
+    }
+}
+
+/// The twin as the CAN twin needs it: its HAL devices plus access to the model.
+pub trait TwinDevice:
+    Lifecycle + WireDrives + TensionSensors + EStop + Clock + ErrorType<Error = TwinError>
+{
+    /// The twin.
+    fn model(&self) -> &Twin;
+    /// The twin, mutably.
+    fn model_mut(&mut self) -> &mut Twin;
+}
+
+impl TwinDevice for Twin {
+    fn model(&self) -> &Twin {
+        self
+    }
+    fn model_mut(&mut self) -> &mut Twin {
+        self
+    }
+}
+
+impl TwinDevice for RealTimeTwin {
+    fn model(&self) -> &Twin {
+        self.twin()
+    }
+    fn model_mut(&mut self) -> &mut Twin {
+        self.twin_mut()
+    }
+}
+
+/// An error of the CAN twin: from the drive driver or from the twin's other devices.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CanTwinError {
+    /// The CiA 402 drive driver.
+    Drives(DriveError),
+    /// The twin (tension sensors, e-stop, its lifecycle).
+    Twin(ErrorKind),
+}
+
+impl videt_hal::Error for CanTwinError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            CanTwinError::Drives(e) => videt_hal::Error::kind(e),
+            CanTwinError::Twin(k) => *k,
+        }
+    }
+}
+
+impl core::fmt::Display for CanTwinError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            CanTwinError::Drives(e) => write!(f, "{e}"),
+            CanTwinError::Twin(k) => write!(f, "simulated device: {k}"),
+        }
+    }
+}
+
+impl std::error::Error for CanTwinError {}
+
+fn twin_err(e: videt_sim::TwinError) -> CanTwinError {
+    CanTwinError::Twin(videt_hal::Error::kind(&e))
+}
+
+/// The drive-set configuration for the simulated drives, from the daemon's configuration.
+pub fn drive_config(config: &Config) -> DriveSetConfig {
+    let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
+    let mut c = DriveSetConfig::new(
+        NODE_IDS,
+        period,
+        f64::from(RATED_TORQUE_MNM) / 1000.0,
+        config.control.t_max_n,
+    );
+    c.transmission = setup::transmission(config);
+    c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
+    // The simulated drives share the host's CPUs: on a kernel without PREEMPT_RT their thread
+    // can be woken milliseconds late, which real drives never are. Tolerate up to 20 periods
+    // without process data and 100 ms of silence either way here (a real drive set keeps the
+    // defaults: 1 period, 35 ms, 50 ms).
+    c.max_missed_cycles = 20;
+    c.drive_heartbeat_timeout = Duration::from_millis(100);
+    c.host_silence_timeout_ms = 100;
+    c
+}
+
+/// The twin with its drives behind CiA 402 nodes on a userspace CAN bus.
+pub struct CanTwin<T: TwinDevice> {
+    twin: T,
+    drives: Cia402DriveSet<SimCanPort>,
+    motors: Arc<SharedMotors>,
+    bank: Option<SimDriveBank>,
+    bus_faults: Arc<BusFaults>,
+    encoders: [DriveSample; WIRES],
+}
+
+impl<T: TwinDevice> core::fmt::Debug for CanTwin<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("CanTwin").field("bank", &self.bank).finish()
+    }
+}
+
+fn node_specs() -> Vec<SimDriveSpec> {
+    (0..WIRES)
+        .map(|i| SimDriveSpec {
+            node_id: NODE_IDS[i],
+            axis: i,
+            rated_torque_mnm: RATED_TORQUE_MNM,
+            boot_delay: Duration::from_millis(20),
+        })
+        .collect()
+}
+
+impl CanTwin<Twin> {
+    /// The twin on its simulated clock, its drives answering inline: deterministic and faster
+    /// than real time (whole-stack tests).
+    pub fn stepped(mut twin: Twin, drive_config: DriveSetConfig) -> Result<CanTwin<Twin>, String> {
+        twin.set_clock_mode(videt_sim::ClockMode::Simulated);
+        let motors = Arc::new(SharedMotors::new(WIRES));
+        let bus = SteppedDriveBus::new(&node_specs(), motors.clone());
+        let drives = Cia402DriveSet::new(SimCanPort::Stepped(Box::new(bus)), drive_config)
+            .map_err(|e| e.to_string())?;
+        let mut can_twin = CanTwin {
+            twin,
+            drives,
+            motors,
+            bank: None,
+            bus_faults: Arc::new(BusFaults::default()),
+            encoders: [DriveSample::default(); WIRES],
+        };
+        can_twin.publish_encoders();
+        Ok(can_twin)
+    }
+}
+
+impl CanTwin<RealTimeTwin> {
+    /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver. The nodes
+    /// run on their own thread, at SCHED_FIFO `drive_priority` when given (they stand for
+    /// hardware that answers SYNC whatever the host's load; use the control thread's priority).
+    pub fn new(
+        twin: Twin,
+        drive_config: DriveSetConfig,
+        drive_priority: Option<u8>,
+    ) -> Result<CanTwin<RealTimeTwin>, String> {
+        let bus_faults = Arc::new(BusFaults::default());
+        let mut eps = InProcessBus::with_endpoints(2, 256, bus_faults.clone());
+        let node_side = eps.pop().ok_or("bus without endpoints")?;
+        let host_side = eps.pop().ok_or("bus without endpoints")?;
+        let motors = Arc::new(SharedMotors::new(WIRES));
+        let bank = SimDriveBank::spawn_with(node_side, &node_specs(), motors.clone(), move || {
+            if let Some(p) = drive_priority {
+                if let Err(e) = crate::rt::set_fifo(p) {
+                    tracing::warn!(
+                        "simulated drives stay SCHED_OTHER ({e}): a loaded host may delay their answers"
+                    );
+                }
+            }
+        });
+        let drives = Cia402DriveSet::new(SimCanPort::Threaded(host_side), drive_config)
+            .map_err(|e| e.to_string())?;
+        let mut can_twin = CanTwin {
+            twin: RealTimeTwin::new(twin),
+            drives,
+            motors,
+            bank: Some(bank),
+            bus_faults,
+            encoders: [DriveSample::default(); WIRES],
+        };
+        can_twin.publish_encoders();
+        Ok(can_twin)
+    }
+}
+
+impl<T: TwinDevice> CanTwin<T> {
+    /// The bus's fault injector (drops, delay, bus-off).
+    pub fn bus_faults(&self) -> &Arc<BusFaults> {
+        &self.bus_faults
+    }
+
+    /// The state of every simulated drive.
+    pub fn drive_nodes(&self) -> Vec<NodeView> {
+        match (&self.bank, self.drives.port()) {
+            (Some(bank), _) => bank.views(),
+            (None, SimCanPort::Stepped(bus)) => bus
+                .nodes()
+                .iter()
+                .map(|n| NodeView {
+                    power: n.power(),
+                    nmt: n.nmt_state(),
+                    applied_torque_nm: n.applied_torque_nm(),
+                })
+                .collect(),
+            (None, SimCanPort::Threaded(_)) => Vec::new(),
+        }
+    }
+
+    /// The error that put the drives into their safe state, if any.
+    pub fn drive_error(&self) -> Option<DriveError> {
+        self.drives.latched_error()
+    }
+
+    /// The twin.
+    pub fn twin(&self) -> &Twin {
+        self.twin.model()
+    }
+
+    /// The twin's encoders, as the simulated drives' encoders.
+    fn publish_encoders(&mut self) {
+        // The twin reads its encoders whatever its drive state.
+        if self
+            .twin
+            .model_mut()
+            .read_drives(&mut self.encoders)
+            .is_ok()
+        {
+            for (i, s) in self.encoders.iter().enumerate() {
+                self.motors
+                    .publish_encoder(i, s.position_counts, s.velocity_counts_per_s);
+            }
+        }
+    }
+
+    /// The simulated drives' torques into the twin's motors.
+    fn apply_node_torques(&mut self) {
+        if self.twin.model().drives_enabled() {
+            let t: [f64; WIRES] = core::array::from_fn(|i| self.motors.torque_nm(i));
+            let _ = self.twin.model_mut().write_torques(&t);
+        }
+    }
+}
+
+impl<T: TwinDevice> ErrorType for CanTwin<T> {
+    type Error = CanTwinError;
+}
+
+/// Log a failed (non-RT) lifecycle step with the driver's full explanation.
+fn logged(r: Result<(), CanTwinError>, step: &str) -> Result<(), CanTwinError> {
+    if let Err(e) = &r {
+        tracing::error!("CAN drives: {step} failed: {e}");
+    }
+    r
+}
+
+impl<T: TwinDevice> Lifecycle for CanTwin<T> {
+    fn configure(&mut self) -> Result<(), CanTwinError> {
+        self.twin.configure().map_err(twin_err)?;
+        let r = self.drives.configure().map_err(CanTwinError::Drives);
+        logged(r, "configure")
+    }
+    fn activate(&mut self) -> Result<(), CanTwinError> {
+        self.twin.activate().map_err(twin_err)?;
+        // The twin's motors follow whatever the simulated drives apply.
+        self.twin.enable().map_err(twin_err)?;
+        let r = self.drives.activate().map_err(CanTwinError::Drives);
+        logged(r, "activate")
+    }
+    fn deactivate(&mut self) -> Result<(), CanTwinError> {
+        // Non-RT: say why the drives went to their safe state, if they did.
+        if let Some(e) = self.drives.latched_error() {
+            tracing::warn!("CAN drives had entered their safe state: {e}");
+        }
+        let r = self.drives.deactivate().map_err(CanTwinError::Drives);
+        self.twin.deactivate().map_err(twin_err)?;
+        r
+    }
+    fn lifecycle_state(&self) -> LifecycleState {
+        self.drives.lifecycle_state()
+    }
+}
+
+impl<T: TwinDevice> WireDrives for CanTwin<T> {
+    fn enable(&mut self) -> Result<(), CanTwinError> {
+        self.drives.enable().map_err(CanTwinError::Drives)
+    }
+    fn disable(&mut self) -> Result<(), CanTwinError> {
+        self.drives.disable().map_err(CanTwinError::Drives)
+    }
+    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), CanTwinError> {
+        let r = self.drives.read_drives(out).map_err(CanTwinError::Drives);
+        self.apply_node_torques();
+        r
+    }
+    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), CanTwinError> {
+        self.drives
+            .write_torques(torque_nm)
+            .map_err(CanTwinError::Drives)
+    }
+}
+
+impl<T: TwinDevice> TensionSensors for CanTwin<T> {
+    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), CanTwinError> {
+        self.twin.read_tensions(out_n).map_err(twin_err)
+    }
+}
+
+impl<T: TwinDevice> EStop for CanTwin<T> {
+    fn is_pressed(&mut self) -> Result<bool, CanTwinError> {
+        self.twin.is_pressed().map_err(twin_err)
+    }
+    fn reset(&mut self) -> Result<(), CanTwinError> {
+        self.twin.reset().map_err(twin_err)
+    }
+}
+
+impl<T: TwinDevice> Clock for CanTwin<T> {
+    fn now(&self) -> MonoTime {
+        self.twin.now()
+    }
+    fn sleep_until(&mut self, deadline: MonoTime) {
+        self.apply_node_torques();
+        self.twin.sleep_until(deadline);
+        self.publish_encoders();
+    }
+}
