@@ -15,8 +15,11 @@
 #[cfg(any(test, feature = "std"))]
 extern crate std;
 
+pub mod blend;
 pub mod distribution;
 pub mod kinematics;
+pub mod proxy;
+pub mod relief;
 pub mod safety;
 pub mod scene_map;
 pub mod step;
