@@ -1,1 +1,5 @@
-//! placeholder
+//! VIDET vision: the stereo pipeline and the bas-relief surface model.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod surface;
