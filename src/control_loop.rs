@@ -1,14 +1,23 @@
-//! The periodic control loop: absolute-time wake-ups, latency and compute-time accounting,
-//! overrun policy, start-up and clean shutdown. Runs the same on the device and on the twin (whose
-//! simulated clock makes the loop faster than real time and deterministic).
+//! The periodic control loop: absolute-time wake-ups, latency and compute-time histograms,
+//! overrun policy, commands from the supervisor, start-up and clean shutdown. Runs the same on
+//! the device and on the twin (whose simulated clock makes the loop faster than real time and
+//! deterministic).
+//!
+//! Everything here runs on the control thread: no allocation, no locks, no formatting; the
+//! only blocking call is the clock's absolute sleep (and the HAL's bus I/O).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use videt_control::safety::{SafetyReason, SafetyState};
-use videt_control::Surface;
 use videt_hal::{Clock, EStop, Error, Lifecycle, TensionSensors, WireDrives};
 
 use crate::cycle::{ControlCycle, CycleRecord};
+use crate::histogram::Histogram;
+use crate::snapshot::SurfaceFeed;
+
+/// Set by the panic hook when any thread of the service panics: the loop then goes to the safe
+/// state and stops.
+pub static SERVICE_PANICKED: AtomicBool = AtomicBool::new(false);
 
 /// Settings of the loop.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,6 +37,19 @@ impl LoopSettings {
     }
 }
 
+/// A command from the supervisor to the control thread (through a wait-free queue).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ControlCommand {
+    /// Ramp the forces out and stop.
+    Stop,
+    /// Release a wire for replacement (no forces; that wire unpowered).
+    ReleaseWire(u8),
+    /// Leave the released-wire mode.
+    Resume,
+    /// Clear latched faults that do not need a restart.
+    ResetFaults,
+}
+
 /// Timing of the last complete one-second window.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct WindowStats {
@@ -41,15 +63,42 @@ pub struct WindowStats {
     pub overruns_total: u64,
 }
 
+/// Whole-run statistics, preallocated by the caller.
+#[derive(Debug, Clone, Default)]
+pub struct LoopStats {
+    /// Wake-up latency per period, nanoseconds.
+    pub latency: Histogram,
+    /// Compute time per period (wake-up to end of work), nanoseconds.
+    pub compute: Histogram,
+    /// Periods whose work ended after the next deadline.
+    pub overruns: u64,
+    /// Periods run.
+    pub cycles: u64,
+}
+
 /// Receives every period's record. Called on the control thread: must not block or allocate.
 pub trait CycleObserver {
     /// One period finished.
     fn observe(&mut self, record: &CycleRecord, window: &WindowStats);
 }
 
-/// An observer that ignores everything.
 impl CycleObserver for () {
     fn observe(&mut self, _record: &CycleRecord, _window: &WindowStats) {}
+}
+
+impl<A: CycleObserver, B: CycleObserver> CycleObserver for (A, B) {
+    fn observe(&mut self, record: &CycleRecord, window: &WindowStats) {
+        self.0.observe(record, window);
+        self.1.observe(record, window);
+    }
+}
+
+impl<A: CycleObserver, B: CycleObserver, C: CycleObserver> CycleObserver for (A, B, C) {
+    fn observe(&mut self, record: &CycleRecord, window: &WindowStats) {
+        self.0.observe(record, window);
+        self.1.observe(record, window);
+        self.2.observe(record, window);
+    }
 }
 
 /// How the loop ended.
@@ -90,19 +139,39 @@ pub fn start_hardware<H: Lifecycle + WireDrives>(hw: &mut H) -> Result<(), Start
     Ok(())
 }
 
-/// Run the loop until `stop` is set (or the duration passes), then ramp the forces out, power
-/// the drives off and return. The hardware must have been started with [`start_hardware`].
-pub fn run_control_loop<H, S, O>(
+/// What steers the loop from outside.
+pub struct LoopControl<'a> {
+    /// Set (by a signal handler) to ramp out and stop.
+    pub stop: &'a AtomicBool,
+    /// Commands from the supervisor.
+    pub commands: Option<&'a mut rtrb::Consumer<ControlCommand>>,
+}
+
+impl<'a> LoopControl<'a> {
+    /// Steered by a stop flag only.
+    pub fn stop_flag(stop: &'a AtomicBool) -> LoopControl<'a> {
+        LoopControl {
+            stop,
+            commands: None,
+        }
+    }
+}
+
+/// Run the loop until stopped (signal, command, duration, or a panic elsewhere in the service),
+/// then ramp the forces out, power the drives off and return. The hardware must have been
+/// started with [`start_hardware`]; `stats` is filled in place.
+pub fn run_control_loop<H, F, O>(
     hw: &mut H,
-    surface: &S,
+    surfaces: &mut F,
     cycle: &mut ControlCycle,
     settings: &LoopSettings,
-    stop: &AtomicBool,
+    control: &mut LoopControl<'_>,
     observer: &mut O,
+    stats: &mut LoopStats,
 ) -> LoopReport
 where
     H: Lifecycle + WireDrives + TensionSensors + EStop + Clock,
-    S: Surface + ?Sized,
+    F: SurfaceFeed + ?Sized,
     O: CycleObserver + ?Sized,
 {
     let period = settings.period_ns();
@@ -113,23 +182,42 @@ where
     let mut window = WindowStats::default();
     let (mut window_start, mut window_cycles) = (start, 0u64);
     let (mut worst_compute, mut worst_latency) = (0u64, 0u64);
-    let (mut overruns, mut consecutive_overruns, mut cycles) = (0u64, 0u32, 0u64);
+    let mut consecutive_overruns = 0u32;
     let mut stopping = false;
 
     loop {
         hw.sleep_until(next);
         let woke = hw.now();
         let latency = woke.nanos_since(next);
-        if !stopping && (stop.load(Ordering::Relaxed) || end.is_some_and(|e| woke >= e)) {
+
+        if let Some(commands) = control.commands.as_deref_mut() {
+            while let Ok(command) = commands.pop() {
+                match command {
+                    ControlCommand::Stop => control.stop.store(true, Ordering::Relaxed),
+                    ControlCommand::ReleaseWire(w) => cycle.release_wire(Some(usize::from(w))),
+                    ControlCommand::Resume => cycle.release_wire(None),
+                    ControlCommand::ResetFaults => cycle.reset_faults(),
+                }
+            }
+        }
+        let panicked = SERVICE_PANICKED.load(Ordering::Relaxed);
+        if panicked {
+            cycle.trip(SafetyState::MinimumTension(SafetyReason::SoftwareFault));
+        }
+        if !stopping
+            && (panicked || control.stop.load(Ordering::Relaxed) || end.is_some_and(|e| woke >= e))
+        {
             stopping = true;
             cycle.request_stop();
         }
         let overrun_trip = consecutive_overruns >= settings.max_consecutive_overruns;
         record.wake_latency_ns = latency;
-        cycle.run(hw, surface, woke, overrun_trip, &mut record);
+        cycle.run(hw, surfaces.current(), woke, overrun_trip, &mut record);
         let done = hw.now();
         record.compute_ns = done.nanos_since(woke);
-        cycles += 1;
+        stats.cycles += 1;
+        stats.latency.record(latency);
+        stats.compute.record(record.compute_ns);
 
         window_cycles += 1;
         worst_compute = worst_compute.max(record.compute_ns);
@@ -140,7 +228,7 @@ where
                 rate_hz: window_cycles as f64 * 1e9 / window_ns as f64,
                 worst_compute_ns: worst_compute,
                 worst_latency_ns: worst_latency,
-                overruns_total: overruns,
+                overruns_total: stats.overruns,
             };
             window_start = woke;
             window_cycles = 0;
@@ -154,8 +242,8 @@ where
         }
         next = next.add_nanos(period);
         if done > next {
-            overruns += 1;
-            consecutive_overruns += 1;
+            stats.overruns += 1;
+            consecutive_overruns = consecutive_overruns.saturating_add(1);
             // Keep the grid: skip the periods that are already gone.
             let behind = done.nanos_since(next) / period + 1;
             next = next.add_nanos(behind * period);
@@ -169,8 +257,8 @@ where
     let _ = hw.disable();
     let _ = hw.deactivate();
     LoopReport {
-        cycles,
-        overruns,
+        cycles: stats.cycles,
+        overruns: stats.overruns,
         final_safety: cycle.safety_state(),
     }
 }

@@ -7,6 +7,8 @@ use videt_control::safety::{
     SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor,
 };
 use videt_control::{ControlStep, StepInput, StepOutput, Surface};
+
+use crate::snapshot::SurfaceView;
 use videt_hal::{
     DriveSample, DriveState, EStop, MonoTime, TensionSensors, Transmission, WireDrives, WIRES,
 };
@@ -44,8 +46,56 @@ pub struct CycleRecord {
     pub in_contact: bool,
     /// Safety state after this period.
     pub safety: SafetyState,
-    /// Force scale of the start/stop ramp, `[0, 1]`.
+    /// Force scale of the start/stop ramp and the stale-surface fade, `[0, 1]`.
     pub force_scale: f64,
+    /// Version of the surface rendered.
+    pub surface_version: u64,
+    /// The surface was stale (no new model for longer than allowed): forces fade out.
+    pub surface_stale: bool,
+    /// Wire released for replacement (`-1` when none).
+    pub released_wire: i8,
+}
+
+impl CycleRecord {
+    /// Names of the record's 3-vectors, in the order of [`CycleRecord::vectors`].
+    pub const VECTOR_NAMES: [&'static str; 8] = [
+        "lengths_m",
+        "tension_setpoint_n",
+        "tension_measured_n",
+        "torque_nm",
+        "position_m",
+        "velocity_m_s",
+        "desired_force_n",
+        "rendered_force_n",
+    ];
+
+    /// The record's 3-vectors, in a fixed order (telemetry and CSV columns use it).
+    pub fn vectors(&self) -> [&[f64; 3]; 8] {
+        [
+            &self.lengths_m,
+            &self.tension_setpoint_n,
+            &self.tension_measured_n,
+            &self.torque_nm,
+            &self.position_m,
+            &self.velocity_m_s,
+            &self.desired_force_n,
+            &self.rendered_force_n,
+        ]
+    }
+
+    /// The record's 3-vectors, mutably, in the order of [`CycleRecord::vectors`].
+    pub fn vectors_mut(&mut self) -> [&mut [f64; 3]; 8] {
+        [
+            &mut self.lengths_m,
+            &mut self.tension_setpoint_n,
+            &mut self.tension_measured_n,
+            &mut self.torque_nm,
+            &mut self.position_m,
+            &mut self.velocity_m_s,
+            &mut self.desired_force_n,
+            &mut self.rendered_force_n,
+        ]
+    }
 }
 
 /// How the encoder counts become wire lengths: `length = length_at_zero_m - counts * m/count`.
@@ -76,6 +126,10 @@ pub struct CycleSettings {
     pub ramp_s: f64,
     /// The rig has a valid calibration (forces are rendered only then).
     pub calibrated: bool,
+    /// A live surface older than this is stale, seconds.
+    pub surface_max_age_s: f64,
+    /// Time over which forces fade out on a stale surface (and back in), seconds.
+    pub surface_fade_s: f64,
 }
 
 /// Where the force ramp is.
@@ -99,6 +153,10 @@ pub struct ControlCycle {
     force_scale: f64,
     cycle: u64,
     powered_off: bool,
+    surface_version: u64,
+    surface_changed_at_s: f64,
+    surface_scale: f64,
+    released_wire: Option<usize>,
 }
 
 impl ControlCycle {
@@ -114,6 +172,29 @@ impl ControlCycle {
             force_scale: 0.0,
             cycle: 0,
             powered_off: false,
+            surface_version: 0,
+            surface_changed_at_s: 0.0,
+            surface_scale: 1.0,
+            released_wire: None,
+        }
+    }
+
+    /// Release wire `wire` for replacement: no force rendering, that wire unpowered (it can be
+    /// pulled out by hand), the others held at minimum tension. `None` resumes.
+    pub fn release_wire(&mut self, wire: Option<usize>) {
+        self.released_wire = wire.filter(|&w| w < WIRES);
+    }
+
+    /// The wire released for replacement, if any.
+    pub fn released_wire(&self) -> Option<usize> {
+        self.released_wire
+    }
+
+    /// Clear latched faults (operator action). The drives stay off after a power-off fault
+    /// until the service is restarted.
+    pub fn reset_faults(&mut self) {
+        if !self.powered_off {
+            self.safety.reset();
         }
     }
 
@@ -148,7 +229,7 @@ impl ControlCycle {
     pub fn run<H, S>(
         &mut self,
         hw: &mut H,
-        surface: &S,
+        view: SurfaceView<'_, S>,
         now: MonoTime,
         deadline_overrun: bool,
         record: &mut CycleRecord,
@@ -219,9 +300,32 @@ impl ControlCycle {
             }
             Ramp::Finished => self.force_scale = 0.0,
         }
-        step_in.render_forces = state.renders_forces();
-        step_in.force_scale = self.force_scale;
-        self.step.update(&step_in, surface, &mut self.output);
+        // A live surface that stopped changing is stale: fade the forces out (and back in when a
+        // new model arrives).
+        let now_s = now.as_secs_f64();
+        if view.version != self.surface_version {
+            self.surface_version = view.version;
+            self.surface_changed_at_s = now_s;
+        }
+        let stale =
+            view.live && now_s - self.surface_changed_at_s > self.settings.surface_max_age_s;
+        let fade_step = if self.settings.surface_fade_s > 0.0 {
+            dt / self.settings.surface_fade_s
+        } else {
+            1.0
+        };
+        self.surface_scale = if stale {
+            (self.surface_scale - fade_step).max(0.0)
+        } else {
+            (self.surface_scale + fade_step).min(1.0)
+        };
+
+        step_in.render_forces = state.renders_forces() && self.released_wire.is_none();
+        step_in.force_scale = self.force_scale * self.surface_scale;
+        self.step.update(&step_in, view.surface, &mut self.output);
+        if let Some(w) = self.released_wire {
+            self.output.torque_nm[w] = 0.0;
+        }
 
         if state.power_off() {
             if !self.powered_off {
@@ -255,7 +359,10 @@ impl ControlCycle {
             contact_depth_m: o.contact.map_or(0.0, |c| c.depth_m),
             in_contact: o.contact.is_some(),
             safety: self.safety.state(),
-            force_scale: self.force_scale,
+            force_scale: step_in.force_scale,
+            surface_version: self.surface_version,
+            surface_stale: stale,
+            released_wire: self.released_wire.map_or(-1, |w| w as i8),
         };
         self.cycle += 1;
     }

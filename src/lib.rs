@@ -7,8 +7,13 @@
 
 pub mod control_loop;
 pub mod cycle;
+pub mod histogram;
 pub mod rt;
+pub mod service;
 pub mod setup;
+pub mod snapshot;
+pub mod socket;
 pub mod status;
+pub mod telemetry;
 pub mod tool;
 pub mod twin_rt;

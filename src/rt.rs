@@ -83,17 +83,69 @@ pub fn prefault_stack(bytes: usize) {
 }
 
 /// Make the calling thread SCHED_FIFO at `priority` (1..=99).
-pub fn set_fifo(priority: u8) -> io::Result<()> {
-    let param = libc::sched_param {
-        sched_priority: i32::from(priority),
+pub fn set_fifo(priority: u8) -> Result<(), String> {
+    use thread_priority::unix::{
+        set_thread_priority_and_policy, thread_native_id, RealtimeThreadSchedulePolicy,
+        ThreadSchedulePolicy,
     };
-    // SAFETY: `param` is a valid sched_param; 0 means the calling thread.
-    let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
-    if rc == 0 {
-        Ok(())
-    } else {
-        Err(io::Error::last_os_error())
+    use thread_priority::{ThreadPriority, ThreadPriorityValue};
+    let value =
+        ThreadPriorityValue::try_from(priority).map_err(|e| format!("priority {priority}: {e}"))?;
+    set_thread_priority_and_policy(
+        thread_native_id(),
+        ThreadPriority::Crossplatform(value),
+        ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+    )
+    .map_err(|e| format!("{e:?}"))
+}
+
+/// Give the calling thread a lower real-time priority (the vision thread), or leave it
+/// SCHED_OTHER when `priority` is 0.
+pub fn set_background_priority(priority: u8) -> Option<String> {
+    if priority == 0 {
+        return None;
     }
+    set_fifo(priority)
+        .err()
+        .map(|e| format!("vision thread stays SCHED_OTHER: SCHED_FIFO {priority} refused ({e})"))
+}
+
+/// Warnings about the machine's real-time fitness: the control CPU not isolated, the kernel not
+/// PREEMPT_RT.
+pub fn platform_warnings(control_cpu: Option<usize>) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let realtime_kernel = std::fs::read_to_string("/sys/kernel/realtime")
+        .is_ok_and(|s| s.trim() == "1")
+        || std::fs::read_to_string("/proc/sys/kernel/version")
+            .is_ok_and(|v| v.contains("PREEMPT_RT"));
+    if !realtime_kernel {
+        warnings.push(
+            "kernel is not PREEMPT_RT: expect occasional wake-up latencies of milliseconds; use a PREEMPT_RT kernel on the device".to_string(),
+        );
+    }
+    if let Some(cpu) = control_cpu {
+        let isolated =
+            std::fs::read_to_string("/sys/devices/system/cpu/isolated").unwrap_or_default();
+        if !cpu_list_contains(isolated.trim(), cpu) {
+            warnings.push(format!(
+                "control CPU {cpu} is not isolated (isolcpus/nohz_full): other tasks and interrupts share it"
+            ));
+        }
+    }
+    warnings
+}
+
+/// Whether a kernel CPU list such as `1,3-5` contains `cpu`.
+pub fn cpu_list_contains(list: &str, cpu: usize) -> bool {
+    list.split(',')
+        .filter(|p| !p.is_empty())
+        .any(|part| match part.split_once('-') {
+            Some((a, b)) => match (a.trim().parse::<usize>(), b.trim().parse::<usize>()) {
+                (Ok(a), Ok(b)) => (a..=b).contains(&cpu),
+                _ => false,
+            },
+            None => part.trim().parse::<usize>() == Ok(cpu),
+        })
 }
 
 /// Pin the calling thread to `cpu`.
@@ -140,4 +192,26 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
     }
     prefault_stack(256 * 1024);
     report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_lists() {
+        assert!(cpu_list_contains("1,3-5", 4));
+        assert!(cpu_list_contains("1,3-5", 1));
+        assert!(!cpu_list_contains("1,3-5", 2));
+        assert!(!cpu_list_contains("", 0));
+    }
+
+    #[test]
+    fn system_clock_is_monotonic_and_sleeps_to_the_deadline() {
+        let mut c = SystemClock;
+        let a = c.now();
+        let deadline = a.add_nanos(2_000_000);
+        c.sleep_until(deadline);
+        assert!(c.now() >= deadline);
+    }
 }

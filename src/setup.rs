@@ -76,6 +76,8 @@ pub fn control_cycle(
             period_s: 1.0 / f64::from(c.rate_hz),
             ramp_s: c.ramp_down_s,
             calibrated,
+            surface_max_age_s: config.vision.surface_max_age_s,
+            surface_fade_s: config.vision.surface_fade_s,
         },
     )
 }

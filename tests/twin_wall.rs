@@ -4,7 +4,8 @@
 use std::sync::atomic::AtomicBool;
 
 use videt::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopSettings, WindowStats,
+    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
+    WindowStats,
 };
 use videt::cycle::{CycleRecord, WireZero};
 use videt::setup;
@@ -44,13 +45,15 @@ fn run(
     let mut twin = scene.twin;
     start_hardware(&mut twin).unwrap();
     let mut recorder = Recorder(Vec::with_capacity(20_000));
+    let stop = AtomicBool::new(false);
     let report = run_control_loop(
         &mut twin,
-        &scene.wall,
+        &mut videt::snapshot::FixedSurface(scene.wall),
         &mut cycle,
         &settings,
-        &AtomicBool::new(false),
+        &mut LoopControl::stop_flag(&stop),
         &mut recorder,
+        &mut LoopStats::default(),
     );
     (twin, recorder.0, report)
 }
@@ -141,4 +144,105 @@ fn operator_slides_along_the_wall_without_popping_through() {
     // The true plant agrees with what the controller believed.
     let believed = Vec3::from(records.last().unwrap().position_m);
     assert!((twin.plant().position_m() - believed).norm() < 0.002);
+}
+
+/// A live surface whose model is renewed once, at `renew_after` periods.
+struct StallingVision {
+    wall: videt_control::Plane,
+    calls: u64,
+    renew_after: u64,
+}
+
+impl videt::snapshot::SurfaceFeed for StallingVision {
+    type Surface = videt_control::Plane;
+    fn current(&mut self) -> videt::snapshot::SurfaceView<'_, videt_control::Plane> {
+        self.calls += 1;
+        let version = if self.calls < self.renew_after { 1 } else { 2 };
+        videt::snapshot::SurfaceView {
+            surface: &self.wall,
+            version,
+            live: true,
+        }
+    }
+}
+
+/// Vision stalls: the surface snapshot stops changing; after `vision.surface_max_age_s` the
+/// forces fade to the free-space field over `surface_fade_s`, and come back when a new model
+/// arrives.
+#[test]
+fn a_stale_surface_fades_to_free_space_and_recovers() {
+    let mut config = Config::default();
+    config.vision.surface_max_age_s = 0.5;
+    config.vision.surface_fade_s = 0.2;
+    let scene = setup::demo_scene(&config, 3);
+    let start = scene.twin.plant().position_m();
+    let press = Vec3::new(start.x, start.y, scene.wall_z_m + 0.02);
+    let mut twin = scene.twin;
+    twin.set_operator(VirtualOperator::new(
+        vec![
+            Waypoint {
+                time_s: 0.0,
+                target_m: start,
+            },
+            Waypoint {
+                time_s: 0.3,
+                target_m: press,
+            },
+        ],
+        200.0,
+        6.0,
+    ));
+    let rig = setup::rig(&config).unwrap();
+    let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+    let mut vision = StallingVision {
+        wall: scene.wall,
+        calls: 0,
+        renew_after: 1000,
+    };
+    start_hardware(&mut twin).unwrap();
+    let stop = AtomicBool::new(false);
+    let mut recorder = Recorder(Vec::with_capacity(3000));
+    // No new model until 1.0 s (stale from 0.5 s), then one: stop at 1.6 s.
+    let settings = LoopSettings {
+        rate_hz: 1000,
+        duration_ns: Some(1_600_000_000),
+        max_consecutive_overruns: 10,
+    };
+    run_control_loop(
+        &mut twin,
+        &mut vision,
+        &mut cycle,
+        &settings,
+        &mut LoopControl::stop_flag(&stop),
+        &mut recorder,
+        &mut LoopStats::default(),
+    );
+    let r = &recorder.0;
+    let at = |t: f64| r.iter().find(|x| x.time.as_secs_f64() >= t).unwrap();
+    assert!(!at(0.45).surface_stale && at(0.45).in_contact);
+    assert!(at(0.6).surface_stale, "stale after the maximum age");
+    let faded = at(0.95);
+    assert_eq!(faded.force_scale, 0.0, "faded out after the fade time");
+    assert!(Vec3::from(faded.desired_force_n).norm() < 1e-9);
+    assert!(
+        faded
+            .tension_setpoint_n
+            .iter()
+            .all(|&t| (t - config.control.t_min_n).abs() < 1e-9),
+        "free-space tensions"
+    );
+    let recovered = at(1.45);
+    assert!(
+        !recovered.surface_stale && recovered.force_scale == 1.0,
+        "forces back with the new model"
+    );
+    assert!(recovered.in_contact && Vec3::from(recovered.rendered_force_n).norm() > 1.0);
+    // Gradual both ways: per period the scale moves by at most the surface fade's share plus the
+    // stop ramp's share (the two compound when the model goes stale again during the stop).
+    let max_step = r
+        .windows(2)
+        .map(|w| (w[1].force_scale - w[0].force_scale).abs())
+        .fold(0.0, f64::max);
+    let bound = 1e-3 / config.vision.surface_fade_s + 1e-3 / config.control.ramp_down_s;
+    assert!(max_step <= bound + 1e-9, "fade step {max_step} > {bound}");
 }

@@ -42,6 +42,8 @@ pub enum SafetyReason {
     NotCalibrated,
     /// The surface model is older than allowed (vision stalled).
     StaleSurface,
+    /// A thread of the service failed (panicked); the service is stopping.
+    SoftwareFault,
 }
 
 impl SafetyReason {
@@ -57,6 +59,7 @@ impl SafetyReason {
             SafetyReason::DeadlineOverrun => "deadline-overrun",
             SafetyReason::NotCalibrated => "not-calibrated",
             SafetyReason::StaleSurface => "stale-surface",
+            SafetyReason::SoftwareFault => "software-fault",
         }
     }
 

@@ -54,6 +54,148 @@ pub struct Config {
     pub control: ControlConfig,
     /// Real-time settings.
     pub realtime: RealtimeConfig,
+    /// Wire drives on the CAN bus.
+    pub drives: DrivesConfig,
+    /// Strain-gauge tension sensors.
+    pub sensors: SensorsConfig,
+    /// Vision thread and the surface it feeds to the control loop.
+    pub vision: VisionConfig,
+    /// Per-cycle telemetry log.
+    pub telemetry: TelemetryConfig,
+    /// Local control socket for the `videt` tool.
+    pub socket: SocketConfig,
+}
+
+/// The CiA 402 wire drives.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DrivesConfig {
+    /// SocketCAN interface name.
+    pub can_interface: String,
+    /// CANopen node ids of the drives of wires 0, 1, 2 (1..=127).
+    pub node_ids: [u8; 3],
+    /// Motor rated torque (CiA 402 object 0x6076), N·m: target torque is in per-mille of it.
+    pub rated_torque_nm: f64,
+    /// Heartbeat period the drives produce, milliseconds.
+    pub heartbeat_ms: u16,
+    /// A drive silent for this long is a fault, milliseconds.
+    pub heartbeat_timeout_ms: u16,
+}
+
+/// Which ADC reads the strain gauges.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TensionAdc {
+    /// HX711 on GPIO clock/data lines.
+    Hx711,
+    /// ADS1220 on SPI.
+    Ads1220,
+}
+
+/// Strain-gauge tension sensors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorsConfig {
+    /// ADC type.
+    pub adc: TensionAdc,
+    /// A tension sample older than this is stale, milliseconds.
+    pub stale_after_ms: u16,
+    /// GPIO chip device of the e-stop and vibrotactor lines.
+    pub gpio_chip: String,
+    /// GPIO line of the (active-low) e-stop input.
+    pub estop_line: u32,
+    /// GPIO lines of the three vibrotactors (red, green, blue channels).
+    pub vibrotactor_lines: [u32; 3],
+}
+
+/// Vision thread.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VisionConfig {
+    /// Left and right V4L2 devices.
+    pub devices: [String; 2],
+    /// A live surface not renewed for this long is stale, seconds: forces fade out.
+    pub surface_max_age_s: f64,
+    /// Time over which forces fade on a stale surface, seconds.
+    pub surface_fade_s: f64,
+}
+
+/// Per-cycle telemetry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TelemetryConfig {
+    /// Record every cycle to a session log.
+    pub enabled: bool,
+    /// Directory of the session logs.
+    pub directory: String,
+    /// Capacity of the ring from the control thread to the writer, records (a full ring drops).
+    pub ring_records: u32,
+}
+
+/// The local control socket.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SocketConfig {
+    /// Path of the Unix domain socket (mode 0660).
+    pub path: String,
+    /// Largest request accepted, bytes.
+    pub max_request_bytes: u32,
+    /// A client that sends nothing for this long is disconnected, milliseconds.
+    pub client_timeout_ms: u32,
+}
+
+impl Default for DrivesConfig {
+    fn default() -> Self {
+        DrivesConfig {
+            can_interface: "can0".into(),
+            node_ids: [1, 2, 3],
+            rated_torque_nm: 0.05,
+            heartbeat_ms: 10,
+            heartbeat_timeout_ms: 50,
+        }
+    }
+}
+
+impl Default for SensorsConfig {
+    fn default() -> Self {
+        SensorsConfig {
+            adc: TensionAdc::Ads1220,
+            stale_after_ms: 20,
+            gpio_chip: "/dev/gpiochip0".into(),
+            estop_line: 17,
+            vibrotactor_lines: [22, 23, 24],
+        }
+    }
+}
+
+impl Default for VisionConfig {
+    fn default() -> Self {
+        VisionConfig {
+            devices: ["/dev/video0".into(), "/dev/video2".into()],
+            surface_max_age_s: 2.0,
+            surface_fade_s: 0.5,
+        }
+    }
+}
+
+impl Default for TelemetryConfig {
+    fn default() -> Self {
+        TelemetryConfig {
+            enabled: true,
+            directory: "/var/log/videt".into(),
+            ring_records: 16384,
+        }
+    }
+}
+
+impl Default for SocketConfig {
+    fn default() -> Self {
+        SocketConfig {
+            path: "/run/videt/videtd.sock".into(),
+            max_request_bytes: 4096,
+            client_timeout_ms: 2000,
+        }
+    }
 }
 
 /// Rig geometry (used until an auto-initialization calibration is available).
@@ -114,6 +256,10 @@ pub struct RealtimeConfig {
     pub control_cpu: i32,
     /// Lock all memory (`mlockall`).
     pub lock_memory: bool,
+    /// SCHED_FIFO priority of the vision thread (0 = SCHED_OTHER).
+    pub vision_priority: u8,
+    /// This many control-loop overruns in a row force the minimum-tension safe state.
+    pub max_consecutive_overruns: u32,
 }
 
 impl Default for RigConfig {
@@ -159,6 +305,8 @@ impl Default for RealtimeConfig {
             control_priority: 80,
             control_cpu: 1,
             lock_memory: true,
+            vision_priority: 0,
+            max_consecutive_overruns: 10,
         }
     }
 }

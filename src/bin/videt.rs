@@ -19,12 +19,21 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Summarise a telemetry session log and export it as CSV.
+    Log(tool::log::LogArgs),
+    /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
+    Service(tool::service::ServiceArgs),
+    /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
+    BenchRt(tool::bench_rt::BenchRtArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Log(a) => tool::log::run(a),
+        Command::Service(a) => tool::service::run(a),
+        Command::BenchRt(a) => tool::bench_rt::run(a),
     };
     match result {
         Ok(code) => code,

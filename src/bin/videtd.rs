@@ -2,21 +2,20 @@
 //!
 //! `videtd --sim` runs the real runtime and control code on the digital twin (a virtual wall and
 //! a virtual operator who touches it and slides along it). One status line per second; Ctrl-C or
-//! SIGTERM ramps the forces out, powers the drives off and exits 0.
+//! SIGTERM ramps the forces out, powers the drives off and exits 0. Under systemd
+//! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
+//! control loop is healthy.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
 
 use clap::{Parser, ValueEnum};
-use tracing::{error, info, warn};
-use videt::control_loop::{run_control_loop, start_hardware, LoopSettings};
+use tracing::error;
 use videt::cycle::WireZero;
-use videt::status::status_channel;
+use videt::service::{run_service, ServiceOptions};
+use videt::setup;
+use videt::snapshot::FixedSurface;
 use videt::twin_rt::RealTimeTwin;
-use videt::{rt, setup};
 use videt_rt_config::Config;
 
 /// Which twin `--sim` runs on.
@@ -33,13 +32,25 @@ struct Args {
     /// Run on the digital twin instead of the device.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "hal")]
     sim: Option<SimMode>,
-    /// Configuration file (default: /etc/videt/videt.toml when present, else built-in defaults
-    /// with --sim).
+    /// Configuration file (default: /etc/videt/videt.toml when present; with --sim, built-in
+    /// defaults otherwise).
     #[arg(long)]
     config: Option<PathBuf>,
     /// Stop cleanly after this many seconds.
     #[arg(long, value_name = "SECS")]
     duration: Option<f64>,
+    /// Control socket path (overrides socket.path).
+    #[arg(long, value_name = "PATH")]
+    socket: Option<PathBuf>,
+    /// Run without the control socket.
+    #[arg(long, conflicts_with = "socket")]
+    no_socket: bool,
+    /// Directory of the session log (overrides telemetry.directory).
+    #[arg(long, value_name = "DIR")]
+    telemetry_dir: Option<PathBuf>,
+    /// Run without the per-period telemetry log.
+    #[arg(long, conflicts_with = "telemetry_dir")]
+    no_telemetry: bool,
 }
 
 const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -78,107 +89,46 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
-    if args.sim.is_none() {
-        error!("no device backend is built into this videtd: run with --sim for the digital twin");
-        return ExitCode::from(2);
+    let mut options = ServiceOptions::from_config(config.clone());
+    options.duration_s = args.duration;
+    if args.no_socket {
+        options.socket_path = None;
+    } else if let Some(p) = &args.socket {
+        options.socket_path = Some(p.clone());
     }
-    run_on_twin(&config, args.duration)
-}
-
-fn run_on_twin(config: &Config, duration_s: Option<f64>) -> ExitCode {
-    let rig = match setup::rig(config) {
+    if args.no_telemetry {
+        options.telemetry_dir = None;
+    } else if let Some(d) = &args.telemetry_dir {
+        options.telemetry_dir = Some(d.clone());
+    }
+    let rig = match setup::rig(&config) {
         Ok(r) => r,
         Err(e) => {
             error!("rig geometry: {e}");
             return ExitCode::from(2);
         }
     };
-    if config.realtime.lock_memory {
-        if let Err(e) = rt::lock_memory() {
-            warn!("memory not locked (mlockall: {e}); page faults may delay the control loop");
-        }
-    }
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        if let Err(e) = signal_hook::flag::register(signal, Arc::clone(&stop)) {
-            error!("cannot install the handler for signal {signal}: {e}");
-            return ExitCode::FAILURE;
-        }
-    }
-
-    let scene = setup::demo_scene(config, 1);
-    let wall = scene.wall;
-    let mut cycle = setup::control_cycle(config, rig, WireZero::default(), true);
-    let settings = LoopSettings {
-        rate_hz: config.control.rate_hz,
-        duration_ns: duration_s.map(|d| (d * 1e9) as u64),
-        max_consecutive_overruns: 10,
-    };
-    let (mut publisher, mut reader) = status_channel();
-    let priority = config.realtime.control_priority;
-    let cpu = usize::try_from(config.realtime.control_cpu).ok();
-    let thread_stop = Arc::clone(&stop);
-    info!(
-        rate_hz = settings.rate_hz,
-        wall_z_m = scene.wall_z_m,
-        "starting the control loop on the digital twin (virtual wall, virtual operator)"
-    );
-    let control = std::thread::Builder::new()
-        .name("videt-control".into())
-        .spawn(move || {
-            let report = rt::setup_control_thread(priority, cpu);
-            for w in &report.warnings {
-                warn!("{w}");
-            }
-            let mut hw = RealTimeTwin::new(scene.twin);
-            start_hardware(&mut hw).map_err(|e| e.to_string())?;
-            Ok::<_, String>(run_control_loop(
-                &mut hw,
-                &wall,
-                &mut cycle,
-                &settings,
-                &thread_stop,
-                &mut publisher,
-            ))
-        });
-    let control = match control {
-        Ok(handle) => handle,
-        Err(e) => {
-            error!("cannot start the control thread: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-
-    let mut last_print = std::time::Instant::now();
-    while !control.is_finished() {
-        std::thread::sleep(Duration::from_millis(20));
-        if last_print.elapsed() >= Duration::from_secs(1) {
-            last_print = std::time::Instant::now();
-            println!("{}", reader.latest().line());
-        }
-    }
-    match control.join() {
-        Ok(Ok(report)) => {
-            let s = reader.latest();
-            println!("{}", s.line());
-            info!(
-                cycles = report.cycles,
-                overruns = report.overruns,
-                safety = report.final_safety.as_str(),
-                "control loop stopped: forces ramped out, drives off"
+    match args.sim {
+        Some(SimMode::Hal) => {
+            let scene = setup::demo_scene(&config, 1);
+            tracing::info!(
+                rate_hz = config.control.rate_hz,
+                wall_z_m = scene.wall_z_m,
+                "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
             );
-            if stop.load(Ordering::Relaxed) {
-                info!("stopped by signal");
-            }
-            ExitCode::SUCCESS
+            let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+            run_service(
+                RealTimeTwin::new(scene.twin),
+                FixedSurface(scene.wall),
+                cycle,
+                &options,
+            )
         }
-        Ok(Err(e)) => {
-            error!("{e}");
-            ExitCode::FAILURE
-        }
-        Err(_) => {
-            error!("the control thread panicked; the drives were left to their communication-loss stop");
-            ExitCode::from(70)
+        None => {
+            error!(
+                "no device backend is built into this videtd: run with --sim for the digital twin"
+            );
+            ExitCode::from(2)
         }
     }
 }

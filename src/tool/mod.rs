@@ -1,7 +1,10 @@
 //! Subcommands of the `videt` tool, one module each. Each exposes its clap arguments and a `run`
 //! function returning the process exit code or an error to print.
 
+pub mod bench_rt;
 pub mod config;
+pub mod log;
+pub mod service;
 
 /// The error a subcommand reports to the user (printed as `videt: <message>`).
 pub type ToolError = Box<dyn std::error::Error + Send + Sync>;

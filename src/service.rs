@@ -1,0 +1,352 @@
+//! The service: control thread, telemetry writer, control socket and the supervisor (systemd
+//! notify and watchdog, status lines, logging of safety transitions). Generic over the hardware
+//! and the surface feed, so the device and the twin run the same service code.
+
+use std::panic::AssertUnwindSafe;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use sd_notify::NotifyState;
+use tracing::{error, info, warn};
+use videt_control::safety::SafetyState;
+use videt_hal::{Clock, EStop, Lifecycle, TensionSensors, WireDrives};
+use videt_rt_config::Config;
+
+use crate::control_loop::{
+    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopReport, LoopSettings,
+    LoopStats, SERVICE_PANICKED,
+};
+use crate::cycle::ControlCycle;
+use crate::rt;
+use crate::snapshot::SurfaceFeed;
+use crate::socket::{self, ServerSettings, ServerShared, StatusReport};
+use crate::status::{status_channel, StatusPublisher, StatusSnapshot};
+use crate::telemetry::{self, LogHeader, TelemetryProducer};
+
+/// Exit code after a panic in any thread.
+pub const EXIT_PANIC: u8 = 70;
+
+/// How the service runs.
+#[derive(Debug, Clone)]
+pub struct ServiceOptions {
+    /// The validated configuration.
+    pub config: Config,
+    /// Stop cleanly after this many seconds.
+    pub duration_s: Option<f64>,
+    /// Control socket path (`None`: no socket).
+    pub socket_path: Option<PathBuf>,
+    /// Directory for the session log (`None`: no telemetry).
+    pub telemetry_dir: Option<PathBuf>,
+    /// Print one status line per second on stdout.
+    pub status_lines: bool,
+}
+
+impl ServiceOptions {
+    /// Options from the configuration alone.
+    pub fn from_config(config: Config) -> ServiceOptions {
+        let socket_path = Some(PathBuf::from(&config.socket.path));
+        let telemetry_dir = config
+            .telemetry
+            .enabled
+            .then(|| PathBuf::from(&config.telemetry.directory));
+        ServiceOptions {
+            config,
+            duration_s: None,
+            socket_path,
+            telemetry_dir,
+            status_lines: true,
+        }
+    }
+}
+
+/// Install a panic hook that, besides printing, tells the control loop to go safe and stop.
+pub fn install_panic_hook() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        SERVICE_PANICKED.store(true, Ordering::SeqCst);
+        default(info);
+    }));
+}
+
+/// The control thread's observers: status for the supervisor, telemetry for the log.
+struct Observers {
+    status: StatusPublisher,
+    telemetry: Option<TelemetryProducer>,
+}
+
+impl CycleObserver for Observers {
+    fn observe(
+        &mut self,
+        record: &crate::cycle::CycleRecord,
+        window: &crate::control_loop::WindowStats,
+    ) {
+        self.status.observe(record, window);
+        if let Some(t) = self.telemetry.as_mut() {
+            t.observe(record, window);
+        }
+    }
+}
+
+/// Run the service on `hw` with surfaces from `feed` until stopped; returns the exit code.
+pub fn run_service<H, F>(
+    mut hw: H,
+    mut feed: F,
+    mut cycle: ControlCycle,
+    options: &ServiceOptions,
+) -> ExitCode
+where
+    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + Send + 'static,
+    F: SurfaceFeed + Send + 'static,
+{
+    install_panic_hook();
+    let config = &options.config;
+    if config.realtime.lock_memory {
+        if let Err(e) = rt::lock_memory() {
+            warn!("memory not locked (mlockall: {e}); page faults may delay the control loop");
+        }
+    }
+    let control_cpu = usize::try_from(config.realtime.control_cpu).ok();
+    for w in rt::platform_warnings(control_cpu) {
+        warn!("{w}");
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        if let Err(e) = signal_hook::flag::register(signal, Arc::clone(&stop)) {
+            error!("cannot install the handler for signal {signal}: {e}");
+            return ExitCode::FAILURE;
+        }
+    }
+
+    // Telemetry.
+    let mut telemetry_writer = None;
+    let mut telemetry_producer = None;
+    if let Some(dir) = &options.telemetry_dir {
+        let start_unix_ns = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos() as u64)
+            .unwrap_or(0);
+        let path = dir.join(format!("videt-{}.vlog", start_unix_ns / 1_000_000_000));
+        let started = std::fs::create_dir_all(dir).and_then(|()| {
+            telemetry::start(
+                &path,
+                LogHeader {
+                    rate_hz: config.control.rate_hz,
+                    start_unix_ns,
+                },
+                config.telemetry.ring_records as usize,
+            )
+        });
+        match started {
+            Ok((producer, writer)) => {
+                info!(log = %path.display(), "recording every control period");
+                telemetry_producer = Some(producer);
+                telemetry_writer = Some(writer);
+            }
+            Err(e) => warn!("telemetry disabled: cannot write {}: {e}", path.display()),
+        }
+    }
+
+    // Control socket.
+    let (command_tx, mut command_rx) = rtrb::RingBuffer::new(64);
+    let shared = Arc::new(ServerShared {
+        status: Mutex::new(StatusReport::from_snapshot(&StatusSnapshot::default(), 0)),
+        commands: Mutex::new(command_tx),
+    });
+    let server = match &options.socket_path {
+        Some(path) => {
+            let settings = ServerSettings {
+                path: path.clone(),
+                max_request_bytes: config.socket.max_request_bytes as usize,
+                client_timeout: Duration::from_millis(u64::from(config.socket.client_timeout_ms)),
+                max_clients: 8,
+            };
+            match socket::serve(settings, Arc::clone(&shared)) {
+                Ok(s) => {
+                    info!(socket = %path.display(), "control socket ready");
+                    Some(s)
+                }
+                Err(e @ socket::ServerError::InUse(_)) => {
+                    error!("{e}");
+                    return ExitCode::FAILURE;
+                }
+                Err(e) => {
+                    warn!("no control socket: {e}");
+                    None
+                }
+            }
+        }
+        None => None,
+    };
+
+    // Control thread.
+    let settings = LoopSettings {
+        rate_hz: config.control.rate_hz,
+        duration_ns: options.duration_s.map(|d| (d * 1e9) as u64),
+        max_consecutive_overruns: config.realtime.max_consecutive_overruns,
+    };
+    let (publisher, mut reader) = status_channel();
+    let priority = config.realtime.control_priority;
+    let thread_stop = Arc::clone(&stop);
+    let control = std::thread::Builder::new()
+        .name("videt-control".into())
+        .spawn(move || {
+            let report = rt::setup_control_thread(priority, control_cpu);
+            for w in &report.warnings {
+                warn!("{w}");
+            }
+            start_hardware(&mut hw).map_err(|e| e.to_string())?;
+            let mut observers = Observers {
+                status: publisher,
+                telemetry: telemetry_producer,
+            };
+            let mut stats = LoopStats::default();
+            let mut loop_control = LoopControl {
+                stop: &thread_stop,
+                commands: Some(&mut command_rx),
+            };
+            let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| {
+                run_control_loop(
+                    &mut hw,
+                    &mut feed,
+                    &mut cycle,
+                    &settings,
+                    &mut loop_control,
+                    &mut observers,
+                    &mut stats,
+                )
+            }));
+            match outcome {
+                Ok(report) => Ok((report, stats)),
+                Err(_) => {
+                    // Safe state: power off (the drives also stop by themselves when the host goes
+                    // silent).
+                    let _ = hw.disable();
+                    let _ = hw.deactivate();
+                    Err("the control loop panicked; drives powered off".to_string())
+                }
+            }
+        });
+    let control = match control {
+        Ok(handle) => handle,
+        Err(e) => {
+            error!("cannot start the control thread: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+
+    // Supervisor.
+    let watchdog = sd_notify::watchdog_enabled();
+    let mut ready = false;
+    let mut last_status_line = Instant::now();
+    let mut last_watchdog = Instant::now();
+    let (mut last_cycle, mut last_progress) = (0u64, Instant::now());
+    let mut last_safety = SafetyState::Normal;
+    let mut last_stale = false;
+    while !control.is_finished() {
+        std::thread::sleep(Duration::from_millis(10));
+        let snapshot = reader.latest();
+        let record = snapshot.record;
+        if record.cycle != last_cycle {
+            last_cycle = record.cycle;
+            last_progress = Instant::now();
+        }
+        let running = record.cycle > 0;
+        if running && !ready {
+            ready = true;
+            info!("control loop running, drives enabled");
+            let _ = sd_notify::notify(&[
+                NotifyState::Ready,
+                NotifyState::Status("control loop running"),
+            ]);
+        }
+        if record.safety != last_safety {
+            match record.safety.reason() {
+                Some(reason) => warn!(
+                    reason = reason.as_str(),
+                    wire = reason.wire().map(i64::from).unwrap_or(-1),
+                    power_off = record.safety.power_off(),
+                    "safe state"
+                ),
+                None => info!("safety: back to normal operation"),
+            }
+            last_safety = record.safety;
+        }
+        if record.surface_stale != last_stale {
+            if record.surface_stale {
+                warn!("surface model stale (vision stalled): forces fade to the free-space field");
+            } else {
+                info!("surface model fresh again: forces restored");
+            }
+            last_stale = record.surface_stale;
+        }
+        // Healthy: periods keep coming and the drives are not powered off by a fault.
+        let healthy = running
+            && last_progress.elapsed() < Duration::from_millis(100)
+            && !record.safety.power_off();
+        if let Some(interval) = watchdog {
+            if healthy && last_watchdog.elapsed() >= interval / 2 {
+                let _ = sd_notify::notify(&[NotifyState::Watchdog]);
+                last_watchdog = Instant::now();
+            }
+        }
+        let dropped = telemetry_writer.as_ref().map_or(0, |w| w.dropped());
+        if let Ok(mut status) = shared.status.lock() {
+            *status = StatusReport::from_snapshot(&snapshot, dropped);
+        }
+        if options.status_lines && running && last_status_line.elapsed() >= Duration::from_secs(1) {
+            last_status_line = Instant::now();
+            println!("{}", snapshot.line());
+        }
+    }
+    let _ = sd_notify::notify(&[NotifyState::Stopping]);
+    let outcome = control.join();
+    if let Some(server) = server {
+        server.stop();
+    }
+    if let Some(writer) = telemetry_writer {
+        let dropped = writer.dropped();
+        match writer.finish() {
+            Ok(written) => info!(written, dropped, "telemetry log closed"),
+            Err(e) => error!("telemetry log incomplete: {e}"),
+        }
+    }
+    let panicked = SERVICE_PANICKED.load(Ordering::SeqCst);
+    match outcome {
+        Ok(Ok((report, stats))) => {
+            if options.status_lines {
+                println!("{}", reader.latest().line());
+            }
+            log_report(&report, &stats);
+            if panicked {
+                error!("a thread panicked: stopped in the safe state");
+                ExitCode::from(EXIT_PANIC)
+            } else {
+                info!("stopped: forces ramped out, drives off");
+                ExitCode::SUCCESS
+            }
+        }
+        Ok(Err(e)) => {
+            error!("{e}");
+            ExitCode::from(if panicked { EXIT_PANIC } else { 1 })
+        }
+        Err(_) => {
+            error!("the control thread panicked");
+            ExitCode::from(EXIT_PANIC)
+        }
+    }
+}
+
+fn log_report(report: &LoopReport, stats: &LoopStats) {
+    info!(
+        cycles = report.cycles,
+        overruns = report.overruns,
+        safety = report.final_safety.as_str(),
+        wake_p99_us = stats.latency.quantile_ns(0.99) as f64 * 1e-3,
+        wake_max_us = stats.latency.max_ns() as f64 * 1e-3,
+        compute_p99_us = stats.compute.quantile_ns(0.99) as f64 * 1e-3,
+        "control loop stopped"
+    );
+}

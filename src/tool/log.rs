@@ -1,0 +1,217 @@
+//! `videt log LOGFILE`: summarise a session log and export it as CSV.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use serde::Serialize;
+
+use crate::cycle::CycleRecord;
+use crate::histogram::Histogram;
+use crate::telemetry::read_log;
+
+use super::ToolResult;
+
+/// Summarise a telemetry session log (`videtd` writes one per run).
+#[derive(Debug, Args)]
+pub struct LogArgs {
+    /// The session log (`videt-<time>.vlog`).
+    pub logfile: PathBuf,
+    /// Also export every record as CSV to this file (`-` for standard output).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The summary of a log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LogSummary {
+    /// Control rate, Hz.
+    pub rate_hz: u32,
+    /// Records in the file.
+    pub records: usize,
+    /// Seconds covered.
+    pub duration_s: f64,
+    /// Records missing (gaps in the cycle numbers: dropped by a full ring).
+    pub dropped: u64,
+    /// Bytes of a cut-off last record.
+    pub truncated_bytes: usize,
+    /// Wake-up latency percentiles, µs: p50, p99, p99.9, max.
+    pub wake_latency_us: [f64; 4],
+    /// Compute time percentiles, µs: p50, p99, p99.9, max.
+    pub compute_us: [f64; 4],
+    /// Fraction of periods in contact.
+    pub contact_fraction: f64,
+    /// Largest measured tension, N.
+    pub max_tension_n: f64,
+    /// Largest rendered force, N.
+    pub max_force_n: f64,
+    /// Safety transitions: (time in s, new state).
+    pub safety_events: Vec<(f64, String)>,
+}
+
+fn percentiles_us(h: &Histogram) -> [f64; 4] {
+    [
+        h.quantile_ns(0.5),
+        h.quantile_ns(0.99),
+        h.quantile_ns(0.999),
+        h.max_ns(),
+    ]
+    .map(|ns| ns as f64 * 1e-3)
+}
+
+/// Summarise `args.logfile`.
+pub fn summarise(args: &LogArgs) -> Result<(LogSummary, crate::telemetry::Log), super::ToolError> {
+    let log = read_log(&args.logfile)?;
+    let (mut wake, mut compute) = (Histogram::new(), Histogram::new());
+    let mut dropped = 0;
+    let mut contact = 0usize;
+    let (mut max_tension, mut max_force) = (0.0f64, 0.0f64);
+    let mut events = Vec::new();
+    let mut last_state = None;
+    for (i, r) in log.records.iter().enumerate() {
+        if i > 0 {
+            dropped += r.cycle.saturating_sub(log.records[i - 1].cycle + 1);
+        }
+        wake.record(r.wake_latency_ns);
+        compute.record(r.compute_ns);
+        contact += usize::from(r.in_contact);
+        max_tension = r
+            .tension_measured_n
+            .iter()
+            .cloned()
+            .fold(max_tension, f64::max);
+        let f = r.rendered_force_n;
+        max_force = max_force.max((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt());
+        if last_state != Some(r.safety) {
+            if last_state.is_some() || r.safety.reason().is_some() {
+                events.push((r.time.as_secs_f64(), r.safety.as_str().to_string()));
+            }
+            last_state = Some(r.safety);
+        }
+    }
+    let duration_s = match (log.records.first(), log.records.last()) {
+        (Some(a), Some(b)) => b.time.nanos_since(a.time) as f64 * 1e-9,
+        _ => 0.0,
+    };
+    let summary = LogSummary {
+        rate_hz: log.header.rate_hz,
+        records: log.records.len(),
+        duration_s,
+        dropped,
+        truncated_bytes: log.truncated_bytes,
+        wake_latency_us: percentiles_us(&wake),
+        compute_us: percentiles_us(&compute),
+        contact_fraction: if log.records.is_empty() {
+            0.0
+        } else {
+            contact as f64 / log.records.len() as f64
+        },
+        max_tension_n: max_tension,
+        max_force_n: max_force,
+        safety_events: events,
+    };
+    Ok((summary, log))
+}
+
+/// Write the records as CSV.
+pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::Result<()> {
+    let mut header = String::from("cycle,time_s,wake_latency_us,compute_us");
+    for name in CycleRecord::VECTOR_NAMES {
+        for axis in 0..3 {
+            header.push_str(&format!(",{name}_{axis}"));
+        }
+    }
+    header.push_str(
+        ",contact,depth_m,force_scale,surface_version,surface_stale,safety,released_wire",
+    );
+    writeln!(out, "{header}")?;
+    for r in &log.records {
+        write!(
+            out,
+            "{},{:.9},{:.3},{:.3}",
+            r.cycle,
+            r.time.as_secs_f64(),
+            r.wake_latency_ns as f64 * 1e-3,
+            r.compute_ns as f64 * 1e-3
+        )?;
+        for arr in r.vectors() {
+            for v in arr {
+                write!(out, ",{v:.6e}")?;
+            }
+        }
+        writeln!(
+            out,
+            ",{},{:.6e},{:.4},{},{},{},{}",
+            u8::from(r.in_contact),
+            r.contact_depth_m,
+            r.force_scale,
+            r.surface_version,
+            u8::from(r.surface_stale),
+            r.safety.as_str(),
+            r.released_wire
+        )?;
+    }
+    Ok(())
+}
+
+/// Run `videt log`.
+pub fn run(args: &LogArgs) -> ToolResult {
+    let (s, log) = summarise(args)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&s)?);
+    } else {
+        println!(
+            "{}: {} records at {} Hz, {:.3} s",
+            args.logfile.display(),
+            s.records,
+            s.rate_hz,
+            s.duration_s
+        );
+        println!(
+            "  dropped records: {}{}",
+            s.dropped,
+            if s.truncated_bytes > 0 {
+                " (last record cut off)"
+            } else {
+                ""
+            }
+        );
+        let p = |v: [f64; 4]| {
+            format!(
+                "p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1} µs",
+                v[0], v[1], v[2], v[3]
+            )
+        };
+        println!("  wake-up latency: {}", p(s.wake_latency_us));
+        println!("  compute time:    {}", p(s.compute_us));
+        println!(
+            "  in contact {:.1}% of the time; max tension {:.2} N; max force {:.2} N",
+            100.0 * s.contact_fraction,
+            s.max_tension_n,
+            s.max_force_n
+        );
+        if s.safety_events.is_empty() {
+            println!("  safety: normal throughout");
+        }
+        for (t, state) in &s.safety_events {
+            println!("  safety at {t:.3} s: {state}");
+        }
+    }
+    if let Some(csv) = &args.csv {
+        if csv.as_os_str() == "-" {
+            write_csv(&log, &mut std::io::stdout().lock())?;
+        } else {
+            let mut out = std::io::BufWriter::new(std::fs::File::create(csv)?);
+            write_csv(&log, &mut out)?;
+            out.flush()?;
+            if !args.json {
+                println!("  CSV written to {}", csv.display());
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,179 @@
+//! The control thread allocates and frees nothing: the real loop runs 10 000 periods on the
+//! twin with surface snapshots arriving from a vision thread, the thimble state going back, the
+//! status published and every period recorded by the telemetry writer — under a global allocator
+//! that counts allocations made on the control thread.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+
+use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
+use videt::cycle::WireZero;
+use videt::setup;
+use videt::snapshot::{snapshot_channel, thimble_channel};
+use videt::status::status_channel;
+use videt::telemetry::{self, LogHeader};
+use videt_control::{Contact, Surface, Vec3};
+use videt_rt_config::Config;
+
+struct CountingAllocator;
+
+thread_local! {
+    static COUNT_HERE: Cell<bool> = const { Cell::new(false) };
+}
+static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+static DEALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+fn counting() -> bool {
+    COUNT_HERE.try_with(|c| c.get()).unwrap_or(false)
+}
+
+// SAFETY: forwards to the system allocator; the counters are atomics.
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if counting() {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        if counting() {
+            DEALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if counting() {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+/// A heap-backed surface (like the real mesh): a wall whose height comes from a table.
+#[derive(Clone, Default)]
+struct TableWall {
+    z_by_column: Vec<f64>,
+}
+
+impl Surface for TableWall {
+    fn contact(&self, p: &Vec3) -> Option<Contact> {
+        if self.z_by_column.is_empty() {
+            return None;
+        }
+        let i = ((p.x.max(0.0) * 100.0) as usize).min(self.z_by_column.len() - 1);
+        let depth = p.z - self.z_by_column[i];
+        (depth > 0.0).then(|| Contact {
+            depth_m: depth,
+            normal: Vec3::new(0.0, 0.0, -1.0),
+        })
+    }
+}
+
+#[test]
+fn the_control_thread_allocates_and_frees_nothing() {
+    let config = Config::default();
+    let scene = setup::demo_scene(&config, 5);
+    let rig = setup::rig(&config).unwrap();
+    let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+    let (mut surface_writer, mut surface_reader) = snapshot_channel(TableWall {
+        z_by_column: Vec::with_capacity(64),
+    });
+    let (thimble_publisher, mut thimble_reader) = thimble_channel();
+    let (status_publisher, mut status_reader) = status_channel();
+    let dir = tempfile::tempdir().unwrap();
+    let (telemetry_producer, telemetry_writer) = telemetry::start(
+        &dir.path().join("a.vlog"),
+        LogHeader {
+            rate_hz: 1000,
+            start_unix_ns: 0,
+        },
+        1 << 15,
+    )
+    .unwrap();
+
+    // Vision: keeps publishing rebuilt surfaces (allocating on its own thread) and reading the
+    // thimble state.
+    let done = Arc::new(AtomicBool::new(false));
+    let vision_done = Arc::clone(&done);
+    let vision = std::thread::spawn(move || {
+        let mut published = 0u64;
+        let mut seen_cycle = 0;
+        while !vision_done.load(Ordering::Relaxed) {
+            let wall_z = 0.33 + 0.001 * (published % 5) as f64;
+            surface_writer.publish_with(|s| {
+                // Sometimes rebuild from scratch (new allocation), sometimes in place.
+                if published % 3 == 0 {
+                    *s = TableWall {
+                        z_by_column: vec![wall_z; 50],
+                    };
+                } else {
+                    s.z_by_column.clear();
+                    s.z_by_column.resize(50, wall_z);
+                }
+            });
+            published += 1;
+            seen_cycle = seen_cycle.max(thimble_reader.latest().value.cycle);
+            std::thread::yield_now();
+        }
+        (published, seen_cycle)
+    });
+
+    let control = std::thread::spawn(move || {
+        let mut twin = scene.twin;
+        start_hardware(&mut twin).unwrap();
+        let settings = LoopSettings {
+            rate_hz: 1000,
+            duration_ns: Some(10_000_000_000),
+            max_consecutive_overruns: 10,
+        };
+        let stop = AtomicBool::new(false);
+        let mut stats = LoopStats::default();
+        let mut observers = (status_publisher, thimble_publisher, telemetry_producer);
+        let mut control = LoopControl::stop_flag(&stop);
+        COUNT_HERE.with(|c| c.set(true));
+        let report = run_control_loop(
+            &mut twin,
+            &mut surface_reader,
+            &mut cycle,
+            &settings,
+            &mut control,
+            &mut observers,
+            &mut stats,
+        );
+        COUNT_HERE.with(|c| c.set(false));
+        let last_version = surface_reader.latest().version;
+        (report, last_version, observers)
+    });
+    let (report, last_version, observers) = control.join().unwrap();
+    done.store(true, Ordering::Relaxed);
+    let (published, seen_cycle) = vision.join().unwrap();
+    drop(observers);
+    let written = telemetry_writer.finish().unwrap();
+
+    assert!(report.cycles >= 10_000, "ran {} periods", report.cycles);
+    assert!(
+        published > 10 && last_version > 10,
+        "surfaces flowed: {published} published, last seen {last_version}"
+    );
+    assert!(
+        seen_cycle > 100,
+        "the thimble state flowed back: {seen_cycle}"
+    );
+    assert!(status_reader.latest().record.cycle > 9_000);
+    assert!(written > 9_000, "telemetry recorded {written} periods");
+    assert_eq!(
+        ALLOCATIONS.load(Ordering::Relaxed),
+        0,
+        "allocations on the control thread"
+    );
+    assert_eq!(
+        DEALLOCATIONS.load(Ordering::Relaxed),
+        0,
+        "deallocations on the control thread"
+    );
+}

@@ -1,0 +1,47 @@
+//! A panic in any thread of the service drives the control loop to the safe state (minimum
+//! tension, forces ramped out, drives off) and the service exits non-zero.
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use videt::cycle::WireZero;
+use videt::service::{run_service, ServiceOptions, EXIT_PANIC};
+use videt::setup;
+use videt::snapshot::FixedSurface;
+use videt_rt_config::Config;
+
+#[test]
+fn a_panic_in_another_thread_stops_the_loop_safely_with_a_nonzero_exit() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = Config::default();
+    let scene = setup::demo_scene(&config, 9);
+    let rig = setup::rig(&config).unwrap();
+    let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+    let mut options = ServiceOptions::from_config(config);
+    options.socket_path = None;
+    options.telemetry_dir = Some(dir.path().to_path_buf());
+    options.status_lines = false;
+    options.duration_s = Some(600.0);
+    // The twin on its simulated clock: the service runs faster than real time.
+    let panicker = std::thread::spawn(|| {
+        std::thread::sleep(Duration::from_millis(300));
+        panic!("a worker thread fails");
+    });
+    let code = run_service(scene.twin, FixedSurface(scene.wall), cycle, &options);
+    assert!(panicker.join().is_err());
+    assert_eq!(code, ExitCode::from(EXIT_PANIC));
+    let log_path = std::fs::read_dir(dir.path())
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let log = videt::telemetry::read_log(&log_path).unwrap();
+    let last = log.records.last().unwrap();
+    assert_eq!(last.safety.as_str(), "software-fault");
+    assert_eq!(last.force_scale, 0.0);
+    assert!(
+        log.records.last().unwrap().time.as_secs_f64() < 600.0,
+        "stopped long before the duration"
+    );
+}

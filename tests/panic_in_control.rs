@@ -1,0 +1,52 @@
+//! A panic inside the control loop powers the drives off and the service exits non-zero.
+
+use std::process::ExitCode;
+
+use videt::cycle::WireZero;
+use videt::service::{run_service, ServiceOptions, EXIT_PANIC};
+use videt::setup;
+use videt::snapshot::{SurfaceFeed, SurfaceView};
+use videt_control::Plane;
+use videt_rt_config::Config;
+
+/// A surface source that fails after a while.
+struct FailingFeed {
+    wall: Plane,
+    calls: u32,
+}
+
+impl SurfaceFeed for FailingFeed {
+    type Surface = Plane;
+    fn current(&mut self) -> SurfaceView<'_, Plane> {
+        self.calls += 1;
+        assert!(self.calls < 500, "surface source failed");
+        SurfaceView {
+            surface: &self.wall,
+            version: 0,
+            live: false,
+        }
+    }
+}
+
+#[test]
+fn a_panic_in_the_control_loop_exits_nonzero() {
+    let config = Config::default();
+    let scene = setup::demo_scene(&config, 9);
+    let rig = setup::rig(&config).unwrap();
+    let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+    let mut options = ServiceOptions::from_config(config);
+    options.socket_path = None;
+    options.telemetry_dir = None;
+    options.status_lines = false;
+    options.duration_s = Some(60.0);
+    let code = run_service(
+        scene.twin,
+        FailingFeed {
+            wall: scene.wall,
+            calls: 0,
+        },
+        cycle,
+        &options,
+    );
+    assert_eq!(code, ExitCode::from(EXIT_PANIC));
+}

@@ -1,0 +1,289 @@
+//! The service as systemd and a technician see it: the shipped unit, the notify protocol over a
+//! socket the test owns, the control socket, and a clean stop.
+
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::net::{UnixDatagram, UnixStream};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use videt::socket::{request, Request};
+use videt_rt_config::Config;
+
+/// `key -> values` of a unit file's `[Service]` (and other) sections, comments dropped.
+fn parse_unit(text: &str) -> HashMap<String, Vec<String>> {
+    let mut map: HashMap<String, Vec<String>> = HashMap::new();
+    let mut section = String::new();
+    for line in text.lines().map(str::trim) {
+        if line.is_empty() || line.starts_with('#') || line.starts_with(';') {
+            continue;
+        }
+        if line.starts_with('[') && line.ends_with(']') {
+            section = line[1..line.len() - 1].to_string();
+            continue;
+        }
+        let (k, v) = line
+            .split_once('=')
+            .unwrap_or_else(|| panic!("not a key=value line: {line}"));
+        map.entry(format!("{section}.{}", k.trim()))
+            .or_default()
+            .push(v.trim().to_string());
+    }
+    map
+}
+
+fn one<'a>(unit: &'a HashMap<String, Vec<String>>, key: &str) -> &'a str {
+    let v = unit.get(key).unwrap_or_else(|| panic!("{key} missing"));
+    assert_eq!(v.len(), 1, "{key} set more than once");
+    &v[0]
+}
+
+#[test]
+fn shipped_unit_is_a_notify_service_with_realtime_limits_and_hardening() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("packaging/videtd.service"),
+    )
+    .unwrap();
+    let unit = parse_unit(&text);
+    let config = Config::default();
+    assert_eq!(one(&unit, "Service.Type"), "notify");
+    assert!(one(&unit, "Service.ExecStart")
+        .starts_with("/usr/bin/videtd --config /etc/videt/videt.toml"));
+    assert!(one(&unit, "Service.WatchdogSec").ends_with('s'));
+    let rtprio: u8 = one(&unit, "Service.LimitRTPRIO").parse().unwrap();
+    assert!(
+        rtprio >= config.realtime.control_priority,
+        "LimitRTPRIO must allow the control priority"
+    );
+    assert_eq!(one(&unit, "Service.LimitMEMLOCK"), "infinity");
+    let affinity = one(&unit, "Service.CPUAffinity");
+    let (lo, hi) = affinity.split_once('-').unwrap();
+    let cpu = config.realtime.control_cpu;
+    assert!(
+        lo.parse::<i32>().unwrap() <= cpu && cpu <= hi.parse::<i32>().unwrap(),
+        "control CPU inside CPUAffinity"
+    );
+    assert_eq!(one(&unit, "Service.KillSignal"), "SIGTERM");
+    for (key, value) in [
+        ("Service.NoNewPrivileges", "yes"),
+        ("Service.ProtectSystem", "strict"),
+        ("Service.ProtectHome", "yes"),
+        ("Service.User", "videt"),
+        ("Service.DevicePolicy", "closed"),
+        ("Service.RuntimeDirectory", "videt"),
+        ("Service.LogsDirectory", "videt"),
+    ] {
+        assert_eq!(one(&unit, key), value, "{key}");
+    }
+    let devices = &unit["Service.DeviceAllow"];
+    assert!(
+        devices.iter().any(|d| d.starts_with("/dev/gpiochip")),
+        "GPIO allowed"
+    );
+    assert!(
+        devices.iter().any(|d| d.contains("video4linux")),
+        "cameras allowed"
+    );
+    assert!(
+        one(&unit, "Service.RestrictAddressFamilies").contains("AF_CAN"),
+        "SocketCAN allowed"
+    );
+    // The runtime and logs directories match the default configuration's paths.
+    assert!(config.socket.path.starts_with("/run/videt/"));
+    assert!(config.telemetry.directory == "/var/log/videt");
+}
+
+struct Daemon {
+    child: Child,
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn spawn_videtd(dir: &Path, extra: &[&str], notify: Option<&Path>) -> Daemon {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_videtd"));
+    cmd.arg("--sim")
+        .arg("--telemetry-dir")
+        .arg(dir.join("logs"))
+        .args(extra)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null());
+    if let Some(n) = notify {
+        cmd.env("NOTIFY_SOCKET", n).env("WATCHDOG_USEC", "200000");
+    }
+    Daemon {
+        child: cmd.spawn().unwrap(),
+    }
+}
+
+fn wait_exit(d: &mut Daemon, within: Duration) -> std::process::ExitStatus {
+    let deadline = Instant::now() + within;
+    loop {
+        if let Some(status) = d.child.try_wait().unwrap() {
+            return status;
+        }
+        assert!(Instant::now() < deadline, "videtd did not exit in time");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn only_log(dir: &Path) -> std::path::PathBuf {
+    let entries: Vec<_> = std::fs::read_dir(dir.join("logs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(entries.len(), 1, "{entries:?}");
+    entries[0].clone()
+}
+
+#[test]
+fn videtd_speaks_the_notify_protocol_and_answers_the_control_socket() {
+    let dir = tempfile::tempdir().unwrap();
+    let notify_path = dir.path().join("notify.sock");
+    let notify = UnixDatagram::bind(&notify_path).unwrap();
+    notify
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
+    let socket = dir.path().join("ctl.sock");
+    let mut daemon = spawn_videtd(
+        dir.path(),
+        &["--socket", socket.to_str().unwrap()],
+        Some(&notify_path),
+    );
+
+    let mut messages: Vec<String> = Vec::new();
+    let mut buf = [0u8; 4096];
+    let recv = |messages: &mut Vec<String>, buf: &mut [u8]| {
+        let n = notify.recv(buf).expect("notify message");
+        messages.push(String::from_utf8_lossy(&buf[..n]).into_owned());
+    };
+    while !messages.iter().any(|m| m.contains("READY=1")) {
+        recv(&mut messages, &mut buf);
+    }
+    // The watchdog is petted while the loop is healthy (WATCHDOG_USEC = 200 ms: every ~100 ms).
+    let watchdogs_before = messages.iter().filter(|m| m.contains("WATCHDOG=1")).count();
+    let t0 = Instant::now();
+    while messages.iter().filter(|m| m.contains("WATCHDOG=1")).count() < watchdogs_before + 3 {
+        recv(&mut messages, &mut buf);
+    }
+    assert!(t0.elapsed() < Duration::from_secs(3));
+
+    let status = request(&socket, &Request::Status, Duration::from_secs(3)).unwrap();
+    let first = status.status.unwrap();
+    assert!(status.ok && first.safety == "normal");
+
+    // Malformed and oversized requests get an error reply and do not disturb the loop.
+    let mut s = UnixStream::connect(&socket).unwrap();
+    s.write_all(b"{\"cmd\": 12}\n").unwrap();
+    let mut line = String::new();
+    let mut reader = BufReader::new(s.try_clone().unwrap());
+    reader.read_line(&mut line).unwrap();
+    assert!(
+        line.contains("\"ok\":false") && line.contains("malformed"),
+        "{line}"
+    );
+    let mut big = UnixStream::connect(&socket).unwrap();
+    let _ = big.write_all(&vec![b'a'; 64 * 1024]);
+    let mut line = String::new();
+    BufReader::new(big).read_line(&mut line).unwrap();
+    assert!(line.contains("too large"), "{line}");
+    std::thread::sleep(Duration::from_millis(300));
+    let later = request(&socket, &Request::Status, Duration::from_secs(3))
+        .unwrap()
+        .status
+        .unwrap();
+    assert!(
+        later.cycles > first.cycles + 100,
+        "the loop kept running: {} -> {}",
+        first.cycles,
+        later.cycles
+    );
+    assert_eq!(later.safety, "normal");
+
+    // Releasing a wire stops force rendering; resume restores it.
+    assert!(
+        request(
+            &socket,
+            &Request::Release { wire: 1 },
+            Duration::from_secs(3)
+        )
+        .unwrap()
+        .ok
+    );
+    std::thread::sleep(Duration::from_millis(100));
+    let released = request(&socket, &Request::Status, Duration::from_secs(3))
+        .unwrap()
+        .status
+        .unwrap();
+    assert_eq!(released.released_wire, Some(1));
+    assert!(
+        request(&socket, &Request::Resume, Duration::from_secs(3))
+            .unwrap()
+            .ok
+    );
+
+    // Stop through the socket: ramps out, exits 0, says STOPPING=1.
+    assert!(
+        request(&socket, &Request::Stop, Duration::from_secs(3))
+            .unwrap()
+            .ok
+    );
+    let status = wait_exit(&mut daemon, Duration::from_secs(10));
+    assert!(status.success(), "{status:?}");
+    notify
+        .set_read_timeout(Some(Duration::from_secs(2)))
+        .unwrap();
+    while !messages.iter().any(|m| m.contains("STOPPING=1")) {
+        recv(&mut messages, &mut buf);
+    }
+    assert!(!socket.exists(), "the socket file is removed on exit");
+    let log = videt::telemetry::read_log(&only_log(dir.path())).unwrap();
+    assert!(log.records.len() > 500);
+    assert!(
+        log.records.windows(2).all(|w| w[1].cycle == w[0].cycle + 1),
+        "no record dropped"
+    );
+}
+
+#[test]
+fn sigterm_ramps_the_forces_out_and_exits_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut daemon = spawn_videtd(dir.path(), &["--no-socket"], None);
+    // Long enough for the operator to reach the wall (the demo presses after ~1 s).
+    std::thread::sleep(Duration::from_millis(2500));
+    // SAFETY: plain kill(2) on our own child.
+    assert_eq!(
+        unsafe { libc::kill(daemon.child.id() as i32, libc::SIGTERM) },
+        0
+    );
+    let status = wait_exit(&mut daemon, Duration::from_secs(10));
+    assert!(status.success(), "{status:?}");
+    let log = videt::telemetry::read_log(&only_log(dir.path())).unwrap();
+    let last = log.records.last().unwrap();
+    assert_eq!(last.force_scale, 0.0, "forces ramped out before exit");
+    let ramp: Vec<f64> = log
+        .records
+        .iter()
+        .rev()
+        .take(300)
+        .map(|r| r.force_scale)
+        .collect();
+    assert!(
+        ramp.windows(2).all(|w| w[0] <= w[1] + 1e-12),
+        "the scale falls monotonically to zero"
+    );
+    assert!(
+        ramp.iter().any(|&s| s > 0.2 && s < 0.8),
+        "a ramp, not a step"
+    );
+    assert!(last
+        .tension_setpoint_n
+        .iter()
+        .all(|&t| (t - Config::default().control.t_min_n).abs() < 1e-9));
+}
