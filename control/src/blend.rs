@@ -76,14 +76,26 @@ impl BlendParams {
 
 /// Blends the force of an outgoing surface into the incoming one, and fades a stale surface
 /// out. Pure; time comes in as the period.
+///
+/// Two ways to blend: *live*, from the outgoing surface's force (still evaluated every period)
+/// to the incoming one's; or *frozen*, when the outgoing surface is no longer available (or a
+/// second swap arrives during a blend): the gap between the last rendered force and the
+/// incoming surface's force at the swap is carried and shrunk to zero. Either way the output
+/// starts where it was, so a swap causes no step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ForceBlender {
     params: BlendParams,
     /// Weight of the incoming surface, `[0, 1]`.
     weight: f64,
     blending: bool,
+    /// Gap `last output - incoming force` at the swap, newtons (frozen blending).
+    frozen_gap_n: Vec3,
+    /// Blend from `frozen_gap_n` rather than from a live outgoing force.
+    frozen: bool,
     /// Overall scale, `[0, 1]` (0 = faded out to free space).
     fade: f64,
+    /// The last output, newtons.
+    last_n: Vec3,
 }
 
 impl ForceBlender {
@@ -94,7 +106,10 @@ impl ForceBlender {
             params,
             weight: 1.0,
             blending: false,
+            frozen_gap_n: Vec3::zeros(),
+            frozen: false,
             fade: 1.0,
+            last_n: Vec3::zeros(),
         })
     }
 
@@ -103,9 +118,14 @@ impl ForceBlender {
         &self.params
     }
 
-    /// A swap is being blended (a further swap must wait until it ends).
+    /// A swap is being blended.
     pub fn is_blending(&self) -> bool {
         self.blending
+    }
+
+    /// The current blend carries a frozen gap (no live outgoing force is needed).
+    pub fn is_frozen(&self) -> bool {
+        self.frozen
     }
 
     /// Weight of the incoming surface, `[0, 1]`.
@@ -118,26 +138,44 @@ impl ForceBlender {
         self.fade
     }
 
-    /// A new surface came in: blend from the current (now outgoing) force to the new one.
-    /// Returns `false`, and changes nothing, while a previous swap is still being blended.
-    pub fn start_swap(&mut self) -> bool {
+    /// The last output force, newtons.
+    pub fn last_force_n(&self) -> Vec3 {
+        self.last_n
+    }
+
+    /// A new surface came in and its force is known only from now on: blend live from the
+    /// outgoing surface's force (pass it to [`ForceBlender::update`] as `old_force_n`). During a
+    /// blend this falls back to [`ForceBlender::start_swap_frozen`] semantics at the next
+    /// update (the gap is taken from the last output).
+    pub fn start_swap(&mut self) {
         if self.blending {
-            return false;
+            self.frozen = true;
+            self.frozen_gap_n = Vec3::from_element(f64::NAN); // taken at the next update
+        } else {
+            self.frozen = false;
         }
         self.weight = 0.0;
         self.blending = true;
-        true
+    }
+
+    /// A new surface came in and the outgoing one is gone: carry the gap between the last
+    /// output and the incoming force (taken at the next update) and shrink it.
+    pub fn start_swap_frozen(&mut self) {
+        self.frozen = true;
+        self.frozen_gap_n = Vec3::from_element(f64::NAN);
+        self.weight = 0.0;
+        self.blending = true;
     }
 
     /// One period of `dt_s` seconds: the force to render from the outgoing surface's force
-    /// `old_force_n` (ignored when not blending) and the current one's `new_force_n`, for a
-    /// current surface `surface_age_s` seconds old. Coefficient changes never move the output
-    /// by more than `max_step_n` in one period.
+    /// `old_force_n` (used while blending live; `None` otherwise) and the current one's
+    /// `new_force_n`, for a current surface `surface_age_s` seconds old. Coefficient changes
+    /// never move the output by more than `max_step_n` in one period.
     pub fn update(
         &mut self,
         dt_s: f64,
         surface_age_s: f64,
-        old_force_n: &Vec3,
+        old_force_n: Option<&Vec3>,
         new_force_n: &Vec3,
     ) -> Vec3 {
         let dt = if dt_s.is_finite() && dt_s > 0.0 {
@@ -146,19 +184,39 @@ impl ForceBlender {
             0.0
         };
         let half_step = 0.5 * self.params.max_step_n;
-        let old = finite_or_zero(old_force_n);
         let new = finite_or_zero(new_force_n);
+        if self.blending && !self.frozen && old_force_n.is_none() {
+            // The outgoing force is gone mid-blend: freeze the current gap.
+            self.frozen = true;
+            self.frozen_gap_n = Vec3::from_element(f64::NAN);
+        }
         let blended = if self.blending {
-            let gap = (new - old).norm() * self.fade;
+            // Gap between where the output starts and the incoming force.
+            let gap = if self.frozen {
+                if self.frozen_gap_n.iter().any(|c| c.is_nan()) {
+                    let unfaded = if self.fade > 0.0 {
+                        self.last_n / self.fade
+                    } else {
+                        new
+                    };
+                    // The output so far, expressed as `new + gap (1 - w)` with w = 0.
+                    self.frozen_gap_n = finite_or_zero(&(unfaded - new));
+                }
+                self.frozen_gap_n
+            } else {
+                finite_or_zero(old_force_n.unwrap_or(&new)) - new
+            };
+            let size = gap.norm() * self.fade;
             let mut dw = dt / self.params.blend_time_s;
-            if gap > 0.0 {
-                dw = dw.min(half_step / gap);
+            if size > 0.0 {
+                dw = dw.min(half_step / size);
             }
             self.weight = (self.weight + dw).min(1.0);
             if self.weight >= 1.0 {
                 self.blending = false;
+                self.frozen = false;
             }
-            old + (new - old) * self.weight
+            new + gap * (1.0 - self.weight)
         } else {
             new
         };
@@ -175,7 +233,8 @@ impl ForceBlender {
         } else {
             (self.fade - dg).max(target)
         };
-        blended * self.fade
+        self.last_n = blended * self.fade;
+        self.last_n
     }
 }
 
@@ -247,11 +306,6 @@ impl SwapRenderer {
         })
     }
 
-    /// Whether a new surface may be swapped in now (no swap is being blended).
-    pub fn can_swap(&self) -> bool {
-        !self.blender.is_blending()
-    }
-
     /// The blender (weights, fade).
     pub fn blender(&self) -> &ForceBlender {
         &self.blender
@@ -263,14 +317,13 @@ impl SwapRenderer {
     }
 
     /// The current surface became the outgoing one and a new surface is current. The current
-    /// proxy carries over (lifted out of the new solid at the next update). Returns `false`, and
-    /// changes nothing, while the previous swap is still being blended.
-    pub fn swap(&mut self) -> bool {
-        if !self.blender.start_swap() {
-            return false;
-        }
+    /// proxy carries over (lifted out of the new solid at the next update); a copy keeps
+    /// rendering the outgoing surface while the caller still passes it to
+    /// [`SwapRenderer::render`]. Without it (or on a swap during a blend) the blend carries the
+    /// gap from the last rendered force instead. Any number of swaps is fine.
+    pub fn swap(&mut self) {
+        self.blender.start_swap();
         self.outgoing = self.current;
-        true
     }
 
     /// One period: update the proxies against `current` (and `outgoing` while blending) for the
@@ -287,13 +340,16 @@ impl SwapRenderer {
         let now = self.current.update(current, finger_m);
         self.last = Some(now);
         let new_force = now.offset_m * k;
-        let old_force = match (self.blender.is_blending(), outgoing) {
-            (true, Some(old)) => self.outgoing.update(old, finger_m).offset_m * k,
-            _ => new_force,
+        let old_force = match (
+            self.blender.is_blending() && !self.blender.is_frozen(),
+            outgoing,
+        ) {
+            (true, Some(old)) => Some(self.outgoing.update(old, finger_m).offset_m * k),
+            _ => None,
         };
         let force = self
             .blender
-            .update(dt_s, surface_age_s, &old_force, &new_force);
+            .update(dt_s, surface_age_s, old_force.as_ref(), &new_force);
         let depth_m = force.norm() / k;
         (depth_m > 0.0 && depth_m.is_finite()).then(|| Contact {
             depth_m,
@@ -329,8 +385,7 @@ mod tests {
             prev = c.normal * c.depth_m * k;
         }
         assert!((prev.norm() - 4.0).abs() < 1e-2);
-        assert!(r.swap());
-        assert!(!r.swap(), "a second swap waits for the first blend");
+        r.swap();
         let mut max_step: f64 = 0.0;
         let mut periods = 0;
         while r.blender().is_blending() {
@@ -349,6 +404,33 @@ mod tests {
     }
 
     #[test]
+    fn swaps_without_the_old_surface_and_during_a_blend_stay_bounded() {
+        let blend = BlendParams {
+            blend_time_s: 0.02,
+            max_step_n: 0.05,
+            ..BlendParams::default()
+        };
+        let k = 800.0;
+        let mut r = SwapRenderer::new(ProxyParams::default(), blend, k).unwrap();
+        let walls = [wall(0.30), wall(0.29), wall(0.305), wall(0.28)];
+        let finger = Vec3::new(0.1, 0.1, 0.307);
+        let force = |c: Option<Contact>| c.map_or(Vec3::zeros(), |c| c.normal * c.depth_m * k);
+        let mut prev = force(r.render(&walls[0], None, &finger, 1e-3, 0.0));
+        let mut max_step: f64 = 0.0;
+        for period in 1..3000 {
+            // A new surface every 150 periods, never waiting for the blend to end.
+            let w = (period / 150) % walls.len();
+            if period % 150 == 0 {
+                r.swap();
+            }
+            let f = force(r.render(&walls[w], None, &finger, 1e-3, 0.0));
+            max_step = max_step.max((f - prev).norm());
+            prev = f;
+        }
+        assert!(max_step <= 0.05 + 1e-9, "max step {max_step}");
+    }
+
+    #[test]
     fn stale_surface_fades_to_free_space_and_back() {
         let blend = BlendParams {
             max_step_n: 0.1,
@@ -358,11 +440,11 @@ mod tests {
         };
         let mut b = ForceBlender::new(blend).unwrap();
         let f = Vec3::new(0.0, 0.0, -5.0);
-        let mut prev = b.update(1e-3, 0.0, &f, &f);
+        let mut prev = b.update(1e-3, 0.0, None, &f);
         assert_eq!(prev, f);
         let mut max_step: f64 = 0.0;
         for i in 0..400 {
-            let out = b.update(1e-3, 1.0 + i as f64 * 1e-3, &f, &f);
+            let out = b.update(1e-3, 1.0 + i as f64 * 1e-3, None, &f);
             max_step = max_step.max((out - prev).norm());
             prev = out;
         }
@@ -370,7 +452,7 @@ mod tests {
         assert_eq!(b.fade(), 0.0);
         assert_eq!(prev, Vec3::zeros());
         for _ in 0..400 {
-            prev = b.update(1e-3, 0.0, &f, &f);
+            prev = b.update(1e-3, 0.0, None, &f);
         }
         assert_eq!(prev, f);
         assert!(ForceBlender::new(BlendParams {

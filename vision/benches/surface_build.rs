@@ -24,7 +24,12 @@ fn bench_build(c: &mut Criterion) {
     let fresh = common::scene_segments(300, 2);
     c.bench_function("surface_local_update_100px_region_300_segments", |b| {
         b.iter(|| {
-            let merged = merge_region(black_box(&segments), &fresh, &cam, [270.0, 190.0, 370.0, 290.0]);
+            let merged = merge_region(
+                black_box(&segments),
+                &fresh,
+                &cam,
+                [270.0, 190.0, 370.0, 290.0],
+            );
             build_from_scene(&merged, &[], &cam, &params).unwrap()
         })
     });

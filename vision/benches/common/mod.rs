@@ -26,7 +26,12 @@ pub fn scene_segments(n: usize, seed: u64) -> Vec<SceneSegment3> {
         let (u, v) = (rng.random_range(20.0..560.0), rng.random_range(20.0..400.0));
         let (w, h) = (rng.random_range(20.0..80.0), rng.random_range(20.0..80.0));
         let z = rng.random_range(0.8..4.5);
-        let c = [back(u, v, z), back(u + w, v, z), back(u + w, v + h, z), back(u, v + h, z)];
+        let c = [
+            back(u, v, z),
+            back(u + w, v, z),
+            back(u + w, v + h, z),
+            back(u, v + h, z),
+        ];
         for k in 0..4 {
             out.push(SceneSegment3 {
                 a_m: c[k],
