@@ -35,6 +35,11 @@ pub struct ProxyParams {
     pub max_iterations: u32,
     /// Apply force shading (interpolated normals).
     pub force_shading: bool,
+    /// Longest path the proxy slides along the surface in one update, metres (> 0). Where the
+    /// constrained proxy would jump (a finger deep under a convex edge switches faces), it
+    /// travels there over several periods instead, so the spring changes by at most about
+    /// `K max_slide_m` per period. Free-space motion is not limited.
+    pub max_slide_m: f64,
 }
 
 impl Default for ProxyParams {
@@ -43,8 +48,9 @@ impl Default for ProxyParams {
             skin_m: 1e-6,
             static_friction: 0.0,
             dynamic_friction: 0.0,
-            max_iterations: 4,
+            max_iterations: 6,
             force_shading: true,
+            max_slide_m: 0.1,
         }
     }
 }
@@ -92,6 +98,9 @@ impl ProxyParams {
                 self.dynamic_friction,
                 "in [0, static_friction]",
             );
+        }
+        if !(self.max_slide_m > 0.0 && self.max_slide_m <= 0.1) {
+            return err("max_slide_m", self.max_slide_m, "in (0, 0.1] m");
         }
         if !(1..=16).contains(&self.max_iterations) {
             return err("max_iterations", self.max_iterations as f64, "in [1, 16]");
@@ -222,20 +231,50 @@ impl GodObject {
         }; MAX_CONSTRAINTS];
         let mut count = 0usize;
         let mut goal = *finger_m;
+        // Sliding along the surface is limited per update; reaching it is not.
+        let mut budget = self.params.max_slide_m;
+        let mut constrained = false;
+        // Constraint planes met at any time this update (for friction and shading).
+        let mut met = 0usize;
         for _ in 0..self.params.max_iterations {
             let motion = goal - p;
             let length = motion.norm();
             if length <= 1e-12 {
                 break;
             }
-            match surface.segment_hit(&p, &goal) {
+            let limited = constrained && length > budget;
+            let target = if limited {
+                p + motion * (budget / length)
+            } else {
+                goal
+            };
+            match surface.segment_hit(&p, &target) {
                 None => {
-                    p = goal;
-                    break;
+                    if constrained {
+                        budget -= (target - p).norm();
+                    }
+                    p = target;
+                    if limited || count == 0 {
+                        break;
+                    }
+                    // A constrained goal reached in the air (past a convex edge): head for the
+                    // finger again from here.
+                    count = 0;
+                    goal = *finger_m;
                 }
                 Some(hit) => {
-                    let t_back = (hit.t - skin / length).max(0.0);
-                    p += motion * t_back;
+                    let reach = target - p;
+                    let reach_len = reach.norm();
+                    let t_back = if reach_len > 0.0 {
+                        (hit.t - skin / reach_len).max(0.0)
+                    } else {
+                        0.0
+                    };
+                    if constrained {
+                        budget = (budget - reach_len * t_back).max(0.0);
+                    }
+                    p += reach * t_back;
+                    constrained = true;
                     let n = hit.face_normal;
                     let plane = ConstraintPlane {
                         normal: n,
@@ -251,12 +290,13 @@ impl GodObject {
                     }
                     planes[count] = plane;
                     count += 1;
+                    met = met.max(count);
                     goal = constrained_goal(finger_m, &planes[..count], &p);
                 }
             }
         }
         self.lift_out(surface, &mut p);
-        if count == 0 {
+        if !constrained || (p - finger_m).norm() <= 1e-12 {
             // The finger is outside: the proxy joins it (after the same lift, in case the finger
             // is numerically on the surface).
             self.proxy_m = p;
@@ -276,26 +316,30 @@ impl GodObject {
         } else {
             self.params.static_friction
         };
-        if mu > 0.0 && count == 1 {
-            let n = planes[0].normal;
+        let under = surface.height(p.x, p.y);
+        let spring_dir = (p - finger_m).normalize();
+        // The contact normal: the face's under the proxy, or in a crease the spring's direction.
+        let n_contact = match under {
+            Some(h) if count <= 1 => h.face_normal,
+            _ => spring_dir,
+        };
+        if mu > 0.0 {
+            let n = n_contact;
             let normal_depth = (p - finger_m).dot(&n).max(0.0);
             let slip = start - p;
             let tangential = slip - n * slip.dot(&n);
             let tangential_len = tangential.norm();
             let cone = mu * normal_depth;
-            let candidate = if tangential_len <= cone {
+            let mut candidate = if tangential_len <= cone {
                 sticking = true;
                 start
             } else {
                 p + slip * (self.params.dynamic_friction * normal_depth / tangential_len)
             };
-            // Only move there if the way is free and the point is outside the solid.
-            if surface.segment_hit(&p, &candidate).is_none() {
-                p = candidate;
-                self.lift_out(surface, &mut p);
-            } else {
-                sticking = false;
-            }
+            // The candidate lies between two points outside the solid, a short way apart (this
+            // period's slide); across a convex edge the chord dips into the solid: lift it out.
+            self.lift_out(surface, &mut candidate);
+            p = candidate;
             self.sliding = !sticking;
         } else {
             self.sliding = count > 0;
@@ -304,9 +348,9 @@ impl GodObject {
 
         let raw = p - finger_m;
         let mut offset = raw;
-        if self.params.force_shading && count == 1 {
+        if self.params.force_shading && count <= 1 {
             if let Some(h) = surface.height(p.x, p.y) {
-                let n_face = planes[0].normal;
+                let n_face = h.face_normal;
                 let along = raw.dot(&n_face);
                 if along > 0.0 && h.normal.iter().all(|c| c.is_finite()) {
                     offset = raw - n_face * along + h.normal * along;
@@ -316,7 +360,7 @@ impl GodObject {
         ProxyContact {
             proxy_m: p,
             offset_m: offset,
-            constraints: count as u8,
+            constraints: met as u8,
             sticking,
         }
     }
@@ -505,7 +549,11 @@ mod tests {
     #[test]
     fn fast_motion_never_pops_through() {
         // From above the wall straight to 20 cm behind it in one period.
-        let mut g = GodObject::new(ProxyParams::default()).unwrap();
+        let unlimited = ProxyParams {
+            max_slide_m: 0.1,
+            ..ProxyParams::default()
+        };
+        let mut g = GodObject::new(unlimited).unwrap();
         g.update(&wall(), &Vec3::new(0.1, 0.1, 0.25));
         let c = g.update(&wall(), &Vec3::new(0.15, 0.1, 0.5));
         assert!(c.proxy_m.z <= 0.3);
@@ -514,6 +562,22 @@ mod tests {
             "slid along the plane to the finger's projection"
         );
         assert!((c.offset_m.z + 0.2).abs() < 1e-5);
+        // With a 0.5 mm slide limit the proxy reaches the wall where the motion meets it and
+        // slides at most 0.5 mm further.
+        let mut g = GodObject::new(ProxyParams {
+            max_slide_m: 5e-4,
+            ..ProxyParams::default()
+        })
+        .unwrap();
+        g.update(&wall(), &Vec3::new(0.1, 0.1, 0.25));
+        let c = g.update(&wall(), &Vec3::new(0.15, 0.1, 0.5));
+        let reached_x = 0.1 + 0.05 * (0.05 / 0.25);
+        assert!(
+            (c.proxy_m.x - (reached_x + 5e-4)).abs() < 1e-6,
+            "{:?}",
+            c.proxy_m
+        );
+        assert!(c.proxy_m.z <= 0.3);
     }
 
     #[test]
@@ -523,7 +587,11 @@ mod tests {
             low_z: 0.35,
             high_z: 0.32,
         };
-        let mut g = GodObject::new(ProxyParams::default()).unwrap();
+        let mut g = GodObject::new(ProxyParams {
+            max_slide_m: 0.1,
+            ..ProxyParams::default()
+        })
+        .unwrap();
         // Resting on the low floor, pressing 1 cm.
         g.update(&t, &Vec3::new(0.1, 0.0, 0.34));
         let c = g.update(&t, &Vec3::new(0.1, 0.0, 0.36));
@@ -540,6 +608,7 @@ mod tests {
         let params = ProxyParams {
             static_friction: 0.5,
             dynamic_friction: 0.3,
+            max_slide_m: 0.1,
             ..ProxyParams::default()
         };
         let mut g = GodObject::new(params).unwrap();
