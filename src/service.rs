@@ -42,6 +42,8 @@ pub struct ServiceOptions {
     pub telemetry_dir: Option<PathBuf>,
     /// Print one status line per second on stdout.
     pub status_lines: bool,
+    /// Render the colour under the thimble on the vibrotactors (`None`: no colour thread).
+    pub colour: Option<crate::colour_thread::ColourSource>,
 }
 
 impl ServiceOptions {
@@ -58,6 +60,7 @@ impl ServiceOptions {
             socket_path,
             telemetry_dir,
             status_lines: true,
+            colour: None,
         }
     }
 }
@@ -75,6 +78,7 @@ pub fn install_panic_hook() {
 struct Observers {
     status: StatusPublisher,
     telemetry: Option<TelemetryProducer>,
+    thimble: Option<crate::snapshot::ThimblePublisher>,
 }
 
 impl CycleObserver for Observers {
@@ -85,6 +89,9 @@ impl CycleObserver for Observers {
     ) {
         self.status.observe(record, window);
         if let Some(t) = self.telemetry.as_mut() {
+            t.observe(record, window);
+        }
+        if let Some(t) = self.thimble.as_mut() {
             t.observe(record, window);
         }
     }
@@ -189,6 +196,14 @@ where
     };
     let (publisher, mut reader) = status_channel();
     let priority = config.realtime.control_priority;
+    let (thimble_publisher, thimble_reader) = crate::snapshot::thimble_channel();
+    let colour = options.colour.as_ref().and_then(|source| {
+        let colour_priority = Some(priority.saturating_sub(10).max(1));
+        crate::colour_thread::ColourRuntime::start(source, thimble_reader, colour_priority)
+            .map_err(|e| warn!("colour rendering disabled: {e}"))
+            .ok()
+    });
+    let thimble_publisher = colour.is_some().then_some(thimble_publisher);
     let thread_stop = Arc::clone(&stop);
     let control = std::thread::Builder::new()
         .name("videt-control".into())
@@ -201,6 +216,7 @@ where
             let mut observers = Observers {
                 status: publisher,
                 telemetry: telemetry_producer,
+                thimble: thimble_publisher,
             };
             let mut stats = LoopStats::default();
             let mut loop_control = LoopControl {
@@ -249,6 +265,9 @@ where
         std::thread::sleep(Duration::from_millis(10));
         let snapshot = reader.latest();
         let record = snapshot.record;
+        if let Some(c) = &colour {
+            c.supervise(&record, stop.load(Ordering::Relaxed));
+        }
         if record.cycle != last_cycle {
             last_cycle = record.cycle;
             last_progress = Instant::now();
@@ -298,8 +317,12 @@ where
         }
         if options.status_lines && running && last_status_line.elapsed() >= Duration::from_secs(1) {
             last_status_line = Instant::now();
-            println!("{}", snapshot.line());
+            println!("{}{}", snapshot.line(), colour_suffix(colour.as_ref()));
         }
+    }
+    let colour_text = colour_suffix(colour.as_ref());
+    if let Some(c) = colour {
+        c.finish();
     }
     let _ = sd_notify::notify(&[NotifyState::Stopping]);
     let outcome = control.join();
@@ -317,7 +340,7 @@ where
     match outcome {
         Ok(Ok((report, stats))) => {
             if options.status_lines {
-                println!("{}", reader.latest().line());
+                println!("{}{colour_text}", reader.latest().line());
             }
             log_report(&report, &stats);
             if panicked {
@@ -337,6 +360,11 @@ where
             ExitCode::from(EXIT_PANIC)
         }
     }
+}
+
+/// `  colour ...` for the status line, or nothing without a colour thread.
+fn colour_suffix(colour: Option<&crate::colour_thread::ColourRuntime>) -> String {
+    colour.map_or_else(String::new, |c| format!("  {}", c.status_text()))
 }
 
 fn log_report(report: &LoopReport, stats: &LoopStats) {

@@ -54,6 +54,10 @@ pub fn control_step(config: &Config, rig: Rig3) -> ControlStep {
                 kp_nm_per_n: c.tension_kp_nm_per_n,
                 ki_nm_per_n_s: c.tension_ki_nm_per_n_s,
                 torque_limit_nm: 1.25 * tr.torque_for_tension(c.t_max_n),
+                speed_gain_nm_s_per_m: c.speed_gain_nm_s_per_m,
+                slack_tension_n: 0.5 * c.t_min_n,
+                takeup_speed_m_s: c.slack_takeup_speed_m_s,
+                max_winding_speed_m_s: 0.75 * c.max_wire_speed_m_s,
             },
         },
     )

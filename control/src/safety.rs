@@ -117,29 +117,38 @@ impl SafetyState {
 pub struct SafetyLimits {
     /// Largest measured tension tolerated, N (above the set-point limit, to allow for transients).
     pub max_measured_tension_n: f64,
-    /// Largest wire speed tolerated, m/s.
-    pub max_wire_speed_m_s: f64,
-    /// A wire whose measured tension stays below this while its set-point is at least
-    /// `break_setpoint_n` is taken as broken, N.
-    pub break_tension_n: f64,
-    /// Set-point above which a missing tension means a broken wire, N.
-    pub break_setpoint_n: f64,
-    /// How long the tension must stay missing, seconds.
-    pub break_time_s: f64,
     /// How long an over-tension must last before it trips, seconds (filters sensor spikes).
     pub over_tension_time_s: f64,
+    /// Largest wire speed tolerated, m/s: faster for `over_speed_time_s` stops force rendering
+    /// until the speed is back under it (a transient state, not latched).
+    pub max_wire_speed_m_s: f64,
+    /// How long an over-speed must last, seconds.
+    pub over_speed_time_s: f64,
+    /// A wire without tension (below this, N) while its set-point is at least
+    /// `break_setpoint_n` is slack; it is taken as broken when slack take-up has wound in more
+    /// than `break_takeup_m` or the slack lasts `break_time_s`.
+    pub break_tension_n: f64,
+    /// Set-point above which a missing tension means slack or a break, N.
+    pub break_setpoint_n: f64,
+    /// Wire wound in without tension beyond which it is broken, metres (more slack than a
+    /// finger's movement makes).
+    pub break_takeup_m: f64,
+    /// Longest slack before a wire is taken as broken, seconds.
+    pub break_time_s: f64,
 }
 
 impl SafetyLimits {
-    /// Limits for a device with maximum tension `t_max_n` and maximum wire speed.
+    /// Limits for a device with minimum and maximum tension and maximum wire speed.
     pub fn for_device(t_min_n: f64, t_max_n: f64, max_wire_speed_m_s: f64) -> SafetyLimits {
         SafetyLimits {
             max_measured_tension_n: t_max_n * 1.2,
+            over_tension_time_s: 0.005,
             max_wire_speed_m_s,
+            over_speed_time_s: 0.02,
             break_tension_n: 0.25 * t_min_n,
             break_setpoint_n: t_min_n,
-            break_time_s: 0.1,
-            over_tension_time_s: 0.005,
+            break_takeup_m: 0.15,
+            break_time_s: 1.0,
         }
     }
 }
@@ -159,7 +168,7 @@ pub struct SafetyInput {
     pub measured_tension_n: [f64; WIRES],
     /// Tension set-points of the previous period, N.
     pub setpoint_tension_n: [f64; WIRES],
-    /// Wire speeds, m/s (either sign).
+    /// Wire length rates, m/s (positive = paying out, negative = winding in).
     pub wire_speed_m_s: [f64; WIRES],
     /// The loop reports too many consecutive overruns.
     pub deadline_overrun: bool,
@@ -169,13 +178,17 @@ pub struct SafetyInput {
     pub drives_enabled: bool,
 }
 
-/// Latching safety supervisor.
+/// The safety supervisor: faults latch until [`SafetySupervisor::reset`]; an over-speed holds
+/// only while it lasts.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SafetySupervisor {
     limits: SafetyLimits,
-    state: SafetyState,
+    latched: SafetyState,
+    transient: SafetyState,
     slack_time_s: [f64; WIRES],
+    slack_wound_m: [f64; WIRES],
     over_tension_time_s: [f64; WIRES],
+    over_speed_time_s: [f64; WIRES],
 }
 
 impl SafetySupervisor {
@@ -183,33 +196,35 @@ impl SafetySupervisor {
     pub fn new(limits: SafetyLimits) -> SafetySupervisor {
         SafetySupervisor {
             limits,
-            state: SafetyState::Normal,
+            latched: SafetyState::Normal,
+            transient: SafetyState::Normal,
             slack_time_s: [0.0; WIRES],
+            slack_wound_m: [0.0; WIRES],
             over_tension_time_s: [0.0; WIRES],
+            over_speed_time_s: [0.0; WIRES],
         }
     }
 
-    /// The current state.
+    /// The current state: the more severe of the latched and the transient one.
     pub fn state(&self) -> SafetyState {
-        self.state
+        more_severe(self.latched, self.transient)
     }
 
-    /// Clear a latched fault (an operator action; the e-stop must be reset at the device first).
+    /// Clear latched faults (an operator action; the e-stop must be reset at the device first).
     pub fn reset(&mut self) {
-        self.state = SafetyState::Normal;
-        self.slack_time_s = [0.0; WIRES];
-        self.over_tension_time_s = [0.0; WIRES];
+        *self = SafetySupervisor::new(self.limits);
     }
 
     /// Force a state from outside the checks (e.g. a stale surface), keeping the more severe one.
     pub fn trip(&mut self, state: SafetyState) {
-        self.state = more_severe(self.state, state);
+        self.latched = more_severe(self.latched, state);
     }
 
-    /// Evaluate one period; returns the (latched) state.
+    /// Evaluate one period; returns the state.
     pub fn update(&mut self, input: &SafetyInput) -> SafetyState {
-        let l = &self.limits;
+        let l = self.limits;
         let mut now = SafetyState::Normal;
+        let mut transient = SafetyState::Normal;
         if input.estop_pressed {
             now = more_severe(now, SafetyState::PowerOff(SafetyReason::EmergencyStop));
         }
@@ -241,10 +256,9 @@ impl SafetySupervisor {
             let wire = i as u8;
             let t = input.measured_tension_n[i];
             if !t.is_finite() {
-                now = more_severe(
-                    now,
-                    SafetyState::MinimumTension(SafetyReason::SensorFault { wire: Some(wire) }),
-                );
+                let fault =
+                    SafetyState::MinimumTension(SafetyReason::SensorFault { wire: Some(wire) });
+                now = more_severe(now, fault);
                 continue;
             }
             if t > l.max_measured_tension_n {
@@ -258,25 +272,39 @@ impl SafetySupervisor {
             } else {
                 self.over_tension_time_s[i] = 0.0;
             }
-            if input.wire_speed_m_s[i].abs() > l.max_wire_speed_m_s {
-                now = more_severe(
-                    now,
-                    SafetyState::MinimumTension(SafetyReason::OverSpeed { wire }),
-                );
+            let rate = if input.wire_speed_m_s[i].is_finite() {
+                input.wire_speed_m_s[i]
+            } else {
+                0.0
+            };
+            if rate.abs() > l.max_wire_speed_m_s {
+                self.over_speed_time_s[i] += input.dt_s;
+                if self.over_speed_time_s[i] >= l.over_speed_time_s {
+                    let over = SafetyState::MinimumTension(SafetyReason::OverSpeed { wire });
+                    transient = more_severe(transient, over);
+                }
+            } else {
+                self.over_speed_time_s[i] = 0.0;
             }
             let should_pull =
                 input.drives_enabled && input.setpoint_tension_n[i] >= l.break_setpoint_n;
             if should_pull && t < l.break_tension_n {
+                // Slack: the tension loop winds the wire in; a broken wire keeps winding.
                 self.slack_time_s[i] += input.dt_s;
-                if self.slack_time_s[i] >= l.break_time_s {
+                self.slack_wound_m[i] += (-rate).max(0.0) * input.dt_s;
+                if self.slack_wound_m[i] >= l.break_takeup_m - 1e-9
+                    || self.slack_time_s[i] >= l.break_time_s - 1e-9
+                {
                     now = more_severe(now, SafetyState::PowerOff(SafetyReason::WireBreak { wire }));
                 }
             } else {
                 self.slack_time_s[i] = 0.0;
+                self.slack_wound_m[i] = 0.0;
             }
         }
-        self.state = more_severe(self.state, now);
-        self.state
+        self.latched = more_severe(self.latched, now);
+        self.transient = transient;
+        self.state()
     }
 }
 
@@ -336,11 +364,13 @@ mod tests {
     }
 
     #[test]
-    fn broken_wire_detected_after_the_break_time_only() {
+    fn a_broken_wire_is_wound_in_without_tension_and_detected() {
         let mut s = supervisor();
         let mut i = normal_input();
         i.measured_tension_n[2] = 0.0;
-        for _ in 0..99 {
+        // The free end is wound in at 0.3 m/s: 0.15 m take 500 periods.
+        i.wire_speed_m_s[2] = -0.3;
+        for _ in 0..499 {
             assert_eq!(s.update(&i), SafetyState::Normal);
         }
         let st = s.update(&i);
@@ -349,6 +379,28 @@ mod tests {
             SafetyState::PowerOff(SafetyReason::WireBreak { wire: 2 })
         );
         assert_eq!(st.reason().unwrap().wire(), Some(2));
+    }
+
+    #[test]
+    fn slack_from_a_quick_retraction_is_not_a_break() {
+        let mut s = supervisor();
+        let mut slack = normal_input();
+        slack.measured_tension_n = [0.0; WIRES];
+        slack.wire_speed_m_s = [-0.15; WIRES];
+        // 5 cm of slack on every wire, taken up in a third of a second, then taut again.
+        for _ in 0..333 {
+            assert_eq!(s.update(&slack), SafetyState::Normal);
+        }
+        for _ in 0..10 {
+            assert_eq!(s.update(&normal_input()), SafetyState::Normal);
+        }
+        // A wire that stays slack without winding in (stuck) is broken after the break time.
+        let mut stuck = normal_input();
+        stuck.measured_tension_n[0] = 0.0;
+        for _ in 0..999 {
+            assert_eq!(s.update(&stuck), SafetyState::Normal);
+        }
+        assert!(s.update(&stuck).power_off());
     }
 
     #[test]
@@ -368,19 +420,30 @@ mod tests {
     }
 
     #[test]
+    fn over_speed_stops_rendering_only_while_it_lasts() {
+        let mut s = supervisor();
+        let mut fast = normal_input();
+        fast.wire_speed_m_s[1] = -1.0;
+        for _ in 0..19 {
+            assert_eq!(s.update(&fast), SafetyState::Normal);
+        }
+        assert_eq!(
+            s.update(&fast),
+            SafetyState::MinimumTension(SafetyReason::OverSpeed { wire: 1 })
+        );
+        assert_eq!(
+            s.update(&normal_input()),
+            SafetyState::Normal,
+            "not latched"
+        );
+    }
+
+    #[test]
     fn faults_map_to_their_safe_states() {
         let mut i = normal_input();
         i.sensor_fault = Some(Some(1));
-        assert_eq!(
-            supervisor().update(&i),
-            SafetyState::MinimumTension(SafetyReason::SensorFault { wire: Some(1) })
-        );
-        let mut i = normal_input();
-        i.wire_speed_m_s[1] = -0.9;
-        assert_eq!(
-            supervisor().update(&i),
-            SafetyState::MinimumTension(SafetyReason::OverSpeed { wire: 1 })
-        );
+        let expected = SafetyState::MinimumTension(SafetyReason::SensorFault { wire: Some(1) });
+        assert_eq!(supervisor().update(&i), expected);
         let mut i = normal_input();
         i.measured_tension_n[0] = f64::NAN;
         assert!(matches!(

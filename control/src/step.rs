@@ -133,9 +133,11 @@ impl ControlStep {
             self.params.algorithm,
             &self.params.limits,
         );
-        self.pi.update(
+        let winding_speed_m_s: [f64; WIRES] = core::array::from_fn(|i| -input.length_rates_m_s[i]);
+        self.pi.update_with_speed(
             &out.distribution.tensions_n,
             &input.measured_tension_n,
+            &winding_speed_m_s,
             input.dt_s,
             &mut out.torque_nm,
         );

@@ -1,4 +1,11 @@
-//! PI control of the measured wire tension, with a static feed-forward of the set-point.
+//! Tension control of each wire: PI on the measured tension with a static feed-forward of the
+//! set-point, a wire-speed limit, and slack take-up.
+//!
+//! A wire that lost its tension (the finger moved towards the guide faster than the motor wound
+//! in, or the thimble was let go) is not wound in at full torque, which would make the wire snap
+//! taut with a tension spike: below `slack_tension_n` the wire is wound in under speed control
+//! at `takeup_speed_m_s` until it pulls again. While pulling, winding faster than
+//! `max_winding_speed_m_s` is braked.
 
 use crate::WIRES;
 
@@ -13,9 +20,39 @@ pub struct TensionPiGains {
     pub ki_nm_per_n_s: f64,
     /// Largest motor torque magnitude commanded, N·m.
     pub torque_limit_nm: f64,
+    /// Speed-loop gain for take-up and the speed limit, N·m per m/s of wire speed.
+    pub speed_gain_nm_s_per_m: f64,
+    /// Below this measured tension a wire is slack and is taken up, newtons.
+    pub slack_tension_n: f64,
+    /// Winding speed of slack take-up, m/s.
+    pub takeup_speed_m_s: f64,
+    /// Winding faster than this is braked, m/s.
+    pub max_winding_speed_m_s: f64,
 }
 
-/// Per-wire PI tension controller with anti-windup (conditional integration at the torque limit).
+impl TensionPiGains {
+    /// Gains with only the PI part (no take-up, no speed limit): `speed_gain` 0.
+    pub fn pi_only(
+        feedforward_nm_per_n: f64,
+        kp_nm_per_n: f64,
+        ki_nm_per_n_s: f64,
+        torque_limit_nm: f64,
+    ) -> Self {
+        TensionPiGains {
+            feedforward_nm_per_n,
+            kp_nm_per_n,
+            ki_nm_per_n_s,
+            torque_limit_nm,
+            speed_gain_nm_s_per_m: 0.0,
+            slack_tension_n: f64::NEG_INFINITY,
+            takeup_speed_m_s: 0.0,
+            max_winding_speed_m_s: f64::INFINITY,
+        }
+    }
+}
+
+/// Per-wire PI tension controller with anti-windup (conditional integration at the torque
+/// limit), slack take-up and a winding-speed limit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TensionPi {
     gains: TensionPiGains,
@@ -41,9 +78,8 @@ impl TensionPi {
         self.integral_nm = [0.0; WIRES];
     }
 
-    /// One update: motor torques (N·m, positive = winding) into `torque_nm` for the set-points
-    /// and measured tensions (N), over a period `dt_s` seconds. Non-finite measurements are
-    /// treated as zero error (the safety layer decides what a broken sensor means).
+    /// One update without speed information (speeds taken as zero): motor torques (N·m,
+    /// positive = winding) into `torque_nm` for the set-points and measured tensions (N).
     pub fn update(
         &mut self,
         setpoint_n: &[f64; WIRES],
@@ -51,23 +87,51 @@ impl TensionPi {
         dt_s: f64,
         torque_nm: &mut [f64; WIRES],
     ) {
+        self.update_with_speed(setpoint_n, measured_n, &[0.0; WIRES], dt_s, torque_nm);
+    }
+
+    /// One update: motor torques (N·m, positive = winding) into `torque_nm` for the set-points
+    /// and measured tensions (N) and the wires' winding speeds (m/s, positive = winding in), over
+    /// a period `dt_s` seconds. Non-finite measurements are treated as zero error (the safety
+    /// layer decides what a broken sensor means).
+    pub fn update_with_speed(
+        &mut self,
+        setpoint_n: &[f64; WIRES],
+        measured_n: &[f64; WIRES],
+        winding_speed_m_s: &[f64; WIRES],
+        dt_s: f64,
+        torque_nm: &mut [f64; WIRES],
+    ) {
         let g = &self.gains;
         for i in 0..WIRES {
-            let error = if measured_n[i].is_finite() {
-                setpoint_n[i] - measured_n[i]
+            let speed = if winding_speed_m_s[i].is_finite() {
+                winding_speed_m_s[i]
             } else {
                 0.0
             };
             let ff = g.feedforward_nm_per_n * setpoint_n[i];
-            let candidate_integral = self.integral_nm[i] + g.ki_nm_per_n_s * error * dt_s;
-            let unclamped = ff + g.kp_nm_per_n * error + candidate_integral;
-            let saturating =
-                unclamped.abs() > g.torque_limit_nm && unclamped.signum() == error.signum();
-            if !saturating && candidate_integral.is_finite() {
-                self.integral_nm[i] =
-                    candidate_integral.clamp(-g.torque_limit_nm, g.torque_limit_nm);
-            }
-            let out = ff + g.kp_nm_per_n * error + self.integral_nm[i];
+            let slack = measured_n[i].is_finite() && measured_n[i] < g.slack_tension_n;
+            let out = if slack {
+                // Take up the slack at a bounded speed; the integral holds.
+                ff + g.speed_gain_nm_s_per_m * (g.takeup_speed_m_s - speed)
+            } else {
+                let error = if measured_n[i].is_finite() {
+                    setpoint_n[i] - measured_n[i]
+                } else {
+                    0.0
+                };
+                let candidate_integral = self.integral_nm[i] + g.ki_nm_per_n_s * error * dt_s;
+                let unclamped = ff + g.kp_nm_per_n * error + candidate_integral;
+                let saturating =
+                    unclamped.abs() > g.torque_limit_nm && unclamped.signum() == error.signum();
+                if !saturating && candidate_integral.is_finite() {
+                    self.integral_nm[i] =
+                        candidate_integral.clamp(-g.torque_limit_nm, g.torque_limit_nm);
+                }
+                let overspeed = (speed - g.max_winding_speed_m_s).max(0.0);
+                ff + g.kp_nm_per_n * error + self.integral_nm[i]
+                    - g.speed_gain_nm_s_per_m * overspeed
+            };
             torque_nm[i] = if out.is_finite() {
                 out.clamp(-g.torque_limit_nm, g.torque_limit_nm)
             } else {
@@ -87,6 +151,10 @@ mod tests {
             kp_nm_per_n: 0.0005,
             ki_nm_per_n_s: 0.02,
             torque_limit_nm: 0.02,
+            speed_gain_nm_s_per_m: 0.005,
+            slack_tension_n: 0.15,
+            takeup_speed_m_s: 0.15,
+            max_winding_speed_m_s: 0.6,
         }
     }
 
@@ -95,7 +163,7 @@ mod tests {
         // Plant: measured tension = 0.8 * torque / feedforward (a 20% gain loss).
         let mut pi = TensionPi::new(gains());
         let sp = [5.0; WIRES];
-        let mut measured = [0.0; WIRES];
+        let mut measured = [0.2; WIRES];
         let mut torque = [0.0; WIRES];
         for _ in 0..5000 {
             pi.update(&sp, &measured, 1e-3, &mut torque);
@@ -110,12 +178,71 @@ mod tests {
     fn output_is_limited_and_finite() {
         let mut pi = TensionPi::new(gains());
         let mut torque = [0.0; WIRES];
-        pi.update(
+        pi.update_with_speed(
             &[1e9, f64::NAN, -1e9],
-            &[0.0, 0.0, f64::INFINITY],
+            &[1.0, 1.0, f64::INFINITY],
+            &[f64::NAN, 0.0, 9.0],
             1e-3,
             &mut torque,
         );
         assert!(torque.iter().all(|t| t.is_finite() && t.abs() <= 0.02));
+    }
+
+    #[test]
+    fn slack_is_taken_up_at_the_takeup_speed_not_at_full_torque() {
+        let g = gains();
+        let mut pi = TensionPi::new(g);
+        let mut torque = [0.0; WIRES];
+        // Slack, standing still: wind in with a modest torque, far below the limit.
+        pi.update_with_speed(
+            &[0.3; WIRES],
+            &[0.0; WIRES],
+            &[0.0; WIRES],
+            1e-3,
+            &mut torque,
+        );
+        let expected = g.feedforward_nm_per_n * 0.3 + g.speed_gain_nm_s_per_m * g.takeup_speed_m_s;
+        assert!((torque[0] - expected).abs() < 1e-12 && torque[0] < 0.5 * g.torque_limit_nm);
+        // Slack, already winding at the take-up speed: only the feed-forward.
+        pi.update_with_speed(
+            &[0.3; WIRES],
+            &[0.0; WIRES],
+            &[g.takeup_speed_m_s; WIRES],
+            1e-3,
+            &mut torque,
+        );
+        assert!((torque[0] - g.feedforward_nm_per_n * 0.3).abs() < 1e-12);
+        // Slack does not wind the integral up.
+        for _ in 0..10_000 {
+            pi.update_with_speed(
+                &[0.3; WIRES],
+                &[0.0; WIRES],
+                &[0.0; WIRES],
+                1e-3,
+                &mut torque,
+            );
+        }
+        pi.update_with_speed(
+            &[0.3; WIRES],
+            &[0.3; WIRES],
+            &[0.0; WIRES],
+            1e-3,
+            &mut torque,
+        );
+        assert!(
+            (torque[0] - g.feedforward_nm_per_n * 0.3).abs() < 1e-9,
+            "no wound-up integral"
+        );
+    }
+
+    #[test]
+    fn winding_faster_than_the_limit_is_braked() {
+        let g = gains();
+        let mut pi = TensionPi::new(g);
+        let (mut slow, mut fast) = ([0.0; WIRES], [0.0; WIRES]);
+        pi.update_with_speed(&[2.0; WIRES], &[1.0; WIRES], &[0.1; WIRES], 1e-3, &mut slow);
+        pi.reset();
+        pi.update_with_speed(&[2.0; WIRES], &[1.0; WIRES], &[1.0; WIRES], 1e-3, &mut fast);
+        assert!((slow[0] - fast[0] - g.speed_gain_nm_s_per_m * 0.4).abs() < 1e-12);
     }
 }

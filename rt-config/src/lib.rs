@@ -244,6 +244,11 @@ pub struct ControlConfig {
     pub tension_ki_nm_per_n_s: f64,
     /// Time over which tensions ramp down to `t_min` on shutdown, seconds.
     pub ramp_down_s: f64,
+    /// Winding speed at which a slack wire is taken up, m/s (slow enough that it does not snap
+    /// taut with a tension spike).
+    pub slack_takeup_speed_m_s: f64,
+    /// Gain of the wire-speed loop (slack take-up and the winding-speed limit), N·m per m/s.
+    pub speed_gain_nm_s_per_m: f64,
 }
 
 /// Real-time process settings.
@@ -295,6 +300,8 @@ impl Default for ControlConfig {
             tension_kp_nm_per_n: 0.0004,
             tension_ki_nm_per_n_s: 0.04,
             ramp_down_s: 0.5,
+            slack_takeup_speed_m_s: 0.15,
+            speed_gain_nm_s_per_m: 0.005,
         }
     }
 }
@@ -404,6 +411,18 @@ impl Config {
             10.0,
         )?;
         in_range("control.ramp_down_s", c.ramp_down_s, 0.0, 10.0)?;
+        in_range(
+            "control.slack_takeup_speed_m_s",
+            c.slack_takeup_speed_m_s,
+            0.01,
+            0.5 * c.max_wire_speed_m_s,
+        )?;
+        in_range(
+            "control.speed_gain_nm_s_per_m",
+            c.speed_gain_nm_s_per_m,
+            0.0,
+            1.0,
+        )?;
         in_range(
             "realtime.control_priority",
             self.realtime.control_priority as f64,

@@ -20,7 +20,7 @@ pub mod twin;
 
 pub use operator::{VirtualOperator, Waypoint};
 pub use plant::{Plant, PlantParams};
-pub use twin::{ClockMode, SensorModel, Twin, TwinError};
+pub use twin::{ClockMode, SensorModel, Twin, TwinError, TwinFault};
 
 /// 3-vector of `f64`.
 pub type Vec3 = nalgebra::Vector3<f64>;

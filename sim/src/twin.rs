@@ -73,6 +73,22 @@ impl SensorModel {
     }
 }
 
+/// A fault the twin can be scheduled to suffer (see [`Twin::schedule_fault`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TwinFault {
+    /// Wire N breaks.
+    BreakWire(usize),
+    /// The e-stop button is pressed (and stays pressed).
+    PressEStop,
+    /// Tension sensor N stops answering.
+    FailTensionSensor(usize),
+    /// Drive N latches a fault.
+    FaultDrive(usize),
+}
+
+/// Most faults that can be scheduled at once.
+pub const FAULT_SLOTS: usize = 8;
+
 /// How the twin's clock runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ClockMode {
@@ -102,6 +118,7 @@ pub struct Twin {
     clock_mode: ClockMode,
     steps_done: u64,
     step_ns: u64,
+    scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
 }
 
 impl Twin {
@@ -134,6 +151,7 @@ impl Twin {
             clock_mode: ClockMode::Simulated,
             steps_done: 0,
             step_ns,
+            scheduled: [None; FAULT_SLOTS],
         }
     }
 
@@ -194,10 +212,45 @@ impl Twin {
         MonoTime(self.steps_done * self.step_ns)
     }
 
-    /// Advance the physics to `t` (no-op when `t` is not later than the simulated time).
-    /// Allocation-free; cost is one plant step per integration step.
+    /// Schedule `fault` to happen at simulated time `at`. Returns false when every slot is
+    /// taken.
+    pub fn schedule_fault(&mut self, at: MonoTime, fault: TwinFault) -> bool {
+        match self.scheduled.iter_mut().find(|s| s.is_none()) {
+            Some(slot) => {
+                *slot = Some((at, fault));
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Make `fault` happen now.
+    pub fn inject(&mut self, fault: TwinFault) {
+        match fault {
+            TwinFault::BreakWire(w) => self.plant.break_wire(w),
+            TwinFault::PressEStop => self.set_estop_button(true),
+            TwinFault::FailTensionSensor(w) => self.fail_tension_sensor(Some(w)),
+            TwinFault::FaultDrive(w) => self.fault_drive(w),
+        }
+    }
+
+    fn fire_due_faults(&mut self) {
+        let now = self.sim_time();
+        for i in 0..FAULT_SLOTS {
+            if let Some((at, fault)) = self.scheduled[i] {
+                if at <= now {
+                    self.scheduled[i] = None;
+                    self.inject(fault);
+                }
+            }
+        }
+    }
+
+    /// Advance the physics to `t` (no-op when `t` is not later than the simulated time),
+    /// firing scheduled faults on the way. Allocation-free; one plant step per integration step.
     pub fn advance_to(&mut self, t: MonoTime) {
         while self.sim_time() < t {
+            self.fire_due_faults();
             let torque = self.applied_torque_nm();
             self.plant.step(&torque, &self.operator);
             self.steps_done += 1;

@@ -19,6 +19,8 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
+    Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
     Log(tool::log::LogArgs),
     /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
@@ -31,6 +33,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),

@@ -117,6 +117,11 @@ fn main() -> ExitCode {
                 "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
             );
             let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+            // Colour under the finger: a demo image over the explored area.
+            match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
+                Ok(source) => options.colour = Some(source),
+                Err(e) => tracing::warn!("colour rendering disabled: {e}"),
+            }
             run_service(
                 RealTimeTwin::new(scene.twin),
                 FixedSurface(scene.wall),

@@ -2,6 +2,7 @@
 //! function returning the process exit code or an error to print.
 
 pub mod bench_rt;
+pub mod colour;
 pub mod config;
 pub mod log;
 pub mod service;

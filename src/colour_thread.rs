@@ -1,0 +1,343 @@
+//! The colour thread of `videtd`: the colour under the thimble rendered as vibration
+//! (paper §6.1).
+//!
+//! One thread runs the [`VibrationLoop`] at its tick (1.5 kHz by default, absolute-time sleeps)
+//! and, every [`TICKS_PER_READING`] ticks, reads the latest thimble state (the control thread's
+//! wait-free snapshot) and the latest colour frame (a snapshot too), samples the colour under the
+//! thimble through the [`SceneMap`], quantizes it with hysteresis and hands the level triple to
+//! the loop. The supervisor switches rendering off whenever the control loop is not in its normal
+//! state or the service is stopping ([`ColourRuntime::supervise`]); the thread is silent too when
+//! the finger is outside the image or no frame has arrived, and leaves every output off when it
+//! stops. Nothing on this thread allocates after start-up.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+use tracing::{error, info, warn};
+use videt_colour::level::triple_letters;
+use videt_colour::vibration_loop::VibrationError;
+use videt_colour::{
+    ColourReader, Pattern, PatternConfig, PeriodJitter, QuantizerConfig, RecordingVibrotactors,
+    SamplerConfig, VibrationInputs, VibrationLoop,
+};
+use videt_control::safety::SafetyState;
+use videt_control::SceneMap;
+use videt_hal::{Clock, RgbFrame, Vibrotactors};
+
+use crate::cycle::CycleRecord;
+use crate::rt::SystemClock;
+use crate::snapshot::{snapshot_channel, SnapshotReader, SnapshotWriter, ThimbleState};
+
+/// The demonstration image `videtd --sim` renders: a crop of the Middlebury "cones" left image
+/// (attribution in `assets/colour-demo/ATTRIBUTION.md`).
+pub const DEMO_IMAGE_PNG: &[u8] = include_bytes!("../assets/colour-demo/cones-left-crop.png");
+
+/// Vibration ticks between two colour readings (1.5 kHz / 25 = 60 readings per second).
+pub const TICKS_PER_READING: u64 = 25;
+
+/// Edges the twin's recording vibrotactors keep (about 7 minutes of three busy channels).
+pub const TWIN_EDGE_CAPACITY: usize = 200_000;
+
+/// What the status line shows: the colour the current levels came from.
+#[derive(Debug, Default)]
+pub struct ColourStatus {
+    /// Bit 31: valid; bits 0..24: RGB.
+    rgb: AtomicU32,
+}
+
+impl ColourStatus {
+    fn set(&self, rgb: Option<[u8; 3]>) {
+        let packed = rgb.map_or(0, |[r, g, b]| {
+            1 << 31 | u32::from(r) << 16 | u32::from(g) << 8 | u32::from(b)
+        });
+        self.rgb.store(packed, Ordering::Relaxed);
+    }
+    /// The sampled colour under the thimble, if any.
+    pub fn rgb(&self) -> Option<[u8; 3]> {
+        let p = self.rgb.load(Ordering::Relaxed);
+        (p & 1 << 31 != 0).then_some([(p >> 16) as u8, (p >> 8) as u8, p as u8])
+    }
+}
+
+/// The shared state of a running colour thread.
+#[derive(Debug, Clone)]
+pub struct ColourHandles {
+    /// The vibration loop's inputs (levels, active, shutdown).
+    pub inputs: Arc<VibrationInputs>,
+    /// The colour under the thimble, for the status line.
+    pub status: Arc<ColourStatus>,
+}
+
+impl ColourHandles {
+    /// `colour HLL rgb(230,  39,  59)`, `colour quiet (off-image)` or
+    /// `colour quiet (not rendering)`.
+    pub fn status_text(&self) -> String {
+        match (
+            self.inputs.is_active(),
+            self.inputs.levels(),
+            self.status.rgb(),
+        ) {
+            (true, Some(levels), Some([r, g, b])) => {
+                let [lr, lg, lb] = triple_letters(levels);
+                format!("colour {lr}{lg}{lb} rgb({r:3}, {g:3}, {b:3})")
+            }
+            (false, _, _) => "colour quiet (not rendering)".to_string(),
+            _ => "colour quiet (off-image)".to_string(),
+        }
+    }
+}
+
+/// Settings of the colour thread.
+#[derive(Debug, Clone, Copy)]
+pub struct ColourSettings {
+    /// Workspace ↔ image mapping (the bas-relief's).
+    pub map: SceneMap,
+    /// Sampling window.
+    pub sampler: SamplerConfig,
+    /// Thresholds and hysteresis.
+    pub quantizer: QuantizerConfig,
+    /// Carrier and duties.
+    pub pattern: PatternConfig,
+    /// Vibration ticks per carrier period.
+    pub ticks_per_period: u32,
+}
+
+/// Why the colour thread could not start or stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum ColourThreadError {
+    /// A setting or the demo image was rejected.
+    #[error("colour settings: {0}")]
+    Config(String),
+    /// A vibrotactor write failed (outputs were switched off).
+    #[error(transparent)]
+    Output(#[from] VibrationError),
+}
+
+fn config_error(e: impl std::fmt::Display) -> ColourThreadError {
+    ColourThreadError::Config(e.to_string())
+}
+
+/// The scene map the twin's demonstration uses: a 0.20 m x 0.15 m area centred under the guide
+/// points' centroid (where the virtual operator touches the wall and slides 8 cm in +x), over an
+/// image of `image_size_px`, with the back plane at the demo wall.
+pub fn demo_scene_map(
+    guides_m: &[[f64; 2]; 3],
+    wall_z_m: f64,
+    image_size_px: [u32; 2],
+) -> Result<SceneMap, videt_control::scene_map::SceneMapError> {
+    let cx = (guides_m[0][0] + guides_m[1][0] + guides_m[2][0]) / 3.0;
+    let cy = (guides_m[0][1] + guides_m[1][1] + guides_m[2][1]) / 3.0;
+    let size = [0.20, 0.15];
+    SceneMap::new(
+        [cx - size[0] / 2.0, cy - size[1] / 2.0],
+        size,
+        image_size_px,
+        wall_z_m,
+        0.08_f64.min(wall_z_m / 2.0),
+        [0.5, 5.0],
+    )
+}
+
+/// What the colour thread renders from: the initial frame and the settings.
+#[derive(Debug, Clone)]
+pub struct ColourSource {
+    /// The frame until a newer one is published (for the twin: the demo image).
+    pub frame: RgbFrame,
+    /// Sampling, quantization, pattern, mapping.
+    pub settings: ColourSettings,
+}
+
+/// The twin's colour source for `videtd --sim`: the demo image over the explored area, default
+/// sampling, quantization and pattern.
+pub fn demo_colour(
+    guides_m: &[[f64; 2]; 3],
+    wall_z_m: f64,
+) -> Result<ColourSource, ColourThreadError> {
+    let frame = videt_colour::training::decode_rgb(
+        DEMO_IMAGE_PNG.to_vec(),
+        std::path::Path::new("assets/colour-demo/cones-left-crop.png"),
+    )
+    .map_err(config_error)?;
+    let map =
+        demo_scene_map(guides_m, wall_z_m, [frame.width, frame.height]).map_err(config_error)?;
+    Ok(ColourSource {
+        frame,
+        settings: ColourSettings {
+            map,
+            sampler: SamplerConfig::default(),
+            quantizer: QuantizerConfig::default(),
+            pattern: PatternConfig::default(),
+            ticks_per_period: 20,
+        },
+    })
+}
+
+/// The colour thread's body: runs until `handles.inputs.request_shutdown()`, then leaves every
+/// output off and returns the loop's period statistics and the device.
+pub fn run_colour<V, C>(
+    vibrotactors: V,
+    clock: C,
+    settings: &ColourSettings,
+    handles: &ColourHandles,
+    mut thimble: SnapshotReader<ThimbleState>,
+    mut frames: SnapshotReader<RgbFrame>,
+) -> Result<(PeriodJitter, V), ColourThreadError>
+where
+    V: Vibrotactors,
+    C: Clock,
+{
+    let pattern = Pattern::new(settings.pattern).map_err(config_error)?;
+    let mut reader =
+        ColourReader::new(settings.sampler, settings.quantizer).map_err(config_error)?;
+    let mut vibration = VibrationLoop::new(
+        vibrotactors,
+        clock,
+        pattern,
+        settings.ticks_per_period,
+        Arc::clone(&handles.inputs),
+    )
+    .map_err(config_error)?;
+    let inputs = &handles.inputs;
+    let mut tick = 0u64;
+    loop {
+        if tick % TICKS_PER_READING == 0 {
+            let state = thimble.latest();
+            let (version, [x, y, _]) = (state.version, state.value.position_m);
+            let frame = &frames.latest().value;
+            let reading = if version == 0 {
+                None // the control loop has not published a position yet
+            } else {
+                reader.read_workspace(frame, &settings.map, x, y).ok()
+            };
+            inputs.set_levels(reading.map(|r| r.levels));
+            handles.status.set(reading.map(|r| r.rgb));
+        }
+        tick += 1;
+        if !vibration.step()? {
+            break;
+        }
+    }
+    let jitter = vibration.jitter().clone();
+    let (vibrotactors, _clock) = vibration.into_parts();
+    Ok((jitter, vibrotactors))
+}
+
+/// The colour thread's result: its period statistics and the vibrotactors handed back.
+pub type ColourJoin<V> = JoinHandle<Result<(PeriodJitter, V), ColourThreadError>>;
+
+/// Start the colour thread (named `videt-colour`); `handles.inputs.request_shutdown()` stops
+/// it. With `fifo_priority` the thread asks for SCHED_FIFO at that priority (below the control
+/// thread's); if refused it warns and runs with normal scheduling.
+pub fn spawn_colour_thread<V, C>(
+    vibrotactors: V,
+    clock: C,
+    settings: ColourSettings,
+    thimble: SnapshotReader<ThimbleState>,
+    frames: SnapshotReader<RgbFrame>,
+    fifo_priority: Option<u8>,
+) -> std::io::Result<(ColourHandles, ColourJoin<V>)>
+where
+    V: Vibrotactors + Send + 'static,
+    C: Clock + Send + 'static,
+{
+    let handles = ColourHandles {
+        inputs: Arc::new(VibrationInputs::new()),
+        status: Arc::new(ColourStatus::default()),
+    };
+    let thread_handles = handles.clone();
+    let join = std::thread::Builder::new()
+        .name("videt-colour".into())
+        .spawn(move || {
+            if let Some(priority) = fifo_priority {
+                if let Err(e) = crate::rt::set_fifo(priority) {
+                    warn!(
+                        "colour thread stays SCHED_OTHER: SCHED_FIFO {priority} refused ({e}); vibration timing will be worse"
+                    );
+                }
+            }
+            crate::rt::prefault_stack(64 * 1024);
+            run_colour(
+                vibrotactors,
+                clock,
+                &settings,
+                &thread_handles,
+                thimble,
+                frames,
+            )
+        })?;
+    Ok((handles, join))
+}
+
+/// The colour thread as the service runs it: on the twin's recording vibrotactors and the
+/// system clock.
+pub struct ColourRuntime {
+    handles: ColourHandles,
+    join: ColourJoin<RecordingVibrotactors<SystemClock>>,
+    /// Where a camera publishes newer frames (kept so the channel lives as long as the thread).
+    pub frames: SnapshotWriter<RgbFrame>,
+}
+
+impl ColourRuntime {
+    /// Start the colour thread for `source`, reading thimble states from `thimble`.
+    pub fn start(
+        source: &ColourSource,
+        thimble: SnapshotReader<ThimbleState>,
+        fifo_priority: Option<u8>,
+    ) -> Result<ColourRuntime, ColourThreadError> {
+        let (frames, frame_reader) = snapshot_channel(source.frame.clone());
+        let vibrotactors = RecordingVibrotactors::new(SystemClock, TWIN_EDGE_CAPACITY);
+        let (handles, join) = spawn_colour_thread(
+            vibrotactors,
+            SystemClock,
+            source.settings,
+            thimble,
+            frame_reader,
+            fifo_priority,
+        )
+        .map_err(|e| ColourThreadError::Config(format!("cannot start the colour thread: {e}")))?;
+        Ok(ColourRuntime {
+            handles,
+            join,
+            frames,
+        })
+    }
+
+    /// The shared state (levels, status).
+    pub fn handles(&self) -> &ColourHandles {
+        &self.handles
+    }
+
+    /// Called by the supervisor with the latest control record: render only while the control
+    /// loop runs in its normal state and the service is not stopping.
+    pub fn supervise(&self, record: &CycleRecord, stopping: bool) {
+        let rendering = record.cycle > 0 && record.safety == SafetyState::Normal && !stopping;
+        self.handles.inputs.set_active(rendering);
+    }
+
+    /// The status-line text.
+    pub fn status_text(&self) -> String {
+        self.handles.status_text()
+    }
+
+    /// Switch everything off, stop the thread and log its timing.
+    pub fn finish(self) {
+        self.handles.inputs.set_active(false);
+        self.handles.inputs.request_shutdown();
+        match self.join.join() {
+            Ok(Ok((jitter, vibro))) => info!(
+                ticks = jitter.count() + 1,
+                p99_period_deviation_us = jitter
+                    .p99_deviation_ns()
+                    .map_or(f64::NAN, |v| v as f64 * 1e-3),
+                max_lateness_us = jitter.max_lateness_ns() as f64 * 1e-3,
+                missed_ticks = jitter.missed_ticks(),
+                edges = vibro.edges().len(),
+                dropped_edges = vibro.dropped_edges(),
+                "colour thread stopped: vibrotactors off"
+            ),
+            Ok(Err(e)) => error!("colour thread: {e}"),
+            Err(_) => error!("the colour thread panicked"),
+        }
+    }
+}
