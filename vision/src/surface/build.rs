@@ -111,6 +111,21 @@ pub struct BuildReport {
     pub triangles: usize,
     /// Everything rejected, with reasons.
     pub rejections: Vec<Rejection>,
+    /// Time spent per stage.
+    pub timings: BuildTimings,
+}
+
+/// Time spent in each stage of a build.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BuildTimings {
+    /// Mapping, clipping and merging the input.
+    pub cleaning: std::time::Duration,
+    /// Resolving crossing and overlapping segments.
+    pub crossings: std::time::Duration,
+    /// The constrained Delaunay triangulation.
+    pub triangulation: std::time::Duration,
+    /// Normals, per-triangle geometry and the grid.
+    pub model: std::time::Duration,
 }
 
 /// The surface could not be built.
@@ -199,12 +214,43 @@ impl HasPosition for ReliefVertex {
     }
 }
 
-/// Vertices with merging of near neighbours (a hash grid of the merge distance).
+/// A fast hasher for small integer keys (multiply-rotate, as in rustc's FxHasher).
+#[derive(Default, Clone, Copy)]
+struct CellHasher(u64);
+
+impl std::hash::Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_i64(&mut self, v: i64) {
+        self.write_u64(v as u64);
+    }
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(u64::from(v));
+    }
+}
+
+type CellMap<K, V> = HashMap<K, V, std::hash::BuildHasherDefault<CellHasher>>;
+
+/// Sentinel of the per-cell vertex chains.
+const NO_VERTEX: u32 = u32::MAX;
+
+/// Vertices with merging of near neighbours (a hash grid of the merge distance; each cell
+/// chains its vertices through `next`).
 struct VertexTable {
     vertices: Vec<ReliefVertex>,
     /// Frame vertices keep the back-plane height.
     pinned: Vec<bool>,
-    cells: HashMap<(i64, i64), Vec<u32>>,
+    heads: CellMap<(i64, i64), u32>,
+    next: Vec<u32>,
     merge_m: f64,
     merged: usize,
 }
@@ -212,9 +258,10 @@ struct VertexTable {
 impl VertexTable {
     fn new(merge_m: f64) -> VertexTable {
         VertexTable {
-            vertices: Vec::new(),
-            pinned: Vec::new(),
-            cells: HashMap::new(),
+            vertices: Vec::with_capacity(1024),
+            pinned: Vec::with_capacity(1024),
+            heads: CellMap::with_capacity_and_hasher(1024, Default::default()),
+            next: Vec::with_capacity(1024),
             merge_m,
             merged: 0,
         }
@@ -234,14 +281,18 @@ impl VertexTable {
         let mut best: Option<(u32, f64)> = None;
         for dx in -1..=1 {
             for dy in -1..=1 {
-                if let Some(list) = self.cells.get(&(kx + dx, ky + dy)) {
-                    for &i in list {
-                        let v = self.vertices[i as usize];
-                        let d2 = (v.x - x).powi(2) + (v.y - y).powi(2);
-                        if d2 < self.merge_m * self.merge_m && best.is_none_or(|(_, b)| d2 < b) {
-                            best = Some((i, d2));
-                        }
+                let mut i = self
+                    .heads
+                    .get(&(kx + dx, ky + dy))
+                    .copied()
+                    .unwrap_or(NO_VERTEX);
+                while i != NO_VERTEX {
+                    let v = self.vertices[i as usize];
+                    let d2 = (v.x - x).powi(2) + (v.y - y).powi(2);
+                    if d2 < self.merge_m * self.merge_m && best.is_none_or(|(_, b)| d2 < b) {
+                        best = Some((i, d2));
                     }
+                    i = self.next[i as usize];
                 }
             }
         }
@@ -256,7 +307,9 @@ impl VertexTable {
         let i = self.vertices.len() as u32;
         self.vertices.push(ReliefVertex { x, y, z });
         self.pinned.push(pinned);
-        self.cells.entry((kx, ky)).or_default().push(i);
+        let head = self.heads.entry((kx, ky)).or_insert(NO_VERTEX);
+        self.next.push(*head);
+        *head = i;
         i
     }
 
@@ -432,6 +485,7 @@ fn build_mapped(
     params: &ReliefParams,
     mut report: BuildReport,
 ) -> Result<(ReliefModel, BuildReport), BuildError> {
+    let t_start = std::time::Instant::now();
     let area = params.area_m();
     let back_z = params.scene_map.back_plane_z_m();
     let nearest_z = back_z - params.scene_map.relief_depth_m();
@@ -464,7 +518,8 @@ fn build_mapped(
 
     // Segments: clip to the inner area, insert their endpoints.
     let mut edges: Vec<Edge> = Vec::with_capacity(segments.len());
-    let mut seen: HashMap<(u32, u32), usize> = HashMap::new();
+    let mut seen: CellMap<(u32, u32), usize> =
+        CellMap::with_capacity_and_hasher(segments.len(), Default::default());
     for seg in &segments {
         let Some((s0, s1)) = clip_to_rect(seg.a, seg.b, inner) else {
             report.rejections.push(Rejection {
@@ -529,7 +584,11 @@ fn build_mapped(
         return Err(BuildError::NoUsableInput(Box::new(report)));
     }
 
+    let t_cleaned = std::time::Instant::now();
+    report.timings.cleaning = t_cleaned - t_start;
     let accepted = resolve_crossings(&mut edges, &mut table, params, &mut report);
+    let t_crossings = std::time::Instant::now();
+    report.timings.crossings = t_crossings - t_cleaned;
 
     // Constraint pieces between consecutive vertices along each kept edge.
     let mut constraint_pieces: Vec<([usize; 2], usize)> = Vec::new();
@@ -587,7 +646,10 @@ fn build_mapped(
         .collect();
     report.vertices = mesh_vertices.len();
     report.triangles = triangles.len();
+    let t_triangulated = std::time::Instant::now();
+    report.timings.triangulation = t_triangulated - t_crossings;
     let model = ReliefModel::from_mesh(mesh_vertices, triangles, area, back_z, params);
+    report.timings.model = t_triangulated.elapsed();
     Ok((model, report))
 }
 
@@ -609,6 +671,7 @@ fn resolve_crossings(
     let mut accepted: Vec<usize> = Vec::with_capacity(edges.len());
     let mut boxes: Vec<[f64; 4]> = Vec::with_capacity(edges.len());
     let merge = params.merge_distance_m;
+    let mut pending: Vec<(usize, f64, f64)> = Vec::with_capacity(16); // (edge, s on e, t on f)
     for &e in &order {
         let (a, b) = (table.xy(edges[e].va), table.xy(edges[e].vb));
         let bbox = [
@@ -619,7 +682,7 @@ fn resolve_crossings(
         ];
         let de = sub(b, a);
         let len_e = de[0].hypot(de[1]);
-        let mut pending: Vec<(usize, f64, f64)> = Vec::new(); // (accepted index, s on e, t on f)
+        pending.clear();
         let mut rejected = None;
         for (k, &f) in accepted.iter().enumerate() {
             let fb = boxes[k];
@@ -679,7 +742,7 @@ fn resolve_crossings(
             });
             continue;
         }
-        for (f, s, t) in pending {
+        for &(f, s, t) in &pending {
             let (c, d) = (table.xy(edges[f].va), table.xy(edges[f].vb));
             let eps_s = merge / len_e;
             let len_f = (d[0] - c[0]).hypot(d[1] - c[1]);

@@ -83,35 +83,33 @@ impl TriangleGrid {
                 origin[1] + (iy + 1) as f64 * cell[1] + margin,
             ]
         };
-        let mut counts = vec![0u32; ncells + 1];
-        for t in triangles {
-            let (lo, hi) = cell_range(t);
-            for iy in lo[1]..=hi[1] {
-                for ix in lo[0]..=hi[0] {
-                    if overlaps(t, rect(ix, iy)) {
-                        counts[iy * nx + ix + 1] += 1;
-                    }
-                }
-            }
-        }
-        let max_per_cell = counts.iter().copied().max().unwrap_or(0) as usize;
-        for c in 0..ncells {
-            counts[c + 1] += counts[c];
-        }
-        let starts = counts;
-        let mut fill = starts.clone();
-        let mut items = vec![0u32; starts[ncells] as usize];
+        // One pass collects (cell, triangle) pairs; a counting sort makes the flat lists.
+        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(triangles.len() * 4);
         for (k, t) in triangles.iter().enumerate() {
             let (lo, hi) = cell_range(t);
+            let single = lo == hi;
             for iy in lo[1]..=hi[1] {
                 for ix in lo[0]..=hi[0] {
-                    if overlaps(t, rect(ix, iy)) {
-                        let c = iy * nx + ix;
-                        items[fill[c] as usize] = k as u32;
-                        fill[c] += 1;
+                    // A triangle within one cell overlaps it; larger ones are tested exactly.
+                    if single || overlaps(t, rect(ix, iy)) {
+                        pairs.push(((iy * nx + ix) as u32, k as u32));
                     }
                 }
             }
+        }
+        let mut starts = vec![0u32; ncells + 1];
+        for &(c, _) in &pairs {
+            starts[c as usize + 1] += 1;
+        }
+        let max_per_cell = starts.iter().copied().max().unwrap_or(0) as usize;
+        for c in 0..ncells {
+            starts[c + 1] += starts[c];
+        }
+        let mut fill = starts.clone();
+        let mut items = vec![0u32; pairs.len()];
+        for &(c, k) in &pairs {
+            items[fill[c as usize] as usize] = k;
+            fill[c as usize] += 1;
         }
         TriangleGrid {
             origin,

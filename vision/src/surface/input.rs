@@ -75,7 +75,7 @@ pub struct ReliefParams {
 
 impl ReliefParams {
     /// Defaults for a scene map: 0.3 mm merging, a 5 mm frame with a vertex every 2 cm, 2 mm
-    /// crossing tolerance, two grid cells per triangle.
+    /// crossing tolerance, one grid cell per triangle.
     pub fn new(scene_map: SceneMap) -> ReliefParams {
         ReliefParams {
             scene_map,
@@ -83,7 +83,7 @@ impl ReliefParams {
             frame_width_m: 0.005,
             border_spacing_m: 0.02,
             crossing_tolerance_m: 0.002,
-            grid_cells_per_triangle: 2.0,
+            grid_cells_per_triangle: 1.0,
         }
     }
 

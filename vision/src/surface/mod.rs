@@ -23,7 +23,7 @@ mod model;
 pub mod region;
 
 pub use build::{
-    build_from_device, build_from_scene, BuildError, BuildReport, InputItem, RejectReason,
+    build_from_device, build_from_scene, BuildError, BuildReport, BuildTimings, InputItem, RejectReason,
     Rejection,
 };
 pub use grid::TriangleGrid;
