@@ -24,5 +24,9 @@ fn main() {
             },
         });
     }
-    println!("mean build {:?}; fastest stages {:?}", t.elapsed() / runs, best.unwrap());
+    println!(
+        "mean build {:?}; fastest stages {:?}",
+        t.elapsed() / runs,
+        best.unwrap()
+    );
 }

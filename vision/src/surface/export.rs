@@ -117,3 +117,16 @@ pub fn write_depth_png(model: &ReliefModel, width_px: u32, path: &Path) -> Resul
     })?;
     write_atomically(path, &bytes)
 }
+
+/// What `videt vision ... --surface` writes: `DIR/surface.ply` and `DIR/surface_depth.png`
+/// (640 px wide). Returns the two paths.
+pub fn write_surface_outputs(
+    model: &ReliefModel,
+    dir: &Path,
+) -> Result<[std::path::PathBuf; 2], ExportError> {
+    let ply = dir.join("surface.ply");
+    let png = dir.join("surface_depth.png");
+    write_ply(model, &ply)?;
+    write_depth_png(model, 640, &png)?;
+    Ok([ply, png])
+}

@@ -23,8 +23,8 @@ mod model;
 pub mod region;
 
 pub use build::{
-    build_from_device, build_from_scene, BuildError, BuildReport, BuildTimings, InputItem, RejectReason,
-    Rejection,
+    build_from_device, build_from_scene, BuildError, BuildReport, BuildTimings, InputItem,
+    RejectReason, Rejection,
 };
 pub use grid::TriangleGrid;
 pub use input::{DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, SceneSegment3};

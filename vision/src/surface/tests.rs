@@ -277,6 +277,10 @@ fn exports_write_ply_and_png() {
     assert_eq!(img.height(), 150);
     // The box top is brighter than the back plane at the corner.
     assert!(img.get_pixel(100, 75)[0] > img.get_pixel(2, 2)[0]);
+    let [a, b] = export::write_surface_outputs(&m, dir.path()).unwrap();
+    assert!(a.ends_with("surface.ply") && b.ends_with("surface_depth.png"));
+    assert_eq!(image::open(&b).unwrap().width(), 640);
+    assert!(export::write_ply(&m, &dir.path().join("missing/dir/x.ply")).is_err());
 }
 
 fn garbage_value() -> impl Strategy<Value = f64> {
