@@ -176,10 +176,12 @@ fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
         .fold(0.0, f64::max);
     eprintln!("max force step within 10 ms of the swap: {swap_step:.3} N/period");
     assert!(swap_step < 0.15, "swap force step {swap_step:.3} N");
-    // Elsewhere the largest step is where the finger, a few millimetres deep, passes under the
-    // box's convex edge and the proxy changes face (inherent to god-object rendering).
+    // Elsewhere the proxy bounds the spring's change to K * 0.5 mm = 0.4 N per period (where
+    // the finger, a few millimetres deep, passes under the box's convex edge and the proxy
+    // changes face), plus the finger's own motion.
+    let bound = k * proxy_params().max_offset_step_m + 0.1;
     assert!(
-        max_step < 1.5,
-        "force step {max_step:.3} N at t = {at:.3} s"
+        max_step < bound,
+        "force step {max_step:.3} N at t = {at:.3} s (bound {bound:.2} N)"
     );
 }

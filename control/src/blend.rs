@@ -363,6 +363,14 @@ mod tests {
     use super::*;
     use crate::surface::Plane;
 
+    /// A proxy whose spring may change by any amount per period (isolates the blender).
+    fn unlimited_proxy() -> ProxyParams {
+        ProxyParams {
+            max_offset_step_m: 1.0,
+            ..ProxyParams::default()
+        }
+    }
+
     fn wall(z: f64) -> Plane {
         Plane::new(Vec3::new(0.0, 0.0, z), -Vec3::z()).unwrap()
     }
@@ -375,7 +383,7 @@ mod tests {
             ..BlendParams::default()
         };
         let k = 800.0;
-        let mut r = SwapRenderer::new(ProxyParams::default(), blend, k).unwrap();
+        let mut r = SwapRenderer::new(unlimited_proxy(), blend, k).unwrap();
         let (old, new) = (wall(0.30), wall(0.29));
         let finger = Vec3::new(0.1, 0.1, 0.305);
         let dt = 1e-3;
@@ -411,7 +419,7 @@ mod tests {
             ..BlendParams::default()
         };
         let k = 800.0;
-        let mut r = SwapRenderer::new(ProxyParams::default(), blend, k).unwrap();
+        let mut r = SwapRenderer::new(unlimited_proxy(), blend, k).unwrap();
         let walls = [wall(0.30), wall(0.29), wall(0.305), wall(0.28)];
         let finger = Vec3::new(0.1, 0.1, 0.307);
         let force = |c: Option<Contact>| c.map_or(Vec3::zeros(), |c| c.normal * c.depth_m * k);

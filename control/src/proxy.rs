@@ -40,6 +40,13 @@ pub struct ProxyParams {
     /// travels there over several periods instead, so the spring changes by at most about
     /// `K max_slide_m` per period. Free-space motion is not limited.
     pub max_slide_m: f64,
+    /// Largest change of the rendered spring displacement per update, metres (> 0): the force
+    /// changes by at most `K max_offset_step_m` per period. The proxy itself always goes where
+    /// the constraints take it; where it jumps (a finger a few millimetres deep passing under
+    /// a convex edge makes it change faces) or the finger leaves the surface, the spring follows
+    /// over a few periods instead of in one step. Limits only motions faster than
+    /// `max_offset_step_m` per period.
+    pub max_offset_step_m: f64,
 }
 
 impl Default for ProxyParams {
@@ -51,6 +58,7 @@ impl Default for ProxyParams {
             max_iterations: 6,
             force_shading: true,
             max_slide_m: 0.1,
+            max_offset_step_m: 5e-4,
         }
     }
 }
@@ -101,6 +109,13 @@ impl ProxyParams {
         }
         if !(self.max_slide_m > 0.0 && self.max_slide_m <= 0.1) {
             return err("max_slide_m", self.max_slide_m, "in (0, 0.1] m");
+        }
+        if !(self.max_offset_step_m > 0.0 && self.max_offset_step_m.is_finite()) {
+            return err(
+                "max_offset_step_m",
+                self.max_offset_step_m,
+                "finite and > 0 m",
+            );
         }
         if !(1..=16).contains(&self.max_iterations) {
             return err("max_iterations", self.max_iterations as f64, "in [1, 16]");
@@ -155,6 +170,8 @@ pub struct GodObject {
     proxy_m: Vec3,
     placed: bool,
     sliding: bool,
+    /// The spring displacement rendered at the last update.
+    offset_m: Vec3,
 }
 
 impl GodObject {
@@ -166,6 +183,7 @@ impl GodObject {
             proxy_m: Vec3::zeros(),
             placed: false,
             sliding: false,
+            offset_m: Vec3::zeros(),
         })
     }
 
@@ -183,6 +201,25 @@ impl GodObject {
     pub fn reset(&mut self) {
         self.placed = false;
         self.sliding = false;
+        self.offset_m = Vec3::zeros();
+    }
+
+    /// The displacement to render: `target`, approached by at most `max_offset_step_m`.
+    fn limit_offset(&mut self, target: Vec3) -> Vec3 {
+        let last = if self.offset_m.iter().all(|c| c.is_finite()) {
+            self.offset_m
+        } else {
+            Vec3::zeros()
+        };
+        let change = target - last;
+        let len = change.norm();
+        let max = self.params.max_offset_step_m;
+        self.offset_m = if len > max {
+            last + change * (max / len)
+        } else {
+            target
+        };
+        self.offset_m
     }
 
     /// Lift a point out of the solid along `-z` (the height field's escape direction).
@@ -301,9 +338,10 @@ impl GodObject {
             // is numerically on the surface).
             self.proxy_m = p;
             self.sliding = false;
+            let offset_m = self.limit_offset(p - finger_m);
             return ProxyContact {
                 proxy_m: p,
-                offset_m: p - finger_m,
+                offset_m,
                 constraints: 0,
                 sticking: false,
             };
@@ -359,7 +397,7 @@ impl GodObject {
         }
         ProxyContact {
             proxy_m: p,
-            offset_m: offset,
+            offset_m: self.limit_offset(offset),
             constraints: met as u8,
             sticking,
         }
@@ -538,7 +576,13 @@ mod tests {
     fn pressing_the_wall_gives_the_spring_along_the_normal() {
         let mut g = GodObject::new(ProxyParams::default()).unwrap();
         g.update(&wall(), &Vec3::new(0.1, 0.1, 0.29));
-        let c = g.update(&wall(), &Vec3::new(0.1, 0.1, 0.31));
+        // A 2 cm jump of the finger: the spring grows by at most 0.5 mm per update.
+        let first = g.update(&wall(), &Vec3::new(0.1, 0.1, 0.31));
+        assert!((first.offset_m.norm() - 5e-4).abs() < 1e-12);
+        let mut c = first;
+        for _ in 0..30 {
+            c = g.update(&wall(), &Vec3::new(0.1, 0.1, 0.31));
+        }
         assert_eq!(c.constraints, 1);
         assert!((c.proxy_m.z - 0.3).abs() < 1e-5);
         let contact = c.contact().unwrap();
@@ -551,6 +595,7 @@ mod tests {
         // From above the wall straight to 20 cm behind it in one period.
         let unlimited = ProxyParams {
             max_slide_m: 0.1,
+            max_offset_step_m: 1.0,
             ..ProxyParams::default()
         };
         let mut g = GodObject::new(unlimited).unwrap();
@@ -589,6 +634,7 @@ mod tests {
         };
         let mut g = GodObject::new(ProxyParams {
             max_slide_m: 0.1,
+            max_offset_step_m: 1.0,
             ..ProxyParams::default()
         })
         .unwrap();
@@ -609,6 +655,7 @@ mod tests {
             static_friction: 0.5,
             dynamic_friction: 0.3,
             max_slide_m: 0.1,
+            max_offset_step_m: 1.0,
             ..ProxyParams::default()
         };
         let mut g = GodObject::new(params).unwrap();
@@ -625,12 +672,39 @@ mod tests {
     }
 
     #[test]
+    fn the_spring_follows_a_proxy_jump_and_a_release_in_bounded_steps() {
+        let t = Terrace {
+            edge_x: 0.2,
+            low_z: 0.35,
+            high_z: 0.32,
+        };
+        let mut g = GodObject::new(ProxyParams::default()).unwrap();
+        g.update(&t, &Vec3::new(0.25, 0.0, 0.31));
+        let mut last = Vec3::zeros();
+        let mut path = std::vec::Vec::new();
+        // Press 5 mm into the terrace top, then lift off.
+        for k in 0..40 {
+            path.push(Vec3::new(0.25, 0.0, 0.32 + 0.000125 * k as f64));
+        }
+        for _ in 0..30 {
+            path.push(Vec3::new(0.25, 0.0, 0.31));
+        }
+        for p in path {
+            let c = g.update(&t, &p);
+            assert!((c.offset_m - last).norm() <= 5e-4 + 1e-12);
+            last = c.offset_m;
+        }
+        assert_eq!(last, Vec3::zeros(), "released after a few periods");
+    }
+
+    #[test]
     fn surface_adapter_feeds_the_spring() {
         let w = wall();
         let s = ProxySurface::new(&w, ProxyParams::default()).unwrap();
         assert!(s.contact(&Vec3::new(0.0, 0.0, 0.29)).is_none());
-        let c = s.contact(&Vec3::new(0.0, 0.0, 0.302)).unwrap();
-        assert!((c.depth_m - 0.002).abs() < 1e-5);
+        assert!(s.contact(&Vec3::new(0.0, 0.0, 0.3001)).is_some());
+        let c = s.contact(&Vec3::new(0.0, 0.0, 0.3003)).unwrap();
+        assert!((c.depth_m - 0.0003).abs() < 1e-5);
         assert!(GodObject::new(ProxyParams {
             dynamic_friction: 1.0,
             ..ProxyParams::default()
