@@ -3,7 +3,8 @@
 
 use videt_control::safety::SafetyLimits;
 use videt_control::{
-    Algorithm, ControlParams, ControlStep, ForceLimits, Plane, Rig3, RigError, TensionPiGains,
+    Algorithm, ControlParams, ControlStep, ForceField, ForceLimits, Plane, Rig3, RigError,
+    TensionPiGains,
 };
 use videt_hal::Transmission;
 use videt_rt_config::Config;
@@ -59,6 +60,8 @@ pub fn control_step(config: &Config, rig: Rig3) -> ControlStep {
                 takeup_speed_m_s: c.slack_takeup_speed_m_s,
                 max_winding_speed_m_s: 0.75 * c.max_wire_speed_m_s,
             },
+            field: ForceField::none(),
+            free_space_field_n: 0.0,
         },
     )
 }

@@ -7,6 +7,7 @@
 
 use nalgebra::{Matrix2, Matrix3, Vector2};
 
+use crate::wire_map::WireMap;
 use crate::{Vec3, WIRES};
 
 /// Why a rig geometry was rejected.
@@ -21,6 +22,11 @@ pub enum RigError {
         /// Area of the guide triangle, m².
         area_m2: f64,
     },
+    /// The two guides of a planar rig are closer than [`MIN_GUIDE_DISTANCE_M`].
+    GuidesTooClose {
+        /// Distance between the guides, metres.
+        distance_m: f64,
+    },
 }
 
 impl core::fmt::Display for RigError {
@@ -30,7 +36,11 @@ impl core::fmt::Display for RigError {
             RigError::NotPlanar => f.write_str("guide points must lie in the z = 0 plane"),
             RigError::Degenerate { area_m2 } => write!(
                 f,
-                "guide triangle is degenerate (area {area_m2:.2e} m², needs at least {MIN_TRIANGLE_AREA_M2:.0e} m²)"
+                "guide triangle is degenerate (area {area_m2:.2e} m², needs at least {MIN_TRIANGLE_AREA_M2:.0e} m² and no angle near 0 or 180 degrees)"
+            ),
+            RigError::GuidesTooClose { distance_m } => write!(
+                f,
+                "the two guides are {distance_m:.4} m apart, need at least {MIN_GUIDE_DISTANCE_M} m"
             ),
         }
     }
@@ -38,6 +48,9 @@ impl core::fmt::Display for RigError {
 
 /// Smallest guide-triangle area accepted, m² (1 cm²).
 pub const MIN_TRIANGLE_AREA_M2: f64 = 1e-4;
+
+/// Smallest distance between two guides accepted, metres (1 cm).
+pub const MIN_GUIDE_DISTANCE_M: f64 = 0.01;
 
 /// Result of forward kinematics.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -173,6 +186,12 @@ impl Rig3 {
         -self.wire_directions(position_m)
     }
 
+    /// The force map at `position_m` (eqs. 3-5), or `None` where it is singular (thimble on or
+    /// very near the guide plane, or at a guide).
+    pub fn wire_map(&self, position_m: &Vec3) -> Option<WireMap<3>> {
+        WireMap::<3>::from_pull(self.force_matrix(position_m))
+    }
+
     /// Tensions `t = J^T f` that make the force `f` (eq. 5), or `None` where `V` is singular
     /// (thimble in the guide plane). Tensions may be negative: projection is the caller's job.
     pub fn tensions_for_force(&self, position_m: &Vec3, force_n: &Vec3) -> Option<[f64; WIRES]> {
@@ -288,6 +307,27 @@ mod tests {
             let s = rig.forward(&rig.inverse(&p));
             prop_assert!(!s.clamped);
             prop_assert!((s.position_m - p).norm() < 1e-9, "{:?} vs {:?}", s.position_m, p);
+        }
+
+        #[test]
+        fn forward_never_gives_nan(l0 in -2.0f64..2.0, l1 in -2.0f64..2.0, l2 in -2.0f64..2.0, scale in prop_oneof![Just(1.0), Just(1e-200), Just(1e200)]) {
+            let s = paper_rig().forward(&[l0 * scale, l1 * scale, l2 * scale]);
+            prop_assert!(s.position_m.iter().all(|c| c.is_finite()));
+            prop_assert!(s.position_m.z >= 0.0);
+        }
+
+        #[test]
+        fn noisy_lengths_near_the_plane_clamp_and_say_so(x in 0.0f64..0.37, y in 0.0f64..0.3, noise in -2e-3f64..2e-3) {
+            let rig = paper_rig();
+            let mut l = rig.inverse(&Vec3::new(x, y, 1e-4));
+            l[0] += noise;
+            let s = rig.forward(&l);
+            prop_assert!(s.position_m.iter().all(|c| c.is_finite()));
+            if s.clamped {
+                prop_assert_eq!(s.position_m.z, 0.0);
+            } else {
+                prop_assert!(s.position_m.z >= 0.0);
+            }
         }
 
         #[test]

@@ -8,6 +8,14 @@
 //!
 //! Frame (the paper's): the guide points lie in the `z = 0` plane; the thimble works at `z > 0`
 //! in front of the frame. SI units everywhere.
+//!
+//! - Devices: [`Rig3`] (three wires, guides anywhere in `z = 0`), [`RigPlanar`] (the two-wire
+//!   x-z device of the paper's experiments), [`polar`] (the one-wire device, eq. 7). Each gives a
+//!   [`WireMap`] (`V = J^-T`, `J^T`) at a position.
+//! - Force: [`contact`] (spring-damper along the normal), [`field`] (constant-direction and
+//!   bisector fields, free-space pull), [`distribution`] (P1, P2, F1, F2 and QP projections onto
+//!   `F = { V t : t_min <= t_i <= t_max }`), [`measures`] (index V, isotropic force limit).
+//! - [`step`]: one control period; [`analysis`]: the designer's sweeps behind `videt analyze`.
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -15,9 +23,15 @@
 #[cfg(any(test, feature = "std"))]
 extern crate std;
 
+pub mod analysis;
 pub mod blend;
+pub mod contact;
 pub mod distribution;
+pub mod field;
 pub mod kinematics;
+pub mod measures;
+pub mod planar;
+pub mod polar;
 pub mod proxy;
 pub mod relief;
 pub mod safety;
@@ -25,14 +39,23 @@ pub mod scene_map;
 pub mod step;
 pub mod surface;
 pub mod tension_pi;
+pub mod wire_map;
 
-pub use distribution::{Algorithm, Distribution, ForceLimits};
+pub use contact::{contact_force, ContactModel};
+pub use distribution::{
+    distribute, project, Algorithm, Distribution, FieldRule, ForceLimits, LimitsError, Projection,
+};
+pub use field::{field_force, free_space_force, ForceField};
 pub use kinematics::{ForwardSolution, Rig3, RigError};
+pub use measures::{isotropic_force_limit_n, v_index};
+pub use planar::{PlanarForward, RigPlanar, Vec2};
+pub use polar::{one_wire_distribute, polar_forward, polar_inverse, PolarCoordinates};
 pub use safety::{SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor};
 pub use scene_map::SceneMap;
 pub use step::{ControlParams, ControlStep, StepInput, StepOutput};
 pub use surface::{Contact, FreeSpace, Plane, Surface};
 pub use tension_pi::{TensionPi, TensionPiGains};
+pub use wire_map::WireMap;
 
 /// 3-vector of `f64` (positions in metres, forces in newtons).
 pub type Vec3 = nalgebra::Vector3<f64>;

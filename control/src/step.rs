@@ -1,8 +1,11 @@
 //! One control period, from wire lengths to motor torques (ARCHITECTURE "control cycle",
 //! steps 2 and 4-7). Pure and allocation-free; the runtime moves the data in and out.
 
-use crate::distribution::{distribute, Algorithm, Distribution, ForceLimits};
+use crate::contact::{contact_force, ContactModel};
+use crate::distribution::{minimum_tension, project, Algorithm, Distribution, ForceLimits};
+use crate::field::{field_force, free_space_force, ForceField};
 use crate::kinematics::Rig3;
+use crate::measures::v_index;
 use crate::surface::{Contact, Surface};
 use crate::tension_pi::{TensionPi, TensionPiGains};
 use crate::{Vec3, WIRES};
@@ -12,14 +15,39 @@ use crate::{Vec3, WIRES};
 pub struct ControlParams {
     /// Contact stiffness `K`, N/m (`f_e = K depth n`).
     pub stiffness_n_per_m: f64,
-    /// Contact damping along the normal while penetrating, N·s/m (0 = none).
+    /// Contact damping along the normal, N·s/m (0 = none). The contact force never pulls the
+    /// thimble into the surface.
     pub damping_n_s_per_m: f64,
-    /// Projection algorithm.
+    /// Control algorithm (field rule and projection).
     pub algorithm: Algorithm,
     /// Tension limits.
     pub limits: ForceLimits,
     /// Tension loop.
     pub pi: TensionPiGains,
+    /// The force field `f_c` added in contact and in free space (F1/F2; magnitude 0 for the
+    /// paper's P1/P2).
+    pub field: ForceField,
+    /// Gravity-like free-space pull along the wires' bisector, newtons, used in free space when
+    /// the algorithm has no field (`field.magnitude_n == 0`); raised where needed so every wire
+    /// stays at or above `t_min` by itself. 0 = wires simply held at `t_min`.
+    pub free_space_field_n: f64,
+}
+
+impl ControlParams {
+    /// The paper's device (Table 2: 15 N per wire) with P2, no field, a 400 N/m surface, a
+    /// 0.3 N tension floor and a 0.5 N free-space pull. The tension-loop gains depend on the
+    /// drives and come from the configuration.
+    pub fn paper_defaults(pi: TensionPiGains) -> ControlParams {
+        ControlParams {
+            stiffness_n_per_m: 400.0,
+            damping_n_s_per_m: 0.0,
+            algorithm: Algorithm::P2,
+            limits: ForceLimits::default(),
+            pi,
+            field: ForceField::none(),
+            free_space_field_n: 0.5,
+        }
+    }
 }
 
 /// What the step reads each period.
@@ -50,8 +78,14 @@ pub struct StepOutput {
     pub fk_clamped: bool,
     /// Contact with the surface, if any.
     pub contact: Option<Contact>,
-    /// Desired force `f_e` (before projection), newtons.
+    /// Desired contact force `f_e` (zero in free space), newtons.
     pub desired_force_n: Vec3,
+    /// Field force `f_c` added (the free-space pull when out of contact without a field), newtons.
+    pub field_force_n: Vec3,
+    /// What the projection aimed at, `f'_e = f_e + f_c`, newtons.
+    pub target_force_n: Vec3,
+    /// Performance index V (eq. 8) of the rendered force against the target.
+    pub v_index: f64,
     /// Tension set-points and the force they render.
     pub distribution: Distribution,
     /// Motor torque commands, N·m (positive = winding).
@@ -112,27 +146,61 @@ impl ControlStep {
         } else {
             None
         };
-        out.desired_force_n = match out.contact {
-            Some(c) => {
-                let normal_speed = out.velocity_m_s.dot(&c.normal);
-                // Spring along the outward normal, damping only against penetrating motion.
-                let damping = if normal_speed < 0.0 {
-                    -self.params.damping_n_s_per_m * normal_speed
-                } else {
-                    0.0
-                };
-                c.normal * (self.params.stiffness_n_per_m * c.depth_m + damping)
-            }
-            None => Vec3::zeros(),
+        let params = &self.params;
+        let map = if input.render_forces {
+            self.rig.wire_map(&out.position_m)
+        } else {
+            None
         };
-        out.desired_force_n *= input.force_scale.clamp(0.0, 1.0);
-        out.distribution = distribute(
-            &self.rig,
-            &out.position_m,
-            &out.desired_force_n,
-            self.params.algorithm,
-            &self.params.limits,
-        );
+        match map {
+            Some(map) => {
+                out.desired_force_n = match out.contact {
+                    Some(c) => contact_force(
+                        &ContactModel {
+                            stiffness_n_per_m: params.stiffness_n_per_m,
+                            damping_n_s_per_m: params.damping_n_s_per_m,
+                        },
+                        &c,
+                        &out.velocity_m_s,
+                    ),
+                    None => Vec3::zeros(),
+                };
+                let field = field_force(params.algorithm, &params.field, &map);
+                out.field_force_n = if out.contact.is_none()
+                    && field == Vec3::zeros()
+                    && params.free_space_field_n > 0.0
+                {
+                    free_space_force(params.free_space_field_n, params.limits.t_min_n, &map)
+                } else {
+                    field
+                };
+                // Start-up and shutdown ramps scale everything rendered above the tension floor.
+                let scale = if input.force_scale.is_nan() {
+                    0.0
+                } else {
+                    input.force_scale.clamp(0.0, 1.0)
+                };
+                out.desired_force_n *= scale;
+                out.field_force_n *= scale;
+                out.target_force_n = out.desired_force_n + out.field_force_n;
+                out.distribution = project(
+                    &map,
+                    &out.target_force_n,
+                    params.algorithm.projection(),
+                    &params.limits,
+                );
+            }
+            None => {
+                // Safe state, or the thimble on the guide plane: hold every wire at t_min.
+                out.desired_force_n = Vec3::zeros();
+                out.field_force_n = Vec3::zeros();
+                out.target_force_n = Vec3::zeros();
+                out.distribution = minimum_tension(None, &params.limits);
+                out.distribution.rendered_n = self.rig.force_matrix(&out.position_m)
+                    * Vec3::from(out.distribution.tensions_n);
+            }
+        }
+        out.v_index = v_index(&out.distribution.rendered_n, &out.target_force_n);
         let winding_speed_m_s: [f64; WIRES] = core::array::from_fn(|i| -input.length_rates_m_s[i]);
         self.pi.update_with_speed(
             &out.distribution.tensions_n,
@@ -141,5 +209,125 @@ impl ControlStep {
             input.dt_s,
             &mut out.torque_nm,
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::{FreeSpace, Plane};
+
+    fn step(algorithm: Algorithm) -> ControlStep {
+        let rig = Rig3::new([
+            Vec3::zeros(),
+            Vec3::new(0.37, 0.0, 0.0),
+            Vec3::new(0.185, 0.30, 0.0),
+        ])
+        .unwrap();
+        let mut params =
+            ControlParams::paper_defaults(TensionPiGains::pi_only(0.0008, 0.0005, 0.02, 0.02));
+        params.algorithm = algorithm;
+        ControlStep::new(rig, params)
+    }
+
+    fn input_at(step: &ControlStep, p: Vec3) -> StepInput {
+        StepInput {
+            lengths_m: step.rig().inverse(&p),
+            dt_s: 1e-3,
+            render_forces: true,
+            force_scale: 1.0,
+            ..StepInput::default()
+        }
+    }
+
+    #[test]
+    fn pressing_a_wall_renders_the_spring() {
+        let mut s = step(Algorithm::P2);
+        // Wall below the thimble at z = 0.3 facing the user (+z); thimble 1 cm inside.
+        let wall = Plane::new(Vec3::new(0.0, 0.0, 0.3), Vec3::z()).unwrap();
+        let p = Vec3::new(0.18, 0.1, 0.29);
+        let mut out = StepOutput::default();
+        s.update(&input_at(&s, p), &wall, &mut out);
+        assert!((out.position_m - p).norm() < 1e-9);
+        let c = out.contact.unwrap();
+        assert!((c.depth_m - 0.01).abs() < 1e-9);
+        // f_e = K depth n = 4 N along +z: outside the cone (the wires only pull towards z=0).
+        assert!((out.desired_force_n - Vec3::new(0.0, 0.0, 4.0)).norm() < 1e-9);
+        assert!(out.distribution.projected);
+        assert!(out
+            .distribution
+            .tensions_n
+            .iter()
+            .all(|&t| (0.3..=15.0).contains(&t)));
+    }
+
+    #[test]
+    fn a_wall_the_wires_can_render_is_rendered_exactly() {
+        // Surface above the thimble facing the frame (-z): the wires pull towards it.
+        let ceiling = Plane::new(Vec3::new(0.0, 0.0, 0.3), -Vec3::z()).unwrap();
+        for alg in Algorithm::ALL {
+            let mut s = step(alg);
+            let mut out = StepOutput::default();
+            s.update(
+                &input_at(&s, Vec3::new(0.18, 0.1, 0.305)),
+                &ceiling,
+                &mut out,
+            );
+            assert!(
+                (out.desired_force_n - Vec3::new(0.0, 0.0, -2.0)).norm() < 1e-9,
+                "{alg:?}"
+            );
+            assert!(
+                (out.distribution.rendered_n - out.target_force_n).norm() < 1e-9,
+                "{alg:?}"
+            );
+            assert!((out.v_index - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn free_space_keeps_wires_taut_and_safe_state_holds_t_min() {
+        let mut s = step(Algorithm::P2);
+        let mut out = StepOutput::default();
+        let p = Vec3::new(-0.1, 0.4, 0.2);
+        s.update(&input_at(&s, p), &FreeSpace, &mut out);
+        assert!(out.contact.is_none());
+        assert!(
+            !out.distribution.projected,
+            "the free-space pull is inside F"
+        );
+        assert!(out.distribution.tensions_n.iter().all(|&t| t >= 0.3));
+        assert!(out.field_force_n.norm() >= 0.5);
+        let mut off = input_at(&s, p);
+        off.render_forces = false;
+        s.update(&off, &FreeSpace, &mut out);
+        assert_eq!(out.distribution.tensions_n, [0.3; WIRES]);
+    }
+
+    #[test]
+    fn garbage_lengths_never_give_nan() {
+        let mut s = step(Algorithm::Qp);
+        let wall = Plane::new(Vec3::new(0.0, 0.0, 0.3), Vec3::z()).unwrap();
+        let mut out = StepOutput::default();
+        for lengths in [
+            [f64::NAN, 0.1, 0.2],
+            [0.0; 3],
+            [1e300, -1.0, 0.5],
+            [0.01, 0.5, 0.5],
+        ] {
+            let input = StepInput {
+                lengths_m: lengths,
+                length_rates_m_s: [f64::INFINITY, 0.0, 0.0],
+                measured_tension_n: [0.0; 3],
+                dt_s: 1e-3,
+                render_forces: true,
+                force_scale: 1.0,
+            };
+            s.update(&input, &wall, &mut out);
+            assert!(out.position_m.iter().all(|c| c.is_finite()));
+            assert!(out.distribution.tensions_n.iter().all(|t| t.is_finite()));
+            assert!(out.torque_nm.iter().all(|t| t.is_finite()));
+            assert!(out.v_index.is_finite());
+        }
     }
 }

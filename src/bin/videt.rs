@@ -19,6 +19,9 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
+    /// limit, plots (paper section 6).
+    Analyze(tool::analyze::AnalyzeArgs),
     /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
     Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
@@ -27,16 +30,20 @@ enum Command {
     Service(tool::service::ServiceArgs),
     /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
     BenchRt(tool::bench_rt::BenchRtArgs),
+    /// Calibrate the stereo camera pair from chessboard image pairs and write the calibration.
+    CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Analyze(a) => tool::analyze::run(a),
         Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),
+        Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
     };
     match result {
         Ok(code) => code,

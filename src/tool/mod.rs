@@ -1,7 +1,9 @@
 //! Subcommands of the `videt` tool, one module each. Each exposes its clap arguments and a `run`
 //! function returning the process exit code or an error to print.
 
+pub mod analyze;
 pub mod bench_rt;
+pub mod calibrate_stereo;
 pub mod colour;
 pub mod config;
 pub mod log;

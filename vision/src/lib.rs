@@ -1,5 +1,5 @@
-//! VIDET vision: the stereo pipeline and the bas-relief surface model.
-#![forbid(unsafe_code)]
-#![warn(missing_docs)]
+//! placeholder
 
+pub mod calib;
+pub mod rectify;
 pub mod surface;

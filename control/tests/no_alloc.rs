@@ -1,0 +1,124 @@
+//! The control step allocates nothing: a counting global allocator around many steps, for every
+//! algorithm, in contact and in free space.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use videt_control::{
+    Algorithm, ControlParams, ControlStep, ForceField, FreeSpace, Plane, Rig3, StepInput,
+    StepOutput, TensionPiGains, Vec3,
+};
+
+struct CountingAllocator;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    /// Count only on the thread under test (the test harness allocates on its own threads).
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+}
+
+fn count() {
+    if COUNTING.try_with(Cell::get).unwrap_or(false) {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+unsafe impl GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+#[test]
+fn control_step_does_not_allocate() {
+    let rig = Rig3::new([
+        Vec3::zeros(),
+        Vec3::new(0.37, 0.0, 0.0),
+        Vec3::new(0.185, 0.30, 0.0),
+    ])
+    .unwrap();
+    let wall = Plane::new(Vec3::new(0.0, 0.0, 0.3), Vec3::new(0.3, 0.1, 1.0)).unwrap();
+    // Inputs prepared before counting: a path through free space and into the wall.
+    let inputs: Vec<StepInput> = (0..200)
+        .map(|k| {
+            let s = k as f64 / 200.0;
+            let p = Vec3::new(0.05 + 0.3 * s, 0.05 + 0.2 * s, 0.33 - 0.18 * s);
+            StepInput {
+                lengths_m: rig.inverse(&p),
+                length_rates_m_s: [0.01, -0.02, 0.005],
+                measured_tension_n: [1.0, 2.0, 0.5],
+                dt_s: 1e-3,
+                render_forces: k % 50 != 0,
+                force_scale: 1.0,
+            }
+        })
+        .collect();
+    let mut steps: Vec<ControlStep> = Algorithm::ALL
+        .iter()
+        .map(|&algorithm| {
+            let mut params = ControlParams::paper_defaults(TensionPiGains {
+                feedforward_nm_per_n: 0.0008,
+                kp_nm_per_n: 0.0005,
+                ki_nm_per_n_s: 0.02,
+                torque_limit_nm: 0.02,
+                speed_gain_nm_s_per_m: 0.005,
+                slack_tension_n: 0.15,
+                takeup_speed_m_s: 0.15,
+                max_winding_speed_m_s: 0.6,
+            });
+            params.algorithm = algorithm;
+            params.damping_n_s_per_m = 2.0;
+            if matches!(algorithm, Algorithm::F1 | Algorithm::F2 | Algorithm::Qp) {
+                params.field = ForceField::towards_frame(1.5);
+            }
+            ControlStep::new(rig, params)
+        })
+        .collect();
+    let mut out = StepOutput::default();
+
+    // The counter sees an allocation made on this thread.
+    let probe_before = ALLOCATIONS.load(Ordering::SeqCst);
+    COUNTING.with(|c| c.set(true));
+    let probe = std::hint::black_box(Box::new(7u64));
+    COUNTING.with(|c| c.set(false));
+    drop(probe);
+    assert_eq!(ALLOCATIONS.load(Ordering::SeqCst) - probe_before, 1);
+
+    let mut contacts = 0usize;
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    COUNTING.with(|c| c.set(true));
+    for step in steps.iter_mut() {
+        for input in &inputs {
+            step.update(input, &wall, &mut out);
+            contacts += usize::from(out.contact.is_some());
+            step.update(input, &FreeSpace, &mut out);
+        }
+    }
+    COUNTING.with(|c| c.set(false));
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert!(
+        contacts > 100,
+        "the path goes into the wall ({contacts} contacts)"
+    );
+    assert_eq!(after - before, 0, "the control step allocated");
+    // The steps did something: the last one ended in contact with finite torques.
+    assert!(out.torque_nm.iter().all(|t| t.is_finite()));
+}
