@@ -9,6 +9,7 @@ pub mod colour_thread;
 pub mod control_loop;
 pub mod cycle;
 pub mod histogram;
+pub mod init;
 pub mod relief_feed;
 pub mod relief_scene;
 pub mod rt;

@@ -36,10 +36,8 @@ pub fn control_step(config: &Config, rig: Rig3) -> ControlStep {
     let c = &config.control;
     let tr = transmission(config);
     let feedforward = tr.torque_for_tension(1.0);
-    let algorithm = match c.algorithm.as_str() {
-        "P1" => Algorithm::P1,
-        _ => Algorithm::P2,
-    };
+    // The configuration was validated: the name is known.
+    let algorithm = Algorithm::from_name(&c.algorithm).unwrap_or_default();
     ControlStep::new(
         rig,
         ControlParams {
@@ -60,8 +58,8 @@ pub fn control_step(config: &Config, rig: Rig3) -> ControlStep {
                 takeup_speed_m_s: c.slack_takeup_speed_m_s,
                 max_winding_speed_m_s: 0.75 * c.max_wire_speed_m_s,
             },
-            field: ForceField::none(),
-            free_space_field_n: 0.0,
+            field: ForceField::towards_frame(c.field_n),
+            free_space_field_n: c.free_space_field_n,
         },
     )
 }

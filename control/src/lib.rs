@@ -24,6 +24,7 @@
 extern crate std;
 
 pub mod analysis;
+pub mod autoinit;
 pub mod blend;
 pub mod contact;
 pub mod distribution;

@@ -11,6 +11,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub mod calibration;
+
 /// A configuration error: what is wrong, in which field.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
@@ -64,6 +66,84 @@ pub struct Config {
     pub telemetry: TelemetryConfig,
     /// Local control socket for the `videt` tool.
     pub socket: SocketConfig,
+    /// Wire homing and auto-initialization.
+    pub autoinit: AutoInitConfig,
+    /// Where the calibration and the motors' lock live.
+    pub files: FilesConfig,
+}
+
+/// Wire homing and auto-initialization (`videt init`, `videt wire replace`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AutoInitConfig {
+    /// Target winding speed, m/s (at most `control.max_wire_speed_m_s`).
+    pub wind_speed_m_s: f64,
+    /// Largest tension a winding wire is pulled with, N (at most `control.t_max_n`).
+    pub wind_tension_max_n: f64,
+    /// Tension of the wires that pay out, N (at least `control.t_min_n`).
+    pub pay_out_tension_n: f64,
+    /// Largest disagreement of the two measurements of one side, metres.
+    pub side_tolerance_m: f64,
+    /// Shortest base-triangle side accepted, metres.
+    pub min_side_m: f64,
+    /// Longest a wire may be during the procedure (before its winding homed it: pay out), metres.
+    pub max_length_m: f64,
+    /// Shortest winding that counts as movement (a connected wire), metres.
+    pub min_travel_m: f64,
+    /// Longest travel of one homing or winding before the wire counts as broken or slipping, metres.
+    pub max_wind_travel_m: f64,
+    /// Longest a homing or one winding may take, seconds.
+    pub stage_timeout_s: f64,
+    /// Workspace: force the wires must render towards the frame, N.
+    pub workspace_force_n: f64,
+    /// Workspace: largest condition number of the force map.
+    pub workspace_max_condition: f64,
+    /// Workspace: nearest plane in front of the frame, metres.
+    pub workspace_z_min_m: f64,
+    /// Workspace: farthest plane in front of the frame, metres.
+    pub workspace_z_max_m: f64,
+    /// Length every wire must be usable beyond the workspace's longest, metres.
+    pub wire_length_margin_m: f64,
+}
+
+impl Default for AutoInitConfig {
+    fn default() -> Self {
+        AutoInitConfig {
+            wind_speed_m_s: 0.08,
+            wind_tension_max_n: 3.0,
+            pay_out_tension_n: 0.4,
+            side_tolerance_m: 0.002,
+            min_side_m: 0.05,
+            max_length_m: 1.2,
+            min_travel_m: 0.02,
+            max_wind_travel_m: 2.0,
+            stage_timeout_s: 30.0,
+            workspace_force_n: 3.0,
+            workspace_max_condition: 20.0,
+            workspace_z_min_m: 0.10,
+            workspace_z_max_m: 0.60,
+            wire_length_margin_m: 0.10,
+        }
+    }
+}
+
+/// Files of the service and the tool.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FilesConfig {
+    /// The calibration written by `videt init` and read by `videtd`.
+    pub calibration: String,
+    /// The lock file that gives one process at a time the motors (`flock`).
+    pub motors_lock: String,
+}
+
+impl Default for FilesConfig {
+    fn default() -> Self {
+        FilesConfig {
+            calibration: "/var/lib/videt/calibration.toml".to_string(),
+            motors_lock: "/run/videt/motors.lock".to_string(),
+        }
+    }
 }
 
 /// The CiA 402 wire drives.
@@ -230,8 +310,14 @@ pub struct ControlConfig {
     pub stiffness_n_per_m: f64,
     /// Contact damping, N·s/m.
     pub damping_n_s_per_m: f64,
-    /// Projection algorithm name (`P1`, `P2`, ...).
+    /// Control algorithm: `P1`, `P2` (the paper's projections), `F1`, `F2` (with a force field
+    /// `field_n`), `QP` (bisector field, then the closest reachable force).
     pub algorithm: String,
+    /// Magnitude of the force field `f_c` of F1, F2 and QP, N (0 for P1 and P2).
+    pub field_n: f64,
+    /// Gravity-like pull in free space when the algorithm has no field, N (keeps every wire
+    /// taut while the finger moves freely; 0 = wires simply held at `t_min`).
+    pub free_space_field_n: f64,
     /// Minimum wire tension, N.
     pub t_min_n: f64,
     /// Maximum wire tension, N (the device's limit is 15 N).
@@ -294,6 +380,8 @@ impl Default for ControlConfig {
             stiffness_n_per_m: 800.0,
             damping_n_s_per_m: 2.0,
             algorithm: "P2".to_string(),
+            field_n: 0.0,
+            free_space_field_n: 0.5,
             t_min_n: 0.3,
             t_max_n: 15.0,
             max_wire_speed_m_s: 0.8,
@@ -383,15 +471,29 @@ impl Config {
             20000.0,
         )?;
         in_range("control.damping_n_s_per_m", c.damping_n_s_per_m, 0.0, 100.0)?;
-        if !["P1", "P2"].contains(&c.algorithm.as_str()) {
+        if !["P1", "P2", "F1", "F2", "QP"].contains(&c.algorithm.as_str()) {
             return Err(ConfigError::Invalid {
                 field: "control.algorithm".into(),
                 value: c.algorithm.clone(),
-                allowed: "one of P1, P2".into(),
+                allowed: "one of P1, P2, F1, F2, QP".into(),
             });
         }
+        in_range("control.field_n", c.field_n, 0.0, c.t_max_n)?;
+        in_range(
+            "control.free_space_field_n",
+            c.free_space_field_n,
+            0.0,
+            c.t_max_n,
+        )?;
         in_range("control.t_max_n", c.t_max_n, 0.5, 15.0)?;
         in_range("control.t_min_n", c.t_min_n, 0.05, c.t_max_n)?;
+        in_range("control.field_n", c.field_n, 0.0, c.t_max_n)?;
+        in_range(
+            "control.free_space_field_n",
+            c.free_space_field_n,
+            0.0,
+            c.t_max_n,
+        )?;
         in_range(
             "control.max_wire_speed_m_s",
             c.max_wire_speed_m_s,
@@ -429,11 +531,81 @@ impl Config {
             1.0,
             99.0,
         )?;
+        self.validate_autoinit()?;
+        for (field, path) in [
+            ("files.calibration", &self.files.calibration),
+            ("files.motors_lock", &self.files.motors_lock),
+        ] {
+            if path.is_empty() || path.ends_with('/') {
+                return Err(ConfigError::Invalid {
+                    field: field.into(),
+                    value: format!("{path:?}"),
+                    allowed: "a file path".into(),
+                });
+            }
+        }
         in_range(
             "realtime.control_cpu",
             self.realtime.control_cpu as f64,
             -1.0,
             1023.0,
+        )?;
+        Ok(())
+    }
+}
+
+impl Config {
+    fn validate_autoinit(&self) -> Result<(), ConfigError> {
+        let a = &self.autoinit;
+        let c = &self.control;
+        in_range(
+            "autoinit.wind_speed_m_s",
+            a.wind_speed_m_s,
+            0.005,
+            c.max_wire_speed_m_s.min(0.3),
+        )?;
+        in_range(
+            "autoinit.pay_out_tension_n",
+            a.pay_out_tension_n,
+            c.t_min_n,
+            c.t_max_n.min(2.0),
+        )?;
+        in_range(
+            "autoinit.wind_tension_max_n",
+            a.wind_tension_max_n,
+            a.pay_out_tension_n + 0.5,
+            c.t_max_n,
+        )?;
+        in_range("autoinit.side_tolerance_m", a.side_tolerance_m, 1e-4, 0.02)?;
+        in_range("autoinit.min_side_m", a.min_side_m, 0.01, 1.0)?;
+        in_range("autoinit.max_length_m", a.max_length_m, 0.1, 5.0)?;
+        in_range("autoinit.min_travel_m", a.min_travel_m, 0.001, 0.2)?;
+        in_range("autoinit.max_wind_travel_m", a.max_wind_travel_m, 0.01, 5.0)?;
+        in_range("autoinit.stage_timeout_s", a.stage_timeout_s, 1.0, 600.0)?;
+        in_range(
+            "autoinit.workspace_force_n",
+            a.workspace_force_n,
+            0.0,
+            c.t_max_n,
+        )?;
+        in_range(
+            "autoinit.workspace_max_condition",
+            a.workspace_max_condition,
+            1.0,
+            1000.0,
+        )?;
+        in_range("autoinit.workspace_z_min_m", a.workspace_z_min_m, 0.01, 2.0)?;
+        in_range(
+            "autoinit.workspace_z_max_m",
+            a.workspace_z_max_m,
+            a.workspace_z_min_m,
+            2.0,
+        )?;
+        in_range(
+            "autoinit.wire_length_margin_m",
+            a.wire_length_margin_m,
+            0.0,
+            1.0,
         )?;
         Ok(())
     }
@@ -468,6 +640,28 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("control.algorithm") && e.contains("X9"), "{e}");
+    }
+
+    #[test]
+    fn autoinit_limits_are_checked_against_the_device_limits() {
+        let e = Config::from_toml_str("[autoinit]\nwind_speed_m_s = 0.9\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("autoinit.wind_speed_m_s") && e.contains("0.9") && e.contains("0.3"),
+            "{e}"
+        );
+        let e = Config::from_toml_str("[autoinit]\nwind_tension_max_n = 20.0\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("autoinit.wind_tension_max_n") && e.contains("15"),
+            "{e}"
+        );
+        let e = Config::from_toml_str("[files]\nmotors_lock = \"\"\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("files.motors_lock"), "{e}");
     }
 
     #[test]

@@ -19,7 +19,7 @@ pub mod plant;
 pub mod twin;
 
 pub use operator::{VirtualOperator, Waypoint};
-pub use plant::{Plant, PlantParams};
+pub use plant::{Plant, PlantParams, WireModules, GRAVITY_M_S2};
 pub use twin::{ClockMode, SensorModel, Twin, TwinError, TwinFault};
 
 /// 3-vector of `f64`.

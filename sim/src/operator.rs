@@ -22,6 +22,8 @@ pub struct VirtualOperator {
     pub damping_n_s_per_m: f64,
     /// When set, the script repeats with this period, seconds.
     pub repeat_period_s: Option<f64>,
+    /// Simulated time at which the script starts, seconds (0 unless [`Self::starting_at`]).
+    start_s: f64,
 }
 
 impl VirtualOperator {
@@ -41,13 +43,24 @@ impl VirtualOperator {
             stiffness_n_per_m,
             damping_n_s_per_m,
             repeat_period_s: None,
+            start_s: 0.0,
         }
     }
 
     /// The same script, repeated every `period_s` seconds (at least as long as the script).
+    /// When the script ends away from where it starts, the hand moves back to the start over the
+    /// rest of the period instead of jumping there (a jump would yank the thimble).
     pub fn repeating(mut self, period_s: f64) -> VirtualOperator {
-        let last = self.waypoints[self.waypoints.len() - 1].time_s;
-        self.repeat_period_s = Some(period_s.max(last).max(1e-3));
+        let first = self.waypoints[0];
+        let last = self.waypoints[self.waypoints.len() - 1];
+        let period = period_s.max(last.time_s).max(1e-3);
+        if period > last.time_s && last.target_m != first.target_m {
+            self.waypoints.push(Waypoint {
+                time_s: period,
+                target_m: first.target_m,
+            });
+        }
+        self.repeat_period_s = Some(period);
         self
     }
 
@@ -60,6 +73,19 @@ impl VirtualOperator {
             }],
             200.0,
             6.0,
+        )
+    }
+
+    /// No hand on the thimble (auto-initialization with an empty thimble): no spring, only a
+    /// light drag of `drag_n_s_per_m` (air, the dangling terminal) against the thimble's motion.
+    pub fn absent(drag_n_s_per_m: f64) -> VirtualOperator {
+        VirtualOperator::new(
+            vec![Waypoint {
+                time_s: 0.0,
+                target_m: Vec3::zeros(),
+            }],
+            0.0,
+            drag_n_s_per_m.max(0.0),
         )
     }
 
@@ -92,8 +118,16 @@ impl VirtualOperator {
         )
     }
 
+    /// The same script, starting at simulated time `start_s` instead of 0 (e.g. after an
+    /// auto-initialization has run on the twin).
+    pub fn starting_at(mut self, start_s: f64) -> VirtualOperator {
+        self.start_s = start_s;
+        self
+    }
+
     /// The hand target and its velocity at time `t_s`.
     pub fn target(&self, t_s: f64) -> (Vec3, Vec3) {
+        let t_s = t_s - self.start_s;
         let t_s = match self.repeat_period_s {
             Some(period) if t_s > 0.0 => t_s % period,
             _ => t_s,

@@ -81,6 +81,63 @@ pub struct Plant {
     hand_force_n: Vec3,
     /// Simulated time, seconds.
     time_s: f64,
+    /// Wire-module details used by homing, initialization and tension calibration.
+    modules: WireModules,
+}
+
+/// Stiffness of the frame's contact with the thimble, N/m.
+const FRAME_STIFFNESS_N_PER_M: f64 = 2.0e4;
+/// Damping of the frame's contact, N·s/m.
+const FRAME_DAMPING_N_S_PER_M: f64 = 20.0;
+
+/// Standard gravity, m/s².
+pub const GRAVITY_M_S2: f64 = 9.806_65;
+
+/// Wire-module details beyond the basic plant: the wire inside the module, whether each wire's
+/// end is connected to the thimble, a weight hung on a detached end, and the yarn's usable length.
+///
+/// The defaults (no inside wire, every wire attached, no weight, unlimited yarn) reproduce the
+/// basic plant exactly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WireModules {
+    /// Wire from the pulley to the guide ring (over the idle pulley), metres. It stretches in
+    /// series with the free wire, and alone once the wire end is pulled against the ring.
+    pub inside_length_m: [f64; WIRES],
+    /// Whether each wire's end is connected to the thimble; a detached end stops against its
+    /// guide ring (end sphere larger than the ring's hole).
+    pub attached: [bool; WIRES],
+    /// A weight hanging on a detached wire end, kg (tension calibration); 0 = none.
+    pub hanging_mass_kg: [f64; WIRES],
+    /// Largest free length the yarn allows before its end, knotted on the pulley, stops the
+    /// pulley, metres.
+    pub usable_length_m: [f64; WIRES],
+    /// The frame (and the wearer's back behind it) stops the thimble at the guide plane `z = 0`:
+    /// an empty thimble pulled by its wires comes to rest against it instead of swinging through.
+    pub frame_stop: bool,
+}
+
+impl Default for WireModules {
+    fn default() -> Self {
+        WireModules {
+            inside_length_m: [0.0; WIRES],
+            attached: [true; WIRES],
+            hanging_mass_kg: [0.0; WIRES],
+            usable_length_m: [f64::INFINITY; WIRES],
+            frame_stop: false,
+        }
+    }
+}
+
+impl WireModules {
+    /// The paper's modules: 120 mm of wire inside each module, 1.5 m of usable yarn.
+    pub fn paper() -> WireModules {
+        WireModules {
+            inside_length_m: [0.12; WIRES],
+            usable_length_m: [1.5; WIRES],
+            frame_stop: true,
+            ..WireModules::default()
+        }
+    }
 }
 
 impl Plant {
@@ -102,7 +159,81 @@ impl Plant {
             intact: [true; WIRES],
             hand_force_n: Vec3::zeros(),
             time_s: 0.0,
+            modules: WireModules::default(),
         }
+    }
+
+    /// The same plant with these wire-module details.
+    pub fn with_modules(mut self, modules: WireModules) -> Plant {
+        self.modules = modules;
+        self
+    }
+
+    /// Replace the wire-module details.
+    pub fn set_modules(&mut self, modules: WireModules) {
+        self.modules = modules;
+    }
+
+    /// The wire-module details.
+    pub fn modules(&self) -> &WireModules {
+        &self.modules
+    }
+
+    /// Set the free (unstretched, outside the guide ring) length of wire `i`, metres, by turning
+    /// its pulley; negative means the end is pulled into the ring, stretching the inside wire.
+    pub fn set_free_length_m(&mut self, i: usize, free_length_m: f64) {
+        let r = self.params.transmission.pulley_radius_m;
+        self.pulley_angle_rad[i] = (self.free_length_at_zero_m[i] - free_length_m) / r;
+        self.pulley_speed_rad_s[i] = 0.0;
+    }
+
+    /// Rest position of the device: every wire detached from the thimble and fully wound, its
+    /// end just touching its guide ring (free length 0, no tension).
+    pub fn rest_detached(&mut self) {
+        for i in 0..WIRES {
+            self.modules.attached[i] = false;
+            self.modules.hanging_mass_kg[i] = 0.0;
+            self.set_free_length_m(i, 0.0);
+        }
+    }
+
+    /// Detach wire `i` from the thimble (its end stays where the free length puts it).
+    pub fn detach_wire(&mut self, i: usize) {
+        self.modules.attached[i] = false;
+    }
+
+    /// The technician pulls every wire out to the thimble placed at `position_m` (at rest) and
+    /// connects them: each wire just taut.
+    pub fn connect_wires_at(&mut self, position_m: Vec3) {
+        self.position_m = position_m;
+        self.velocity_m_s = Vec3::zeros();
+        for i in 0..WIRES {
+            self.modules.attached[i] = true;
+            self.modules.hanging_mass_kg[i] = 0.0;
+            let length = (position_m - self.params.guides_m[i]).norm();
+            self.set_free_length_m(i, length);
+        }
+    }
+
+    /// Fit a new yarn on wire `i`: intact, detached, `free_length_m` of it hanging out of the
+    /// ring, `usable_length_m` in all.
+    pub fn fit_new_wire(&mut self, i: usize, free_length_m: f64, usable_length_m: f64) {
+        self.intact[i] = true;
+        self.modules.attached[i] = false;
+        self.modules.hanging_mass_kg[i] = 0.0;
+        self.modules.usable_length_m[i] = usable_length_m;
+        self.set_free_length_m(i, free_length_m);
+    }
+
+    /// Hang a weight of `mass_kg` on detached wire `i` (0 removes it).
+    pub fn hang_weight(&mut self, i: usize, mass_kg: f64) {
+        self.modules.attached[i] = false;
+        self.modules.hanging_mass_kg[i] = mass_kg.max(0.0);
+    }
+
+    /// Whether wire `i` is intact.
+    pub fn wire_intact(&self, i: usize) -> bool {
+        self.intact[i]
     }
 
     /// The parameters.
@@ -156,8 +287,12 @@ impl Plant {
         self.velocity_m_s = velocity_m_s;
     }
 
-    /// Tension of wire `i` for the current state (elastic, tension-only, with damping that can
-    /// only reduce a positive tension to zero, never push).
+    /// Tension of wire `i` for the current state and its force on the thimble (elastic,
+    /// tension-only, with damping that can only reduce a positive tension to zero, never push).
+    ///
+    /// The free wire (outside the ring) and the inside wire stretch in series. A wire wound
+    /// past its end (free length <= 0) has its end against the guide ring: attached, it holds the
+    /// thimble at the ring like a stiff spring; detached, only the inside wire carries tension.
     fn wire_tension(&self, i: usize, free_length_m: f64) -> (f64, Vec3) {
         let d = self.position_m - self.params.guides_m[i];
         let length = d.norm();
@@ -166,16 +301,43 @@ impl Plant {
         } else {
             Vec3::z()
         };
-        if !self.intact[i] || free_length_m <= 0.0 || length <= free_length_m {
-            return (0.0, unit);
-        }
-        let strain = (length - free_length_m) / free_length_m;
+        let m = &self.modules;
+        let inside = m.inside_length_m[i];
         let r = self.params.transmission.pulley_radius_m;
-        // Strain rate: geometric lengthening plus paying out at the pulley.
-        let strain_rate =
-            (self.velocity_m_s.dot(&unit) + r * self.pulley_speed_rad_s[i]) / free_length_m;
-        let t = self.params.wire_ea_n * strain + self.params.wire_damping_n_s * strain_rate;
-        (t.max(0.0), unit)
+        let ea = self.params.wire_ea_n;
+        let c = self.params.wire_damping_n_s;
+        let pay_out_speed = r * self.pulley_speed_rad_s[i];
+        if !self.intact[i] {
+            return (0.0, Vec3::zeros());
+        }
+        if !m.attached[i] {
+            if free_length_m > 0.0 || inside <= 0.0 {
+                return (GRAVITY_M_S2 * m.hanging_mass_kg[i], Vec3::zeros());
+            }
+            let t = ea * (-free_length_m) / inside + c * pay_out_speed / inside;
+            return (t.max(0.0), Vec3::zeros());
+        }
+        if free_length_m > 0.0 {
+            if length <= free_length_m {
+                return (0.0, Vec3::zeros());
+            }
+            let span = free_length_m + inside;
+            let strain = (length - free_length_m) / span;
+            // Strain rate: geometric lengthening plus paying out at the pulley.
+            let strain_rate = (self.velocity_m_s.dot(&unit) + pay_out_speed) / span;
+            let t = (ea * strain + c * strain_rate).max(0.0);
+            return (t, -unit * t);
+        }
+        if inside <= 0.0 {
+            return (0.0, Vec3::zeros());
+        }
+        // End against the ring: the thimble is held at the ring by the inside wire.
+        let radial_speed = self.velocity_m_s.dot(&unit);
+        let t = (ea * (length - free_length_m) / inside
+            + c * (radial_speed + pay_out_speed) / inside)
+            .max(0.0);
+        let on_thimble = -d * (ea / inside) - unit * (c * radial_speed / inside);
+        (t, on_thimble)
     }
 
     /// Advance by one integration step under motor torques (N·m, positive = winding) and the
@@ -186,23 +348,45 @@ impl Plant {
         let free = self.free_length_m();
         let mut wire_force = Vec3::zeros();
         for (i, free_i) in free.iter().enumerate() {
-            let (t, unit) = self.wire_tension(i, *free_i);
+            let (t, force) = self.wire_tension(i, *free_i);
             self.tension_n[i] = t;
-            wire_force -= unit * t;
+            wire_force += force;
         }
         self.hand_force_n = operator.force_n(self.time_s, &self.position_m, &self.velocity_m_s);
+        if self.modules.frame_stop && self.position_m.z < 0.0 {
+            // A stiff, damped contact that only pushes.
+            let push = -FRAME_STIFFNESS_N_PER_M * self.position_m.z
+                - FRAME_DAMPING_N_S_PER_M * self.velocity_m_s.z;
+            wire_force.z += push.max(0.0);
+        }
         let accel = (wire_force + self.hand_force_n) / self.params.thimble_mass_kg;
         self.velocity_m_s += accel * h;
         self.position_m += self.velocity_m_s * h;
 
-        let inertia = self.params.pulley_side_inertia();
+        let base_inertia = self.params.pulley_side_inertia();
+        let r = tr.pulley_radius_m;
         for i in 0..WIRES {
+            let hanging = if !self.modules.attached[i] && free[i] > 0.0 && self.intact[i] {
+                self.modules.hanging_mass_kg[i] * r * r
+            } else {
+                0.0
+            };
+            let inertia = base_inertia + hanging;
             let drive = motor_torque_nm[i] * tr.gear_ratio * tr.efficiency;
-            let load = self.tension_n[i] * tr.pulley_radius_m;
+            let load = self.tension_n[i] * r;
             let friction = self.params.pulley_friction_nm_s * self.pulley_speed_rad_s[i];
             let alpha = (drive - load - friction) / inertia;
             self.pulley_speed_rad_s[i] += alpha * h;
             self.pulley_angle_rad[i] += self.pulley_speed_rad_s[i] * h;
+            // The yarn's end is knotted on the pulley: it cannot pay out past its usable length.
+            let usable = self.modules.usable_length_m[i];
+            if usable.is_finite() {
+                let min_angle = (self.free_length_at_zero_m[i] - usable) / r;
+                if self.pulley_angle_rad[i] < min_angle {
+                    self.pulley_angle_rad[i] = min_angle;
+                    self.pulley_speed_rad_s[i] = self.pulley_speed_rad_s[i].max(0.0);
+                }
+            }
         }
         self.time_s += h;
     }

@@ -84,6 +84,11 @@ pub enum TwinFault {
     FailTensionSensor(usize),
     /// Drive N latches a fault.
     FaultDrive(usize),
+    /// Wire N's end comes off the thimble.
+    DetachWire(usize),
+    /// Wire N slips on its pulley by this many encoder counts (the pulley turns, the yarn
+    /// does not).
+    SlipWire(usize, i64),
 }
 
 /// Most faults that can be scheduled at once.
@@ -118,6 +123,8 @@ pub struct Twin {
     clock_mode: ClockMode,
     steps_done: u64,
     step_ns: u64,
+    /// Encoder count at free length zero (an incremental encoder starts anywhere at power-up).
+    encoder_offset_counts: [i64; WIRES],
     scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
 }
 
@@ -151,8 +158,23 @@ impl Twin {
             clock_mode: ClockMode::Simulated,
             steps_done: 0,
             step_ns,
+            encoder_offset_counts: [0; WIRES],
             scheduled: [None; FAULT_SLOTS],
         }
+    }
+
+    /// Where each encoder counts from: the count read with the wire's free length at zero
+    /// (default 0, i.e. the encoders start homed). Homing must find these.
+    pub fn set_encoder_offset_counts(&mut self, offset_counts: [i64; WIRES]) {
+        self.encoder_offset_counts = offset_counts;
+    }
+    /// The encoder offsets (ground truth for tests).
+    pub fn encoder_offset_counts(&self) -> [i64; WIRES] {
+        self.encoder_offset_counts
+    }
+    /// The e-stop button is held down now.
+    pub fn estop_held(&self) -> bool {
+        self.estop_held
     }
 
     /// Choose how the clock runs (default [`ClockMode::Simulated`]).
@@ -231,6 +253,8 @@ impl Twin {
             TwinFault::PressEStop => self.set_estop_button(true),
             TwinFault::FailTensionSensor(w) => self.fail_tension_sensor(Some(w)),
             TwinFault::FaultDrive(w) => self.fault_drive(w),
+            TwinFault::DetachWire(w) => self.plant.detach_wire(w),
+            TwinFault::SlipWire(w, counts) => self.encoder_offset_counts[w] += counts,
         }
     }
 
@@ -331,7 +355,8 @@ impl WireDrives for Twin {
             // Encoder zero = wire fully wound (free length 0), as after homing.
             let wound_rad = -free[i] / tr.pulley_radius_m;
             out[i] = DriveSample {
-                position_counts: (wound_rad * counts_per_pulley_rad).floor() as i64,
+                position_counts: (wound_rad * counts_per_pulley_rad).floor() as i64
+                    + self.encoder_offset_counts[i],
                 velocity_counts_per_s: speed[i] * counts_per_pulley_rad,
                 state: if self.faulted_drive == Some(i) {
                     DriveState::Fault

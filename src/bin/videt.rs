@@ -19,6 +19,16 @@ enum Command {
     /// Configuration files: check one and print the resolved settings.
     #[command(subcommand)]
     Config(tool::config::ConfigCommand),
+    /// Auto-initialize the rig: wind each wire in turn with the empty thimble connected, measure
+    /// the base triangle, write the calibration.
+    Init(tool::init::InitArgs),
+    /// Wire maintenance: guided replacement.
+    #[command(subcommand)]
+    Wire(tool::wire::WireCommand),
+    /// Two-point calibration of a wire's tension sensor with a known weight.
+    TensionCalibrate(tool::tension_calibrate::TensionCalibrateArgs),
+    /// Calibration age and validity, wires, whether the motors are in use.
+    Status(tool::status::StatusArgs),
     /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
     /// limit, plots (paper section 6).
     Analyze(tool::analyze::AnalyzeArgs),
@@ -38,6 +48,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Config(c) => tool::config::run(c),
+        Command::Init(a) => tool::init::run(a),
+        Command::Wire(c) => tool::wire::run(c),
+        Command::TensionCalibrate(a) => tool::tension_calibrate::run(a),
+        Command::Status(a) => tool::status::run(a),
         Command::Analyze(a) => tool::analyze::run(a),
         Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),

@@ -5,12 +5,17 @@
 //! SIGTERM ramps the forces out, powers the drives off and exits 0. Under systemd
 //! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
 //! control loop is healthy.
+//!
+//! Forces are rendered only with a valid calibration (`videt init`); without one every wire is
+//! held at minimum tension and the log says why. On the twin, `--sim-calibration` chooses where
+//! the calibration comes from (the configured geometry, an auto-initialization at start-up, or
+//! none).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use tracing::error;
+use tracing::{error, info, warn};
 use videt::cycle::WireZero;
 use videt::service::{run_service, ServiceOptions};
 use videt::setup;
@@ -33,6 +38,17 @@ enum SimScene {
 enum SimMode {
     /// The HAL-level physics twin (fast).
     Hal,
+}
+
+/// Where the twin's calibration comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SimCalibration {
+    /// The configured guides (the twin's truth), encoders homed.
+    Config,
+    /// Auto-initialization at start-up.
+    Init,
+    /// None: forces are not rendered.
+    None,
 }
 
 /// VIDET service: the real-time control loop of the haptic interface.
@@ -64,6 +80,22 @@ struct Args {
     /// Run without the per-period telemetry log.
     #[arg(long, conflicts_with = "telemetry_dir")]
     no_telemetry: bool,
+    /// Calibration file (default: `files.calibration` of the configuration). Without a valid
+    /// one no force is rendered and the log says why. With --sim, `--sim-calibration` decides
+    /// instead; this file's directory still holds the strain-gauge calibration the twin's
+    /// readings are corrected with.
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// With --sim, where the twin's calibration comes from: `config` (the configured guides are
+    /// the twin's true geometry and its encoders start homed: a perfect calibration), `init`
+    /// (auto-initialize the twin at start-up with the procedure `videt init` runs; start-up takes
+    /// longer), `none` (uncalibrated: every wire at minimum tension, no force rendered).
+    #[arg(long, value_enum, default_value = "config", requires = "sim")]
+    sim_calibration: SimCalibration,
+    /// Motors lock file (default: `files.motors_lock`; with --sim none: the twin is private to
+    /// this process).
+    #[arg(long, value_name = "FILE")]
+    lock: Option<PathBuf>,
 }
 
 const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -121,31 +153,89 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    // One process at a time drives the motors (the `videt` tool takes the same lock). A twin is
+    // private to its process, so with --sim the lock is taken only when --lock asks for it.
+    let lock_path = match (&args.lock, args.sim) {
+        (Some(p), _) => Some(p.clone()),
+        (None, None) => Some(PathBuf::from(&config.files.motors_lock)),
+        (None, Some(_)) => None,
+    };
+    let _motors = match lock_path
+        .map(|p| videt::init::MotorsLock::acquire(&p))
+        .transpose()
+    {
+        Ok(l) => l,
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::from(23);
+        }
+    };
     match args.sim {
         Some(SimMode::Hal) if args.scene == SimScene::Box => {
-            run_relief_demo(&config, rig, &options)
+            run_relief_demo(&config, rig, &options, args.sim_calibration)
         }
         Some(SimMode::Hal) => {
-            let scene = setup::demo_scene(&config, 1);
+            let mut scene = setup::demo_scene(&config, 1);
             tracing::info!(
                 rate_hz = config.control.rate_hz,
                 wall_z_m = scene.wall_z_m,
                 "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
             );
-            let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+            let (rig, wire_zero, calibrated) =
+                calibrate_twin(&config, &mut scene, rig, args.sim_calibration);
+            let cycle = setup::control_cycle(&config, rig, wire_zero, calibrated);
             // Colour under the finger: a demo image over the explored area.
             match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
                 Ok(source) => options.colour = Some(source),
                 Err(e) => tracing::warn!("colour rendering disabled: {e}"),
             }
-            run_service(
-                RealTimeTwin::new(scene.twin),
-                FixedSurface(scene.wall),
-                cycle,
-                &options,
-            )
+            let tension_path = videt_rt_config::calibration::TensionCalibration::path_beside(
+                &args.calibration.clone().unwrap_or_else(|| {
+                    videt::init::daemon::sim_state_dir().join("calibration-sim.toml")
+                }),
+            );
+            match videt_rt_config::calibration::TensionCalibration::load(&tension_path) {
+                Ok(tc) => {
+                    info!(file = %tension_path.display(), "tension readings corrected");
+                    run_service(
+                        videt::init::corrected::CorrectedTensions::new(
+                            RealTimeTwin::new(scene.twin),
+                            tc,
+                        ),
+                        FixedSurface(scene.wall),
+                        cycle,
+                        &options,
+                    )
+                }
+                Err(e) => {
+                    if !matches!(
+                        e,
+                        videt_rt_config::calibration::CalibrationError::Missing { .. }
+                    ) {
+                        warn!("tension readings not corrected: {e}");
+                    }
+                    run_service(
+                        RealTimeTwin::new(scene.twin),
+                        FixedSurface(scene.wall),
+                        cycle,
+                        &options,
+                    )
+                }
+            }
         }
         None => {
+            let path = args
+                .calibration
+                .clone()
+                .unwrap_or_else(|| PathBuf::from(&config.files.calibration));
+            if let Ok(s) = videt::init::daemon::load(&config, &path) {
+                if !s.calibrated {
+                    warn!(
+                        "forces will not be rendered (not calibrated): {}",
+                        s.reason.unwrap_or_default()
+                    );
+                }
+            }
             error!(
                 "no device backend is built into this videtd: run with --sim for the digital twin"
             );
@@ -160,6 +250,7 @@ fn run_relief_demo(
     config: &Config,
     rig: videt_control::Rig3,
     options: &ServiceOptions,
+    calibration: SimCalibration,
 ) -> ExitCode {
     use videt::relief_feed::relief_channel;
     use videt::relief_scene::{blend_params, box_operator, box_relief, proxy_params, ReliefLayout};
@@ -213,8 +304,61 @@ fn run_relief_demo(
         return ExitCode::FAILURE;
     }
     let mut scene = setup::demo_scene(config, 1);
+    let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
     let start = scene.twin.plant().position_m();
     scene.twin.set_operator(box_operator(&layout, start, 6.0));
-    let cycle = setup::control_cycle(config, rig, WireZero::default(), true);
+    let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     run_service(RealTimeTwin::new(scene.twin), feed, cycle, options)
+}
+
+/// The twin's calibration as `--sim-calibration` chooses. Returns the rig, the encoder zeros and
+/// whether forces may be rendered.
+fn calibrate_twin(
+    config: &Config,
+    scene: &mut setup::DemoScene,
+    configured: videt_control::Rig3,
+    source: SimCalibration,
+) -> (videt_control::Rig3, WireZero, bool) {
+    match source {
+        SimCalibration::Config => {
+            info!("twin calibration: the configured guides (the twin's true geometry)");
+            return (configured, WireZero::default(), true);
+        }
+        SimCalibration::None => {
+            warn!("forces will not be rendered (not calibrated): --sim-calibration none");
+            return (configured, WireZero::default(), false);
+        }
+        SimCalibration::Init => {}
+    }
+    let operator = scene.twin.operator().clone();
+    let start = scene.twin.plant().position_m();
+    // A signal during the start-up initialization cancels it (the service then starts
+    // uncalibrated and stops at once: its own handlers see the same signal pending).
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        let _ = signal_hook::flag::register(signal, std::sync::Arc::clone(&stop));
+    }
+    match videt::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1, &stop)
+        .map_err(|e| e.to_string())
+        .and_then(|o| videt::init::daemon::from_calibration(config, &o.calibration))
+    {
+        Ok(s) => {
+            let c = s
+                .calibration
+                .as_ref()
+                .map(|c| c.sides_m)
+                .unwrap_or_default();
+            info!(
+                d01_mm = c[0] * 1e3,
+                d02_mm = c[1] * 1e3,
+                d12_mm = c[2] * 1e3,
+                "twin auto-initialized at start-up"
+            );
+            (s.rig, s.wire_zero, true)
+        }
+        Err(e) => {
+            warn!("forces will not be rendered (not calibrated): twin auto-initialization failed: {e}");
+            (configured, WireZero::default(), false)
+        }
+    }
 }

@@ -6,8 +6,13 @@ pub mod bench_rt;
 pub mod calibrate_stereo;
 pub mod colour;
 pub mod config;
+pub mod device;
+pub mod init;
 pub mod log;
 pub mod service;
+pub mod status;
+pub mod tension_calibrate;
+pub mod wire;
 
 /// The error a subcommand reports to the user (printed as `videt: <message>`).
 pub type ToolError = Box<dyn std::error::Error + Send + Sync>;

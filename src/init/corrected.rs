@@ -1,0 +1,133 @@
+//! A device whose tension readings are corrected by the strain gauges' two-point calibration
+//! (`videt tension-calibrate`): every other capability is passed through unchanged.
+
+use videt_hal::{
+    Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime, TensionSensors,
+    WireDrives, WIRES,
+};
+use videt_rt_config::calibration::TensionCalibration;
+
+/// `H` with corrected tension readings. Allocation-free; the correction is two flops per wire.
+#[derive(Debug)]
+pub struct CorrectedTensions<H> {
+    inner: H,
+    correction: TensionCalibration,
+}
+
+impl<H> CorrectedTensions<H> {
+    /// Wrap `inner`, correcting its tension readings with `correction`.
+    pub fn new(inner: H, correction: TensionCalibration) -> Self {
+        CorrectedTensions { inner, correction }
+    }
+    /// The wrapped device.
+    pub fn inner(&self) -> &H {
+        &self.inner
+    }
+}
+
+impl<H: ErrorType> ErrorType for CorrectedTensions<H> {
+    type Error = H::Error;
+}
+
+impl<H: TensionSensors> TensionSensors for CorrectedTensions<H> {
+    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
+        self.inner.read_tensions(out_n)?;
+        for (i, t) in out_n.iter_mut().enumerate() {
+            *t = self.correction.correct(i, *t);
+        }
+        Ok(())
+    }
+}
+
+impl<H: WireDrives> WireDrives for CorrectedTensions<H> {
+    fn enable(&mut self) -> Result<(), Self::Error> {
+        self.inner.enable()
+    }
+    fn disable(&mut self) -> Result<(), Self::Error> {
+        self.inner.disable()
+    }
+    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), Self::Error> {
+        self.inner.read_drives(out)
+    }
+    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), Self::Error> {
+        self.inner.write_torques(torque_nm)
+    }
+}
+
+impl<H: Lifecycle> Lifecycle for CorrectedTensions<H> {
+    fn configure(&mut self) -> Result<(), Self::Error> {
+        self.inner.configure()
+    }
+    fn activate(&mut self) -> Result<(), Self::Error> {
+        self.inner.activate()
+    }
+    fn deactivate(&mut self) -> Result<(), Self::Error> {
+        self.inner.deactivate()
+    }
+    fn lifecycle_state(&self) -> LifecycleState {
+        self.inner.lifecycle_state()
+    }
+}
+
+impl<H: EStop> EStop for CorrectedTensions<H> {
+    fn is_pressed(&mut self) -> Result<bool, Self::Error> {
+        self.inner.is_pressed()
+    }
+    fn reset(&mut self) -> Result<(), Self::Error> {
+        self.inner.reset()
+    }
+}
+
+impl<H: Clock> Clock for CorrectedTensions<H> {
+    fn now(&self) -> MonoTime {
+        self.inner.now()
+    }
+    fn sleep_until(&mut self, deadline: MonoTime) {
+        self.inner.sleep_until(deadline)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use videt_sim::{PlantParams, SensorModel, Twin, Vec3, VirtualOperator};
+
+    #[test]
+    fn readings_are_corrected_by_offset_and_gain() {
+        let p = Vec3::new(0.18, 0.12, 0.3);
+        let sensors = SensorModel {
+            noise_std_n: 0.0,
+            ..SensorModel::default()
+        };
+        let mut raw = Twin::new(
+            PlantParams::paper_default(),
+            p,
+            VirtualOperator::holding(p),
+            sensors.clone(),
+        );
+        let mut c = TensionCalibration::default();
+        for i in 0..WIRES {
+            c.offset_n[i] = sensors.offset_n[i];
+            c.gain[i] = 1.0 / (1.0 + sensors.gain_error[i]);
+        }
+        let twin = Twin::new(
+            PlantParams::paper_default(),
+            p,
+            VirtualOperator::holding(p),
+            sensors,
+        );
+        let mut corrected = CorrectedTensions::new(twin, c);
+        let (mut a, mut b) = ([0.0; WIRES], [0.0; WIRES]);
+        raw.read_tensions(&mut a).unwrap();
+        corrected.read_tensions(&mut b).unwrap();
+        for i in 0..WIRES {
+            // The plant is at rest with zero tension: the raw reading is the offset alone.
+            assert!((a[i] - raw_offset(i)).abs() < 1e-12);
+            assert!(b[i].abs() < 1e-12, "wire {i}: {}", b[i]);
+        }
+    }
+
+    fn raw_offset(i: usize) -> f64 {
+        SensorModel::default().offset_n[i]
+    }
+}

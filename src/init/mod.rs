@@ -1,0 +1,19 @@
+//! Wire homing, auto-initialization and wire replacement on the hardware (or the twin).
+//!
+//! The procedure itself is `videt_control::autoinit`'s pure state machine; this module runs it
+//! period by period on the HAL ([`runner`]), asks the technician for the manual steps
+//! ([`session::Technician`]), turns the result into a calibration file
+//! (`videt_rt_config::calibration`), and keeps other processes off the motors meanwhile
+//! ([`lock`]). [`twin`] builds the digital twin a `--sim` run rehearses on.
+
+pub mod corrected;
+pub mod daemon;
+pub mod lock;
+pub mod params;
+pub mod runner;
+pub mod session;
+pub mod tension;
+pub mod twin;
+
+pub use lock::{LockError, MotorsLock};
+pub use session::{InitError, InitOutcome, Request, Technician};

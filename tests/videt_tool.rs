@@ -1,0 +1,394 @@
+//! Whole-stack tests of the `videt` tool on the digital twin: `init`, `wire replace`,
+//! `tension-calibrate` and `status` as a technician runs them, with the exit codes, the JSON, the
+//! calibration file and its backup, and the motors lock.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use videt::init::MotorsLock;
+
+fn videt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_videt"))
+        .args(args)
+        .output()
+        .expect("videt runs")
+}
+
+struct Files {
+    _dir: tempfile::TempDir,
+    calibration: PathBuf,
+    lock: PathBuf,
+}
+
+fn files() -> Files {
+    let dir = tempfile::tempdir().unwrap();
+    Files {
+        calibration: dir.path().join("state").join("calibration.toml"),
+        lock: dir.path().join("run").join("motors.lock"),
+        _dir: dir,
+    }
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+const GUIDES: &str = "-0.05,0.02;0.33,-0.03;0.12,0.29";
+const TRUE_GUIDES: [[f64; 2]; 3] = [[-0.05, 0.02], [0.33, -0.03], [0.12, 0.29]];
+
+fn init(f: &Files, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "init",
+        "--sim",
+        "--json",
+        "--sim-guides",
+        GUIDES,
+        "--calibration",
+        p(&f.calibration),
+        "--lock",
+        p(&f.lock),
+    ];
+    args.extend_from_slice(extra);
+    videt(&args)
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+#[test]
+fn init_prints_the_calibration_as_json_and_writes_it() {
+    let f = files();
+    let out = init(&f, &[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.starts_with("{\"sides_m\": ["), "{text}");
+    let v: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
+    let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+    assert_eq!(keys.len(), 3, "{text}");
+    let sides: Vec<f64> = serde_json::from_value(v["sides_m"].clone()).unwrap();
+    let guides: Vec<[f64; 3]> = serde_json::from_value(v["guides_m"].clone()).unwrap();
+    let residuals: Vec<f64> = serde_json::from_value(v["residuals_m"].clone()).unwrap();
+    assert_eq!(residuals.len(), 6);
+    let t = TRUE_GUIDES;
+    let truth = [dist(t[0], t[1]), dist(t[0], t[2]), dist(t[1], t[2])];
+    for k in 0..3 {
+        assert!(
+            (sides[k] - truth[k]).abs() < 0.5e-3,
+            "side {k}: {} vs {}",
+            sides[k],
+            truth[k]
+        );
+    }
+    // The paper's frame: x0 at the origin, x1 on +x, x2 at y > 0; the truth moved there.
+    let ex = [
+        (t[1][0] - t[0][0]) / truth[0],
+        (t[1][1] - t[0][1]) / truth[0],
+    ];
+    let ey = [-ex[1], ex[0]];
+    for i in 0..3 {
+        let d = [t[i][0] - t[0][0], t[i][1] - t[0][1]];
+        let expected = [d[0] * ex[0] + d[1] * ex[1], d[0] * ey[0] + d[1] * ey[1]];
+        let e = dist([guides[i][0], guides[i][1]], expected);
+        assert!(
+            e < 1e-3 && guides[i][2] == 0.0,
+            "guide {i}: {:?} vs {expected:?}",
+            guides[i]
+        );
+    }
+    let status = videt(&[
+        "status",
+        "--json",
+        "--calibration",
+        p(&f.calibration),
+        "--lock",
+        p(&f.lock),
+    ]);
+    assert!(status.status.success());
+    let s: serde_json::Value = serde_json::from_slice(&status.stdout).unwrap();
+    assert_eq!(s["calibration"]["valid"], true);
+    assert_eq!(s["motors"], "free");
+}
+
+#[test]
+fn every_failure_leaves_the_previous_calibration_byte_for_byte() {
+    let f = files();
+    assert!(init(&f, &[]).status.success());
+    let before = std::fs::read(&f.calibration).unwrap();
+    let backup = videt_rt_config::calibration::backup_path(&f.calibration);
+    let cases: [(&[&str], i32, &str); 5] = [
+        (&["--sim-fault", "disconnected:2"], 12, "wire 2 never moved"),
+        (&["--sim-fault", "estop:3"], 10, "e-stop"),
+        (&["--sim-fault", "break:1:8"], 13, "tension never rose"),
+        (&["--sim-fault", "slip:0:4:7"], 14, "disagrees"),
+        (&["--sim-fault", "sensor:2:1"], 18, "tension sensor"),
+    ];
+    for (extra, code, words) in cases {
+        let out = init(&f, extra);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{extra:?}: {stderr}");
+        assert!(stderr.contains(words), "{extra:?}: {stderr}");
+        assert!(stderr.contains("previous calibration"), "{stderr}");
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["exit_code"], code);
+        assert_eq!(std::fs::read(&f.calibration).unwrap(), before, "{extra:?}");
+        assert!(
+            !backup.exists(),
+            "{extra:?}: a failure must not rotate the backup"
+        );
+    }
+    // A degenerate frame.
+    let out = videt(&[
+        "init",
+        "--sim",
+        "--sim-guides",
+        "0,0;0.2,0.004;0.4,0",
+        "--calibration",
+        p(&f.calibration),
+        "--lock",
+        p(&f.lock),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(16),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read(&f.calibration).unwrap(), before);
+}
+
+#[test]
+fn a_second_process_cannot_take_the_motors() {
+    let f = files();
+    let held = MotorsLock::acquire(&f.lock).unwrap();
+    let out = init(&f, &[]);
+    assert_eq!(out.status.code(), Some(23));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("in use"));
+    assert!(!f.calibration.exists());
+    drop(held);
+    assert!(init(&f, &[]).status.success());
+}
+
+#[test]
+fn a_second_init_keeps_the_first_as_backup_and_a_corrupt_file_is_refused() {
+    let f = files();
+    assert!(init(&f, &[]).status.success());
+    let first = std::fs::read(&f.calibration).unwrap();
+    assert!(init(&f, &["--sim-seed", "2"]).status.success());
+    let backup = videt_rt_config::calibration::backup_path(&f.calibration);
+    assert_eq!(std::fs::read(&backup).unwrap(), first);
+    // Truncate: status says it is corrupt and that the rig is not calibrated.
+    let text = std::fs::read(&f.calibration).unwrap();
+    std::fs::write(&f.calibration, &text[..text.len() / 2]).unwrap();
+    let out = videt(&[
+        "status",
+        "--calibration",
+        p(&f.calibration),
+        "--lock",
+        p(&f.lock),
+    ]);
+    assert_eq!(out.status.code(), Some(4));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("corrupt") && stdout.contains("NOT CALIBRATED"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn wire_replacement_and_tension_calibration_from_the_terminal() {
+    let f = files();
+    let base = [
+        "--sim",
+        "--sim-guides",
+        GUIDES,
+        "--calibration",
+        p(&f.calibration),
+        "--lock",
+        p(&f.lock),
+    ];
+    let mut args = vec!["wire", "replace", "2"];
+    args.extend_from_slice(&base);
+    let out = videt(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("usable length"));
+    assert!(f.calibration.exists());
+
+    let mut args = vec![
+        "wire",
+        "replace",
+        "0",
+        "--sim-new-wire-length",
+        "0.5",
+        "--json",
+    ];
+    args.extend_from_slice(&base);
+    let before = std::fs::read(&f.calibration).unwrap();
+    let out = videt(&args);
+    assert_eq!(
+        out.status.code(),
+        Some(21),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read(&f.calibration).unwrap(), before);
+
+    let mut args = vec!["tension-calibrate", "1", "--mass-kg", "0.4", "--json"];
+    args.extend_from_slice(&base);
+    let out = videt(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let gain = v["gain"].as_f64().unwrap();
+    assert!((gain - 1.0 / 0.985).abs() < 0.003, "{v}");
+}
+
+#[test]
+fn every_subcommand_has_help() {
+    for args in [
+        &["init", "--help"][..],
+        &["wire", "--help"],
+        &["wire", "replace", "--help"],
+        &["tension-calibrate", "--help"],
+        &["status", "--help"],
+    ] {
+        let out = videt(args);
+        assert!(out.status.success(), "{args:?}");
+        assert!(!out.stdout.is_empty());
+    }
+    let out = videt(&["init", "--help"]);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("Exit codes"));
+    // Bad input is an error naming what is wrong, never a panic.
+    let f = files();
+    let out = videt(&[
+        "init",
+        "--sim",
+        "--sim-guides",
+        "1,2;3",
+        "--calibration",
+        p(&f.calibration),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("three points"));
+    assert!(!f.calibration.parent().unwrap().exists(), "nothing touched");
+}
+
+#[test]
+fn init_takes_the_motors_over_from_a_running_videtd_through_its_socket() {
+    let f = files();
+    let socket = f.lock.with_file_name("videtd.sock");
+    let mut daemon = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        .args([
+            "--sim",
+            "--sim-calibration",
+            "none",
+            "--no-telemetry",
+            "--duration",
+            "120",
+        ])
+        .args(["--lock", p(&f.lock), "--socket", p(&socket)])
+        .env("RUST_LOG", "warn")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while !socket.exists() {
+        assert!(std::time::Instant::now() < deadline, "videtd did not start");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    // The service runs uncalibrated: status shows it holding the wires at minimum tension.
+    let out = videt(&[
+        "status",
+        "--json",
+        "--socket",
+        p(&socket),
+        "--lock",
+        p(&f.lock),
+        "--calibration",
+        p(&f.calibration),
+    ]);
+    assert_eq!(out.status.code(), Some(4));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["service"]["safety"], "not-calibrated", "{v}");
+    assert!(v["motors"].as_str().unwrap().contains("in use"), "{v}");
+    let args = ["--socket", p(&socket)];
+    // Without --yes and no terminal to confirm on, the service is left alone.
+    let out = init(&f, &args);
+    assert_eq!(
+        out.status.code(),
+        Some(23),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(daemon.try_wait().unwrap().is_none(), "videtd still runs");
+    // With --yes: videtd hands the motors over and stops cleanly; the tool initializes.
+    let out = init(&f, &["--socket", p(&socket), "--yes"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("handed the motors over"), "{stderr}");
+    let status = daemon.wait().unwrap();
+    assert!(status.success(), "videtd stopped cleanly: {status:?}");
+    assert!(f.calibration.exists());
+}
+
+#[test]
+fn videtd_renders_forces_after_auto_initializing_its_twin_and_not_without_calibration() {
+    for (source, expected) in [("init", "normal"), ("none", "not-calibrated")] {
+        let dir = tempfile::tempdir().unwrap();
+        let socket = dir.path().join("videtd.sock");
+        let mut daemon = Command::new(env!("CARGO_BIN_EXE_videtd"))
+            .args([
+                "--sim",
+                "--sim-calibration",
+                source,
+                "--no-telemetry",
+                "--duration",
+                "60",
+            ])
+            .args(["--socket", p(&socket)])
+            .env("RUST_LOG", "warn")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+        let status = loop {
+            assert!(
+                std::time::Instant::now() < deadline,
+                "videtd did not answer"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            let reply = videt::socket::request(
+                &socket,
+                &videt::socket::Request::Status,
+                std::time::Duration::from_secs(2),
+            );
+            if let Ok(r) = reply {
+                let s = r.status.unwrap();
+                if s.cycles > 1500 {
+                    break s;
+                }
+            }
+        };
+        assert_eq!(status.safety, expected, "--sim-calibration {source}");
+        let _ = videt::socket::request(
+            &socket,
+            &videt::socket::Request::Stop,
+            std::time::Duration::from_secs(2),
+        );
+        assert!(daemon.wait().unwrap().success());
+    }
+}
