@@ -168,3 +168,39 @@ impl core::fmt::Display for ReliefParamsError {
         )
     }
 }
+
+/// Build settings for one camera view with the default device workspace: the image stretched
+/// over a 40 x 30 cm area at the origin, 8 cm of relief in front of a back plane at 45 cm, and
+/// the scene depth range spanning the segments' endpoints (nearest to farthest `Z` in front of
+/// the camera). For tools that build a surface from a stereo pair without a rig configuration.
+pub fn params_for_view(
+    segments: &[SceneSegment3],
+    image_size_px: [u32; 2],
+) -> Result<ReliefParams, String> {
+    let (mut near, mut far) = (f64::INFINITY, f64::NEG_INFINITY);
+    for s in segments {
+        for z in [s.a_m[2], s.b_m[2]] {
+            if z.is_finite() && z > 0.0 {
+                near = near.min(z);
+                far = far.max(z);
+            }
+        }
+    }
+    if !(near.is_finite() && far.is_finite()) {
+        return Err("no segment endpoint in front of the camera: no scene depth range".into());
+    }
+    if far - near < 1e-6 * far {
+        // A single depth: give the range some width so that it maps onto the front of the relief.
+        far = near * 1.1;
+    }
+    let map = SceneMap::new(
+        [0.0, 0.0],
+        [0.4, 0.3],
+        image_size_px,
+        0.45,
+        0.08,
+        [near, far],
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(ReliefParams::new(map))
+}

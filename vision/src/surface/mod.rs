@@ -27,7 +27,9 @@ pub use build::{
     RejectReason, Rejection,
 };
 pub use grid::TriangleGrid;
-pub use input::{DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, SceneSegment3};
+pub use input::{
+    params_for_view, DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, SceneSegment3,
+};
 pub use model::{Impact, ModelStats, ReliefModel};
 
 #[cfg(test)]

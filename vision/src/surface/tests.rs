@@ -209,6 +209,24 @@ fn scene_segments_through_a_pinhole_land_at_their_relief_depth() {
 }
 
 #[test]
+fn view_settings_span_the_segments_depths() {
+    let segs = [
+        SceneSegment3 {
+            a_m: [0.0, 0.0, 1.5],
+            b_m: [0.1, 0.0, 3.0],
+        },
+        SceneSegment3 {
+            a_m: [0.0, 0.0, f64::NAN],
+            b_m: [0.1, 0.0, -1.0],
+        },
+    ];
+    let p = params_for_view(&segs, [640, 480]).unwrap();
+    assert!((p.scene_map.scene_depth_to_relief_z(1.5) - 0.37).abs() < 1e-12);
+    assert!((p.scene_map.scene_depth_to_relief_z(3.0) - 0.45).abs() < 1e-12);
+    assert!(params_for_view(&segs[1..], [640, 480]).is_err());
+}
+
+#[test]
 fn crossing_segments_are_split_or_dropped_with_a_reason() {
     // Two crossing segments at the same height: split at a shared vertex.
     let same = [
