@@ -35,10 +35,10 @@ pub struct ProxyParams {
     pub max_iterations: u32,
     /// Apply force shading (interpolated normals).
     pub force_shading: bool,
-    /// Longest path the proxy slides along the surface in one update, metres (> 0). Where the
-    /// constrained proxy would jump (a finger deep under a convex edge switches faces), it
-    /// travels there over several periods instead, so the spring changes by at most about
-    /// `K max_slide_m` per period. Free-space motion is not limited.
+    /// Longest path the proxy slides along the surface in one update, metres (> 0). The default
+    /// (0.1 m) does not limit it in practice; a small value makes the proxy itself lag behind a
+    /// fast finger (force smoothing is `max_offset_step_m`'s job). Free-space motion is never
+    /// limited.
     pub max_slide_m: f64,
     /// Largest change of the rendered spring displacement per update, metres (> 0): the force
     /// changes by at most `K max_offset_step_m` per period. The proxy itself always goes where
