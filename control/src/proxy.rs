@@ -8,7 +8,10 @@
 //! feature is, the proxy cannot cross the surface, so the finger never pops through.
 //!
 //! Force shading: the component of `proxy - finger` along the face normal is turned onto the
-//! normal interpolated across the faces, so the force direction does not jump at edges.
+//! normal interpolated across the faces, so the force direction does not jump at edges. Where
+//! the proxy itself jumps (a finger several millimetres deep passing under a convex edge makes
+//! it change faces) the rendered spring follows in steps of at most `max_offset_step_m` per
+//! period, so the force never changes by more than `K max_offset_step_m` in one period from it.
 //! Optional Coulomb friction (static / dynamic cone) holds the proxy where it is while the
 //! finger's tangential pull stays inside the cone.
 //!
