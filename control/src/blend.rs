@@ -406,6 +406,7 @@ mod tests {
         }
         // 4 N -> 12 N with half the 0.02 N bound for the blend (the other half is the fade's)
         // takes 800 periods, more than the 50 of blend_time.
+        std::eprintln!("4 N -> 12 N swap: {periods} periods, max step {max_step:.4} N");
         assert!(max_step <= 0.02 + 1e-9, "max step {max_step}");
         assert!((prev.norm() - 12.0).abs() < 1e-2);
         assert!((800..=802).contains(&periods), "{periods}");
@@ -435,6 +436,7 @@ mod tests {
             max_step = max_step.max((f - prev).norm());
             prev = f;
         }
+        std::eprintln!("a swap every 150 periods: max step {max_step:.4} N");
         assert!(max_step <= 0.05 + 1e-9, "max step {max_step}");
     }
 
