@@ -11,6 +11,8 @@ pub mod control_loop;
 pub mod cycle;
 pub mod histogram;
 pub mod init;
+pub mod relief_feed;
+pub mod relief_scene;
 pub mod rt;
 pub mod service;
 pub mod setup;

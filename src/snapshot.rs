@@ -64,6 +64,12 @@ impl<T: Send> SnapshotReader<T> {
         self.output.update();
         self.output.output_buffer()
     }
+
+    /// The snapshot taken by the last [`SnapshotReader::latest`], without looking for a newer
+    /// one (wait-free; allocation-free).
+    pub fn peek(&self) -> &Versioned<T> {
+        self.output.output_buffer()
+    }
 }
 
 /// The surface the control cycle renders this period.

@@ -25,6 +25,7 @@ extern crate std;
 
 pub mod analysis;
 pub mod autoinit;
+pub mod blend;
 pub mod contact;
 pub mod distribution;
 pub mod field;
@@ -32,6 +33,8 @@ pub mod kinematics;
 pub mod measures;
 pub mod planar;
 pub mod polar;
+pub mod proxy;
+pub mod relief;
 pub mod safety;
 pub mod scene_map;
 pub mod step;

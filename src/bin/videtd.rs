@@ -27,6 +27,16 @@ use videt::twin_rt::RealTimeTwin;
 use videt_rt_config::Config;
 
 /// Which twin `--sim` runs on.
+/// What the twin's operator touches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SimScene {
+    /// A flat virtual wall.
+    Wall,
+    /// A bas-relief box built by the surface builder from known segments, rebuilt every second
+    /// on a vision thread and rendered through the proxy.
+    Box,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum SimMode {
     /// The HAL-level physics twin (fast).
@@ -61,6 +71,9 @@ struct Args {
     /// Stop cleanly after this many seconds.
     #[arg(long, value_name = "SECS")]
     duration: Option<f64>,
+    /// With --sim: the scene the virtual operator touches.
+    #[arg(long, value_enum, default_value = "wall")]
+    scene: SimScene,
     /// Control socket path (overrides socket.path).
     #[arg(long, value_name = "PATH")]
     socket: Option<PathBuf>,
@@ -164,6 +177,9 @@ fn main() -> ExitCode {
         }
     };
     match args.sim {
+        Some(SimMode::Hal) if args.scene == SimScene::Box => {
+            run_relief_demo(&config, rig, &options, args.sim_calibration)
+        }
         Some(SimMode::Hal) => {
             let mut scene = setup::demo_scene(&config, 1);
             tracing::info!(
@@ -259,6 +275,73 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// The twin with the bas-relief box: built at start-up, rebuilt every second on a vision thread,
+/// rendered through the proxy with blended swaps.
+fn run_relief_demo(
+    config: &Config,
+    rig: videt_control::Rig3,
+    options: &ServiceOptions,
+    calibration: SimCalibration,
+) -> ExitCode {
+    use videt::relief_feed::relief_channel;
+    use videt::relief_scene::{blend_params, box_operator, box_relief, proxy_params, ReliefLayout};
+
+    let layout = ReliefLayout::for_config(config);
+    let (model, report) = match box_relief(&layout, 0.0) {
+        Ok(m) => m,
+        Err(e) => {
+            error!("surface: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    tracing::info!(
+        vertices = report.vertices,
+        triangles = report.triangles,
+        constraints = report.constraints_kept,
+        build_us = (report.timings.cleaning
+            + report.timings.crossings
+            + report.timings.triangulation
+            + report.timings.model)
+            .as_micros() as u64,
+        "digital twin: a bas-relief box, a virtual operator sliding over it and off its edge"
+    );
+    let period_s = 1.0 / f64::from(config.control.rate_hz);
+    let (mut writer, feed) = match relief_channel(
+        model,
+        proxy_params(),
+        blend_params(config),
+        config.control.stiffness_n_per_m,
+        period_s,
+    ) {
+        Ok(c) => c,
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    let vision = std::thread::Builder::new()
+        .name("videt-vision".into())
+        .spawn(move || loop {
+            std::thread::sleep(std::time::Duration::from_secs(1));
+            match box_relief(&layout, 0.0) {
+                Ok((model, _)) => {
+                    writer.publish(model);
+                }
+                Err(e) => tracing::warn!("surface rebuild failed: {e}"),
+            }
+        });
+    if let Err(e) = vision {
+        error!("cannot start the vision thread: {e}");
+        return ExitCode::FAILURE;
+    }
+    let mut scene = setup::demo_scene(config, 1);
+    let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
+    let start = scene.twin.plant().position_m();
+    scene.twin.set_operator(box_operator(&layout, start, 6.0));
+    let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
+    run_service(RealTimeTwin::new(scene.twin), feed, cycle, options)
 }
 
 /// The twin's calibration as `--sim-calibration` chooses. Returns the rig, the encoder zeros and

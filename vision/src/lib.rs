@@ -23,3 +23,4 @@ pub use gray::{GrayView, PixelRect};
 pub use pipeline::{run_pipeline, PipelineOutput, StageTimings, StereoPipeline, VisionParams};
 pub use reconstruct::{RectifiedGeometry, Segment3d};
 pub use roi::{LocalParams, LocalRegion};
+pub mod surface;
