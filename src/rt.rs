@@ -57,6 +57,25 @@ pub struct RtReport {
     pub warnings: Vec<String>,
 }
 
+/// Holds a CPU wake-up latency limit (PM QoS `/dev/cpu_dma_latency`): while the returned file
+/// stays open, the CPUs avoid idle states slower to leave than the limit, so the control loop's
+/// wake-ups are not delayed by deep sleep states. Dropping it releases the limit.
+#[derive(Debug)]
+pub struct CpuLatencyGuard {
+    _file: std::fs::File,
+}
+
+/// Ask the kernel to keep every CPU's wake-up latency at or below `limit_us` microseconds.
+pub fn hold_cpu_latency(limit_us: u32) -> io::Result<CpuLatencyGuard> {
+    use std::io::Write;
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/cpu_dma_latency")?;
+    // The device takes a binary 32-bit value.
+    file.write_all(&(limit_us as i32).to_ne_bytes())?;
+    Ok(CpuLatencyGuard { _file: file })
+}
+
 /// Lock current and future memory (`mlockall(MCL_CURRENT | MCL_FUTURE)`).
 pub fn lock_memory() -> io::Result<()> {
     // SAFETY: plain syscall without pointers.

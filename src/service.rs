@@ -110,6 +110,15 @@ where
 {
     install_panic_hook();
     let config = &options.config;
+    let _cpu_latency = u32::try_from(config.realtime.cpu_wakeup_latency_us)
+        .ok()
+        .and_then(|limit| match rt::hold_cpu_latency(limit) {
+            Ok(guard) => Some(guard),
+            Err(e) => {
+                warn!("CPU wake-up latency not limited (/dev/cpu_dma_latency: {e}); idle states may delay wake-ups");
+                None
+            }
+        });
     if config.realtime.lock_memory {
         if let Err(e) = rt::lock_memory() {
             warn!("memory not locked (mlockall: {e}); page faults may delay the control loop");

@@ -349,6 +349,9 @@ pub struct RealtimeConfig {
     pub lock_memory: bool,
     /// SCHED_FIFO priority of the vision thread (0 = SCHED_OTHER).
     pub vision_priority: u8,
+    /// CPU wake-up latency limit held while the service runs (PM QoS `/dev/cpu_dma_latency`),
+    /// microseconds: 0 keeps the CPUs out of idle states that are slow to leave; -1 = no limit.
+    pub cpu_wakeup_latency_us: i32,
     /// This many control-loop overruns in a row force the minimum-tension safe state.
     pub max_consecutive_overruns: u32,
 }
@@ -401,6 +404,7 @@ impl Default for RealtimeConfig {
             control_cpu: 1,
             lock_memory: true,
             vision_priority: 0,
+            cpu_wakeup_latency_us: 0,
             max_consecutive_overruns: 10,
         }
     }
@@ -478,13 +482,6 @@ impl Config {
                 allowed: "one of P1, P2, F1, F2, QP".into(),
             });
         }
-        in_range("control.field_n", c.field_n, 0.0, c.t_max_n)?;
-        in_range(
-            "control.free_space_field_n",
-            c.free_space_field_n,
-            0.0,
-            c.t_max_n,
-        )?;
         in_range("control.t_max_n", c.t_max_n, 0.5, 15.0)?;
         in_range("control.t_min_n", c.t_min_n, 0.05, c.t_max_n)?;
         in_range("control.field_n", c.field_n, 0.0, c.t_max_n)?;
@@ -549,6 +546,104 @@ impl Config {
             self.realtime.control_cpu as f64,
             -1.0,
             1023.0,
+        )?;
+        let rt = &self.realtime;
+        let vision_max = (f64::from(rt.control_priority) - 1.0).max(0.0);
+        in_range(
+            "realtime.vision_priority",
+            f64::from(rt.vision_priority),
+            0.0,
+            vision_max,
+        )?;
+        in_range(
+            "realtime.cpu_wakeup_latency_us",
+            f64::from(rt.cpu_wakeup_latency_us),
+            -1.0,
+            10000.0,
+        )?;
+        in_range(
+            "realtime.max_consecutive_overruns",
+            f64::from(rt.max_consecutive_overruns),
+            1.0,
+            10000.0,
+        )?;
+        let d = &self.drives;
+        if d.can_interface.is_empty() || d.can_interface.len() > 15 {
+            return Err(ConfigError::Invalid {
+                field: "drives.can_interface".into(),
+                value: d.can_interface.clone(),
+                allowed: "an interface name of 1 to 15 characters".into(),
+            });
+        }
+        for (i, id) in d.node_ids.iter().enumerate() {
+            in_range(&format!("drives.node_ids[{i}]"), f64::from(*id), 1.0, 127.0)?;
+        }
+        if d.node_ids[0] == d.node_ids[1]
+            || d.node_ids[0] == d.node_ids[2]
+            || d.node_ids[1] == d.node_ids[2]
+        {
+            return Err(ConfigError::Invalid {
+                field: "drives.node_ids".into(),
+                value: format!("{:?}", d.node_ids),
+                allowed: "three different node ids".into(),
+            });
+        }
+        in_range("drives.rated_torque_nm", d.rated_torque_nm, 1e-4, 10.0)?;
+        in_range(
+            "drives.heartbeat_ms",
+            f64::from(d.heartbeat_ms),
+            1.0,
+            1000.0,
+        )?;
+        let hb_min = 2.0 * f64::from(d.heartbeat_ms);
+        in_range(
+            "drives.heartbeat_timeout_ms",
+            f64::from(d.heartbeat_timeout_ms),
+            hb_min,
+            10000.0,
+        )?;
+        in_range(
+            "sensors.stale_after_ms",
+            f64::from(self.sensors.stale_after_ms),
+            1.0,
+            1000.0,
+        )?;
+        in_range(
+            "vision.surface_max_age_s",
+            self.vision.surface_max_age_s,
+            0.05,
+            60.0,
+        )?;
+        in_range(
+            "vision.surface_fade_s",
+            self.vision.surface_fade_s,
+            0.0,
+            10.0,
+        )?;
+        in_range(
+            "telemetry.ring_records",
+            f64::from(self.telemetry.ring_records),
+            64.0,
+            4_194_304.0,
+        )?;
+        if self.socket.path.is_empty() {
+            return Err(ConfigError::Invalid {
+                field: "socket.path".into(),
+                value: String::new(),
+                allowed: "a file path".into(),
+            });
+        }
+        in_range(
+            "socket.max_request_bytes",
+            f64::from(self.socket.max_request_bytes),
+            64.0,
+            1_048_576.0,
+        )?;
+        in_range(
+            "socket.client_timeout_ms",
+            f64::from(self.socket.client_timeout_ms),
+            10.0,
+            600_000.0,
         )?;
         Ok(())
     }
@@ -662,6 +757,48 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("files.motors_lock"), "{e}");
+    }
+
+    #[test]
+    fn every_section_is_validated() {
+        for (text, field) in [
+            (
+                "[realtime]\nvision_priority = 95\n",
+                "realtime.vision_priority",
+            ),
+            (
+                "[realtime]\nmax_consecutive_overruns = 0\n",
+                "realtime.max_consecutive_overruns",
+            ),
+            (
+                "[realtime]\ncpu_wakeup_latency_us = -5\n",
+                "realtime.cpu_wakeup_latency_us",
+            ),
+            ("[drives]\nnode_ids = [1, 1, 2]\n", "drives.node_ids"),
+            ("[drives]\nnode_ids = [1, 2, 200]\n", "drives.node_ids[2]"),
+            (
+                "[drives]\nheartbeat_ms = 10\nheartbeat_timeout_ms = 15\n",
+                "drives.heartbeat_timeout_ms",
+            ),
+            ("[sensors]\nstale_after_ms = 0\n", "sensors.stale_after_ms"),
+            (
+                "[vision]\nsurface_max_age_s = 0.0\n",
+                "vision.surface_max_age_s",
+            ),
+            ("[telemetry]\nring_records = 3\n", "telemetry.ring_records"),
+            ("[socket]\npath = \"\"\n", "socket.path"),
+            (
+                "[control]\nslack_takeup_speed_m_s = 0.6\n",
+                "control.slack_takeup_speed_m_s",
+            ),
+            (
+                "[control]\nalgorithm = \"QP\"\nfield_n = 20.0\n",
+                "control.field_n",
+            ),
+        ] {
+            let e = Config::from_toml_str(text, "t").unwrap_err().to_string();
+            assert!(e.contains(field), "{text:?}: {e}");
+        }
     }
 
     #[test]

@@ -103,6 +103,14 @@ pub fn bench(args: &BenchRtArgs) -> Result<BenchRtReport, super::ToolError> {
     config.realtime.control_cpu = args.cpu;
     config.validate()?;
     let _ = rt::lock_memory();
+    // As cyclictest does by default: keep the CPUs out of slow idle states while measuring.
+    let _cpu_latency = match rt::hold_cpu_latency(0) {
+        Ok(guard) => Some(guard),
+        Err(e) => {
+            eprintln!("warning: CPU wake-up latency not limited (/dev/cpu_dma_latency: {e})");
+            None
+        }
+    };
     let rig = setup::rig(&config).map_err(|e| e.to_string())?;
     let scene = setup::demo_scene(&config, 3);
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
