@@ -3,9 +3,7 @@
 //! status published and every period recorded by the telemetry writer — under a global allocator
 //! that counts allocations made on the control thread.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
@@ -17,42 +15,8 @@ use videt::telemetry::{self, LogHeader};
 use videt_control::{Contact, Surface, Vec3};
 use videt_rt_config::Config;
 
-struct CountingAllocator;
-
-thread_local! {
-    static COUNT_HERE: Cell<bool> = const { Cell::new(false) };
-}
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-static DEALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-
-fn counting() -> bool {
-    COUNT_HERE.try_with(|c| c.get()).unwrap_or(false)
-}
-
-// SAFETY: forwards to the system allocator; the counters are atomics.
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if counting() {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        if counting() {
-            DEALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if counting() {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
+static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;
 
 /// A heap-backed surface (like the real mesh): a wall whose height comes from a table.
 #[derive(Clone, Default)]
@@ -135,21 +99,21 @@ fn the_control_thread_allocates_and_frees_nothing() {
         let mut stats = LoopStats::default();
         let mut observers = (status_publisher, thimble_publisher, telemetry_producer);
         let mut control = LoopControl::stop_flag(&stop);
-        COUNT_HERE.with(|c| c.set(true));
-        let report = run_control_loop(
-            &mut twin,
-            &mut surface_reader,
-            &mut cycle,
-            &settings,
-            &mut control,
-            &mut observers,
-            &mut stats,
-        );
-        COUNT_HERE.with(|c| c.set(false));
+        let (report, counts) = videt_testkit::count_allocations(|| {
+            run_control_loop(
+                &mut twin,
+                &mut surface_reader,
+                &mut cycle,
+                &settings,
+                &mut control,
+                &mut observers,
+                &mut stats,
+            )
+        });
         let last_version = surface_reader.latest().version;
-        (report, last_version, observers)
+        (report, counts, last_version, observers)
     });
-    let (report, last_version, observers) = control.join().unwrap();
+    let (report, counts, last_version, observers) = control.join().unwrap();
     done.store(true, Ordering::Relaxed);
     let (published, seen_cycle) = vision.join().unwrap();
     drop(observers);
@@ -167,13 +131,8 @@ fn the_control_thread_allocates_and_frees_nothing() {
     assert!(status_reader.latest().record.cycle > 9_000);
     assert!(written > 9_000, "telemetry recorded {written} periods");
     assert_eq!(
-        ALLOCATIONS.load(Ordering::Relaxed),
-        0,
-        "allocations on the control thread"
-    );
-    assert_eq!(
-        DEALLOCATIONS.load(Ordering::Relaxed),
-        0,
-        "deallocations on the control thread"
+        counts,
+        videt_testkit::AllocCounts::default(),
+        "allocations and frees on the control thread"
     );
 }

@@ -2,9 +2,7 @@
 //! proxy rendering a box relief (queries, proxy, blended swaps) while a vision thread publishes
 //! rebuilt surfaces, under a global allocator that counts allocations made on the control thread.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use videt::relief_feed::relief_channel;
@@ -13,41 +11,8 @@ use videt::snapshot::SurfaceFeed;
 use videt_control::{Surface, Vec3};
 use videt_rt_config::Config;
 
-struct CountingAllocator;
-
-thread_local! {
-    static COUNT_HERE: Cell<bool> = const { Cell::new(false) };
-}
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-
-fn counting() -> bool {
-    COUNT_HERE.try_with(|c| c.get()).unwrap_or(false)
-}
-
-// SAFETY: forwards to the system allocator; the counter is an atomic.
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if counting() {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        if counting() {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if counting() {
-            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        }
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
+static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;
 
 #[test]
 fn rendering_the_relief_allocates_nothing_on_the_control_thread() {
@@ -80,7 +45,7 @@ fn rendering_the_relief_allocates_nothing_on_the_control_thread() {
     let mut contacts = 0u32;
     let mut versions = std::collections::HashSet::with_capacity(1 << 16);
     let mut seen = Vec::with_capacity(20_000);
-    COUNT_HERE.with(|c| c.set(true));
+    let before = videt_testkit::this_thread();
     for k in 0..20_000u32 {
         // Slide back and forth across the box, pressing 5 mm below its top.
         let phase = (k % 4000) as f64 / 4000.0;
@@ -97,15 +62,11 @@ fn rendering_the_relief_allocates_nothing_on_the_control_thread() {
             std::thread::sleep(std::time::Duration::from_millis(1));
         }
     }
-    COUNT_HERE.with(|c| c.set(false));
+    let after = videt_testkit::this_thread();
     done.store(true, Ordering::Relaxed);
     let published = vision.join().unwrap();
     versions.extend(seen);
-    assert_eq!(
-        ALLOCATIONS.load(Ordering::Relaxed),
-        0,
-        "allocations on the control thread"
-    );
+    assert_eq!(after, before, "allocations or frees on the control thread");
     assert!(contacts > 10_000, "in contact {contacts} periods");
     assert!(
         versions.len() > 5,

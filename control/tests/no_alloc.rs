@@ -1,51 +1,13 @@
 //! The control step allocates nothing: a counting global allocator around many steps, for every
 //! algorithm, in contact and in free space.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use videt_control::{
     Algorithm, ControlParams, ControlStep, ForceField, FreeSpace, Plane, Rig3, StepInput,
     StepOutput, TensionPiGains, Vec3,
 };
 
-struct CountingAllocator;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-thread_local! {
-    /// Count only on the thread under test (the test harness allocates on its own threads).
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-}
-
-fn count() {
-    if COUNTING.try_with(Cell::get).unwrap_or(false) {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-    }
-}
-
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        // SAFETY: forwarded unchanged to the system allocator.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
+static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;
 
 #[test]
 fn control_step_does_not_allocate() {
@@ -95,16 +57,12 @@ fn control_step_does_not_allocate() {
     let mut out = StepOutput::default();
 
     // The counter sees an allocation made on this thread.
-    let probe_before = ALLOCATIONS.load(Ordering::SeqCst);
-    COUNTING.with(|c| c.set(true));
-    let probe = std::hint::black_box(Box::new(7u64));
-    COUNTING.with(|c| c.set(false));
+    let (probe, counts) = videt_testkit::count_allocations(|| std::hint::black_box(Box::new(7u64)));
     drop(probe);
-    assert_eq!(ALLOCATIONS.load(Ordering::SeqCst) - probe_before, 1);
+    assert_eq!(counts.allocations, 1);
 
     let mut contacts = 0usize;
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
-    COUNTING.with(|c| c.set(true));
+    let before = videt_testkit::this_thread();
     for step in steps.iter_mut() {
         for input in &inputs {
             step.update(input, &wall, &mut out);
@@ -112,13 +70,12 @@ fn control_step_does_not_allocate() {
             step.update(input, &FreeSpace, &mut out);
         }
     }
-    COUNTING.with(|c| c.set(false));
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = videt_testkit::this_thread();
     assert!(
         contacts > 100,
         "the path goes into the wall ({contacts} contacts)"
     );
-    assert_eq!(after - before, 0, "the control step allocated");
+    assert_eq!(after, before, "the control step allocated or freed");
     // The steps did something: the last one ended in contact with finite torques.
     assert!(out.torque_nm.iter().all(|t| t.is_finite()));
 }

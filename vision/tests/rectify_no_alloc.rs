@@ -1,49 +1,18 @@
 //! Rectifying into correctly sized frames performs no heap allocation (counted by a global
 //! allocator wrapper, per thread).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use nalgebra::{Matrix3, Vector3};
 use videt_hal::{GrayFrame, StereoFrame};
 use videt_vision::calib::file::QualityFigures;
 use videt_vision::calib::{stereo_rectify, CameraIntrinsics, StereoCalibration};
 use videt_vision::rectify::StereoRectifier;
 
-struct CountingAllocator;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn count() {
-    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-}
-
-// SAFETY: delegates every call to the system allocator unchanged; only counts.
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count();
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count();
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
+static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;
 
-fn allocations() -> usize {
-    ALLOCATIONS.with(|c| c.get())
+/// Allocations made so far on this thread.
+fn allocations() -> u64 {
+    videt_testkit::this_thread().allocations
 }
 
 fn calibration() -> StereoCalibration {
