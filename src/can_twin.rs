@@ -390,6 +390,10 @@ impl<T: TwinDevice> Clock for CanTwin<T> {
     fn sleep_until(&mut self, deadline: MonoTime) {
         self.apply_node_torques();
         self.twin.sleep_until(deadline);
+        // Bring the physics up to the clock (a twin on its simulated clock is there already),
+        // then let the simulated drives sample their encoders.
+        let now = self.twin.now();
+        self.twin.model_mut().advance_to(now);
         self.publish_encoders();
     }
 }
