@@ -392,7 +392,7 @@ impl Default for ControlConfig {
             tension_ki_nm_per_n_s: 0.04,
             ramp_down_s: 0.5,
             slack_takeup_speed_m_s: 0.15,
-            speed_gain_nm_s_per_m: 0.005,
+            speed_gain_nm_s_per_m: 0.002,
         }
     }
 }
