@@ -147,46 +147,9 @@ impl InProcessEndpoint {
         std::thread::sleep(deadline.saturating_duration_since(now));
         Ok(None)
     }
-
-    /// Receive without waiting: `WouldBlock` when no frame is deliverable now.
-    pub fn try_receive(&mut self) -> nb::Result<SimFrame, BusError> {
-        match self.receive_timeout(Duration::ZERO) {
-            Ok(Some(f)) => Ok(f),
-            Ok(None) => Err(nb::Error::WouldBlock),
-            Err(e) => Err(nb::Error::Other(e)),
-        }
-    }
 }
 
-impl embedded_can::blocking::Can for InProcessEndpoint {
-    type Frame = SimFrame;
-    type Error = BusError;
-
-    fn transmit(&mut self, frame: &SimFrame) -> Result<(), BusError> {
-        self.send(frame)
-    }
-
-    fn receive(&mut self) -> Result<SimFrame, BusError> {
-        loop {
-            if let Some(f) = self.receive_timeout(Duration::from_millis(100))? {
-                return Ok(f);
-            }
-        }
-    }
-}
-
-impl embedded_can::nb::Can for InProcessEndpoint {
-    type Frame = SimFrame;
-    type Error = BusError;
-
-    fn transmit(&mut self, frame: &SimFrame) -> nb::Result<Option<SimFrame>, BusError> {
-        self.send(frame).map(|()| None).map_err(nb::Error::Other)
-    }
-
-    fn receive(&mut self) -> nb::Result<SimFrame, BusError> {
-        self.try_receive()
-    }
-}
+impl_embedded_can!(InProcessEndpoint);
 
 #[cfg(test)]
 mod tests {

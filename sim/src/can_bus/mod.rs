@@ -14,6 +14,47 @@
 //! Fault injection ([`BusFaults`], changeable at run time): a frame drop rate, a delivery delay,
 //! and bus-off (every transmit and receive fails with [`BusError::BusOff`]).
 
+/// Implements `embedded-can`'s blocking and non-blocking `Can` for an endpoint that has
+/// `send(&SimFrame)` and `receive_timeout(Duration) -> Option<SimFrame>`: the blocking receive
+/// waits in 100 ms slices, the non-blocking one polls with a zero timeout.
+macro_rules! impl_embedded_can {
+    ($endpoint:ty) => {
+        impl embedded_can::blocking::Can for $endpoint {
+            type Frame = SimFrame;
+            type Error = BusError;
+
+            fn transmit(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+                self.send(frame)
+            }
+
+            fn receive(&mut self) -> Result<SimFrame, BusError> {
+                loop {
+                    if let Some(f) = self.receive_timeout(Duration::from_millis(100))? {
+                        return Ok(f);
+                    }
+                }
+            }
+        }
+
+        impl embedded_can::nb::Can for $endpoint {
+            type Frame = SimFrame;
+            type Error = BusError;
+
+            fn transmit(&mut self, frame: &SimFrame) -> nb::Result<Option<SimFrame>, BusError> {
+                self.send(frame).map(|()| None).map_err(nb::Error::Other)
+            }
+
+            fn receive(&mut self) -> nb::Result<SimFrame, BusError> {
+                match self.receive_timeout(Duration::ZERO) {
+                    Ok(Some(f)) => Ok(f),
+                    Ok(None) => Err(nb::Error::WouldBlock),
+                    Err(e) => Err(nb::Error::Other(e)),
+                }
+            }
+        }
+    };
+}
+
 mod faults;
 mod frame;
 mod in_process;

@@ -197,39 +197,7 @@ impl UdpEndpoint {
     }
 }
 
-impl embedded_can::blocking::Can for UdpEndpoint {
-    type Frame = SimFrame;
-    type Error = BusError;
-
-    fn transmit(&mut self, frame: &SimFrame) -> Result<(), BusError> {
-        self.send(frame)
-    }
-
-    fn receive(&mut self) -> Result<SimFrame, BusError> {
-        loop {
-            if let Some(f) = self.receive_timeout(Duration::from_millis(100))? {
-                return Ok(f);
-            }
-        }
-    }
-}
-
-impl embedded_can::nb::Can for UdpEndpoint {
-    type Frame = SimFrame;
-    type Error = BusError;
-
-    fn transmit(&mut self, frame: &SimFrame) -> nb::Result<Option<SimFrame>, BusError> {
-        self.send(frame).map(|()| None).map_err(nb::Error::Other)
-    }
-
-    fn receive(&mut self) -> nb::Result<SimFrame, BusError> {
-        match self.receive_timeout(Duration::ZERO) {
-            Ok(Some(f)) => Ok(f),
-            Ok(None) => Err(nb::Error::WouldBlock),
-            Err(e) => Err(nb::Error::Other(e)),
-        }
-    }
-}
+impl_embedded_can!(UdpEndpoint);
 
 #[cfg(test)]
 mod tests {
