@@ -3,29 +3,18 @@
 //! answering inline and the twin on its simulated clock, so the test is deterministic and does
 //! not depend on the machine's scheduling.
 
+mod common;
+use common::Recorder;
 use std::sync::atomic::AtomicBool;
 
 use videt::can_twin::{drive_config, CanTwin};
-use videt::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
-    WindowStats,
-};
-use videt::cycle::{CycleRecord, WireZero};
+use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
+use videt::cycle::WireZero;
 use videt::setup;
 use videt_control::safety::SafetyState;
 use videt_rt_config::Config;
 use videt_sim::cia402_node::DrivePower;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
-
-struct Recorder(Vec<CycleRecord>);
-
-impl CycleObserver for Recorder {
-    fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
-        if self.0.len() < self.0.capacity() {
-            self.0.push(*record);
-        }
-    }
-}
 
 #[test]
 fn the_wall_is_rendered_through_cia402_drives_on_the_can_bus() {

@@ -1,12 +1,11 @@
 //! Safety on the whole stack: the real loop on the twin meets the faults a device meets.
 //! Each fault ends in its own safe state, within the periods stated.
 
+mod common;
+use common::Recorder;
 use std::sync::atomic::AtomicBool;
 
-use videt::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
-    WindowStats,
-};
+use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
 use videt::cycle::{CycleRecord, WireZero};
 use videt::setup;
 use videt::snapshot::FixedSurface;
@@ -14,16 +13,6 @@ use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::MonoTime;
 use videt_rt_config::Config;
 use videt_sim::{Twin, TwinFault, Vec3, VirtualOperator, Waypoint};
-
-struct Recorder(Vec<CycleRecord>);
-
-impl CycleObserver for Recorder {
-    fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
-        if self.0.len() < self.0.capacity() {
-            self.0.push(*record);
-        }
-    }
-}
 
 /// Run `seconds` of the demo scene with `operator`, after `prepare` has scheduled faults.
 fn run(
@@ -174,7 +163,7 @@ fn the_estop_powers_off_within_two_periods() {
 
 #[test]
 fn a_failed_tension_sensor_holds_the_wires_at_minimum_tension() {
-    let (twin, records) = run(2.0, pressing, |t| {
+    let (_twin, records) = run(2.0, pressing, |t| {
         t.schedule_fault(MonoTime(1_000_000_000), TwinFault::FailTensionSensor(2));
     });
     let r = first_unsafe(&records);
@@ -194,7 +183,6 @@ fn a_failed_tension_sensor_holds_the_wires_at_minimum_tension() {
         records.iter().all(|r| !r.safety.power_off()),
         "the drives stayed powered"
     );
-    drop(twin);
 }
 
 #[test]

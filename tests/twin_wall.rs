@@ -1,28 +1,16 @@
 //! Whole-stack tests: the real control loop, cycle and control step against the digital twin,
 //! driven by the twin's simulated clock (faster than real time, deterministic).
 
+mod common;
+use common::Recorder;
 use std::sync::atomic::AtomicBool;
 
-use videt::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
-    WindowStats,
-};
+use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
 use videt::cycle::{CycleRecord, WireZero};
 use videt::setup;
 use videt_control::safety::SafetyState;
 use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
-
-/// Keeps every record (preallocated).
-struct Recorder(Vec<CycleRecord>);
-
-impl CycleObserver for Recorder {
-    fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
-        if self.0.len() < self.0.capacity() {
-            self.0.push(*record);
-        }
-    }
-}
 
 fn run(
     config: &Config,
