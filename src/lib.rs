@@ -19,6 +19,7 @@ pub mod setup;
 pub mod snapshot;
 pub mod socket;
 pub mod status;
+pub mod stereo_relief;
 pub mod telemetry;
 pub mod tool;
 pub mod twin_rt;

@@ -1,6 +1,7 @@
-//! The twin's bas-relief demonstration: a box on a back plane, built from known segments with
-//! the real surface builder, in front of the configured rig; and a virtual operator who presses
-//! onto the box top, slides off its edge down onto the base and climbs back.
+//! The twin's bas-relief demonstrations, in front of the configured rig: a box on a back plane,
+//! built from known segments with the real surface builder, and a virtual operator who presses
+//! onto the box top, slides off its edge down onto the base and climbs back; and, for any relief
+//! (the one of a real stereo pair), an operator who presses into it and sweeps across it.
 
 use videt_control::blend::BlendParams;
 use videt_control::proxy::ProxyParams;
@@ -10,6 +11,43 @@ use videt_sim::{Vec3, VirtualOperator, Waypoint};
 use videt_vision::surface::{
     build_from_device, BuildError, BuildReport, DeviceSegment, ReliefModel, ReliefParams,
 };
+
+/// How the sweeping operator explores a relief.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepPath {
+    /// Half the width of each sweep along `x`, about the area's centre, metres.
+    pub half_width_m: f64,
+    /// `y` offsets of the two sweeps from the area's centre, metres (the first goes towards
+    /// `+x`, the second comes back).
+    pub rows_m: [f64; 2],
+    /// How far the hand aims beyond the surface (into the solid), metres: with the hand's
+    /// 200 N/m it presses with about this times 200 N.
+    pub press_m: f64,
+    /// Sliding speed, m/s.
+    pub speed_m_s: f64,
+    /// Height above the surface the hand approaches and leaves at, metres.
+    pub clearance_m: f64,
+    /// Spacing of the hand's waypoints along the sweeps (they follow the surface), metres.
+    pub step_m: f64,
+    /// Steepest the hand's path rises or falls, height per distance slid (> 0).
+    pub max_slope: f64,
+}
+
+impl Default for SweepPath {
+    /// Two 14 cm sweeps 4.5 cm apart, pressing 1 cm deep at 5 cm/s, waypoints every 4 mm, the
+    /// hand's path no steeper than 1:1.
+    fn default() -> Self {
+        SweepPath {
+            half_width_m: 0.07,
+            rows_m: [0.03, -0.015],
+            press_m: 0.01,
+            speed_m_s: 0.05,
+            clearance_m: 0.01,
+            step_m: 0.004,
+            max_slope: 1.0,
+        }
+    }
+}
 
 /// Where the relief sits in front of the rig.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -136,4 +174,88 @@ pub fn box_operator(layout: &ReliefLayout, start_m: Vec3, period_s: f64) -> Virt
         6.0,
     )
     .repeating(period_s.max(5.0))
+}
+
+/// A virtual operator starting at `start_m` who explores `model`: approaches the surface above
+/// the first sweep's start, presses into it, slides across the area along `x`, moves over to the
+/// second row, slides back, lifts off and returns to the start; the script repeats. The hand's
+/// waypoints follow the relief (each aims `press_m` beyond the surface under it), so the finger
+/// stays in contact over hills and hollows; like a person feeling their way, the hand rises
+/// ahead of a step up and comes down after a step down no steeper than `max_slope` (height per
+/// distance slid), so the finger meets the relief's steep faces at a moderate speed. Returns the
+/// operator and the script's period, seconds.
+pub fn sweep_operator(
+    layout: &ReliefLayout,
+    model: &ReliefModel,
+    start_m: Vec3,
+    path: &SweepPath,
+) -> (VirtualOperator, f64) {
+    let [cx, cy] = layout.centre_m;
+    let surface_z = |x: f64, y: f64| {
+        model
+            .height_at(x, y)
+            .map_or(layout.back_plane_z_m, |s| s.z_m)
+    };
+    let speed = path.speed_m_s.max(1e-3);
+    let step = path.step_m.max(1e-4);
+    let (x0, x1) = (cx - path.half_width_m, cx + path.half_width_m);
+    let (y0, y1) = (cy + path.rows_m[0], cy + path.rows_m[1]);
+    // The slide's samples (x, y, time to reach from the previous one), then the hand's depth.
+    let mut samples: Vec<(f64, f64, f64)> = vec![(x0, y0, 0.0)];
+    for (from, to) in [
+        ([x0, y0], [x1, y0]),
+        ([x1, y0], [x1, y1]),
+        ([x1, y1], [x0, y1]),
+    ] {
+        let length = (to[0] - from[0]).hypot(to[1] - from[1]);
+        let n = ((length / step).ceil() as usize).clamp(1, 10_000);
+        for k in 1..=n {
+            let s = k as f64 / n as f64;
+            samples.push((
+                from[0] + s * (to[0] - from[0]),
+                from[1] + s * (to[1] - from[1]),
+                length / n as f64 / speed,
+            ));
+        }
+    }
+    let mut z: Vec<f64> = samples
+        .iter()
+        .map(|&(x, y, _)| surface_z(x, y) + path.press_m)
+        .collect();
+    // Nearer to the user (smaller z) wins: rise ahead of steps up, come down after steps down.
+    let slope = path.max_slope.max(0.05);
+    for i in 1..z.len() {
+        let run = (samples[i].0 - samples[i - 1].0).hypot(samples[i].1 - samples[i - 1].1);
+        z[i] = z[i].min(z[i - 1] + slope * run);
+    }
+    for i in (0..z.len().saturating_sub(1)).rev() {
+        let run = (samples[i].0 - samples[i + 1].0).hypot(samples[i].1 - samples[i + 1].1);
+        z[i] = z[i].min(z[i + 1] + slope * run);
+    }
+    let mut waypoints = vec![Waypoint {
+        time_s: 0.0,
+        target_m: start_m,
+    }];
+    let mut t = 0.8;
+    let first = Vec3::new(x0, y0, surface_z(x0, y0) - path.clearance_m);
+    waypoints.push(Waypoint {
+        time_s: t,
+        target_m: first,
+    });
+    t += 0.4;
+    for (&(x, y, dt), &z) in samples.iter().zip(&z) {
+        t += dt;
+        waypoints.push(Waypoint {
+            time_s: t,
+            target_m: Vec3::new(x, y, z),
+        });
+    }
+    t += 0.4;
+    waypoints.push(Waypoint {
+        time_s: t,
+        target_m: Vec3::new(x0, y1, surface_z(x0, y1) - path.clearance_m),
+    });
+    let period_s = t + 1.0;
+    let operator = VirtualOperator::new(waypoints, 200.0, 6.0).repeating(period_s);
+    (operator, period_s)
 }

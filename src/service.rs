@@ -65,6 +65,16 @@ impl ServiceOptions {
     }
 }
 
+/// What a scene adds to the service: a second reader of the thimble state (a vision thread
+/// that looks where the finger is) and a suffix for the status line.
+#[derive(Default)]
+pub struct ServiceExtras {
+    /// Publishes the thimble state every period to a reader the caller keeps.
+    pub thimble: Option<crate::snapshot::ThimblePublisher>,
+    /// Text appended to each status line (called on the supervisor thread, once a second).
+    pub status_suffix: Option<Box<dyn Fn() -> String + Send>>,
+}
+
 /// Install a panic hook that, besides printing, tells the control loop to go safe and stop.
 pub fn install_panic_hook() {
     let default = std::panic::take_hook();
@@ -79,6 +89,7 @@ struct Observers {
     status: StatusPublisher,
     telemetry: Option<TelemetryProducer>,
     thimble: Option<crate::snapshot::ThimblePublisher>,
+    vision_thimble: Option<crate::snapshot::ThimblePublisher>,
 }
 
 impl CycleObserver for Observers {
@@ -94,20 +105,38 @@ impl CycleObserver for Observers {
         if let Some(t) = self.thimble.as_mut() {
             t.observe(record, window);
         }
+        if let Some(t) = self.vision_thimble.as_mut() {
+            t.observe(record, window);
+        }
     }
 }
 
 /// Run the service on `hw` with surfaces from `feed` until stopped; returns the exit code.
-pub fn run_service<H, F>(
+pub fn run_service<H, F>(hw: H, feed: F, cycle: ControlCycle, options: &ServiceOptions) -> ExitCode
+where
+    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + Send + 'static,
+    F: SurfaceFeed + Send + 'static,
+{
+    run_service_with(hw, feed, cycle, options, ServiceExtras::default())
+}
+
+/// [`run_service`] with a scene's [`ServiceExtras`].
+pub fn run_service_with<H, F>(
     mut hw: H,
     mut feed: F,
     mut cycle: ControlCycle,
     options: &ServiceOptions,
+    extras: ServiceExtras,
 ) -> ExitCode
 where
     H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + Send + 'static,
     F: SurfaceFeed + Send + 'static,
 {
+    let ServiceExtras {
+        thimble: vision_thimble,
+        status_suffix,
+    } = extras;
+    let extra_text = move || status_suffix.as_ref().map_or_else(String::new, |f| f());
     install_panic_hook();
     let config = &options.config;
     let _cpu_latency = u32::try_from(config.realtime.cpu_wakeup_latency_us)
@@ -226,6 +255,7 @@ where
                 status: publisher,
                 telemetry: telemetry_producer,
                 thimble: thimble_publisher,
+                vision_thimble,
             };
             let mut stats = LoopStats::default();
             let mut loop_control = LoopControl {
@@ -326,7 +356,12 @@ where
         }
         if options.status_lines && running && last_status_line.elapsed() >= Duration::from_secs(1) {
             last_status_line = Instant::now();
-            println!("{}{}", snapshot.line(), colour_suffix(colour.as_ref()));
+            println!(
+                "{}{}{}",
+                snapshot.line(),
+                colour_suffix(colour.as_ref()),
+                extra_text()
+            );
         }
     }
     let colour_text = colour_suffix(colour.as_ref());
@@ -349,7 +384,7 @@ where
     match outcome {
         Ok(Ok((report, stats))) => {
             if options.status_lines {
-                println!("{}{colour_text}", reader.latest().line());
+                println!("{}{colour_text}{}", reader.latest().line(), extra_text());
             }
             log_report(&report, &stats);
             if panicked {

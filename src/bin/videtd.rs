@@ -26,17 +26,35 @@ use videt::snapshot::FixedSurface;
 use videt::twin_rt::RealTimeTwin;
 use videt_rt_config::Config;
 
-/// Which twin `--sim` runs on.
 /// What the twin's operator touches.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 enum SimScene {
     /// A flat virtual wall.
     Wall,
     /// A bas-relief box built by the surface builder from known segments, rebuilt every second
     /// on a vision thread and rendered through the proxy.
     Box,
+    /// The bas-relief of a real stereo pair (the compiled-in demo pair, or a pair directory),
+    /// re-matched around the finger on a vision thread and rendered through the proxy.
+    Stereo(Option<PathBuf>),
 }
 
+fn parse_scene(text: &str) -> Result<SimScene, String> {
+    match text {
+        "wall" => Ok(SimScene::Wall),
+        "box" => Ok(SimScene::Box),
+        "stereo" => Ok(SimScene::Stereo(None)),
+        _ => match text.strip_prefix("stereo:") {
+            Some("") => Err("stereo:DIR needs a directory".into()),
+            Some(dir) => Ok(SimScene::Stereo(Some(PathBuf::from(dir)))),
+            None => Err(format!(
+                "unknown scene {text:?}: expected wall, box, stereo or stereo:DIR"
+            )),
+        },
+    }
+}
+
+/// Which twin `--sim` runs on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum SimMode {
     /// The HAL-level physics twin (fast).
@@ -71,8 +89,12 @@ struct Args {
     /// Stop cleanly after this many seconds.
     #[arg(long, value_name = "SECS")]
     duration: Option<f64>,
-    /// With --sim: the scene the virtual operator touches.
-    #[arg(long, value_enum, default_value = "wall")]
+    /// With --sim: the scene the virtual operator touches: `wall` (a flat virtual wall), `box`
+    /// (a bas-relief box built from known segments), `stereo` (the bas-relief of the compiled-in
+    /// real stereo pair, Middlebury tsukuba, re-matched around the finger as it moves) or
+    /// `stereo:DIR` (the same for the pair in DIR: left.png/right.png or .ppm, and optionally a
+    /// camera.toml with focal_px, baseline_m, max_disparity_px).
+    #[arg(long, value_name = "SCENE", value_parser = parse_scene, default_value = "wall")]
     scene: SimScene,
     /// Control socket path (overrides socket.path).
     #[arg(long, value_name = "PATH")]
@@ -176,6 +198,15 @@ fn main() -> ExitCode {
             return ExitCode::from(23);
         }
     };
+    if let (Some(SimMode::Hal), SimScene::Stereo(dir)) = (args.sim, &args.scene) {
+        return run_stereo_relief_demo(
+            &config,
+            rig,
+            &options,
+            args.sim_calibration,
+            dir.as_deref(),
+        );
+    }
     match args.sim {
         Some(SimMode::Hal) if args.scene == SimScene::Box => {
             run_relief_demo(&config, rig, &options, args.sim_calibration)
@@ -342,6 +373,111 @@ fn run_relief_demo(
     scene.twin.set_operator(box_operator(&layout, start, 6.0));
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     run_service(RealTimeTwin::new(scene.twin), feed, cycle, options)
+}
+
+/// The twin with the bas-relief of a real stereo pair: the pipeline and the surface builder at
+/// start-up, then live region updates around the finger on a vision thread, rendered through the
+/// proxy with blended swaps.
+fn run_stereo_relief_demo(
+    config: &Config,
+    rig: videt_control::Rig3,
+    options: &ServiceOptions,
+    calibration: SimCalibration,
+    dir: Option<&std::path::Path>,
+) -> ExitCode {
+    use videt::relief_feed::relief_channel;
+    use videt::relief_scene::{
+        blend_params, proxy_params, sweep_operator, ReliefLayout, SweepPath,
+    };
+    use videt::stereo_relief::{
+        spawn_live_updates, LiveSettings, LiveStats, StereoPair, StereoRelief,
+    };
+
+    let pair = match dir {
+        None => StereoPair::demo(),
+        Some(dir) => StereoPair::load_dir(dir).map(|(pair, nominal)| {
+            if nominal {
+                warn!(
+                    "{}: no camera.toml: nominal camera (focal {} px, baseline {} m, disparities up to {} px)",
+                    dir.display(),
+                    pair.camera.focal_px,
+                    pair.camera.baseline_m,
+                    pair.camera.max_disparity_px
+                );
+            }
+            pair
+        }),
+    };
+    let pair = match pair {
+        Ok(p) => p,
+        Err(e) => {
+            error!("stereo scene: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let name = pair.name.clone();
+    let layout = ReliefLayout::for_config(config);
+    let live = LiveSettings::default();
+    let (relief, model, initial) = match StereoRelief::build(pair, &layout, live) {
+        Ok(r) => r,
+        Err(e) => {
+            error!("stereo scene: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let rejected = initial.report.rejections.len();
+    info!(
+        pair = %name,
+        matches = initial.matches,
+        segments_3d = initial.segments_3d,
+        constraints = initial.report.constraints_kept,
+        rejected,
+        depth_range_m = ?initial.depth_range_m,
+        triangles = initial.report.triangles,
+        pipeline_ms = initial.pipeline_time.as_secs_f64() * 1e3,
+        build_ms = initial.build_time.as_secs_f64() * 1e3,
+        "digital twin: the bas-relief of a real stereo pair, a virtual operator sweeping across it, live updates around the finger at {:.0} Hz",
+        1.0 / live.update_period_s
+    );
+    let period_s = 1.0 / f64::from(config.control.rate_hz);
+    let (writer, feed) = match relief_channel(
+        model.clone(),
+        proxy_params(),
+        blend_params(config),
+        config.control.stiffness_n_per_m,
+        period_s,
+    ) {
+        Ok(c) => c,
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut scene = setup::demo_scene(config, 1);
+    let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
+    let start = scene.twin.plant().position_m();
+    let (operator, _) = sweep_operator(&layout, &model, start, &SweepPath::default());
+    scene.twin.set_operator(operator);
+    let (thimble_publisher, thimble_reader) = videt::snapshot::thimble_channel();
+    let stats = std::sync::Arc::new(LiveStats::default());
+    let keepalive_s = (config.vision.surface_max_age_s / 4.0).max(0.05);
+    if let Err(e) = spawn_live_updates(
+        relief,
+        model,
+        writer,
+        thimble_reader,
+        std::sync::Arc::clone(&stats),
+        keepalive_s,
+    ) {
+        error!("cannot start the vision thread: {e}");
+        return ExitCode::FAILURE;
+    }
+    let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
+    let extras = videt::service::ServiceExtras {
+        thimble: Some(thimble_publisher),
+        status_suffix: Some(Box::new(move || stats.status_text())),
+    };
+    videt::service::run_service_with(RealTimeTwin::new(scene.twin), feed, cycle, options, extras)
 }
 
 /// The twin's calibration as `--sim-calibration` chooses. Returns the rig, the encoder zeros and

@@ -2,7 +2,11 @@
 //! the matches, the 3D segments and overlay images.
 //!
 //! `videt vision --left L.png --right R.png (--calib FILE | --rectified --focal PX --baseline M)
-//! --out DIR [--roi X,Y,W,H]`
+//! --out DIR [--roi X,Y,W,H] [--surface [--relief-depth M]]`
+//!
+//! With `--surface` it also builds the bas-relief from the 3D segments (the image stretched over
+//! a 40 cm wide area, the scene's depth range mapped onto the relief depth) and writes the mesh
+//! (`surface.ply`) and a shaded depth image (`surface_depth.png`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -13,6 +17,8 @@ use videt_hal::GrayFrame;
 use videt_vision::calib::StereoCalibration;
 use videt_vision::io::{load_gray_image, write_results};
 use videt_vision::rectify::StereoRectifier;
+use videt_vision::surface::build_from_scene;
+use videt_vision::surface::export::write_surface_outputs;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
 use super::ToolResult;
@@ -48,6 +54,14 @@ pub struct VisionArgs {
     /// Largest disparity searched, pixels (nearest depth = focal x baseline / this).
     #[arg(long, value_name = "PX", default_value_t = 64.0)]
     pub max_disparity: f32,
+    /// Also build the bas-relief from the 3D segments and write `surface.ply` (the mesh, device
+    /// frame, metres) and `surface_depth.png` (shaded depth) into the output directory.
+    #[arg(long)]
+    pub surface: bool,
+    /// With --surface: the relief depth d_max, metres (the nearest scene depth stands out this
+    /// much in front of the back plane at 0.45 m).
+    #[arg(long, value_name = "M", default_value_t = 0.08, requires = "surface")]
+    pub relief_depth: f64,
 }
 
 fn parse_roi(text: &str) -> Result<[u32; 4], String> {
@@ -69,6 +83,10 @@ fn parse_roi(text: &str) -> Result<[u32; 4], String> {
 
 /// Runs the subcommand.
 pub fn run(args: &VisionArgs) -> ToolResult {
+    if args.surface {
+        crate::stereo_relief::check_view_relief_depth(args.relief_depth)
+            .map_err(|e| format!("--relief-depth: {e}"))?;
+    }
     let left = load_gray_image(&args.left)?;
     let right = load_gray_image(&args.right)?;
     if left.dimensions() != right.dimensions() {
@@ -139,9 +157,57 @@ pub fn run(args: &VisionArgs) -> ToolResult {
         ms(t.total),
         args.out.display()
     );
+    let report = if args.surface {
+        let surface = write_surface(args, output, &geometry, [left.width(), left.height()])?;
+        report + &surface
+    } else {
+        report
+    };
     // A closed pipe (`| head`) is not an error of the computation.
     let _ = std::io::Write::write_all(&mut std::io::stdout(), report.as_bytes());
     Ok(ExitCode::SUCCESS)
+}
+
+/// Builds the bas-relief from the run's 3D segments and writes its mesh and depth image into
+/// the output directory; returns the report text.
+fn write_surface(
+    args: &VisionArgs,
+    output: &videt_vision::PipelineOutput,
+    geometry: &RectifiedGeometry,
+    image_size_px: [u32; 2],
+) -> Result<String, super::ToolError> {
+    use crate::stereo_relief::{pinhole, report_text, scene_segments, view_params};
+    if output.segments_3d.is_empty() {
+        return Err(format!(
+            "--surface: no 3D segments to build a surface from ({} matches, none back-projected; \
+             nearly horizontal matches have no reliable depth)",
+            output.matches.len()
+        )
+        .into());
+    }
+    let mut segments = Vec::with_capacity(output.segments_3d.len());
+    scene_segments(&output.segments_3d, &mut segments);
+    let params = view_params(&segments, image_size_px, args.relief_depth)
+        .map_err(|e| format!("--surface: {e}"))?;
+    let (model, report) = build_from_scene(&segments, &[], &pinhole(geometry), &params)
+        .map_err(|e| format!("--surface: {e}"))?;
+    let [ply, png] = write_surface_outputs(&model, &args.out)?;
+    let [near, far] = crate::stereo_relief::scene_depth_range(&segments)?;
+    let back = params.scene_map.back_plane_z_m();
+    let depth = params.scene_map.relief_depth_m();
+    Ok(format!(
+        "{}relief: scene depths {:.2}..{:.2} m (2nd..98th percentile) onto z {:.3}..{:.3} m \
+         (back plane), area {:.3} x {:.3} m\nwritten {} and {}\n",
+        report_text(&report),
+        near,
+        far,
+        back - depth,
+        back,
+        params.area_m()[2] - params.area_m()[0],
+        params.area_m()[3] - params.area_m()[1],
+        ply.display(),
+        png.display()
+    ))
 }
 
 /// Rectifies the pair with the calibration's remap tables; the geometry comes from its P1, P2.
