@@ -198,6 +198,9 @@ fn main() -> ExitCode {
             return ExitCode::from(23);
         }
     };
+    if args.sim == Some(SimMode::Can) && args.scene != SimScene::Wall {
+        warn!("--scene applies to --sim (the HAL twin) only: the CAN twin touches the wall");
+    }
     if let (Some(SimMode::Hal), SimScene::Stereo(dir)) = (args.sim, &args.scene) {
         return run_stereo_relief_demo(
             &config,

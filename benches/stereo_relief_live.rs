@@ -1,0 +1,46 @@
+//! The bas-relief of the demo stereo pair (Middlebury tsukuba, 384 x 288): the whole build at
+//! start-up (stereo pipeline + surface build), and one live update around the finger (local
+//! re-match of a 72 x 72 px region + merge + rebuild), the vision thread's work at 15 Hz.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+use videt::relief_scene::ReliefLayout;
+use videt::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
+
+fn bench_stereo_relief(c: &mut Criterion) {
+    let config = videt_rt_config::Config::default();
+    let layout = ReliefLayout::for_config(&config);
+    let pair = StereoPair::demo().unwrap();
+    let (mut relief, _, initial) =
+        StereoRelief::build(pair.clone(), &layout, LiveSettings::default()).unwrap();
+    eprintln!(
+        "demo pair: {} matches, {} 3D segments, {} used as constraints, {} triangles",
+        initial.matches,
+        initial.segments_3d,
+        initial.report.constraints_kept,
+        initial.report.triangles
+    );
+    c.bench_function("stereo_relief_initial_build_demo_pair", |b| {
+        b.iter(|| {
+            StereoRelief::build(black_box(pair.clone()), &layout, LiveSettings::default()).unwrap()
+        })
+    });
+    // The finger sweeping across the area, 2 mm between updates.
+    let [cx, cy] = layout.centre_m;
+    let positions: Vec<[f64; 3]> = (0..70)
+        .map(|k| [cx - 0.07 + 0.002 * k as f64, cy + 0.03, 0.34])
+        .collect();
+    let mut k = 0;
+    c.bench_function("stereo_relief_live_update_72px_region_demo_pair", |b| {
+        b.iter(|| {
+            k = (k + 1) % positions.len();
+            relief
+                .update_around(black_box(positions[k]), [0.03, 0.0, 0.0])
+                .unwrap()
+                .unwrap()
+        })
+    });
+}
+
+criterion_group!(benches, bench_stereo_relief);
+criterion_main!(benches);
