@@ -36,6 +36,42 @@ pub enum Request {
     },
 }
 
+impl Request {
+    /// A short, stable name (`connect-wires`, `fit-new-wire`, `pull-out-wire`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Request::ConnectWires => "connect-wires",
+            Request::FitNewWire { .. } => "fit-new-wire",
+            Request::PullOutWire { .. } => "pull-out-wire",
+        }
+    }
+
+    /// The wire the step is about, if one.
+    pub fn wire(self) -> Option<usize> {
+        match self {
+            Request::ConnectWires => None,
+            Request::FitNewWire { wire } | Request::PullOutWire { wire } => Some(wire),
+        }
+    }
+
+    /// The wire left without torque while the step is done (free to be pulled).
+    pub fn released_wire(self) -> Option<usize> {
+        match self {
+            Request::FitNewWire { wire } => Some(wire),
+            _ => None,
+        }
+    }
+
+    /// What the technician is asked to do, in words.
+    pub fn instructions(self) -> String {
+        match self {
+            Request::ConnectWires => "pull the three wires out, connect their ends to the empty thimble's terminal, let go and keep hands off; press Enter".into(),
+            Request::FitNewWire { wire } => format!("wire {wire} is released: take the old yarn off, knot the new one on the pulley, route it over the idle pulley and through ring {wire}, fit its end sphere and leave the end free; press Enter"),
+            Request::PullOutWire { wire } => format!("pull wire {wire} out as far as it goes (to its knot), then let it go back slowly; press Enter"),
+        }
+    }
+}
+
 /// Who performs the manual steps. `runner.hold_until` keeps the wires at the pay-out tension
 /// while waiting (a released wire free).
 pub trait Technician<H: InitHardware> {
@@ -49,6 +85,8 @@ pub trait Technician<H: InitHardware> {
     ) -> Result<(), Failure>;
     /// A progress message (stage changes, results).
     fn inform(&mut self, message: &str);
+    /// The procedure entered `stage` with these readings (called before the stage's message).
+    fn stage(&mut self, _stage: Stage, _readings: &Readings) {}
 }
 
 /// Why a flow failed. Each kind has its own exit code.
@@ -82,6 +120,9 @@ pub enum InitError {
     /// A wire number out of range.
     #[error("wire {0} does not exist: wires are 0, 1, 2")]
     NoSuchWire(usize),
+    /// The measured calibration cannot be used by the control cycle.
+    #[error("the measured calibration cannot be used: {0}")]
+    Unusable(String),
 }
 
 impl InitError {
@@ -93,6 +134,7 @@ impl InitError {
             InitError::Start(_) => 22,
             InitError::HomeNotRepeatable { .. } => 25,
             InitError::NoSuchWire(_) => 2,
+            InitError::Unusable(_) => 16,
         }
     }
     /// A short, stable name.
@@ -103,8 +145,17 @@ impl InitError {
             InitError::Start(_) => "hardware-start",
             InitError::HomeNotRepeatable { .. } => "home-not-repeatable",
             InitError::NoSuchWire(_) => "no-such-wire",
+            InitError::Unusable(_) => "unusable-calibration",
         }
     }
+}
+
+/// The message a failed flow ends with: what went wrong, and that nothing was lost.
+pub fn failure_message(e: &InitError, calibration_path: &std::path::Path) -> String {
+    format!(
+        "{e}; the procedure ended with the motors at minimum tension and the previous calibration ({}) is unchanged",
+        calibration_path.display()
+    )
 }
 
 /// Exit code of each procedure failure.
@@ -171,6 +222,7 @@ fn run_plan<H: InitHardware, T: Technician<H>>(
 ) -> Result<Procedure, InitError> {
     let mut procedure = Procedure::new(procedure_params(config), plan);
     let status = runner.run(hw, &mut procedure, stop, &mut |stage, r| {
+        tech.stage(stage, r);
         if let Some(m) = stage_message(stage, r) {
             tech.inform(&m);
         }
