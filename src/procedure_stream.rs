@@ -16,7 +16,7 @@ use videt_rt_config::calibration::{backup_path, Calibration};
 
 use crate::control_loop::ControlCommand;
 use crate::init::remote::{saved, ProcedureEvent, ProcedureKind, ProcedurePort, ProcedureSpec};
-use crate::init::session::{self, InitError, InitOutcome};
+use crate::init::session::{self, InitError, InitOutcome, Measurement};
 use crate::init::twin::parse_fault;
 use crate::socket::{
     handle, reply, ClientRequest, ProcedureCommand, ProcedureRequest, Response, ServerShared,
@@ -316,7 +316,7 @@ pub fn serve(
 
 /// The procedure ended: save a successful result (unless the client left) and send the last line.
 fn finish(
-    result: Result<InitOutcome, InitError>,
+    result: Result<Measurement, InitError>,
     kind: ProcedureKind,
     port: &ProcedurePort,
     stream: &mut Stream<'_>,
@@ -324,7 +324,11 @@ fn finish(
     let control = &port.control;
     let path = &port.calibration_path;
     match result {
-        Ok(outcome) => {
+        Ok(measurement) => {
+            // The workspace is computed here, off the control thread (which holds the wires
+            // meanwhile).
+            let source = if port.twin { "twin" } else { "device" };
+            let outcome = session::outcome(&port.config, source, &measurement);
             // Only while the control thread still waits, and only for a client still here.
             let may_save = !stream.gone
                 && control

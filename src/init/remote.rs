@@ -32,10 +32,9 @@ use videt_rt_config::Config;
 use videt_sim::{Twin, VirtualOperator, WireModules};
 
 use super::corrected::CorrectedTensions;
-use super::daemon::from_calibration;
 use super::runner::{InitHardware, Readings, Runner};
 use super::session::{
-    self, run_settings, FlowContext, InitError, InitOutcome, Request, Technician,
+    self, run_settings, FlowContext, InitError, Measurement, Request, Technician,
 };
 use super::twin::{hold_after_action, SimFault, SimTechnician, TwinSetup};
 use crate::can_twin::{CanTwin, TwinDevice};
@@ -49,7 +48,8 @@ pub const EVENT_RING: usize = 256;
 pub const MESSAGE_BYTES: usize = 240;
 /// Progress events per second while the procedure runs.
 pub const PROGRESS_HZ: u32 = 2;
-/// How long the control thread waits for the client to save the calibration, seconds.
+/// How long the control thread waits for the client to compute the workspace and save the
+/// calibration, seconds.
 pub const SAVE_WAIT_S: f64 = 30.0;
 
 /// The service's hardware as a procedure sees it: the HAL, and on the digital twin the model,
@@ -193,8 +193,9 @@ pub enum ProcedureEvent {
         /// technician does it) and with `yes`.
         confirm: bool,
     },
-    /// The procedure ended: the new calibration to save, or why not.
-    Finished(Box<Result<InitOutcome, InitError>>),
+    /// The procedure ended: what it measured (the client computes the workspace and saves the
+    /// calibration), or why it failed.
+    Finished(Box<Result<Measurement, InitError>>),
 }
 
 /// Whether the client saved the calibration ([`ProcedureControl::saved`]).
@@ -656,13 +657,11 @@ where
         stop: &control.cancel,
     };
     let result = match spec.kind {
-        ProcedureKind::Initialize => {
-            session::initialize(&mut observed, &mut tech, &mut runner, &ctx)
-        }
+        ProcedureKind::Initialize => session::measure(&mut observed, &mut tech, &mut runner, &ctx),
         ProcedureKind::ReplaceWire {
             wire,
             required_length_m,
-        } => session::replace_wire(
+        } => session::replace_wire_measure(
             &mut observed,
             &mut tech,
             &mut runner,
@@ -671,21 +670,23 @@ where
             required_length_m,
         ),
     };
-    let result = result.and_then(|outcome| {
-        from_calibration(&config, &outcome.calibration)
-            .map(|state| (outcome, state))
-            .map_err(InitError::Unusable)
+    // The control cycle's rig, as a loaded calibration file would give it.
+    let result = result.and_then(|m| {
+        let s = m.triangle.sides_m;
+        Rig3::from_sides(s[0], s[1], s[2])
+            .map(|rig| (m, rig))
+            .map_err(|e| InitError::Unusable(format!("its sides do not make a rig: {e}")))
     });
     let recalibration = match result {
-        Ok((outcome, state)) => {
-            let finished = ProcedureEvent::Finished(Box::new(Ok(outcome)));
+        Ok((measurement, rig)) => {
+            let wire_zero = WireZero {
+                length_at_zero_m: measurement.length_at_zero_m(),
+            };
+            let finished = ProcedureEvent::Finished(Box::new(Ok(measurement)));
             if deliver(&mut observed, &mut runner, events, finished)
                 && wait_until_saved(&mut observed, &mut runner, &control)
             {
-                Some(Recalibration {
-                    rig: state.rig,
-                    wire_zero: state.wire_zero,
-                })
+                Some(Recalibration { rig, wire_zero })
             } else {
                 None
             }
@@ -704,33 +705,25 @@ where
     (recalibration, next_cycle)
 }
 
-/// Push the final event, holding the wires while the ring is full (bounded: 5 s).
+/// Push the final event, holding the wires at the pay-out tension while the ring is full
+/// (bounded: 5 s). Faults do not stop it: the client must hear how the procedure ended.
 fn deliver<H: ProcedureDevice>(
     hw: &mut H,
     runner: &mut Runner,
     events: &RefCell<rtrb::Producer<ProcedureEvent>>,
     event: ProcedureEvent,
 ) -> bool {
-    let mut pending = Some(event);
+    let mut pending = event;
     let limit = 5 * u64::from(runner.settings().rate_hz.max(1));
-    let mut periods = 0u64;
-    let never = AtomicBool::new(false);
-    let _ = runner.hold_until(
-        hw,
-        None,
-        &never,
-        &mut || {
-            if let Some(e) = pending.take() {
-                if let Err(rtrb::PushError::Full(e)) = events.borrow_mut().push(e) {
-                    pending = Some(e);
-                }
-            }
-            periods += 1;
-            pending.is_none() || periods >= limit
-        },
-        &mut |_| {},
-    );
-    pending.is_none()
+    let hold = [runner.settings().pay_out_tension_n; WIRES];
+    for _ in 0..limit {
+        match events.borrow_mut().push(pending) {
+            Ok(()) => return true,
+            Err(rtrb::PushError::Full(e)) => pending = e,
+        }
+        runner.period(hw, &hold, None);
+    }
+    false
 }
 
 /// Hold the wires until the client says whether it saved the calibration (bounded); true when
@@ -741,45 +734,37 @@ fn wait_until_saved<H: ProcedureDevice>(
     control: &ProcedureControl,
 ) -> bool {
     let limit = (SAVE_WAIT_S * f64::from(runner.settings().rate_hz.max(1))) as u64;
-    let mut periods = 0u64;
-    let never = AtomicBool::new(false);
-    let _ = runner.hold_until(
-        hw,
-        None,
-        &never,
-        &mut || {
-            periods += 1;
-            let state = control.saved.load(Ordering::Acquire);
-            if state == saved::SAVED || state == saved::NOT_SAVED {
-                return true;
-            }
-            // Too late: unless it is being written, the client must not save it now.
-            periods >= limit
-                && control
-                    .saved
-                    .compare_exchange(
-                        saved::PENDING,
-                        saved::NOT_SAVED,
-                        Ordering::AcqRel,
-                        Ordering::Acquire,
-                    )
-                    .is_ok()
-        },
-        &mut |_| {},
-    );
-    // Ended early (e-stop, fault): the client may not start writing from now on; a write
-    // already under way is waited for (briefly).
-    let _ = control.saved.compare_exchange(
-        saved::PENDING,
-        saved::NOT_SAVED,
-        Ordering::AcqRel,
-        Ordering::Acquire,
-    );
-    let mut periods = 0u64;
     let hold = [runner.settings().pay_out_tension_n; WIRES];
-    while control.saved.load(Ordering::Acquire) == saved::SAVING && periods < limit {
-        runner.period(hw, &hold, None);
-        periods += 1;
+    for period in 0.. {
+        let state = control.saved.load(Ordering::Acquire);
+        if state == saved::SAVED || state == saved::NOT_SAVED {
+            break;
+        }
+        // Too late: unless it is being written, the client must not save it now.
+        if period >= limit
+            && control
+                .saved
+                .compare_exchange(
+                    saved::PENDING,
+                    saved::NOT_SAVED,
+                    Ordering::AcqRel,
+                    Ordering::Acquire,
+                )
+                .is_ok()
+        {
+            break;
+        }
+        if period >= 2 * limit {
+            // A write that never ends: the file may be written, the service keeps the
+            // calibration it renders with (a restart loads the file).
+            break;
+        }
+        // A faulted or stopped device is not commanded further here; the control cycle's
+        // supervisor takes over as soon as this returns.
+        let (r, _) = runner.period(hw, &hold, None);
+        if r.input.estop_pressed || r.input.drive_fault.is_some() {
+            let _ = hw.disable();
+        }
     }
     control.saved.load(Ordering::Acquire) == saved::SAVED
 }
