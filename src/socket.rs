@@ -4,7 +4,9 @@
 //!
 //! Requests: `{"cmd":"status"}`, `{"cmd":"stop"}`, `{"cmd":"release","wire":N}`,
 //! `{"cmd":"resume"}`, `{"cmd":"reset-faults"}`. Replies: `{"ok":true,...}` or
-//! `{"ok":false,"error":"..."}`. A malformed, oversized or unauthorised request gets an error
+//! `{"ok":false,"error":"..."}`. `{"cmd":"init"}` and `{"cmd":"wire-replace","wire":N}` run a
+//! procedure on the service's hardware and stream its progress on the connection
+//! ([`crate::procedure_stream`]). A malformed, oversized or unauthorised request gets an error
 //! reply; a slow client is disconnected after a timeout. Nothing a client does reaches the control
 //! thread except through a wait-free command queue, so no client can disturb the loop.
 
