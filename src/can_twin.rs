@@ -285,6 +285,11 @@ impl<T: TwinDevice> CanTwin<T> {
         self.twin.model()
     }
 
+    /// The twin, mutably (a procedure's simulated technician acts on it).
+    pub fn twin_mut(&mut self) -> &mut Twin {
+        self.twin.model_mut()
+    }
+
     /// The twin's encoders, as the simulated drives' encoders.
     fn publish_encoders(&mut self) {
         // The twin reads its encoders whatever its drive state.

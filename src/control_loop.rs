@@ -48,6 +48,10 @@ pub enum ControlCommand {
     Resume,
     /// Clear latched faults that do not need a restart.
     ResetFaults,
+    /// Ramp the forces out and hand the (still enabled) hardware to a procedure run on the
+    /// control thread (auto-initialization through the control socket): the loop returns with
+    /// [`LoopReport::handed_over`] set.
+    HandOver,
 }
 
 /// Timing of the last complete one-second window.
@@ -110,6 +114,9 @@ pub struct LoopReport {
     pub overruns: u64,
     /// Safety state at the end.
     pub final_safety: SafetyState,
+    /// The loop ended to hand the hardware over ([`ControlCommand::HandOver`]): the drives are
+    /// still enabled, every wire at minimum tension.
+    pub handed_over: bool,
 }
 
 /// The loop could not start.
@@ -184,6 +191,7 @@ where
     let (mut worst_compute, mut worst_latency) = (0u64, 0u64);
     let mut consecutive_overruns = 0u32;
     let mut stopping = false;
+    let mut handing_over = false;
 
     loop {
         hw.sleep_until(next);
@@ -197,6 +205,13 @@ where
                     ControlCommand::ReleaseWire(w) => cycle.release_wire(Some(usize::from(w))),
                     ControlCommand::Resume => cycle.release_wire(None),
                     ControlCommand::ResetFaults => cycle.reset_faults(),
+                    ControlCommand::HandOver if !stopping => {
+                        stopping = true;
+                        handing_over = true;
+                        cycle.release_wire(None);
+                        cycle.request_stop();
+                    }
+                    ControlCommand::HandOver => {}
                 }
             }
         }
@@ -204,10 +219,12 @@ where
         if panicked {
             cycle.trip(SafetyState::MinimumTension(SafetyReason::SoftwareFault));
         }
-        if !stopping
+        if (!stopping || handing_over)
             && (panicked || control.stop.load(Ordering::Relaxed) || end.is_some_and(|e| woke >= e))
         {
+            // A real stop wins over a hand-over.
             stopping = true;
+            handing_over = false;
             cycle.request_stop();
         }
         let overrun_trip = consecutive_overruns >= settings.max_consecutive_overruns;
@@ -254,11 +271,14 @@ where
             cycle.trip(SafetyState::MinimumTension(SafetyReason::DeadlineOverrun));
         }
     }
-    let _ = hw.disable();
-    let _ = hw.deactivate();
+    if !handing_over {
+        let _ = hw.disable();
+        let _ = hw.deactivate();
+    }
     LoopReport {
         cycles: stats.cycles,
         overruns: stats.overruns,
         final_safety: cycle.safety_state(),
+        handed_over: handing_over,
     }
 }

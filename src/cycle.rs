@@ -198,6 +198,30 @@ impl ControlCycle {
         }
     }
 
+    /// Start rendering again after a hand-over (a procedure ran on the hardware): forces ramp
+    /// back in from minimum tension, the tension controllers start afresh; latched faults stay.
+    pub fn restart(&mut self) {
+        self.ramp = Ramp::Up;
+        self.force_scale = 0.0;
+        self.released_wire = None;
+        self.step.reset();
+    }
+
+    /// The encoder zeros the cycle measures lengths with.
+    pub fn wire_zero(&self) -> WireZero {
+        self.settings.wire_zero
+    }
+
+    /// Periods counted so far (the next record's `cycle`).
+    pub fn cycle_count(&self) -> u64 {
+        self.cycle
+    }
+
+    /// Continue the period count from `count` (a cycle that replaces another one).
+    pub fn set_cycle_count(&mut self, count: u64) {
+        self.cycle = count;
+    }
+
     /// The current safety state.
     pub fn safety_state(&self) -> SafetyState {
         self.safety.state()

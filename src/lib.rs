@@ -11,6 +11,7 @@ pub mod control_loop;
 pub mod cycle;
 pub mod histogram;
 pub mod init;
+pub mod procedure_stream;
 pub mod relief_feed;
 pub mod relief_scene;
 pub mod rt;

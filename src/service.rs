@@ -20,6 +20,7 @@ use crate::control_loop::{
     LoopStats, SERVICE_PANICKED,
 };
 use crate::cycle::ControlCycle;
+use crate::init::remote::{procedure_channel, run_procedure, ProcedureDevice};
 use crate::rt;
 use crate::snapshot::SurfaceFeed;
 use crate::socket::{self, ServerSettings, ServerShared, StatusReport};
@@ -44,11 +45,15 @@ pub struct ServiceOptions {
     pub status_lines: bool,
     /// Render the colour under the thimble on the vibrotactors (`None`: no colour thread).
     pub colour: Option<crate::colour_thread::ColourSource>,
+    /// The calibration file auto-initialization through the control socket writes (`None`: the
+    /// service runs no procedures).
+    pub calibration_path: Option<PathBuf>,
 }
 
 impl ServiceOptions {
     /// Options from the configuration alone.
     pub fn from_config(config: Config) -> ServiceOptions {
+        let config_calibration = config.files.calibration.clone();
         let socket_path = Some(PathBuf::from(&config.socket.path));
         let telemetry_dir = config
             .telemetry
@@ -61,6 +66,7 @@ impl ServiceOptions {
             telemetry_dir,
             status_lines: true,
             colour: None,
+            calibration_path: Some(PathBuf::from(&config_calibration)),
         }
     }
 }
@@ -114,7 +120,7 @@ impl CycleObserver for Observers {
 /// Run the service on `hw` with surfaces from `feed` until stopped; returns the exit code.
 pub fn run_service<H, F>(hw: H, feed: F, cycle: ControlCycle, options: &ServiceOptions) -> ExitCode
 where
-    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + Send + 'static,
+    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + ProcedureDevice + Send + 'static,
     F: SurfaceFeed + Send + 'static,
 {
     run_service_with(hw, feed, cycle, options, ServiceExtras::default())
@@ -129,7 +135,7 @@ pub fn run_service_with<H, F>(
     extras: ServiceExtras,
 ) -> ExitCode
 where
-    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + Send + 'static,
+    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + ProcedureDevice + Send + 'static,
     F: SurfaceFeed + Send + 'static,
 {
     let ServiceExtras {
@@ -194,11 +200,20 @@ where
         }
     }
 
-    // Control socket.
+    // Control socket, and procedures run on this hardware for its clients.
     let (command_tx, mut command_rx) = rtrb::RingBuffer::new(64);
+    let (procedure_port, mut procedure_handle) = match &options.calibration_path {
+        Some(path) if options.socket_path.is_some() => {
+            let (port, handle) =
+                procedure_channel(config.clone(), path.clone(), hw.twin_mut().is_some());
+            (Some(port), Some(handle))
+        }
+        _ => (None, None),
+    };
     let shared = Arc::new(ServerShared {
         status: Mutex::new(StatusReport::from_snapshot(&StatusSnapshot::default(), 0)),
         commands: Mutex::new(command_tx),
+        procedures: procedure_port,
     });
     let server = match &options.socket_path {
         Some(path) => {
@@ -243,6 +258,7 @@ where
     });
     let thimble_publisher = colour.is_some().then_some(thimble_publisher);
     let thread_stop = Arc::clone(&stop);
+    let thread_config = config.clone();
     let control = std::thread::Builder::new()
         .name("videt-control".into())
         .spawn(move || {
@@ -263,15 +279,49 @@ where
                 commands: Some(&mut command_rx),
             };
             let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| {
-                run_control_loop(
-                    &mut hw,
-                    &mut feed,
-                    &mut cycle,
-                    &settings,
-                    &mut loop_control,
-                    &mut observers,
-                    &mut stats,
-                )
+                let started = hw.now();
+                loop {
+                    // A hand-over restarts the loop: what is left of --duration.
+                    let mut settings = settings;
+                    settings.duration_ns = settings
+                        .duration_ns
+                        .map(|d| d.saturating_sub(hw.now().nanos_since(started)).max(1));
+                    let report = run_control_loop(
+                        &mut hw,
+                        &mut feed,
+                        &mut cycle,
+                        &settings,
+                        &mut loop_control,
+                        &mut observers,
+                        &mut stats,
+                    );
+                    let Some(handle) = procedure_handle.as_mut().filter(|_| report.handed_over)
+                    else {
+                        break report;
+                    };
+                    // Procedure mode: same thread, same priority, same period.
+                    let (recalibration, next_cycle) = run_procedure(
+                        &mut hw,
+                        handle,
+                        &thread_config,
+                        &mut observers,
+                        cycle.cycle_count(),
+                        cycle.wire_zero(),
+                        cycle.safety_state(),
+                    );
+                    match recalibration {
+                        Some(r) => {
+                            cycle = crate::setup::control_cycle(
+                                &thread_config,
+                                r.rig,
+                                r.wire_zero,
+                                true,
+                            );
+                        }
+                        None => cycle.restart(),
+                    }
+                    cycle.set_cycle_count(next_cycle);
+                }
             }));
             match outcome {
                 Ok(report) => Ok((report, stats)),
@@ -351,8 +401,16 @@ where
             }
         }
         let dropped = telemetry_writer.as_ref().map_or(0, |w| w.dropped());
+        let procedure = shared.procedures.as_ref().and_then(|p| {
+            if stop.load(Ordering::Relaxed) {
+                // Stopping: a procedure under way is cancelled (the loop then ramps out).
+                p.control.cancel.store(true, Ordering::Release);
+            }
+            p.current()
+        });
         if let Ok(mut status) = shared.status.lock() {
             *status = StatusReport::from_snapshot(&snapshot, dropped);
+            status.procedure = procedure.map(str::to_string);
         }
         if options.status_lines && running && last_status_line.elapsed() >= Duration::from_secs(1) {
             last_status_line = Instant::now();

@@ -4,7 +4,9 @@
 //!
 //! Requests: `{"cmd":"status"}`, `{"cmd":"stop"}`, `{"cmd":"release","wire":N}`,
 //! `{"cmd":"resume"}`, `{"cmd":"reset-faults"}`. Replies: `{"ok":true,...}` or
-//! `{"ok":false,"error":"..."}`. A malformed, oversized or unauthorised request gets an error
+//! `{"ok":false,"error":"..."}`. `{"cmd":"init"}` and `{"cmd":"wire-replace","wire":N}` run a
+//! procedure on the service's hardware and stream its progress on the connection
+//! ([`crate::procedure_stream`]). A malformed, oversized or unauthorised request gets an error
 //! reply; a slow client is disconnected after a timeout. Nothing a client does reaches the control
 //! thread except through a wait-free command queue, so no client can disturb the loop.
 
@@ -49,28 +51,136 @@ struct WireRequest {
     cmd: String,
     #[serde(default)]
     wire: Option<u8>,
+    #[serde(default)]
+    yes: Option<bool>,
+    #[serde(default)]
+    sim_seed: Option<u64>,
+    #[serde(default)]
+    sim_faults: Option<Vec<String>>,
+    #[serde(default)]
+    sim_new_wire_length_m: Option<f64>,
+}
+
+/// A procedure the service runs on its own hardware, streaming its progress back
+/// (`{"cmd":"init"}`, `{"cmd":"wire-replace","wire":N}`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProcedureRequest {
+    /// `init` or `wire-replace`.
+    pub cmd: ProcedureCommand,
+    /// The wire to replace (`wire-replace`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wire: Option<u8>,
+    /// The manual steps are already done: the service does not wait for `continue`.
+    pub yes: bool,
+    /// On a twin: where its technician connects the thimble.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sim_seed: Option<u64>,
+    /// On a twin: faults to rehearse (`videt init --sim-fault` syntax).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sim_faults: Vec<String>,
+    /// On a twin: usable length of the new yarn, metres (`wire-replace`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sim_new_wire_length_m: Option<f64>,
+}
+
+/// Which procedure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ProcedureCommand {
+    /// Auto-initialization.
+    Init,
+    /// Wire replacement, then auto-initialization.
+    WireReplace,
+}
+
+/// Any line a client may send.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ClientRequest {
+    /// A one-reply request.
+    Simple(Request),
+    /// Start a procedure (a stream of replies follows).
+    Procedure(ProcedureRequest),
+    /// During a procedure: the manual step asked for is done.
+    Continue,
+    /// During a procedure: abort it.
+    Cancel,
+}
+
+impl ClientRequest {
+    /// Parse one request line; the error says what is wrong.
+    pub fn parse(line: &[u8]) -> Result<ClientRequest, String> {
+        let raw: WireRequest = serde_json::from_slice(line).map_err(|e| e.to_string())?;
+        let cmd = raw.cmd.as_str();
+        let procedure_field = [
+            ("yes", raw.yes.is_some()),
+            ("sim_seed", raw.sim_seed.is_some()),
+            ("sim_faults", raw.sim_faults.is_some()),
+            ("sim_new_wire_length_m", raw.sim_new_wire_length_m.is_some()),
+        ]
+        .into_iter()
+        .find(|(_, given)| *given)
+        .map(|(name, _)| name);
+        let plain = |r: ClientRequest| match (raw.wire, procedure_field) {
+            (None, None) => Ok(r),
+            (Some(_), _) => Err(format!("`{cmd}` takes no `wire`")),
+            (None, Some(field)) => Err(format!("`{cmd}` takes no `{field}`")),
+        };
+        let procedure = |command: ProcedureCommand| {
+            if command == ProcedureCommand::Init {
+                if raw.wire.is_some() {
+                    return Err("`init` takes no `wire`".to_string());
+                }
+                if raw.sim_new_wire_length_m.is_some() {
+                    return Err("`init` takes no `sim_new_wire_length_m`".to_string());
+                }
+            } else if raw.wire.is_none() {
+                return Err("`wire-replace` needs `wire`".to_string());
+            }
+            Ok(ClientRequest::Procedure(ProcedureRequest {
+                cmd: command,
+                wire: raw.wire,
+                yes: raw.yes.unwrap_or(false),
+                sim_seed: raw.sim_seed,
+                sim_faults: raw.sim_faults.clone().unwrap_or_default(),
+                sim_new_wire_length_m: raw.sim_new_wire_length_m,
+            }))
+        };
+        match cmd {
+            "status" => plain(ClientRequest::Simple(Request::Status)),
+            "stop" => plain(ClientRequest::Simple(Request::Stop)),
+            "resume" => plain(ClientRequest::Simple(Request::Resume)),
+            "reset-faults" => plain(ClientRequest::Simple(Request::ResetFaults)),
+            "continue" => plain(ClientRequest::Continue),
+            "cancel" => plain(ClientRequest::Cancel),
+            "release" => match (raw.wire, procedure_field) {
+                (Some(wire), None) => Ok(ClientRequest::Simple(Request::Release { wire })),
+                (None, _) => Err("`release` needs `wire`".to_string()),
+                (Some(_), Some(field)) => Err(format!("`release` takes no `{field}`")),
+            },
+            "init" => procedure(ProcedureCommand::Init),
+            "wire-replace" => procedure(ProcedureCommand::WireReplace),
+            other => Err(format!(
+                "unknown command `{other}` (status, stop, release, resume, reset-faults, init, wire-replace, continue, cancel)"
+            )),
+        }
+    }
 }
 
 impl Request {
-    /// Parse one request line; the error says what is wrong.
+    /// Parse one one-reply request line; the error says what is wrong.
     pub fn parse(line: &[u8]) -> Result<Request, String> {
-        let raw: WireRequest = serde_json::from_slice(line).map_err(|e| e.to_string())?;
-        let no_wire = |r: Request| match raw.wire {
-            None => Ok(r),
-            Some(_) => Err(format!("`{}` takes no `wire`", raw.cmd)),
-        };
-        match raw.cmd.as_str() {
-            "status" => no_wire(Request::Status),
-            "stop" => no_wire(Request::Stop),
-            "resume" => no_wire(Request::Resume),
-            "reset-faults" => no_wire(Request::ResetFaults),
-            "release" => raw
-                .wire
-                .map(|wire| Request::Release { wire })
-                .ok_or_else(|| "`release` needs `wire`".to_string()),
-            other => Err(format!(
-                "unknown command `{other}` (status, stop, release, resume, reset-faults)"
+        match ClientRequest::parse(line)? {
+            ClientRequest::Simple(r) => Ok(r),
+            ClientRequest::Procedure(p) => Err(format!(
+                "`{}` streams its replies: send it on a connection of its own",
+                serde_json::to_value(p.cmd)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_default()
             )),
+            ClientRequest::Continue | ClientRequest::Cancel => {
+                Err("no procedure runs on this connection".to_string())
+            }
         }
     }
 }
@@ -106,6 +216,9 @@ pub struct StatusReport {
     pub surface_stale: bool,
     /// Telemetry records dropped so far.
     pub telemetry_dropped: u64,
+    /// A procedure running on the service's hardware (`init`, `wire-replace`), if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub procedure: Option<String>,
 }
 
 /// A reply.
@@ -129,7 +242,8 @@ impl Response {
             status: None,
         }
     }
-    fn error(message: impl Into<String>) -> Response {
+    /// An error reply.
+    pub fn error(message: impl Into<String>) -> Response {
         Response {
             ok: false,
             error: Some(message.into()),
@@ -158,6 +272,7 @@ impl StatusReport {
             released_wire: u8::try_from(r.released_wire).ok(),
             surface_stale: r.surface_stale,
             telemetry_dropped,
+            procedure: None,
         }
     }
 }
@@ -168,6 +283,8 @@ pub struct ServerShared {
     pub status: Mutex<StatusReport>,
     /// Commands to the control thread (the server side is the only producer).
     pub commands: Mutex<rtrb::Producer<ControlCommand>>,
+    /// Procedures on the service's hardware (`None`: this service runs none).
+    pub procedures: Option<crate::init::remote::ProcedurePort>,
 }
 
 /// Settings of the server.
@@ -319,7 +436,8 @@ fn authorised(stream: &UnixStream, socket_gid: u32) -> bool {
     rc == 0 && (cred.uid == 0 || cred.uid == me || cred.gid == socket_gid)
 }
 
-fn reply(stream: &mut UnixStream, response: &Response) -> io::Result<()> {
+/// Write one reply line.
+pub fn reply(stream: &mut UnixStream, response: &Response) -> io::Result<()> {
     let mut line = serde_json::to_vec(response).map_err(io::Error::other)?;
     line.push(b'\n');
     stream.write_all(&line)
@@ -364,14 +482,25 @@ fn serve_client(
             )?;
             return Ok(());
         }
-        if !line.ends_with(b"\n") {
-            // End of stream without a newline: answer it, then close.
-            let response = handle(&line, shared);
-            reply(&mut writer, &response)?;
-            return Ok(());
+        let last = !line.ends_with(b"\n");
+        if let Ok(ClientRequest::Procedure(procedure)) = ClientRequest::parse(&line) {
+            // The connection carries the procedure's stream until it ends.
+            crate::procedure_stream::serve(&mut reader, &mut writer, &procedure, shared)?;
+            reader
+                .get_ref()
+                .get_ref()
+                .set_read_timeout(Some(settings.client_timeout))?;
+            if last {
+                return Ok(());
+            }
+            continue;
         }
         let response = handle(&line, shared);
         reply(&mut writer, &response)?;
+        if last {
+            // End of stream without a newline: answered, now close.
+            return Ok(());
+        }
     }
 }
 
@@ -434,6 +563,7 @@ mod tests {
             Arc::new(ServerShared {
                 status: Mutex::new(status),
                 commands: Mutex::new(producer),
+                procedures: None,
             }),
             consumer,
         )

@@ -34,12 +34,20 @@ impl StatusSnapshot {
             SafetyState::MinimumTension(reason) => format!("min-tension ({})", reason.as_str()),
             SafetyState::PowerOff(reason) => format!("power-off ({})", reason.as_str()),
         };
+        // Until the first one-second window closes there is no rate to show.
+        let timing = if self.window.rate_hz > 0.0 {
+            format!(
+                "rate {:7.1} Hz  worst cycle {:6.1} µs (wake-up {:6.1} µs)",
+                self.window.rate_hz,
+                self.window.worst_compute_ns as f64 * 1e-3,
+                self.window.worst_latency_ns as f64 * 1e-3,
+            )
+        } else {
+            "rate (first one-second window still open)".to_string()
+        };
         format!(
-            "t={:7.2}s rate {:7.1} Hz  worst cycle {:6.1} µs (wake-up {:6.1} µs)  x=({:+.4}, {:+.4}, {:+.4}) m  T=({:5.2}, {:5.2}, {:5.2}) N  contact {:5.2} N  {}",
+            "t={:7.2}s {timing}  x=({:+.4}, {:+.4}, {:+.4}) m  T=({:5.2}, {:5.2}, {:5.2}) N  contact {:5.2} N  {}",
             r.time.as_secs_f64(),
-            self.window.rate_hz,
-            self.window.worst_compute_ns as f64 * 1e-3,
-            self.window.worst_latency_ns as f64 * 1e-3,
             p[0],
             p[1],
             p[2],
@@ -81,5 +89,28 @@ impl StatusReader {
     /// The latest snapshot.
     pub fn latest(&mut self) -> StatusSnapshot {
         *self.output.read()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_line_before_the_first_window_says_so_instead_of_a_zero_rate() {
+        let pending = StatusSnapshot::default().line();
+        assert!(
+            pending.contains("first one-second window still open"),
+            "{pending}"
+        );
+        assert!(!pending.contains("0.0 Hz"), "{pending}");
+        let mut s = StatusSnapshot::default();
+        s.window.rate_hz = 999.5;
+        s.window.worst_compute_ns = 42_800;
+        let line = s.line();
+        assert!(
+            line.contains("rate   999.5 Hz  worst cycle   42.8 µs"),
+            "{line}"
+        );
     }
 }

@@ -136,3 +136,154 @@ fn the_control_thread_allocates_and_frees_nothing() {
         "allocations and frees on the control thread"
     );
 }
+
+/// A hand-over (auto-initialization through the control socket) adds nothing to the rendering
+/// loop: the loop ramps out and returns without allocating; the procedure that then runs on the
+/// control thread allocates only at its stage changes and its end, never per period.
+#[test]
+fn a_hand_over_allocates_nothing_and_a_procedure_nothing_per_period() {
+    use videt::control_loop::ControlCommand;
+    use videt::init::remote::{
+        procedure_channel, run_procedure, saved, ProcedureEvent, ProcedureKind, ProcedureSpec,
+    };
+
+    let mut config = Config::default();
+    config.autoinit.wind_speed_m_s = 0.25;
+    let scene = setup::demo_scene(&config, 5);
+    let rig = setup::rig(&config).unwrap();
+    let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+    let wall = scene.wall;
+    let dir = tempfile::tempdir().unwrap();
+    let (port, mut handle) = procedure_channel(config.clone(), dir.path().join("c.toml"), true);
+    let port = Arc::new(port);
+
+    // The socket's side: takes the slot, submits, answers "saved" when the result comes.
+    let client_port = Arc::clone(&port);
+    let (submitted_tx, submitted_rx) = std::sync::mpsc::channel();
+    let client = std::thread::spawn(move || {
+        let mut session = client_port.begin().unwrap();
+        session.submit(ProcedureSpec {
+            kind: ProcedureKind::Initialize,
+            yes: true,
+            sim_seed: 3,
+            sim_faults: Vec::new(),
+            sim_new_wire_length_m: None,
+        });
+        submitted_tx.send(()).unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        loop {
+            assert!(std::time::Instant::now() < deadline, "no result");
+            match session.next_event() {
+                Some(ProcedureEvent::Finished(result)) => {
+                    let ok = result.is_ok();
+                    session.control().saved.store(
+                        if ok { saved::SAVED } else { saved::NOT_SAVED },
+                        Ordering::Release,
+                    );
+                    return ok;
+                }
+                Some(_) => {}
+                None => std::thread::sleep(std::time::Duration::from_millis(1)),
+            }
+        }
+    });
+    submitted_rx.recv().unwrap();
+
+    let control = std::thread::spawn(move || {
+        let mut twin = scene.twin;
+        start_hardware(&mut twin).unwrap();
+        let settings = LoopSettings {
+            rate_hz: 1000,
+            duration_ns: Some(60_000_000_000),
+            max_consecutive_overruns: 10,
+        };
+        let stop = AtomicBool::new(false);
+        let (mut tx, mut rx) = rtrb::RingBuffer::new(4);
+        let mut stats = LoopStats::default();
+        let mut feed = videt::snapshot::FixedSurface(wall);
+        let mut observer = ();
+        // Render a second, then hand over.
+        let mut first = LoopSettings {
+            duration_ns: Some(1_000_000_000),
+            ..settings
+        };
+        run_control_loop(
+            &mut twin,
+            &mut feed,
+            &mut cycle,
+            &first,
+            &mut LoopControl::stop_flag(&stop),
+            &mut observer,
+            &mut stats,
+        );
+        start_hardware(&mut twin).unwrap();
+        cycle.restart();
+        tx.push(ControlCommand::HandOver).unwrap();
+        first.duration_ns = settings.duration_ns;
+        let mut loop_control = LoopControl {
+            stop: &stop,
+            commands: Some(&mut rx),
+        };
+        let (report, loop_counts) = videt_testkit::count_allocations(|| {
+            run_control_loop(
+                &mut twin,
+                &mut feed,
+                &mut cycle,
+                &first,
+                &mut loop_control,
+                &mut observer,
+                &mut stats,
+            )
+        });
+        let mut counted = CountingObserver(0);
+        let ((recalibration, _next_cycle), procedure_counts) =
+            videt_testkit::count_allocations(|| {
+                run_procedure(
+                    &mut twin,
+                    &mut handle,
+                    &config,
+                    &mut counted,
+                    cycle.cycle_count(),
+                    cycle.wire_zero(),
+                    cycle.safety_state(),
+                )
+            });
+        (
+            report,
+            loop_counts,
+            recalibration.is_some(),
+            counted.0,
+            procedure_counts,
+        )
+    });
+    let (report, loop_counts, recalibrated, procedure_periods, procedure_counts) =
+        control.join().unwrap();
+    eprintln!("procedure: {procedure_periods} periods, {procedure_counts:?} on the control thread");
+    assert!(client.join().unwrap(), "the procedure succeeded");
+    assert!(report.handed_over, "{report:?}");
+    assert_eq!(
+        loop_counts,
+        videt_testkit::AllocCounts::default(),
+        "the hand-over allocates nothing"
+    );
+    assert!(recalibrated);
+    assert!(procedure_periods > 5_000, "{procedure_periods} periods");
+    // Stage changes and the end allocate (messages, the result); periods do not.
+    assert!(
+        procedure_counts.allocations < 64,
+        "{procedure_counts:?} over {procedure_periods} periods"
+    );
+}
+
+/// Counts the periods it is shown.
+struct CountingObserver(u64);
+
+impl videt::control_loop::CycleObserver for CountingObserver {
+    fn observe(
+        &mut self,
+        _record: &videt::cycle::CycleRecord,
+        _window: &videt::control_loop::WindowStats,
+    ) {
+        self.0 += 1;
+    }
+}

@@ -285,66 +285,6 @@ fn every_subcommand_has_help() {
 }
 
 #[test]
-fn init_takes_the_motors_over_from_a_running_videtd_through_its_socket() {
-    let f = files();
-    let socket = f.lock.with_file_name("videtd.sock");
-    let mut daemon = Command::new(env!("CARGO_BIN_EXE_videtd"))
-        .args([
-            "--sim",
-            "--sim-calibration",
-            "none",
-            "--no-telemetry",
-            "--duration",
-            "120",
-        ])
-        .args(["--lock", p(&f.lock), "--socket", p(&socket)])
-        .env("RUST_LOG", "warn")
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
-    while !socket.exists() {
-        assert!(std::time::Instant::now() < deadline, "videtd did not start");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    std::thread::sleep(std::time::Duration::from_millis(200));
-    // The service runs uncalibrated: status shows it holding the wires at minimum tension.
-    let out = videt(&[
-        "status",
-        "--json",
-        "--socket",
-        p(&socket),
-        "--lock",
-        p(&f.lock),
-        "--calibration",
-        p(&f.calibration),
-    ]);
-    assert_eq!(out.status.code(), Some(4));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(v["service"]["safety"], "not-calibrated", "{v}");
-    assert!(v["motors"].as_str().unwrap().contains("in use"), "{v}");
-    let args = ["--socket", p(&socket)];
-    // Without --yes and no terminal to confirm on, the service is left alone.
-    let out = init(&f, &args);
-    assert_eq!(
-        out.status.code(),
-        Some(23),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(daemon.try_wait().unwrap().is_none(), "videtd still runs");
-    // With --yes: videtd hands the motors over and stops cleanly; the tool initializes.
-    let out = init(&f, &["--socket", p(&socket), "--yes"]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("handed the motors over"), "{stderr}");
-    let status = daemon.wait().unwrap();
-    assert!(status.success(), "videtd stopped cleanly: {status:?}");
-    assert!(f.calibration.exists());
-}
-
-#[test]
 fn videtd_renders_forces_after_auto_initializing_its_twin_and_not_without_calibration() {
     for (source, expected) in [("init", "normal"), ("none", "not-calibrated")] {
         let dir = tempfile::tempdir().unwrap();

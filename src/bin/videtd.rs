@@ -124,6 +124,16 @@ struct Args {
     /// this process).
     #[arg(long, value_name = "FILE")]
     lock: Option<PathBuf>,
+    /// With --sim: the twin's true guide points, metres, in the frame plane: "X,Y;X,Y;X,Y"
+    /// (replaces the configured `rig.guides_m`), so `videt init` through the control socket can
+    /// be rehearsed on any frame.
+    #[arg(
+        long,
+        value_name = "X,Y;X,Y;X,Y",
+        requires = "sim",
+        allow_hyphen_values = true
+    )]
+    sim_guides: Option<String>,
 }
 
 const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -149,13 +159,22 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .init();
     let args = Args::parse();
-    let config = match load_config(&args) {
+    let mut config = match load_config(&args) {
         Ok(c) => c,
         Err(e) => {
             error!("{e}");
             return ExitCode::from(2);
         }
     };
+    if let Some(text) = &args.sim_guides {
+        match videt::init::twin::parse_guides(text) {
+            Ok(g) => config.rig.guides_m = core::array::from_fn(|i| [g[i].x, g[i].y]),
+            Err(e) => {
+                error!("{e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
     if let Some(d) = args.duration {
         if !(d.is_finite() && d > 0.0) {
             error!("--duration must be a positive number of seconds, got {d}");
@@ -164,6 +183,13 @@ fn main() -> ExitCode {
     }
     let mut options = ServiceOptions::from_config(config.clone());
     options.duration_s = args.duration;
+    // Where `videt init` through the control socket writes the calibration (the twin's default
+    // is the one `videt init --sim` uses).
+    options.calibration_path = Some(match (&args.calibration, args.sim) {
+        (Some(p), _) => p.clone(),
+        (None, Some(_)) => videt::init::daemon::sim_state_dir().join("calibration-sim.toml"),
+        (None, None) => PathBuf::from(&config.files.calibration),
+    });
     if args.no_socket {
         options.socket_path = None;
     } else if let Some(p) = &args.socket {

@@ -23,6 +23,10 @@ impl<H> CorrectedTensions<H> {
     pub fn inner(&self) -> &H {
         &self.inner
     }
+    /// The wrapped device, mutably.
+    pub fn inner_mut(&mut self) -> &mut H {
+        &mut self.inner
+    }
 }
 
 impl<H: ErrorType> ErrorType for CorrectedTensions<H> {

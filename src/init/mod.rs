@@ -10,6 +10,8 @@ pub mod corrected;
 pub mod daemon;
 pub mod lock;
 pub mod params;
+pub mod procedure_port;
+pub mod remote;
 pub mod runner;
 pub mod session;
 pub mod tension;

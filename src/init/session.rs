@@ -36,6 +36,42 @@ pub enum Request {
     },
 }
 
+impl Request {
+    /// A short, stable name (`connect-wires`, `fit-new-wire`, `pull-out-wire`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Request::ConnectWires => "connect-wires",
+            Request::FitNewWire { .. } => "fit-new-wire",
+            Request::PullOutWire { .. } => "pull-out-wire",
+        }
+    }
+
+    /// The wire the step is about, if one.
+    pub fn wire(self) -> Option<usize> {
+        match self {
+            Request::ConnectWires => None,
+            Request::FitNewWire { wire } | Request::PullOutWire { wire } => Some(wire),
+        }
+    }
+
+    /// The wire left without torque while the step is done (free to be pulled).
+    pub fn released_wire(self) -> Option<usize> {
+        match self {
+            Request::FitNewWire { wire } => Some(wire),
+            _ => None,
+        }
+    }
+
+    /// What the technician is asked to do, in words.
+    pub fn instructions(self) -> String {
+        match self {
+            Request::ConnectWires => "pull the three wires out, connect their ends to the empty thimble's terminal, let go and keep hands off; press Enter".into(),
+            Request::FitNewWire { wire } => format!("wire {wire} is released: take the old yarn off, knot the new one on the pulley, route it over the idle pulley and through ring {wire}, fit its end sphere and leave the end free; press Enter"),
+            Request::PullOutWire { wire } => format!("pull wire {wire} out as far as it goes (to its knot), then let it go back slowly; press Enter"),
+        }
+    }
+}
+
 /// Who performs the manual steps. `runner.hold_until` keeps the wires at the pay-out tension
 /// while waiting (a released wire free).
 pub trait Technician<H: InitHardware> {
@@ -49,6 +85,8 @@ pub trait Technician<H: InitHardware> {
     ) -> Result<(), Failure>;
     /// A progress message (stage changes, results).
     fn inform(&mut self, message: &str);
+    /// The procedure entered `stage` with these readings (called before the stage's message).
+    fn stage(&mut self, _stage: Stage, _readings: &Readings) {}
 }
 
 /// Why a flow failed. Each kind has its own exit code.
@@ -82,6 +120,9 @@ pub enum InitError {
     /// A wire number out of range.
     #[error("wire {0} does not exist: wires are 0, 1, 2")]
     NoSuchWire(usize),
+    /// The measured calibration cannot be used by the control cycle.
+    #[error("the measured calibration cannot be used: {0}")]
+    Unusable(String),
 }
 
 impl InitError {
@@ -93,6 +134,7 @@ impl InitError {
             InitError::Start(_) => 22,
             InitError::HomeNotRepeatable { .. } => 25,
             InitError::NoSuchWire(_) => 2,
+            InitError::Unusable(_) => 16,
         }
     }
     /// A short, stable name.
@@ -103,8 +145,17 @@ impl InitError {
             InitError::Start(_) => "hardware-start",
             InitError::HomeNotRepeatable { .. } => "home-not-repeatable",
             InitError::NoSuchWire(_) => "no-such-wire",
+            InitError::Unusable(_) => "unusable-calibration",
         }
     }
+}
+
+/// The message a failed flow ends with: what went wrong, and that nothing was lost.
+pub fn failure_message(e: &InitError, calibration_path: &std::path::Path) -> String {
+    format!(
+        "{e}; the procedure ended with the motors at minimum tension and the previous calibration ({}) is unchanged",
+        calibration_path.display()
+    )
 }
 
 /// Exit code of each procedure failure.
@@ -171,6 +222,7 @@ fn run_plan<H: InitHardware, T: Technician<H>>(
 ) -> Result<Procedure, InitError> {
     let mut procedure = Procedure::new(procedure_params(config), plan);
     let status = runner.run(hw, &mut procedure, stop, &mut |stage, r| {
+        tech.stage(stage, r);
         if let Some(m) = stage_message(stage, r) {
             tech.inform(&m);
         }
@@ -192,22 +244,50 @@ pub struct FlowContext<'a> {
     pub stop: &'a AtomicBool,
 }
 
-/// Auto-initialize: ask for the wires to be connected to the empty thimble, wind each in turn,
-/// solve the base triangle and the workspace. The hardware must be started (see [`start`]).
-pub fn initialize<H: InitHardware, T: Technician<H>>(
+/// What the procedure measured on the hardware, before the (slow, pure) workspace computation.
+#[derive(Debug, Clone, Copy)]
+pub struct Measurement {
+    /// The measured triangle.
+    pub triangle: BaseTriangle,
+    /// Encoder counts at free length zero.
+    pub zero_counts: [i64; WIRES],
+    /// Encoder resolution the counts were taken with, metres per count.
+    pub metres_per_count: f64,
+}
+
+impl Measurement {
+    /// Wire length at encoder count zero, metres (the control cycle's encoder zeros).
+    pub fn length_at_zero_m(&self) -> [f64; WIRES] {
+        core::array::from_fn(|i| self.zero_counts[i] as f64 * self.metres_per_count)
+    }
+}
+
+/// Auto-initialize on the hardware: ask for the wires to be connected to the empty thimble, wind
+/// each in turn, solve the base triangle. The hardware must be started (see [`start`]).
+pub fn measure<H: InitHardware, T: Technician<H>>(
     hw: &mut H,
     tech: &mut T,
     runner: &mut Runner,
     ctx: &FlowContext<'_>,
-) -> Result<InitOutcome, InitError> {
-    let (config, source, stop) = (ctx.config, ctx.source, ctx.stop);
+) -> Result<Measurement, InitError> {
+    let (config, stop) = (ctx.config, ctx.stop);
     tech.perform(Request::ConnectWires, hw, runner, stop)
         .map_err(InitError::Procedure)?;
     let procedure = run_plan(hw, tech, runner, config, Plan::Initialize, stop)?;
     let triangle = *procedure
         .result()
         .ok_or(InitError::Procedure(Failure::Cancelled))?;
-    let zero_counts = procedure.homed_zero_counts();
+    Ok(Measurement {
+        triangle,
+        zero_counts: procedure.homed_zero_counts(),
+        metres_per_count: runner.settings().transmission.metres_per_count(),
+    })
+}
+
+/// The workspace the measured rig serves and the calibration record to save (pure; the
+/// workspace is a grid search: keep it off a thread that must talk to the drives every period).
+pub fn outcome(config: &Config, source: &str, m: &Measurement) -> InitOutcome {
+    let triangle = m.triangle;
     let spec = workspace_spec(config);
     let ws = workspace(&triangle.rig, &spec);
     let now = SystemTime::now()
@@ -222,8 +302,8 @@ pub fn initialize<H: InitHardware, T: Technician<H>>(
         sides_m: triangle.sides_m,
         residuals_m: triangle.residuals_m,
         guides_m: core::array::from_fn(|i| [g[i].x, g[i].y, g[i].z]),
-        wire_zero_counts: zero_counts,
-        metres_per_count: runner.settings().transmission.metres_per_count(),
+        wire_zero_counts: m.zero_counts,
+        metres_per_count: m.metres_per_count,
         workspace: WorkspaceRecord {
             force_n: spec.force_n,
             max_condition: spec.max_condition,
@@ -233,16 +313,25 @@ pub fn initialize<H: InitHardware, T: Technician<H>>(
             required_length_m: ws.required_length_m,
         },
     };
-    Ok(InitOutcome {
+    InitOutcome {
         triangle,
-        zero_counts,
+        zero_counts: m.zero_counts,
         workspace: ws,
         calibration,
-    })
+    }
 }
 
-/// Replace wire `wire`: release it while the new yarn is fitted, home it (its tension must rise
-/// at the ring), check its usable length against `required_length_m`, then auto-initialize.
+/// Auto-initialize ([`measure`]) and compute the calibration ([`outcome`]).
+pub fn initialize<H: InitHardware, T: Technician<H>>(
+    hw: &mut H,
+    tech: &mut T,
+    runner: &mut Runner,
+    ctx: &FlowContext<'_>,
+) -> Result<InitOutcome, InitError> {
+    measure(hw, tech, runner, ctx).map(|m| outcome(ctx.config, ctx.source, &m))
+}
+
+/// Replace wire `wire` ([`replace_wire_measure`]) and compute the calibration ([`outcome`]).
 pub fn replace_wire<H: InitHardware, T: Technician<H>>(
     hw: &mut H,
     tech: &mut T,
@@ -251,6 +340,21 @@ pub fn replace_wire<H: InitHardware, T: Technician<H>>(
     wire: usize,
     required_length_m: f64,
 ) -> Result<InitOutcome, InitError> {
+    replace_wire_measure(hw, tech, runner, ctx, wire, required_length_m)
+        .map(|m| outcome(ctx.config, ctx.source, &m))
+}
+
+/// Replace wire `wire`: release it while the new yarn is fitted, home it (its tension must rise
+/// at the ring), check its usable length against `required_length_m`, then auto-initialize
+/// ([`measure`]).
+pub fn replace_wire_measure<H: InitHardware, T: Technician<H>>(
+    hw: &mut H,
+    tech: &mut T,
+    runner: &mut Runner,
+    ctx: &FlowContext<'_>,
+    wire: usize,
+    required_length_m: f64,
+) -> Result<Measurement, InitError> {
     let (config, stop) = (ctx.config, ctx.stop);
     if wire >= WIRES {
         return Err(InitError::NoSuchWire(wire));
@@ -290,7 +394,7 @@ pub fn replace_wire<H: InitHardware, T: Technician<H>>(
             required_m: required_length_m,
         });
     }
-    initialize(hw, tech, runner, ctx)
+    measure(hw, tech, runner, ctx)
 }
 
 /// The length every wire must be usable for: the workspace's longest wire plus the margin,

@@ -187,18 +187,9 @@ impl SimTechnician {
     }
 }
 
-impl Technician<Twin> for SimTechnician {
-    fn perform(
-        &mut self,
-        request: Request,
-        hw: &mut Twin,
-        runner: &mut Runner,
-        stop: &AtomicBool,
-    ) -> Result<(), Failure> {
-        let released = match request {
-            Request::FitNewWire { wire } => Some(wire),
-            _ => None,
-        };
+impl SimTechnician {
+    /// Do `request` on the twin at once (no time passes).
+    pub fn act(&mut self, request: Request, hw: &mut Twin) -> Result<(), Failure> {
         match request {
             Request::ConnectWires => {
                 // Somewhere in front of the frame, within the triangle's shadow.
@@ -234,18 +225,40 @@ impl Technician<Twin> for SimTechnician {
                 hw.plant_mut().set_free_length_m(wire, usable);
             }
         }
-        // A moment with the wires held, as after a person's action.
-        let mut periods = 0u32;
-        runner.hold_until(
-            hw,
-            released,
-            stop,
-            &mut || {
-                periods += 1;
-                periods >= 50
-            },
-            &mut |_| {},
-        )
+        Ok(())
+    }
+}
+
+/// A moment with the wires held, as after a person's action (50 periods).
+pub fn hold_after_action<H: super::runner::InitHardware>(
+    hw: &mut H,
+    runner: &mut Runner,
+    released: Option<usize>,
+    stop: &AtomicBool,
+) -> Result<(), Failure> {
+    let mut periods = 0u32;
+    runner.hold_until(
+        hw,
+        released,
+        stop,
+        &mut || {
+            periods += 1;
+            periods >= 50
+        },
+        &mut |_| {},
+    )
+}
+
+impl Technician<Twin> for SimTechnician {
+    fn perform(
+        &mut self,
+        request: Request,
+        hw: &mut Twin,
+        runner: &mut Runner,
+        stop: &AtomicBool,
+    ) -> Result<(), Failure> {
+        self.act(request, hw)?;
+        hold_after_action(hw, runner, request.released_wire(), stop)
     }
 
     fn inform(&mut self, message: &str) {

@@ -6,7 +6,7 @@ use std::io::{BufRead, IsTerminal};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use clap::Args;
 use videt_control::autoinit::Failure;
@@ -36,8 +36,10 @@ pub const EXIT_CODES_HELP: &str = "Exit codes: 0 done; 2 bad arguments or config
 13 a wire's tension never rose (broken or slipping); 14 the two measurements of a side disagree; \
 15 the sides violate the triangle inequality; 16 the triangle is degenerate; 17 drive fault; \
 18 tension-sensor fault; 19 timeout; 20 cancelled; 21 new wire too short; 22 the hardware would not start; \
-23 the motors are in use by another process; 24 the calibration could not be written; \
-25 a re-homed wire's stop moved. On every failure the procedure ends with every motor at minimum \
+23 the motors are in use by another process (or videtd runs another procedure); 24 the calibration \
+could not be written; 25 a re-homed wire's stop moved; 26 the connection to videtd broke before the \
+procedure ended. When videtd answers on its control socket the procedure runs in videtd, on its \
+hardware, with the same messages and exit codes. On every failure the procedure ends with every motor at minimum \
 tension (powered off after an e-stop or a drive fault) and the previous calibration untouched; the \
 tool disables the drives when it exits.";
 
@@ -79,13 +81,13 @@ pub struct DeviceArgs {
     #[arg(long, value_name = "FILE")]
     pub lock: Option<PathBuf>,
     /// The running videtd's control socket (default: `socket.path` of the configuration; with
-    /// --sim none unless given). When videtd holds the motors, the tool asks it through this
-    /// socket to hand them over (forces ramped out, drives off, service stopped), runs, and
-    /// reminds you to start the service again.
+    /// --sim none unless given). When videtd answers on it, the procedure runs in videtd on its
+    /// own hardware (forces ramped out first, rendering resumed afterwards with the new
+    /// calibration); with --sim and --socket, the twin options (--sim-seed, --sim-fault, ...)
+    /// go to videtd's twin.
     #[arg(long, value_name = "PATH")]
     pub socket: Option<PathBuf>,
-    /// Do not wait at the prompts: the manual steps are already done, and videtd may be asked to
-    /// hand the motors over (scripts).
+    /// Do not wait at the prompts: the manual steps are already done (scripts).
     #[arg(long)]
     pub yes: bool,
     /// Print the result as JSON on stdout (progress stays on stderr).
@@ -99,17 +101,21 @@ pub struct Exit {
     /// Exit code.
     pub code: u8,
     /// Stable name (JSON `error`).
-    pub name: &'static str,
+    pub name: std::borrow::Cow<'static, str>,
     /// Message.
     pub message: String,
 }
 
 impl Exit {
     /// An exit with a code, a name and a message.
-    pub fn new(code: u8, name: &'static str, message: impl Into<String>) -> Exit {
+    pub fn new(
+        code: u8,
+        name: impl Into<std::borrow::Cow<'static, str>>,
+        message: impl Into<String>,
+    ) -> Exit {
         Exit {
             code,
-            name,
+            name: name.into(),
             message: message.into(),
         }
     }
@@ -175,55 +181,31 @@ impl DeviceArgs {
         }
     }
 
-    /// Take the motors lock (see [`Self::lock_path`]). When `videtd` holds it and answers on
-    /// its control socket, ask it to hand the motors over (after confirmation, or `--yes`) and
-    /// take the lock once it has let go.
+    /// Take the motors lock (see [`Self::lock_path`]) for a run on the hardware itself, or say
+    /// who holds it.
     pub fn lock_motors(&self, config: &Config) -> Result<Option<MotorsLock>, Exit> {
         let Some(path) = self.lock_path(config) else {
             return Ok(None);
         };
-        let busy = match MotorsLock::acquire(&path) {
-            Ok(l) => return Ok(Some(l)),
-            Err(e @ LockError::Io { .. }) => {
-                return Err(Exit::new(EXIT_MOTORS_BUSY, "motors-busy", e.to_string()))
-            }
-            Err(e) => e,
-        };
-        let refuse = |why: &str| Exit::new(EXIT_MOTORS_BUSY, "motors-busy", format!("{busy}{why}"));
-        let Some(socket) = self.socket_path(config).filter(|s| s.exists()) else {
-            return Err(refuse(""));
-        };
-        let running = request(&socket, &SocketRequest::Status, Duration::from_secs(3));
-        if !running.is_ok_and(|r| r.ok) {
-            return Err(refuse(&format!(
-                "; its control socket {} does not answer",
-                socket.display()
-            )));
-        }
-        eprintln!(
-            "videt: videtd is running and holds the motors; it has to hand them over: forces ramped out, drives off, service stopped"
-        );
-        if !self.yes && !confirm("stop videtd now? [y/N] ") {
-            return Err(refuse("; not stopped (answer y, or pass --yes)"));
-        }
-        let stopped = request(&socket, &SocketRequest::Stop, Duration::from_secs(3));
-        if !stopped.as_ref().is_ok_and(|r| r.ok) {
-            return Err(refuse(&format!(
-                "; videtd did not accept the stop ({})",
-                stopped.map_or_else(|e| e.to_string(), |r| r.error.unwrap_or_default())
-            )));
-        }
-        let deadline = Instant::now() + Duration::from_secs(15);
-        while Instant::now() < deadline {
-            if let Ok(l) = MotorsLock::acquire(&path) {
-                eprintln!(
-                    "videt: videtd stopped and handed the motors over; start it again afterwards (systemctl start videtd)"
-                );
-                return Ok(Some(l));
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        Err(refuse("; videtd did not let go of the motors within 15 s"))
+        MotorsLock::acquire(&path).map(Some).map_err(|e| {
+            let why = match (&e, self.socket_path(config)) {
+                (LockError::Busy { .. }, Some(socket)) => format!(
+                    "; the service's control socket {} does not answer",
+                    socket.display()
+                ),
+                _ => String::new(),
+            };
+            Exit::new(EXIT_MOTORS_BUSY, "motors-busy", format!("{e}{why}"))
+        })
+    }
+
+    /// The running service's control socket, when it answers: procedures then run on its
+    /// hardware through it.
+    pub fn running_service(&self, config: &Config) -> Option<PathBuf> {
+        let socket = self.socket_path(config).filter(|s| s.exists())?;
+        request(&socket, &SocketRequest::Status, Duration::from_secs(3))
+            .is_ok_and(|r| r.ok)
+            .then_some(socket)
     }
 
     /// The twin's set-up from the rehearsal options.
@@ -281,16 +263,6 @@ pub struct TerminalTechnician {
     pub yes: bool,
 }
 
-impl TerminalTechnician {
-    fn instructions(request: Request) -> String {
-        match request {
-            Request::ConnectWires => "pull the three wires out, connect their ends to the empty thimble's terminal, let go and keep hands off; press Enter".into(),
-            Request::FitNewWire { wire } => format!("wire {wire} is released: take the old yarn off, knot the new one on the pulley, route it over the idle pulley and through ring {wire}, fit its end sphere and leave the end free; press Enter"),
-            Request::PullOutWire { wire } => format!("pull wire {wire} out as far as it goes (to its knot), then let it go back slowly; press Enter"),
-        }
-    }
-}
-
 impl<H: InitHardware> Technician<H> for TerminalTechnician {
     fn perform(
         &mut self,
@@ -299,7 +271,7 @@ impl<H: InitHardware> Technician<H> for TerminalTechnician {
         runner: &mut Runner,
         stop: &AtomicBool,
     ) -> Result<(), Failure> {
-        eprintln!("videt: {}", Self::instructions(request));
+        eprintln!("videt: {}", request.instructions());
         if self.yes {
             return Ok(());
         }
@@ -312,13 +284,9 @@ impl<H: InitHardware> Technician<H> for TerminalTechnician {
             let _ = std::io::stdin().lock().read_line(&mut line);
             let _ = tx.send(());
         });
-        let released = match request {
-            Request::FitNewWire { wire } => Some(wire),
-            _ => None,
-        };
         runner.hold_until(
             hw,
-            released,
+            request.released_wire(),
             stop,
             &mut || rx.try_recv().is_ok(),
             &mut |_| {},

@@ -129,10 +129,7 @@ pub fn run_flow(
         Exit::new(
             e.exit_code(),
             e.name(),
-            format!(
-                "{e}; the procedure ended with the motors at minimum tension and the previous calibration ({}) is unchanged",
-                calibration_path.display()
-            ),
+            session::failure_message(&e, &calibration_path),
         )
     })?;
     outcome.calibration.save(&calibration_path).map_err(|e| {
@@ -142,18 +139,47 @@ pub fn run_flow(
             format!("the rig was measured but the calibration could not be written: {e}"),
         )
     })?;
-    if device.json {
-        println!("{}", result_json(&outcome.calibration));
-    } else {
-        println!("{}", summary(&outcome.calibration, &calibration_path));
-    }
-    Ok(ExitCode::SUCCESS)
+    Ok(print_result(
+        device,
+        &outcome.calibration,
+        &calibration_path,
+    ))
 }
 
-/// Run `videt init`.
+/// Print a written calibration: the JSON document with `--json`, else the summary.
+pub fn print_result(device: &DeviceArgs, calibration: &Calibration, path: &Path) -> ExitCode {
+    if device.json {
+        println!("{}", result_json(calibration));
+    } else {
+        println!("{}", summary(calibration, path));
+    }
+    ExitCode::SUCCESS
+}
+
+/// Run a procedure in the service answering on `socket` (its own hardware) and print the
+/// result as a direct run does.
+pub fn run_through_service(
+    device: &DeviceArgs,
+    socket: &Path,
+    request: &crate::socket::ProcedureRequest,
+) -> Result<ExitCode, Exit> {
+    let done = super::through_service::run(socket, request)?;
+    Ok(print_result(device, &done.calibration, &done.path))
+}
+
+/// Run `videt init`: in the running service when its control socket answers, else directly.
 pub fn run(args: &InitArgs) -> ToolResult {
     let device = &args.device;
     let result = device.load_config().and_then(|config| {
+        if let Some(socket) = device.running_service(&config) {
+            let request = device.service_request(
+                &config,
+                crate::socket::ProcedureCommand::Init,
+                None,
+                None,
+            )?;
+            return run_through_service(device, &socket, &request);
+        }
         run_flow(device, &config, &mut |hw, tech, runner, ctx| {
             session::initialize(hw, tech, runner, ctx)
         })

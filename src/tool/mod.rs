@@ -12,6 +12,7 @@ pub mod log;
 pub mod service;
 pub mod status;
 pub mod tension_calibrate;
+pub mod through_service;
 pub mod vision;
 pub mod wire;
 

@@ -50,15 +50,7 @@ fn replace(args: &ReplaceArgs) -> Result<ExitCode, Exit> {
         return Err(Exit::new(EXIT_USAGE, e.name(), e.to_string()));
     }
     let mut config = device.load_config()?;
-    let current = Calibration::load(&device.calibration_path(&config)).ok();
-    let required_m = session::required_wire_length_m(&config, current.as_ref());
-    eprintln!(
-        "videt: replacing wire {}: a new yarn must be usable to at least {:.0} mm",
-        args.wire,
-        required_m * 1e3
-    );
-    let new_length = args.sim_new_wire_length;
-    if let Some(l) = new_length {
+    if let Some(l) = args.sim_new_wire_length {
         if !(l.is_finite() && l > 0.0 && l <= 5.0) {
             return Err(Exit::new(
                 EXIT_USAGE,
@@ -67,6 +59,25 @@ fn replace(args: &ReplaceArgs) -> Result<ExitCode, Exit> {
             ));
         }
     }
+    if let Some(socket) = device.running_service(&config) {
+        // The service releases the wire, waits for the technician, re-homes and re-initializes
+        // on its own hardware; it says how long the new yarn must be.
+        let request = device.service_request(
+            &config,
+            crate::socket::ProcedureCommand::WireReplace,
+            u8::try_from(args.wire).ok(),
+            args.sim_new_wire_length,
+        )?;
+        return super::init::run_through_service(device, &socket, &request);
+    }
+    let current = Calibration::load(&device.calibration_path(&config)).ok();
+    let required_m = session::required_wire_length_m(&config, current.as_ref());
+    eprintln!(
+        "videt: replacing wire {}: a new yarn must be usable to at least {:.0} mm",
+        args.wire,
+        required_m * 1e3
+    );
+    let new_length = args.sim_new_wire_length;
     if let Some(l) = new_length {
         // Winding a long new yarn back must not count as a runaway.
         config.autoinit.max_wind_travel_m = config.autoinit.max_wind_travel_m.max(l + 0.1);
