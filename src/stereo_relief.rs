@@ -367,17 +367,25 @@ pub struct LiveSettings {
     /// Time between two updates, seconds (the pipeline's "frame"; scales the velocity
     /// look-ahead).
     pub update_period_s: f64,
+    /// Time between two whole-image runs, seconds: they replace the pieces that the local
+    /// merges split segments into at the regions' borders, so the segment list stays the size
+    /// of one image's.
+    pub full_refresh_s: f64,
 }
 
 impl Default for LiveSettings {
-    /// A 72 x 72 px region, 15 updates per second.
+    /// A 72 x 72 px region, 15 updates per second, a whole-image run every 10 s.
     fn default() -> Self {
         LiveSettings {
             roi_size_px: [72.0, 72.0],
             update_period_s: 1.0 / 15.0,
+            full_refresh_s: 10.0,
         }
     }
 }
+
+/// Pieces shorter than this in the image are dropped after a merge, pixels.
+const MIN_PIECE_PX: f64 = 1.0;
 
 /// What the first (whole-image) build did.
 #[derive(Debug, Clone)]
@@ -452,6 +460,12 @@ impl StereoRelief {
             return Err(format!(
                 "live update period {} s must be finite and > 0",
                 live.update_period_s
+            ));
+        }
+        if !(live.full_refresh_s.is_finite() && live.full_refresh_s > 0.0) {
+            return Err(format!(
+                "whole-image refresh period {} s must be finite and > 0",
+                live.full_refresh_s
             ));
         }
         let geometry = pair.geometry();
@@ -552,6 +566,23 @@ impl StereoRelief {
         })
     }
 
+    /// Re-runs the whole-image pipeline and rebuilds the relief from its segments (the scene
+    /// depth range of the first build is kept). Returns the relief and the builder's report.
+    pub fn refresh_full(&mut self) -> Result<(ReliefModel, BuildReport), String> {
+        let lv = GrayView::from_image(&self.pair.left).map_err(|e| e.to_string())?;
+        let rv = GrayView::from_image(&self.pair.right).map_err(|e| e.to_string())?;
+        let out = self
+            .pipeline
+            .run(&lv, &rv, Some(&self.geometry), &self.vision)
+            .map_err(|e| format!("stereo pipeline: {e}"))?;
+        let mut segments = Vec::with_capacity(out.segments_3d.len());
+        scene_segments(&out.segments_3d, &mut segments);
+        let (model, report) = build_from_scene(&segments, &[], &self.camera, &self.relief)
+            .map_err(|e| e.to_string())?;
+        self.segments = segments;
+        Ok((model, report))
+    }
+
     /// Re-matches the region under the thimble, merges it into the segments and rebuilds the
     /// relief. `Ok(None)` when the finger is not over the image (nothing to update).
     pub fn update_around(
@@ -585,7 +616,13 @@ impl StereoRelief {
         };
         let match_time = start.elapsed();
         let start = Instant::now();
-        let merged = merge_region(&self.segments, &self.fresh, &self.camera, roi);
+        let mut merged = merge_region(&self.segments, &self.fresh, &self.camera, roi);
+        let camera = self.camera;
+        merged.retain(|s| match (camera.project(&s.a_m), camera.project(&s.b_m)) {
+            (Some((a, _)), Some((b, _))) => (a[0] - b[0]).hypot(a[1] - b[1]) >= MIN_PIECE_PX,
+            // Not projectable: the builder rejects it with its reason.
+            _ => true,
+        });
         let (model, report) = build_from_scene(&merged, &[], &self.camera, &self.relief)
             .map_err(|e| e.to_string())?;
         let build_time = start.elapsed();
@@ -608,6 +645,7 @@ pub struct LiveStats {
     updates: AtomicU64,
     failures: AtomicU64,
     keepalives: AtomicU64,
+    full_refreshes: AtomicU64,
     last_update_us: AtomicU64,
     max_update_us: AtomicU64,
 }
@@ -626,6 +664,11 @@ impl LiveStats {
     /// The unchanged relief re-published because the finger was away from the image.
     pub fn keepalives(&self) -> u64 {
         self.keepalives.load(Ordering::Relaxed)
+    }
+
+    /// Whole-image runs published.
+    pub fn full_refreshes(&self) -> u64 {
+        self.full_refreshes.load(Ordering::Relaxed)
     }
 
     /// Time of the last update and of the slowest one (match + rebuild), microseconds.
@@ -652,17 +695,18 @@ impl LiveStats {
             n => format!(", {n} failed"),
         };
         format!(
-            "  relief: {} live updates (last {:.1} ms, max {:.1} ms{failures})",
+            "  relief: {} live updates (last {:.1} ms, max {:.1} ms{failures}), {} whole-image",
             self.updates(),
             last as f64 * 1e-3,
-            max as f64 * 1e-3
+            max as f64 * 1e-3,
+            self.full_refreshes()
         )
     }
 }
 
 /// Start the vision thread (`videt-vision`) of a stereo relief: at the live update rate it
 /// reads the newest thimble state, re-matches the region under the finger and publishes the
-/// rebuilt relief; when the finger is not over the image it re-publishes the current relief
+/// rebuilt relief (every `full_refresh_s` a whole-image run instead); when the finger is not over the image it re-publishes the current relief
 /// every `keepalive_s` seconds (the relief is not stale: vision is running). Runs until the
 /// process ends.
 pub fn spawn_live_updates(
@@ -675,12 +719,14 @@ pub fn spawn_live_updates(
 ) -> std::io::Result<std::thread::JoinHandle<()>> {
     let period = Duration::from_secs_f64(relief.live.update_period_s);
     let keepalive = Duration::from_secs_f64(keepalive_s.clamp(1e-3, 3600.0));
+    let full_refresh = Duration::from_secs_f64(relief.live.full_refresh_s.clamp(1e-3, 1e6));
     std::thread::Builder::new()
         .name("videt-vision".into())
         .spawn(move || {
             let mut current = initial;
             let mut next_tick = Instant::now() + period;
             let mut last_publish = Instant::now();
+            let mut last_full = Instant::now();
             loop {
                 let now = Instant::now();
                 if next_tick > now {
@@ -690,6 +736,23 @@ pub fn spawn_live_updates(
                 if next_tick + period < Instant::now() {
                     // Fell behind (a slow update): do not try to catch up.
                     next_tick = Instant::now() + period;
+                }
+                if last_full.elapsed() >= full_refresh {
+                    last_full = Instant::now();
+                    match relief.refresh_full() {
+                        Ok((model, _)) => {
+                            current = model;
+                            writer.publish_with(|slot| slot.clone_from(&current));
+                            stats.full_refreshes.fetch_add(1, Ordering::Relaxed);
+                            last_publish = Instant::now();
+                        }
+                        Err(e) => {
+                            if stats.failures.fetch_add(1, Ordering::Relaxed) < 10 {
+                                tracing::warn!("whole-image relief refresh failed (the previous relief stays): {e}");
+                            }
+                        }
+                    }
+                    continue;
                 }
                 let state = thimble.latest();
                 let (version, position, velocity) = (
@@ -839,6 +902,17 @@ mod tests {
         );
         assert!(update.merged_segments >= initial_segments.len() - 5);
         assert_eq!(updated.back_plane_z_m(), model.back_plane_z_m());
+        // Many updates along a sweep: pieces accumulate a little; a whole-image run resets them.
+        for k in 0..40 {
+            let x = cx - 0.07 + 0.0035 * k as f64;
+            relief
+                .update_around([x, cy + 0.03, 0.3], [0.05, 0.0, 0.0])
+                .unwrap()
+                .unwrap();
+        }
+        let (refreshed, _) = relief.refresh_full().unwrap();
+        assert_eq!(relief.segments().len(), initial.segments_3d);
+        assert_eq!(refreshed, model);
         assert!(relief
             .update_around([cx + 1.0, cy, 0.3], [0.0; 3])
             .unwrap()

@@ -24,12 +24,15 @@ use videt_sim::Vec3;
 use videt_vision::surface::ReliefModel;
 
 /// The vision thread, run from the observer for determinism: every `every_cycles` periods it
-/// re-matches the region under the finger and publishes the rebuilt relief.
+/// re-matches the region under the finger and publishes the rebuilt relief; every
+/// `full_every_cycles` it runs the whole image instead.
 struct LiveVision {
     records: Vec<CycleRecord>,
     relief: StereoRelief,
     writer: SnapshotWriter<ReliefModel>,
     every_cycles: u64,
+    full_every_cycles: u64,
+    full_refreshes: usize,
     /// The model of each published version (index = version).
     models: Vec<ReliefModel>,
     update_times: Vec<Duration>,
@@ -43,6 +46,14 @@ impl CycleObserver for LiveVision {
             self.records.push(*record);
         }
         if record.cycle == 0 || record.cycle % self.every_cycles != 0 {
+            return;
+        }
+        if record.cycle % self.full_every_cycles == 0 {
+            let (model, _) = self.relief.refresh_full().expect("a whole-image run");
+            self.writer.publish_with(|slot| slot.clone_from(&model));
+            self.models.push(model);
+            self.published_at.push(record.cycle);
+            self.full_refreshes += 1;
             return;
         }
         let update = self
@@ -104,6 +115,8 @@ fn operator_sweeps_a_live_relief_from_a_real_stereo_pair() {
         relief,
         writer,
         every_cycles: (live.update_period_s / period_s).round() as u64,
+        full_every_cycles: 2000,
+        full_refreshes: 0,
         models: vec![model],
         update_times: Vec::new(),
         published_at: vec![0],
@@ -143,6 +156,7 @@ fn operator_sweeps_a_live_relief_from_a_real_stereo_pair() {
         v.len()
     };
     assert!(updates >= 20, "{updates} live updates");
+    assert_eq!(vision.full_refreshes, 2, "whole-image runs at 2 s and 4 s");
     assert!(
         rendered_versions >= 20,
         "{rendered_versions} versions rendered"
