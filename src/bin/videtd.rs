@@ -3,7 +3,9 @@
 //! `videtd --sim` runs the real runtime and control code on the digital twin (a virtual wall and
 //! a virtual operator who touches it and slides along it); `videtd --sim can` runs the same with
 //! the twin's motors behind three simulated CiA 402 drives on a userspace CAN bus, through the
-//! real CANopen drive driver. One status line per second; Ctrl-C or
+//! real CANopen drive driver. `--scene box` puts a bas-relief box in front of the HAL twin,
+//! `--scene stereo` the bas-relief of a real stereo pair, re-matched around the finger on a vision
+//! thread while the operator sweeps across it. One status line per second; Ctrl-C or
 //! SIGTERM ramps the forces out, powers the drives off and exits 0. Under systemd
 //! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
 //! control loop is healthy.
@@ -558,5 +560,24 @@ fn calibrate_twin(
             warn!("forces will not be rendered (not calibrated): twin auto-initialization failed: {e}");
             (configured, WireZero::default(), false)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenes_parse_with_clear_errors() {
+        assert_eq!(parse_scene("wall").unwrap(), SimScene::Wall);
+        assert_eq!(parse_scene("box").unwrap(), SimScene::Box);
+        assert_eq!(parse_scene("stereo").unwrap(), SimScene::Stereo(None));
+        assert_eq!(
+            parse_scene("stereo:pairs/teddy").unwrap(),
+            SimScene::Stereo(Some(PathBuf::from("pairs/teddy")))
+        );
+        assert!(parse_scene("stereo:").unwrap_err().contains("directory"));
+        let e = parse_scene("cube").unwrap_err();
+        assert!(e.contains("cube") && e.contains("stereo:DIR"), "{e}");
     }
 }
