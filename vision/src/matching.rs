@@ -93,7 +93,7 @@ impl Default for MatchParams {
     /// length ratio >= 0.7 for segments >= 20 px; propagation within 20 deg and ratio >= 0.4;
     /// neighbours within 30 px; disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
     /// levels, contrast ratio <= 2.5; seeds need 2 supporting neighbours, other matches 1;
-    /// left-right check on; horizontal segments matched.
+    /// photometric error <= 7 grey levels; left-right check on; horizontal segments matched.
     fn default() -> Self {
         Self {
             disparity_min_px: 0.0,
@@ -114,7 +114,7 @@ impl Default for MatchParams {
             max_contrast_ratio: 2.5,
             min_seed_support: 2,
             min_support: 1,
-            max_photometric_error: 6.0,
+            max_photometric_error: 7.0,
             left_right_check: true,
             match_horizontal: true,
         }

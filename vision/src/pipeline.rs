@@ -31,7 +31,12 @@ pub struct VisionParams {
 impl Default for VisionParams {
     fn default() -> Self {
         Self {
-            canny: CannyParams::default(),
+            // A lower high threshold than the detector's own default: more of the weaker
+            // edges of the right image survive, so more left segments find their partner.
+            canny: CannyParams {
+                high_threshold: 80,
+                ..CannyParams::default()
+            },
             segments: SegmentParams::default(),
             matching: MatchParams::default(),
             disparity_sigma_px: 0.5,
