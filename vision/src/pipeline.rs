@@ -149,7 +149,9 @@ impl StereoPipeline {
     ///
     /// With whole chains, matching decisions that do not depend on the order of the segments,
     /// and propagation that cannot come from outside, the matches inside the region are the
-    /// whole-image run's (checked on real pairs by `tests/local_mode.rs`).
+    /// whole-image run's (checked on real pairs by `tests/local_mode.rs`). The price: where
+    /// long chains run near the region, most of the frame may be processed, in several passes.
+    /// With [`LocalParams::exact`] off, one pass over the initial windows only.
     pub fn run_local(
         &mut self,
         left: &GrayView<'_>,
@@ -205,12 +207,18 @@ impl StereoPipeline {
                 width: 0,
                 height: 0,
             })?;
-            let mut cut = self.process(&left_view, &right_view, None, params, Some(&check))?;
-            // A match inside the region that propagation might reach from outside the window.
+            let exact = params.local.exact.then_some(&check);
+            let mut cut = self.process(&left_view, &right_view, None, params, exact)?;
+            if exact.is_none() {
+                break;
+            }
+            // A match inside the region that propagation might reach from outside the window
+            // (checked once the pass is complete, i.e. no chain was cut).
             let roi = windows.roi;
-            if self
-                .matcher
-                .has_unreached(&self.output.left_segments, m, |s| touches(s, &roi))
+            if !cut.iter().flatten().any(|&c| c)
+                && self
+                    .matcher
+                    .has_unreached(&self.output.left_segments, m, |s| touches(s, &roi))
             {
                 cut[0] = [true; 4];
             }
@@ -305,6 +313,11 @@ impl StereoPipeline {
                     check.influence[side],
                 );
             }
+            if cut.iter().flatten().any(|&c| c) {
+                // The windows will grow: segments and matches of this pass are not needed.
+                segments.clear();
+                continue;
+            }
             let t = Instant::now();
             self.segments.extract(
                 &self.chains,
@@ -314,6 +327,12 @@ impl StereoPipeline {
                 segments,
             );
             timings.segments += t.elapsed();
+        }
+        if cut.iter().flatten().any(|&c| c) {
+            out.matches.clear();
+            out.segments_3d.clear();
+            out.timings = timings;
+            return Ok(cut);
         }
         let t = Instant::now();
         let images = StereoImages {

@@ -28,15 +28,20 @@ pub struct LocalParams {
     pub context_margin_px: usize,
     /// How much a window side grows at a time, pixels (see [`cut_chain_sides`]).
     pub growth_step_px: usize,
+    /// Grow the windows until the matches inside the region are the whole-image run's
+    /// (`StereoPipeline::run_local`); when off, one pass over the region plus the context
+    /// margin: faster, but a few matches near chains cut by the window border can differ.
+    pub exact: bool,
 }
 
 impl Default for LocalParams {
-    /// Two frames of look-ahead; 32 px of initial context; growth by 48 px.
+    /// Two frames of look-ahead; 32 px of initial context; growth by 48 px; exact.
     fn default() -> Self {
         Self {
             lookahead_frames: 2.0,
             context_margin_px: 32,
             growth_step_px: 48,
+            exact: true,
         }
     }
 }

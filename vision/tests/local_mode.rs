@@ -107,3 +107,37 @@ fn local_runs_equal_the_global_run_inside_the_region() {
     }
     assert!(total > 200, "the regions must hold matches ({total})");
 }
+
+/// Without growth (one pass over the region plus its context margin) chains cut by the window
+/// border change segments near the region, which is what the exact mode repairs: on the same
+/// regions some global matches are missed or differ.
+#[test]
+fn a_single_pass_over_a_fixed_window_is_not_exact() {
+    let mut params = VisionParams::default();
+    params.local.exact = false;
+    let Some(dir) = videt_testdata::data_dir("stereo/teddy") else {
+        return;
+    };
+    let left = image::open(dir.join("left.ppm")).unwrap().to_luma8();
+    let right = image::open(dir.join("right.ppm")).unwrap().to_luma8();
+    let lv = GrayView::from_image(&left).unwrap();
+    let rv = GrayView::from_image(&right).unwrap();
+    let mut pipeline = StereoPipeline::new();
+    let global = pipeline.run(&lv, &rv, None, &params).unwrap().clone();
+    let (mut expected_total, mut differing) = (0, 0);
+    for region in regions(lv.width() as f32, lv.height() as f32) {
+        let local = pipeline
+            .run_local(&lv, &rv, None, &params, &region)
+            .unwrap();
+        let roi = local.local.unwrap().roi;
+        let expected = matches_inside(&global, &roi);
+        let found = matches_inside(local, &roi);
+        expected_total += expected.len();
+        differing += expected
+            .iter()
+            .filter(|e| !found.iter().any(|f| same_match(e, f)))
+            .count();
+    }
+    assert!(expected_total > 50, "{expected_total}");
+    assert!(differing > 0, "the fixed window happened to be exact");
+}
