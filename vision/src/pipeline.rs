@@ -196,9 +196,21 @@ impl StereoPipeline {
             ],
         };
         let step = params.local.growth_step_px.max(1);
-        let max_growths = 2 * (frame_width + frame_height) / step + 2;
+        // Every pass that does not end the loop grows a window side by `step` (a side at the
+        // frame border is never asked to grow), so the frame is reached within this many.
+        let max_passes = 4 * ((frame_width + frame_height) / step + 2);
         let start = Instant::now();
-        for _ in 0..max_growths {
+        for pass in 0..max_passes {
+            if pass + 1 == max_passes {
+                // Unreachable by the argument above; stay complete regardless.
+                windows.left = enlarge(
+                    windows.left,
+                    frame_width.max(frame_height),
+                    frame_width,
+                    frame_height,
+                );
+                windows.right = windows.left;
+            }
             let left_view = left.window(windows.left).ok_or(VisionError::EmptyImage {
                 width: 0,
                 height: 0,
