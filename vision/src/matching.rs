@@ -21,10 +21,14 @@
 //!    same rows of its right segment), required support.
 //!
 //! Nearly horizontal segments lie along epipolar lines and their disparity is only fixed by
-//! their unstable endpoints: they are matched only by propagation from a matched neighbour, to
-//! a right segment on the same rows that lies on the left one once shifted by the neighbour's
-//! disparity and has an endpoint disparity agreeing with it (that endpoint disparity is the
-//! match's). They are flagged [`SegmentMatch::nearly_horizontal`] and never back-projected.
+//! their unstable endpoints: they are matched only after propagation, from their closest
+//! matched neighbour, to a right segment on the same rows that lies on the left one once
+//! shifted by the neighbour's disparity and has an endpoint disparity agreeing with it (that
+//! endpoint disparity is the match's). This runs in rounds (the second lets nearly horizontal
+//! matches vouch for nearly horizontal neighbours), each decided from the matches before it,
+//! so that the result does not depend on the order in which matches were found (a local run
+//! finds them in another order). They are flagged [`SegmentMatch::nearly_horizontal`] and
+//! never back-projected.
 //!
 //! A match's disparity is taken at the left segment's two endpoints: the right segment's line
 //! is intersected with the rows of the left endpoints.
@@ -93,7 +97,7 @@ impl Default for MatchParams {
     /// length ratio >= 0.7 for segments >= 20 px; propagation within 20 deg and ratio >= 0.4;
     /// neighbours within 30 px; disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
     /// levels, contrast ratio <= 2.5; seeds need 2 supporting neighbours, other matches 1;
-    /// left-right check on; horizontal segments matched.
+    /// photometric error <= 7 grey levels; left-right check on; horizontal segments matched.
     fn default() -> Self {
         Self {
             disparity_min_px: 0.0,
@@ -114,7 +118,7 @@ impl Default for MatchParams {
             max_contrast_ratio: 2.5,
             min_seed_support: 2,
             min_support: 1,
-            max_photometric_error: 6.0,
+            max_photometric_error: 7.0,
             left_right_check: true,
             match_horizontal: true,
         }
@@ -289,9 +293,16 @@ pub struct MatchWorkspace {
     left_used: Vec<bool>,
     accepted_candidate: Vec<u32>,
     heap: BinaryHeap<Queued>,
+    /// Nearly horizontal proposals of a round: candidate, measured disparity, distance to the
+    /// neighbour giving the context.
+    proposals: Vec<(u32, f32, f32)>,
 }
 
 const NONE: u32 = u32::MAX;
+
+/// Rounds of nearly horizontal matching (the second lets nearly horizontal matches vouch for
+/// their nearly horizontal neighbours).
+const HORIZONTAL_ROUNDS: usize = 2;
 
 /// How many left fragments may share one right segment (on disjoint rows).
 const MAX_PIECES_PER_RIGHT: usize = 4;
@@ -505,6 +516,26 @@ impl MatchWorkspace {
         self.neighbours.truncate(write);
     }
 
+    /// Whether some left segment for which `inside` holds was left unmatched although it has
+    /// a candidate that validation would accept (the best of its segment, not beaten on its
+    /// right segment's rows, enough support): propagation did not reach it from the matches
+    /// found. Call after [`MatchWorkspace::match_segments`] with the same segments.
+    pub fn has_unreached(
+        &self,
+        left: &[Segment],
+        params: &MatchParams,
+        inside: impl Fn(&Segment) -> bool,
+    ) -> bool {
+        (0..left.len()).any(|i| {
+            self.accepted_candidate.get(i) == Some(&NONE)
+                && inside(&left[i])
+                && self.candidates_of(i as u32).any(|k| {
+                    let c = &self.candidates[k];
+                    !c.horizontal && c.support >= params.min_support && self.consistent(k, params)
+                })
+        })
+    }
+
     fn candidates_of(&self, left: u32) -> std::ops::Range<usize> {
         self.candidate_start[left as usize] as usize
             ..self.candidate_start[left as usize + 1] as usize
@@ -657,41 +688,21 @@ impl MatchWorkspace {
                 if self.left_used[nb.other as usize] {
                     continue;
                 }
-                let context_disparity = cand.disparity_at(nb.t_self);
                 let mut best: Option<usize> = None;
-                let mut best_disparity = context_disparity;
                 for m in self.candidates_of(nb.other) {
                     let other = &self.candidates[m];
-                    // A nearly horizontal match only vouches for other nearly horizontal ones.
-                    if !self.right_free(other) || (cand.horizontal && !other.horizontal) {
+                    if other.horizontal
+                        || other.support < params.min_support
+                        || !self.right_free(other)
+                        || !continuous(&cand, other, &nb, params)
+                    {
                         continue;
                     }
-                    let measured = if other.horizontal {
-                        fits_shifted(
-                            &left[other.left as usize],
-                            &right[other.right as usize],
-                            context_disparity,
-                            params,
-                        )
-                    } else if other.support >= params.min_support
-                        && continuous(&cand, other, &nb, params)
-                    {
-                        Some(0.0)
-                    } else {
-                        None
-                    };
-                    let Some(measured) = measured else {
-                        continue;
-                    };
                     if best.is_none_or(|b| other.better_than(&self.candidates[b])) {
                         best = Some(m);
-                        best_disparity = measured;
                     }
                 }
                 if let Some(m) = best {
-                    if self.candidates[m].horizontal {
-                        self.candidates[m].disparity = [best_disparity; 2];
-                    }
                     let other = &self.candidates[m];
                     self.heap.push(Queued {
                         support: other.support,
@@ -702,6 +713,87 @@ impl MatchWorkspace {
                 }
             }
         }
+        if params.match_horizontal {
+            for _ in 0..HORIZONTAL_ROUNDS {
+                if !self.match_horizontal_round(left, right, params) {
+                    break;
+                }
+            }
+        }
+    }
+
+    /// One round of matching nearly horizontal left segments from the matches accepted before
+    /// the round: each unmatched one takes its context disparity from its closest matched
+    /// neighbour (a nearly horizontal neighbour only if matched in an earlier round) and
+    /// proposes its best candidate lying on it once shifted by that disparity; proposals are
+    /// then accepted best first where the right segment is still free. The result depends
+    /// only on the matches before the round, not on the order of the segments. Returns whether
+    /// anything was accepted.
+    fn match_horizontal_round(
+        &mut self,
+        left: &[Segment],
+        right: &[Segment],
+        params: &MatchParams,
+    ) -> bool {
+        self.proposals.clear();
+        for h in 0..left.len() as u32 {
+            if self.left_used[h as usize] {
+                continue;
+            }
+            let cands = self.candidates_of(h);
+            if cands.is_empty() || !self.candidates[cands.start].horizontal {
+                continue;
+            }
+            // Neighbours are sorted closest first (ties by position).
+            for n in self.neighbours_of(h) {
+                let nb = self.neighbours[n];
+                let a = self.accepted_candidate[nb.other as usize];
+                if a == NONE {
+                    continue;
+                }
+                let context = self.candidates[a as usize].disparity_at(nb.t_other);
+                let mut best: Option<(usize, f32)> = None;
+                for m in self.candidates_of(h) {
+                    let c = &self.candidates[m];
+                    if !self.right_free(c) {
+                        continue;
+                    }
+                    let Some(measured) =
+                        fits_shifted(&left[h as usize], &right[c.right as usize], context, params)
+                    else {
+                        continue;
+                    };
+                    if best.is_none_or(|(b, _)| c.better_than(&self.candidates[b])) {
+                        best = Some((m, measured));
+                    }
+                }
+                if let Some((m, measured)) = best {
+                    self.proposals.push((m as u32, measured, nb.distance));
+                    break;
+                }
+            }
+        }
+        let candidates = &self.candidates;
+        self.proposals.sort_unstable_by(|a, b| {
+            let (ca, cb) = (&candidates[a.0 as usize], &candidates[b.0 as usize]);
+            a.2.total_cmp(&b.2)
+                .then_with(|| cb.rank_cmp(ca))
+                .then_with(|| a.0.cmp(&b.0))
+        });
+        let mut accepted = false;
+        for p in 0..self.proposals.len() {
+            let (m, measured, _) = self.proposals[p];
+            let c = self.candidates[m as usize];
+            if !self.right_free(&c) {
+                continue;
+            }
+            self.candidates[m as usize].disparity = [measured; 2];
+            self.left_used[c.left as usize] = true;
+            self.take_right(&c);
+            self.accepted_candidate[c.left as usize] = m;
+            accepted = true;
+        }
+        accepted
     }
 }
 

@@ -8,7 +8,10 @@ use crate::error::VisionError;
 use crate::gray::{GrayView, PixelRect};
 use crate::matching::{ImagePatch, MatchParams, MatchWorkspace, SegmentMatch, StereoImages};
 use crate::reconstruct::{back_project_matches, RectifiedGeometry, Segment3d};
-use crate::roi::{local_windows, LocalParams, LocalRegion, LocalWindows};
+use crate::roi::{
+    cut_chain_sides, enlarge, grow_window, local_windows, right_band, union, LocalParams,
+    LocalRegion, LocalWindows, WindowSides,
+};
 use crate::segments::{Segment, SegmentParams, SegmentWorkspace};
 use std::time::{Duration, Instant};
 
@@ -31,7 +34,12 @@ pub struct VisionParams {
 impl Default for VisionParams {
     fn default() -> Self {
         Self {
-            canny: CannyParams::default(),
+            // A lower high threshold than the detector's own default: more of the weaker
+            // edges of the right image survive, so more left segments find their partner.
+            canny: CannyParams {
+                high_threshold: 80,
+                ..CannyParams::default()
+            },
             segments: SegmentParams::default(),
             matching: MatchParams::default(),
             disparity_sigma_px: 0.5,
@@ -124,14 +132,26 @@ impl StereoPipeline {
         check_pair(left, right)?;
         params.validate()?;
         self.output.local = None;
-        self.process(left, right, geometry, params)?;
+        self.process(left, right, geometry, params, None)?;
         Ok(&self.output)
     }
 
     /// Local run: only the windows around `region` are processed (see [`local_windows`]);
     /// matches whose left segment does not touch the region of interest are dropped.
-    /// Inside the region, the matches equal those of a whole-image run whenever the context
-    /// margin covers the chains and neighbourhoods involved.
+    ///
+    /// The windows start at the region plus the context margin and grow (by
+    /// [`LocalParams::growth_step_px`], up to the whole frame) while
+    /// - an edge chain cut by a window border comes within the neighbourhood radius of the
+    ///   region (right image: within the columns where candidates of those left segments can
+    ///   lie): its segments would differ from the whole-image run's;
+    /// - a left segment in the region stays unmatched although it has a candidate validation
+    ///   would accept: propagation may reach it from outside the window.
+    ///
+    /// With whole chains, matching decisions that do not depend on the order of the segments,
+    /// and propagation that cannot come from outside, the matches inside the region are the
+    /// whole-image run's (checked on real pairs by `tests/local_mode.rs`). The price: where
+    /// long chains run near the region, most of the frame may be processed, in several passes.
+    /// With [`LocalParams::exact`] off, one pass over the initial windows only.
     pub fn run_local(
         &mut self,
         left: &GrayView<'_>,
@@ -142,24 +162,101 @@ impl StereoPipeline {
     ) -> Result<&PipelineOutput, VisionError> {
         check_pair(left, right)?;
         params.validate()?;
-        let windows = local_windows(
+        let (frame_width, frame_height) = (left.width(), left.height());
+        let m = &params.matching;
+        let mut windows = local_windows(
             region,
             &params.local,
-            left.width(),
-            left.height(),
-            params.matching.disparity_min_px,
-            params.matching.disparity_max_px,
+            frame_width,
+            frame_height,
+            m.disparity_min_px,
+            m.disparity_max_px,
         )?;
-        let left_view = left.window(windows.left).ok_or(VisionError::EmptyImage {
-            width: 0,
-            height: 0,
-        })?;
-        let right_view = right.window(windows.right).ok_or(VisionError::EmptyImage {
-            width: 0,
-            height: 0,
-        })?;
+        // Chains cut by a window border near the region are followed by growing the windows
+        // until they are whole (then their segments are the whole-image run's).
+        let left_reach = enlarge(
+            windows.roi,
+            m.neighbourhood_radius_px.ceil() as usize,
+            frame_width,
+            frame_height,
+        );
+        let check = CutCheck {
+            frame: (frame_width, frame_height),
+            border_px: params.canny.kernel_radius() + 3,
+            influence: [
+                left_reach,
+                right_band(
+                    left_reach,
+                    m.disparity_min_px,
+                    m.disparity_max_px,
+                    0,
+                    frame_width,
+                    frame_height,
+                ),
+            ],
+        };
+        let step = params.local.growth_step_px.max(1);
+        // Every pass that does not end the loop grows a window side by `step` (a side at the
+        // frame border is never asked to grow), so the frame is reached within this many.
+        let max_passes = 4 * ((frame_width + frame_height) / step + 2);
         let start = Instant::now();
-        self.process(&left_view, &right_view, None, params)?;
+        for pass in 0..max_passes {
+            if pass + 1 == max_passes {
+                // Unreachable by the argument above; stay complete regardless.
+                windows.left = enlarge(
+                    windows.left,
+                    frame_width.max(frame_height),
+                    frame_width,
+                    frame_height,
+                );
+                windows.right = windows.left;
+            }
+            let left_view = left.window(windows.left).ok_or(VisionError::EmptyImage {
+                width: 0,
+                height: 0,
+            })?;
+            let right_view = right.window(windows.right).ok_or(VisionError::EmptyImage {
+                width: 0,
+                height: 0,
+            })?;
+            let exact = params.local.exact.then_some(&check);
+            let mut cut = self.process(&left_view, &right_view, None, params, exact)?;
+            if exact.is_none() {
+                break;
+            }
+            // A match inside the region that propagation might reach from outside the window
+            // (checked once the pass is complete, i.e. no chain was cut).
+            let roi = windows.roi;
+            if !cut.iter().flatten().any(|&c| c)
+                && self
+                    .matcher
+                    .has_unreached(&self.output.left_segments, m, |s| touches(s, &roi))
+            {
+                cut[0] = [true; 4];
+            }
+            let open = windows.left
+                != PixelRect {
+                    x: 0,
+                    y: 0,
+                    width: frame_width,
+                    height: frame_height,
+                };
+            if !cut.iter().flatten().any(|&c| c) || (!open && !cut[1].iter().any(|&c| c)) {
+                break;
+            }
+            windows.left = grow_window(windows.left, cut[0], step, frame_width, frame_height);
+            windows.right = union(
+                grow_window(windows.right, cut[1], step, frame_width, frame_height),
+                right_band(
+                    windows.left,
+                    m.disparity_min_px,
+                    m.disparity_max_px,
+                    params.local.context_margin_px / 4,
+                    frame_width,
+                    frame_height,
+                ),
+            );
+        }
         let roi = windows.roi;
         let left_segments = &self.output.left_segments;
         self.output
@@ -187,14 +284,19 @@ impl StereoPipeline {
         right: &GrayView<'_>,
         geometry: Option<&RectifiedGeometry>,
         params: &VisionParams,
-    ) -> Result<(), VisionError> {
+        cut_check: Option<&CutCheck>,
+    ) -> Result<[WindowSides; 2], VisionError> {
         let start = Instant::now();
+        let mut cut = [[false; 4]; 2];
         let mut timings = StageTimings::default();
         let out = &mut self.output;
-        for (view, canny, segments) in [
+        for (side, (view, canny, segments)) in [
             (left, &mut self.canny, &mut out.left_segments),
             (right, &mut self.canny_right, &mut out.right_segments),
-        ] {
+        ]
+        .into_iter()
+        .enumerate()
+        {
             let t = Instant::now();
             canny.detect(view, &params.canny)?;
             timings.edges += t.elapsed();
@@ -206,6 +308,28 @@ impl StereoPipeline {
                 params.segments.min_chain_pixels,
             );
             timings.chains += t.elapsed();
+            if let Some(check) = cut_check {
+                let (x, y) = view.origin_px();
+                let rect = PixelRect {
+                    x,
+                    y,
+                    width: view.width(),
+                    height: view.height(),
+                };
+                cut[side] = cut_chain_sides(
+                    &self.chains,
+                    rect,
+                    check.frame.0,
+                    check.frame.1,
+                    check.border_px,
+                    check.influence[side],
+                );
+            }
+            if cut.iter().flatten().any(|&c| c) {
+                // The windows will grow: segments and matches of this pass are not needed.
+                segments.clear();
+                continue;
+            }
             let t = Instant::now();
             self.segments.extract(
                 &self.chains,
@@ -215,6 +339,12 @@ impl StereoPipeline {
                 segments,
             );
             timings.segments += t.elapsed();
+        }
+        if cut.iter().flatten().any(|&c| c) {
+            out.matches.clear();
+            out.segments_3d.clear();
+            out.timings = timings;
+            return Ok(cut);
         }
         let t = Instant::now();
         let images = StereoImages {
@@ -244,8 +374,18 @@ impl StereoPipeline {
         }
         timings.total = start.elapsed();
         out.timings = timings;
-        Ok(())
+        Ok(cut)
     }
+}
+
+/// What a local run checks for chains cut by its window borders.
+struct CutCheck {
+    /// Frame size, pixels.
+    frame: (usize, usize),
+    /// Chains this close to a window border may be cut there, pixels.
+    border_px: usize,
+    /// Left and right: where cut chains matter (frame pixels).
+    influence: [PixelRect; 2],
 }
 
 /// The smoothed image held by `canny` for the view `v`.

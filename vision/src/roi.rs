@@ -1,6 +1,8 @@
 //! Local mode: the region of interest around the finger's image position, shifted and enlarged
-//! along its image-plane velocity, and the image windows processed for it.
+//! along its image-plane velocity, the image windows processed for it, and how those windows
+//! grow until edge chains near the region are whole (see `StereoPipeline::run_local`).
 
+use crate::chains::Chains;
 use crate::error::VisionError;
 use crate::gray::PixelRect;
 
@@ -24,16 +26,151 @@ pub struct LocalParams {
     /// Context around the region processed but not reported, pixels: edges, chains and
     /// neighbours crossing the region border are then seen as in a whole-image run.
     pub context_margin_px: usize,
+    /// How much a window side grows at a time, pixels (see [`cut_chain_sides`]).
+    pub growth_step_px: usize,
+    /// Grow the windows until the matches inside the region are the whole-image run's
+    /// (`StereoPipeline::run_local`); when off, one pass over the region plus the context
+    /// margin: faster, but a few matches near chains cut by the window border can differ.
+    pub exact: bool,
 }
 
 impl Default for LocalParams {
-    /// Two frames of look-ahead; 32 px of context.
+    /// Two frames of look-ahead; 32 px of initial context; growth by 48 px; exact.
     fn default() -> Self {
         Self {
             lookahead_frames: 2.0,
             context_margin_px: 32,
+            growth_step_px: 48,
+            exact: true,
         }
     }
+}
+
+/// Sides of a window: left, top, right, bottom.
+pub type WindowSides = [bool; 4];
+
+/// The sides of `window` (frame pixels) that cut a chain of `chains` (linked in that window,
+/// window pixels) which comes into `influence` (frame pixels): the chain passes within
+/// `border_px` of a side that is not the frame's border. Such a chain may continue outside the
+/// window, and its segments then differ from a whole-image run's.
+pub fn cut_chain_sides(
+    chains: &Chains,
+    window: PixelRect,
+    frame_width: usize,
+    frame_height: usize,
+    border_px: usize,
+    influence: PixelRect,
+) -> WindowSides {
+    let mut sides = [false; 4];
+    let open = [
+        window.x > 0,
+        window.y > 0,
+        window.x + window.width < frame_width,
+        window.y + window.height < frame_height,
+    ];
+    if !open.iter().any(|&o| o) {
+        return sides;
+    }
+    let b = border_px;
+    let (w, h) = (window.width, window.height);
+    for i in 0..chains.len() {
+        let mut touches = [false; 4];
+        let mut reaches = false;
+        for &[x, y] in chains.chain(i) {
+            let (x, y) = (x as usize, y as usize);
+            touches[0] |= x < b;
+            touches[1] |= y < b;
+            touches[2] |= x + b >= w;
+            touches[3] |= y + b >= h;
+            reaches |= influence.contains((window.x + x) as f32, (window.y + y) as f32);
+        }
+        if reaches {
+            for k in 0..4 {
+                sides[k] |= touches[k] && open[k];
+            }
+        }
+    }
+    sides
+}
+
+/// Grows `rect` by `step_px` on the given sides, within the frame.
+pub fn grow_window(
+    rect: PixelRect,
+    sides: WindowSides,
+    step_px: usize,
+    frame_width: usize,
+    frame_height: usize,
+) -> PixelRect {
+    let x0 = if sides[0] {
+        rect.x.saturating_sub(step_px)
+    } else {
+        rect.x
+    };
+    let y0 = if sides[1] {
+        rect.y.saturating_sub(step_px)
+    } else {
+        rect.y
+    };
+    let mut x1 = rect.x + rect.width;
+    let mut y1 = rect.y + rect.height;
+    if sides[2] {
+        x1 = (x1 + step_px).min(frame_width);
+    }
+    if sides[3] {
+        y1 = (y1 + step_px).min(frame_height);
+    }
+    PixelRect {
+        x: x0,
+        y: y0,
+        width: x1 - x0,
+        height: y1 - y0,
+    }
+}
+
+/// The smallest rectangle holding `a` and `b`.
+pub fn union(a: PixelRect, b: PixelRect) -> PixelRect {
+    let x0 = a.x.min(b.x);
+    let y0 = a.y.min(b.y);
+    let x1 = (a.x + a.width).max(b.x + b.width);
+    let y1 = (a.y + a.height).max(b.y + b.height);
+    PixelRect {
+        x: x0,
+        y: y0,
+        width: x1 - x0,
+        height: y1 - y0,
+    }
+}
+
+/// `rect` enlarged by `by` pixels on every side, clipped to the frame.
+pub fn enlarge(rect: PixelRect, by: usize, frame_width: usize, frame_height: usize) -> PixelRect {
+    grow_window(rect, [true; 4], by, frame_width, frame_height)
+}
+
+/// The right-image columns whose segments can be candidates of left segments in `left`
+/// (frame pixels) with disparities `disparity_min_px..=disparity_max_px`, on the same rows,
+/// plus `slack_px` on each side.
+pub fn right_band(
+    left: PixelRect,
+    disparity_min_px: f32,
+    disparity_max_px: f32,
+    slack_px: usize,
+    frame_width: usize,
+    frame_height: usize,
+) -> PixelRect {
+    let dmin = disparity_min_px.floor() as i64;
+    let dmax = disparity_max_px.ceil() as i64;
+    let s = slack_px as i64;
+    let rx0 = left.x as i64 - dmax - s;
+    let rx1 = (left.x + left.width) as i64 - dmin + s;
+    clip(
+        rx0,
+        left.y as i64,
+        rx1 - rx0,
+        left.height as i64,
+        frame_width,
+        frame_height,
+    )
+    .unwrap_or(left)
 }
 
 /// The rectangles a local run works on.
@@ -106,19 +243,14 @@ pub fn local_windows(
         height,
     )
     .unwrap_or(roi);
-    let dmin = disparity_min_px.floor() as i64;
-    let dmax = disparity_max_px.ceil() as i64;
-    let rx0 = left.x as i64 - dmax - m / 4;
-    let rx1 = (left.x + left.width) as i64 - dmin + m / 4;
-    let right = clip(
-        rx0,
-        left.y as i64,
-        rx1 - rx0,
-        left.height as i64,
+    let right = right_band(
+        left,
+        disparity_min_px,
+        disparity_max_px,
+        params.context_margin_px / 4,
         width,
         height,
-    )
-    .unwrap_or(left);
+    );
     Ok(LocalWindows { roi, left, right })
 }
 
@@ -185,6 +317,85 @@ mod tests {
                 width: 120,
                 height: 110
             }
+        );
+    }
+
+    #[test]
+    fn windows_grow_on_the_requested_sides_within_the_frame() {
+        let r = PixelRect {
+            x: 10,
+            y: 20,
+            width: 30,
+            height: 40,
+        };
+        let g = grow_window(r, [true, false, true, true], 16, 50, 70);
+        assert_eq!(
+            g,
+            PixelRect {
+                x: 0,
+                y: 20,
+                width: 50,
+                height: 50
+            }
+        );
+        let u = union(
+            r,
+            PixelRect {
+                x: 45,
+                y: 0,
+                width: 5,
+                height: 5,
+            },
+        );
+        assert_eq!((u.x, u.y, u.width, u.height), (10, 0, 40, 60));
+        let band = right_band(r, 0.0, 8.0, 2, 100, 100);
+        assert_eq!((band.x, band.x + band.width), (0, 42));
+        assert_eq!((band.y, band.height), (r.y, r.height));
+    }
+
+    #[test]
+    fn only_chains_cut_near_the_influence_zone_ask_for_growth() {
+        // A 20x20 window at (40, 40) of a 100x100 frame; one chain crosses its right border
+        // inside the influence zone, another crosses its top border far from it.
+        let mut edges = vec![0u8; 20 * 20];
+        for x in 5..20 {
+            edges[10 * 20 + x] = crate::canny::EDGE;
+        }
+        for y in 0..6 {
+            edges[y * 20 + 3] = crate::canny::EDGE;
+        }
+        let mut chains = Chains::new();
+        chains.link(&edges, 20, 20, 2);
+        let window = PixelRect {
+            x: 40,
+            y: 40,
+            width: 20,
+            height: 20,
+        };
+        let influence = PixelRect {
+            x: 50,
+            y: 45,
+            width: 10,
+            height: 10,
+        };
+        let sides = cut_chain_sides(&chains, window, 100, 100, 2, influence);
+        assert_eq!(sides, [false, false, true, false]);
+        // At the frame border nothing can be cut.
+        let corner = PixelRect {
+            x: 80,
+            y: 40,
+            width: 20,
+            height: 20,
+        };
+        let influence = PixelRect {
+            x: 90,
+            y: 45,
+            width: 10,
+            height: 10,
+        };
+        assert_eq!(
+            cut_chain_sides(&chains, corner, 100, 100, 2, influence),
+            [false; 4]
         );
     }
 

@@ -1,7 +1,9 @@
 //! Matching accuracy on the Middlebury pairs of the shared data (one parameter set, the
-//! defaults). Guards the measured levels: on every pair at least 45 % of the left segments are
-//! matched and at most 3 % of the matches are wrong (see `videt_vision::evaluation` for how a
-//! match is judged). The full table: `cargo run --release -p videt-vision --example
+//! defaults; every extracted left segment counts in the denominator). The goal is at least
+//! 60 % of the left segments matched with at most 2 % of the matches wrong (see
+//! `videt_vision::evaluation` for how a match is judged). Tsukuba, venus and teddy reach it and
+//! are held to it; cones does not yet (measured 54.3 % matched, 2.87 % wrong) and is held to
+//! its measured level. The full table: `cargo run --release -p videt-vision --example
 //! stereo_accuracy`.
 
 use videt_vision::evaluation::{evaluate, DisparityMap};
@@ -10,11 +12,12 @@ use videt_vision::{run_pipeline, GrayView, VisionParams};
 #[test]
 fn every_middlebury_pair_is_matched_reliably() {
     let params = VisionParams::default();
-    for (name, scale) in [
-        ("tsukuba", 16.0),
-        ("venus", 8.0),
-        ("cones", 4.0),
-        ("teddy", 4.0),
+    // (pair, ground-truth scale, minimum fraction matched, maximum fraction wrong)
+    for (name, scale, min_matched, max_wrong) in [
+        ("tsukuba", 16.0, 0.60, 0.02),
+        ("venus", 8.0, 0.60, 0.02),
+        ("cones", 4.0, 0.53, 0.03),
+        ("teddy", 4.0, 0.60, 0.02),
     ] {
         let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
             return;
@@ -47,7 +50,10 @@ fn every_middlebury_pair_is_matched_reliably() {
         );
         eprintln!("{name}: {report:?}");
         assert!(report.left_segments > 200, "{name}: {report:?}");
-        assert!(report.matched_fraction() >= 0.45, "{name}: {report:?}");
-        assert!(report.wrong_fraction() <= 0.03, "{name}: {report:?}");
+        assert!(
+            report.matched_fraction() >= min_matched,
+            "{name}: {report:?}"
+        );
+        assert!(report.wrong_fraction() <= max_wrong, "{name}: {report:?}");
     }
 }
