@@ -112,8 +112,13 @@ impl TensionPi {
             let ff = g.feedforward_nm_per_n * setpoint_n[i];
             let slack = measured_n[i].is_finite() && measured_n[i] < g.slack_tension_n;
             let out = if slack {
-                // Take up the slack at a bounded speed; the integral holds.
-                ff + g.speed_gain_nm_s_per_m * (g.takeup_speed_m_s - speed)
+                // Take up the slack at a bounded speed; the integral holds. A slack wire carries
+                // no load: the set-point's feed-forward would only drive the free pulley past
+                // the take-up speed (by feed-forward / speed gain, metres per second at high
+                // set-points) and snap the wire taut. Only the slack threshold's share is fed
+                // forward, so the speed loop sets the winding speed.
+                let hold = g.feedforward_nm_per_n * setpoint_n[i].min(g.slack_tension_n).max(0.0);
+                hold + g.speed_gain_nm_s_per_m * (g.takeup_speed_m_s - speed)
             } else {
                 let error = if measured_n[i].is_finite() {
                     setpoint_n[i] - measured_n[i]
@@ -201,9 +206,10 @@ mod tests {
             1e-3,
             &mut torque,
         );
-        let expected = g.feedforward_nm_per_n * 0.3 + g.speed_gain_nm_s_per_m * g.takeup_speed_m_s;
+        let hold = g.feedforward_nm_per_n * g.slack_tension_n;
+        let expected = hold + g.speed_gain_nm_s_per_m * g.takeup_speed_m_s;
         assert!((torque[0] - expected).abs() < 1e-12 && torque[0] < 0.5 * g.torque_limit_nm);
-        // Slack, already winding at the take-up speed: only the feed-forward.
+        // Slack, already winding at the take-up speed: only the slack threshold's feed-forward.
         pi.update_with_speed(
             &[0.3; WIRES],
             &[0.0; WIRES],
@@ -211,7 +217,19 @@ mod tests {
             1e-3,
             &mut torque,
         );
-        assert!((torque[0] - g.feedforward_nm_per_n * 0.3).abs() < 1e-12);
+        assert!((torque[0] - hold).abs() < 1e-12);
+        // Whatever the set-point, a slack wire winding faster than the take-up speed is braked:
+        // the set-point's feed-forward does not run the free pulley away.
+        for setpoint in [0.3, 3.0, 15.0] {
+            pi.update_with_speed(
+                &[setpoint; WIRES],
+                &[0.0; WIRES],
+                &[2.0 * g.takeup_speed_m_s; WIRES],
+                1e-3,
+                &mut torque,
+            );
+            assert!(torque[0] < 0.0, "set-point {setpoint} N: {} N·m", torque[0]);
+        }
         // Slack does not wind the integral up.
         for _ in 0..10_000 {
             pi.update_with_speed(
