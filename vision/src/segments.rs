@@ -295,15 +295,14 @@ fn make_segment(
     }
     let w = canny.width();
     let h = canny.height();
-    let (gx, gy) = (canny.gx(), canny.gy());
     // Gradient polarity and contrast from at most ~16 pixels spread along the piece.
     let (mut sgx, mut sgy, mut smag, mut count) = (0i32, 0i32, 0i32, 0i32);
     let stride = ((b - a) / 16).max(1);
     for p in points[a..=b].iter().step_by(stride) {
-        let i = p[1] as usize * w + p[0] as usize;
-        sgx += gx[i] as i32;
-        sgy += gy[i] as i32;
-        smag += gx[i].unsigned_abs() as i32 + gy[i].unsigned_abs() as i32;
+        let (gx, gy) = canny.gradient(p[0] as usize, p[1] as usize);
+        sgx += gx as i32;
+        sgy += gy as i32;
+        smag += gx.unsigned_abs() as i32 + gy.unsigned_abs() as i32;
         count += 1;
     }
     let cross = dx * sgy as f32 - dy * sgx as f32;
