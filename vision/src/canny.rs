@@ -166,24 +166,30 @@ impl CannyWorkspace {
     /// direction and the offset along it (pixels, within +-0.5, in steps of 1/62) of the vertex
     /// of the parabola through the magnitudes before, at and after the pixel.
     pub fn subpixel_offset(&self, i: usize) -> ((i32, i32), f32) {
-        let w = self.width;
-        let (x, y) = (i % w, i / w);
-        if x == 0 || y == 0 || x + 1 >= w || y + 1 >= self.height {
+        self.subpixel_offset_at(i % self.width, i / self.width)
+    }
+
+    /// [`Self::subpixel_offset`] of pixel `(x, y)`.
+    #[inline]
+    pub fn subpixel_offset_at(&self, x: usize, y: usize) -> ((i32, i32), f32) {
+        let (w, h) = (self.width, self.height);
+        if x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
             return decode_subpixel(0);
         }
         let (dx, dy) = self.gradient(x, y);
         let code = direction_code(dx as i32, dy as i32);
-        let m = &self.magnitude;
+        let m = &self.magnitude[(y - 1) * w + x - 1..(y + 1) * w + x + 2];
+        // The 3x3 neighbourhood: above at 0..3, the row at w..w + 3, below at 2w..2w + 3.
         let (before, after) = match code {
-            0 => (m[i - 1], m[i + 1]),
-            1 => (m[i - w], m[i + w]),
-            2 => (m[i + w - 1], m[i - w + 1]),
-            _ => (m[i - w - 1], m[i + w + 1]),
+            0 => (m[w], m[w + 2]),
+            1 => (m[1], m[2 * w + 1]),
+            2 => (m[2 * w], m[2]),
+            _ => (m[0], m[2 * w + 2]),
         };
         decode_subpixel(encode_subpixel(
             code,
             before as i32,
-            m[i] as i32,
+            m[w + 1] as i32,
             after as i32,
         ))
     }
@@ -395,19 +401,8 @@ impl CannyWorkspace {
             let is_max = (mag > before) & (mag > after_bound) & (mag > low);
             classes[i] = u8::from(is_max) * (WEAK + u8::from(mag > high));
         }
-        // Strong maxima seed the hysteresis (runs of 16 pixels without one are skipped).
-        let mut x = 0;
-        while x < n {
-            let end = (x + 16).min(n);
-            if classes[x..end].iter().fold(0u8, |a, &c| a | c) & EDGE != 0 {
-                for (k, &c) in classes[x..end].iter().enumerate() {
-                    if c == EDGE {
-                        self.stack.push((row + 1 + x + k) as u32);
-                    }
-                }
-            }
-            x = end;
-        }
+        // Strong maxima seed the hysteresis.
+        for_each_equal(classes, EDGE, |x| self.stack.push((row + 1 + x) as u32));
     }
 
     /// Grows strong edges through 8-connected weak pixels.
@@ -432,6 +427,31 @@ impl CannyWorkspace {
                     self.stack.push(j as u32);
                 }
             }
+        }
+    }
+}
+
+/// Calls `f(i)` for every `i` with `bytes[i] == value`, in increasing order: 16 bytes at a time
+/// are compared at once into a bit mask (SIMD compare and move-mask) whose set bits are then
+/// visited.
+#[inline]
+pub(crate) fn for_each_equal(bytes: &[u8], value: u8, mut f: impl FnMut(usize)) {
+    let mut chunks = bytes.chunks_exact(16);
+    let mut base = 0;
+    for chunk in &mut chunks {
+        let mut mask = 0u32;
+        for (k, &b) in chunk.iter().enumerate() {
+            mask |= u32::from(b == value) << k;
+        }
+        while mask != 0 {
+            f(base + mask.trailing_zeros() as usize);
+            mask &= mask - 1;
+        }
+        base += 16;
+    }
+    for (k, &b) in chunks.remainder().iter().enumerate() {
+        if b == value {
+            f(base + k);
         }
     }
 }
@@ -479,8 +499,19 @@ fn decode_subpixel(byte: u8) -> ((i32, i32), f32) {
         2 => (1, -1),
         _ => (1, 1),
     };
-    (step, ((byte as i8) >> 2) as f32 / 62.0)
+    (step, SUBPIXEL_OFFSETS[(byte >> 2) as usize])
 }
+
+/// The offsets `q / 62` of the 6-bit two's-complement codes `q` (index = the code's bits).
+const SUBPIXEL_OFFSETS: [f32; 64] = {
+    let mut table = [0.0f32; 64];
+    let mut k = 0;
+    while k < 64 {
+        table[k] = (((k as u8) << 2) as i8 >> 2) as f32 / 62.0;
+        k += 1;
+    }
+    table
+};
 
 fn grow<T: Default + Clone>(buffer: &mut Vec<T>, len: usize) {
     if buffer.len() < len {

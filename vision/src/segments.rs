@@ -231,10 +231,9 @@ fn max_deviation(points: &[[u16; 2]], a: usize, b: usize) -> (usize, f32) {
 /// (computed during non-maximum suppression).
 fn subpixel_positions(points: &[[u16; 2]], canny: &CannyWorkspace, out: &mut Vec<[f32; 2]>) {
     out.clear();
-    let w = canny.width();
     for p in points {
         let (x, y) = (p[0] as usize, p[1] as usize);
-        let ((sx, sy), offset) = canny.subpixel_offset(y * w + x);
+        let ((sx, sy), offset) = canny.subpixel_offset_at(x, y);
         out.push([x as f32 + offset * sx as f32, y as f32 + offset * sy as f32]);
     }
 }

@@ -3,7 +3,7 @@
 //! and the sub-pixel offsets of every maximum computed eagerly. Tests only.
 #![allow(dead_code)]
 
-use super::{decode_subpixel, encode_subpixel, gaussian_kernel, grow, CannyParams, EDGE, WEAK};
+use super::{encode_subpixel, gaussian_kernel, grow, CannyParams, EDGE, WEAK};
 use crate::error::VisionError;
 use crate::gray::GrayView;
 
@@ -298,4 +298,14 @@ impl ReferenceCanny {
             }
         }
     }
+}
+
+fn decode_subpixel(byte: u8) -> ((i32, i32), f32) {
+    let step = match byte & 3 {
+        0 => (1, 0),
+        1 => (0, 1),
+        2 => (1, -1),
+        _ => (1, 1),
+    };
+    (step, ((byte as i8) >> 2) as f32 / 62.0)
 }
