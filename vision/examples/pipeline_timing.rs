@@ -43,7 +43,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut pipeline = StereoPipeline::new();
     let mut canny = CannyWorkspace::new();
-    let mut run = || -> Result<(), Box<dyn std::error::Error>> {
+    let mut times = Vec::with_capacity(iterations);
+    let mut stages: Vec<[f64; 5]> = Vec::with_capacity(iterations);
+    for _ in 0..iterations {
+        let t = Instant::now();
         match mode.as_str() {
             "canny" => canny.detect(&lv, &params.canny)?,
             "whole" => {
@@ -54,19 +57,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             other => return Err(format!("unknown mode {other} (canny, whole, local)").into()),
         }
-        Ok(())
-    };
-    let mut times = Vec::with_capacity(iterations);
-    for _ in 0..iterations {
-        let t = Instant::now();
-        run()?;
         times.push(t.elapsed().as_secs_f64() * 1e3);
+        let s = pipeline.output().timings;
+        stages.push(
+            [s.edges, s.chains, s.segments, s.matching, s.reconstruction]
+                .map(|d| d.as_secs_f64() * 1e3),
+        );
     }
-    times.sort_by(f64::total_cmp);
-    println!(
-        "{mode}: {iterations} runs, wall-clock median {:.3} ms, min {:.3} ms",
-        times[iterations / 2],
-        times[0]
-    );
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        (v[v.len() / 2], v[0])
+    };
+    let (med, min) = median(times);
+    println!("{mode}: {iterations} runs, wall-clock median {med:.3} ms, min {min:.3} ms");
+    if mode == "whole" || mode == "local" {
+        let names = ["edges", "chains", "segments", "matching", "reconstruction"];
+        for (k, name) in names.iter().enumerate() {
+            let (med, min) = median(stages.iter().map(|s| s[k]).collect());
+            println!("  stage {name:<15} median {med:.3} ms, min {min:.3} ms");
+        }
+    }
     Ok(())
 }

@@ -93,8 +93,9 @@ const TG22: i32 = 13573;
 /// `y - 1` gets its Sobel gradient (kept in a two-row ring) and magnitude, and row `y - 2` its
 /// non-maximum suppression, so the intermediate rows stay in the first-level cache. Every row
 /// loop is branch-free integer arithmetic on slices of equal length, which the compiler turns
-/// into SIMD code. The gradient and the sub-pixel offsets of edge pixels are computed on demand
-/// from the smoothed image and the magnitude ([`Self::gradient`], [`Self::subpixel_offset`]).
+/// into SIMD code. After the hysteresis, the sub-pixel offsets of the edge pixels only are
+/// computed (raster order); the gradient is computed on demand from the smoothed image
+/// ([`Self::gradient`]).
 #[derive(Debug, Default, Clone)]
 pub struct CannyWorkspace {
     width: usize,
@@ -111,6 +112,8 @@ pub struct CannyWorkspace {
     gy: Vec<i16>,
     magnitude: Vec<i16>,
     edges: Vec<u8>,
+    /// Sub-pixel code of each edge pixel (direction code and parabola-vertex offset).
+    subpixel: Vec<u8>,
     stack: Vec<u32>,
 }
 
@@ -166,32 +169,60 @@ impl CannyWorkspace {
     /// direction and the offset along it (pixels, within +-0.5, in steps of 1/62) of the vertex
     /// of the parabola through the magnitudes before, at and after the pixel.
     pub fn subpixel_offset(&self, i: usize) -> ((i32, i32), f32) {
-        self.subpixel_offset_at(i % self.width, i / self.width)
+        decode_subpixel(self.subpixel[i])
     }
 
     /// [`Self::subpixel_offset`] of pixel `(x, y)`.
     #[inline]
     pub fn subpixel_offset_at(&self, x: usize, y: usize) -> ((i32, i32), f32) {
+        self.subpixel_offset(y * self.width + x)
+    }
+
+    /// Sub-pixel code of every edge pixel, in raster order (the rows read stay in cache).
+    fn locate_edges(&mut self) {
         let (w, h) = (self.width, self.height);
-        if x == 0 || y == 0 || x + 1 >= w || y + 1 >= h {
-            return decode_subpixel(0);
+        if w < 3 || h < 3 {
+            return;
         }
-        let (dx, dy) = self.gradient(x, y);
-        let code = direction_code(dx as i32, dy as i32);
-        let m = &self.magnitude[(y - 1) * w + x - 1..(y + 1) * w + x + 2];
-        // The 3x3 neighbourhood: above at 0..3, the row at w..w + 3, below at 2w..2w + 3.
-        let (before, after) = match code {
-            0 => (m[w], m[w + 2]),
-            1 => (m[1], m[2 * w + 1]),
-            2 => (m[2 * w], m[2]),
-            _ => (m[0], m[2 * w + 2]),
-        };
-        decode_subpixel(encode_subpixel(
-            code,
-            before as i32,
-            m[w + 1] as i32,
-            after as i32,
-        ))
+        for y in 1..h - 1 {
+            let row = y * w;
+            let m = &self.magnitude[row - w..row + 2 * w];
+            let s = &self.smoothed[row - w..row + 2 * w];
+            let codes = &mut self.subpixel[row..row + w];
+            for_each_equal(&self.edges[row + 1..row + w - 1], EDGE, |x| {
+                let c = x + 1;
+                // 3x3 neighbourhoods: above at c - 1..c + 2, the row at w + c - 1.., below at
+                // 2w + c - 1..
+                let (a, b, d) = (c - 1, w + c - 1, 2 * w + c - 1);
+                let p = |i: usize| s[i] as i16;
+                let dx = (p(a + 2) - p(a)) + 2 * (p(b + 2) - p(b)) + (p(d + 2) - p(d));
+                let dy = (p(d) + 2 * p(d + 1) + p(d + 2)) - (p(a) + 2 * p(a + 1) + p(a + 2));
+                // Branch-free selection (the directions of successive edge pixels are
+                // unpredictable): the direction code and its two neighbours.
+                let (dx, dy) = (dx as i32, dy as i32);
+                let ax = dx.abs();
+                let ay = dy.abs() << 15;
+                let tg22x = ax * TG22;
+                let horizontal = ay < tg22x;
+                let vertical = !horizontal & (ay > tg22x + (ax << 16));
+                let anti_diagonal = (dx ^ dy) < 0;
+                let (diag_code, diag_before, diag_after) = if anti_diagonal {
+                    (2, m[d], m[a + 2])
+                } else {
+                    (3, m[a], m[d + 2])
+                };
+                let (axis_code, axis_before, axis_after) = if horizontal {
+                    (0, m[b], m[b + 2])
+                } else {
+                    (1, m[a + 1], m[d + 1])
+                };
+                let axis = horizontal | vertical;
+                let code = if axis { axis_code } else { diag_code };
+                let before = if axis { axis_before } else { diag_before };
+                let after = if axis { axis_after } else { diag_after };
+                codes[c] = encode_subpixel(code, before as i32, m[b + 1] as i32, after as i32);
+            });
+        }
     }
 
     /// The smoothed last image.
@@ -216,6 +247,7 @@ impl CannyWorkspace {
         grow(&mut self.gy, 2 * width);
         grow(&mut self.magnitude, n);
         grow(&mut self.edges, n);
+        grow(&mut self.subpixel, n);
         if self.stack.capacity() < n / 4 {
             self.stack.reserve(n / 4);
         }
@@ -260,6 +292,7 @@ impl CannyWorkspace {
         self.edges[..w].fill(0);
         self.edges[(h - 1) * w..h * w].fill(0);
         self.hysteresis();
+        self.locate_edges();
         Ok(())
     }
 
@@ -389,8 +422,8 @@ impl CannyWorkspace {
             let horizontal = ay < tg22x;
             let vertical = !horizontal & (ay > tg67x);
             let anti_diagonal = (dx ^ dy) < 0;
-            // Neighbours before/after along the direction (codes 0, 1, 2, 3 of
-            // `direction_code`).
+            // Neighbours before/after along the direction (codes 0, 1, 2, 3:
+            // horizontal, vertical, anti-diagonal, diagonal).
             let (diag_before, diag_after) = if anti_diagonal { (n0, p2) } else { (p0, n2) };
             let (axis_before, axis_after) = if horizontal { (c0, c2) } else { (p1, n1) };
             let axis = horizontal | vertical;
@@ -431,23 +464,26 @@ impl CannyWorkspace {
     }
 }
 
-/// Calls `f(i)` for every `i` with `bytes[i] == value`, in increasing order: 16 bytes at a time
-/// are compared at once into a bit mask (SIMD compare and move-mask) whose set bits are then
-/// visited.
+/// Calls `f(i)` for every `i` with `bytes[i] == value`, in increasing order. Eight bytes at a
+/// time are compared at once as one 64-bit word (exact zero-byte test of `word ^ value`), and
+/// the set bits of the resulting mask visited.
 #[inline]
 pub(crate) fn for_each_equal(bytes: &[u8], value: u8, mut f: impl FnMut(usize)) {
-    let mut chunks = bytes.chunks_exact(16);
+    const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
+    let pattern = u64::from_le_bytes([value; 8]);
+    let mut chunks = bytes.chunks_exact(8);
     let mut base = 0;
     for chunk in &mut chunks {
-        let mut mask = 0u32;
-        for (k, &b) in chunk.iter().enumerate() {
-            mask |= u32::from(b == value) << k;
+        let word = u64::from_le_bytes(chunk.try_into().unwrap_or([0; 8])) ^ pattern;
+        // High bit of each byte set iff the byte of `word` is non-zero (no carries between
+        // bytes: each byte's low 7 bits plus 0x7f stays below 0x100).
+        let nonzero = ((word & LOW7) + LOW7) | word;
+        let mut equal = !nonzero & !LOW7;
+        while equal != 0 {
+            f(base + (equal.trailing_zeros() / 8) as usize);
+            equal &= equal - 1;
         }
-        while mask != 0 {
-            f(base + mask.trailing_zeros() as usize);
-            mask &= mask - 1;
-        }
-        base += 16;
+        base += 8;
     }
     for (k, &b) in chunks.remainder().iter().enumerate() {
         if b == value {
@@ -456,40 +492,28 @@ pub(crate) fn for_each_equal(bytes: &[u8], value: u8, mut f: impl FnMut(usize)) 
     }
 }
 
-/// Quantised gradient direction: 0 horizontal gradient (neighbours left/right), 1 vertical
-/// (above/below), 2 and 3 the two diagonals (`gx` and `gy` of opposite / equal signs).
-fn direction_code(dx: i32, dy: i32) -> u8 {
-    let ax = dx.abs();
-    let ay = dy.abs() << 15;
-    let tg22x = ax * TG22;
-    if ay < tg22x {
-        0
-    } else if ay > tg22x + (ax << 16) {
-        1
-    } else if (dx ^ dy) < 0 {
-        2
-    } else {
-        3
-    }
-}
-
 /// Packs the direction code (2 bits) and the parabola-vertex offset (6 bits, 1/62 px).
 fn encode_subpixel(code: u8, before: i32, at: i32, after: i32) -> u8 {
     // offset = 0.5 (before - after) / (before - 2 at + after), within +-0.5 at a maximum;
-    // q = round(62 offset) in integer arithmetic.
+    // q = round(62 offset), halves away from zero: floor((|n| + floor(den / 2)) / den) with
+    // the sign of n; 0 when den <= 0. Branch-free.
     let den = 2 * at - before - after;
-    let q = if den > 0 {
-        let n = 31 * (after - before);
-        let q = if n >= 0 {
-            (n + den / 2) / den
-        } else {
-            -((-n + den / 2) / den)
-        };
-        q.clamp(-31, 31) as i8
-    } else {
-        0
-    };
-    code | ((q as u8) << 2)
+    let n = 31 * (after - before);
+    let magnitude = q_quotient(n.abs() + den.max(1) / 2, den.max(1)).min(31);
+    let signed = if n >= 0 { magnitude } else { -magnitude };
+    let q = if den > 0 { signed } else { 0 };
+    code | (((q as i8) as u8) << 2)
+}
+
+/// `floor(num / den)` for `0 <= num < 2^24`, `0 < den < 2^24`, through one single-precision
+/// division, which is exact here: both operands are exact in `f32`; an integer quotient is
+/// representable, so the correctly rounded division returns it; otherwise the quotient is at
+/// least `1 / den` away from the integers while the rounding error is at most
+/// `num / den * 2^-24 < 1 / den`, so truncation gives the floor.
+#[inline]
+fn q_quotient(num: i32, den: i32) -> i32 {
+    debug_assert!((0..1 << 24).contains(&num) && (1..1 << 24).contains(&den));
+    (num as f32 / den as f32) as i32
 }
 
 fn decode_subpixel(byte: u8) -> ((i32, i32), f32) {
@@ -637,6 +661,45 @@ mod tests {
         ws.detect(&view, &params).unwrap();
         assert!(ws.edges().iter().filter(|&&e| e == EDGE).count() > 5000);
         assert_same_as_reference(&ws, &view, &params);
+    }
+
+    /// Every (denominator, magnitude difference) an 8-bit image can produce at a maximum gives
+    /// the code of the integer-division reference.
+    #[test]
+    fn single_precision_subpixel_code_equals_integer_division_everywhere() {
+        for diff in -2040i32..=2040 {
+            let before = (-diff).max(0);
+            let after = before + diff;
+            // den = 2 at - before - after has the parity of diff.
+            for den in (2 - (diff & 1)..=4080).step_by(2) {
+                let at = (den + before + after) / 2;
+                assert_eq!(
+                    encode_subpixel(3, before, at, after),
+                    reference::encode_subpixel(3, before, at, after),
+                    "before {before} at {at} after {after}"
+                );
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            cases: 256,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(9),
+            ..ProptestConfig::default()
+        })]
+
+        /// The word-at-a-time search finds exactly the positions of a plain comparison.
+        #[test]
+        fn for_each_equal_finds_every_match(
+            bytes in prop::collection::vec(prop_oneof![Just(0u8), Just(1), Just(2), any::<u8>()], 0..70),
+            value in prop_oneof![Just(0u8), Just(2), Just(0x80), any::<u8>()],
+        ) {
+            let mut found = Vec::new();
+            for_each_equal(&bytes, value, |i| found.push(i));
+            let expected: Vec<usize> = (0..bytes.len()).filter(|&i| bytes[i] == value).collect();
+            prop_assert_eq!(found, expected);
+        }
     }
 
     #[test]

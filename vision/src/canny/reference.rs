@@ -3,7 +3,7 @@
 //! and the sub-pixel offsets of every maximum computed eagerly. Tests only.
 #![allow(dead_code)]
 
-use super::{encode_subpixel, gaussian_kernel, grow, CannyParams, EDGE, WEAK};
+use super::{gaussian_kernel, grow, CannyParams, EDGE, WEAK};
 use crate::error::VisionError;
 use crate::gray::GrayView;
 
@@ -308,4 +308,22 @@ fn decode_subpixel(byte: u8) -> ((i32, i32), f32) {
         _ => (1, 1),
     };
     (step, ((byte as i8) >> 2) as f32 / 62.0)
+}
+
+/// Packs the direction code (2 bits) and the parabola-vertex offset (6 bits, 1/62 px) with
+/// integer divisions.
+pub(super) fn encode_subpixel(code: u8, before: i32, at: i32, after: i32) -> u8 {
+    let den = 2 * at - before - after;
+    let q = if den > 0 {
+        let n = 31 * (after - before);
+        let q = if n >= 0 {
+            (n + den / 2) / den
+        } else {
+            -((-n + den / 2) / den)
+        };
+        q.clamp(-31, 31) as i8
+    } else {
+        0
+    };
+    code | ((q as u8) << 2)
 }
