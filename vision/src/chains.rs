@@ -1,6 +1,6 @@
 //! Linking of edge pixels into ordered chains (8-connected pixel paths).
 
-use crate::canny::{for_each_equal, EDGE};
+use crate::canny::EDGE;
 
 /// Ordered edge-pixel chains stored flat: chain `i` is `points[starts[i]..starts[i + 1]]`.
 #[derive(Debug, Default, Clone)]
@@ -159,6 +159,34 @@ fn follow(
     }
 }
 
+/// Calls `f(i)` for every `i` with `bytes[i] == value`, in increasing order. Eight bytes at a
+/// time are compared at once as one 64-bit word (exact zero-byte test of `word ^ value`), and
+/// the set bits of the resulting mask visited.
+#[inline]
+fn for_each_equal(bytes: &[u8], value: u8, mut f: impl FnMut(usize)) {
+    const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
+    let pattern = u64::from_le_bytes([value; 8]);
+    let mut chunks = bytes.chunks_exact(8);
+    let mut base = 0;
+    for chunk in &mut chunks {
+        let word = u64::from_le_bytes(chunk.try_into().unwrap_or([0; 8])) ^ pattern;
+        // High bit of each byte set iff the byte of `word` is non-zero (no carries between
+        // bytes: each byte's low 7 bits plus 0x7f stays below 0x100).
+        let nonzero = ((word & LOW7) + LOW7) | word;
+        let mut equal = !nonzero & !LOW7;
+        while equal != 0 {
+            f(base + (equal.trailing_zeros() / 8) as usize);
+            equal &= equal - 1;
+        }
+        base += 8;
+    }
+    for (k, &b) in chunks.remainder().iter().enumerate() {
+        if b == value {
+            f(base + k);
+        }
+    }
+}
+
 #[cfg(test)]
 mod reference;
 
@@ -210,6 +238,26 @@ mod tests {
             let (w2, h2) = (h, w);
             c.link(&edges, w2, h2, min);
             assert_same_as_reference(&c, &edges, w2, h2, min);
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            cases: 256,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(9),
+            ..ProptestConfig::default()
+        })]
+
+        /// The word-at-a-time search finds exactly the positions of a plain comparison.
+        #[test]
+        fn for_each_equal_finds_every_match(
+            bytes in prop::collection::vec(prop_oneof![Just(0u8), Just(1), Just(2), any::<u8>()], 0..70),
+            value in prop_oneof![Just(0u8), Just(2), Just(0x80), any::<u8>()],
+        ) {
+            let mut found = Vec::new();
+            for_each_equal(&bytes, value, |i| found.push(i));
+            let expected: Vec<usize> = (0..bytes.len()).filter(|&i| bytes[i] == value).collect();
+            prop_assert_eq!(found, expected);
         }
     }
 

@@ -231,9 +231,10 @@ fn max_deviation(points: &[[u16; 2]], a: usize, b: usize) -> (usize, f32) {
 /// (computed during non-maximum suppression).
 fn subpixel_positions(points: &[[u16; 2]], canny: &CannyWorkspace, out: &mut Vec<[f32; 2]>) {
     out.clear();
+    let w = canny.width();
     for p in points {
         let (x, y) = (p[0] as usize, p[1] as usize);
-        let ((sx, sy), offset) = canny.subpixel_offset_at(x, y);
+        let ((sx, sy), offset) = canny.subpixel_offset(y * w + x);
         out.push([x as f32 + offset * sx as f32, y as f32 + offset * sy as f32]);
     }
 }
@@ -294,14 +295,15 @@ fn make_segment(
     }
     let w = canny.width();
     let h = canny.height();
+    let (gx, gy) = (canny.gx(), canny.gy());
     // Gradient polarity and contrast from at most ~16 pixels spread along the piece.
     let (mut sgx, mut sgy, mut smag, mut count) = (0i32, 0i32, 0i32, 0i32);
     let stride = ((b - a) / 16).max(1);
     for p in points[a..=b].iter().step_by(stride) {
-        let (gx, gy) = canny.gradient(p[0] as usize, p[1] as usize);
-        sgx += gx as i32;
-        sgy += gy as i32;
-        smag += gx.unsigned_abs() as i32 + gy.unsigned_abs() as i32;
+        let i = p[1] as usize * w + p[0] as usize;
+        sgx += gx[i] as i32;
+        sgy += gy[i] as i32;
+        smag += gx[i].unsigned_abs() as i32 + gy[i].unsigned_abs() as i32;
         count += 1;
     }
     let cross = dx * sgy as f32 - dy * sgx as f32;

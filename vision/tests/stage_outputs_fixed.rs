@@ -49,12 +49,9 @@ fn image_fingerprints(view: &GrayView<'_>, params: &VisionParams) -> [u64; 7] {
     let mut smoothed = Fingerprint::new();
     smoothed.bytes(canny.smoothed());
     let mut gradient = Fingerprint::new();
-    for y in 0..h {
-        for x in 0..w {
-            let (gx, gy) = canny.gradient(x, y);
-            gradient.bytes(&gx.to_le_bytes());
-            gradient.bytes(&gy.to_le_bytes());
-        }
+    for (&gx, &gy) in canny.gx().iter().zip(canny.gy()) {
+        gradient.bytes(&gx.to_le_bytes());
+        gradient.bytes(&gy.to_le_bytes());
     }
     let mut magnitude = Fingerprint::new();
     for &m in canny.magnitude() {
