@@ -4,12 +4,19 @@
 //!
 //! `perf stat -e task-clock cargo run --release -p videt-vision --example pipeline_timing -- whole 500`
 //!
-//! Modes: `canny` (one image), `whole` (both images to 3D segments), `local` (100x100 region).
-//! Prints the wall-clock median as well.
+//! Modes: `canny` (one image), `whole` (both images to 3D segments), `local` (100x100 region),
+//! `rectify_whole` (both raw frames rectified with the remap tables of a calibration shaped like
+//! the real 640x480 rig's, then `whole`). Prints the wall-clock median and minimum of each run
+//! and, for the pipeline modes, of each stage.
 
 use image::imageops::FilterType;
+use nalgebra::{Matrix3, Vector3};
 use std::time::Instant;
+use videt_hal::{GrayFrame, StereoFrame};
+use videt_vision::calib::file::QualityFigures;
+use videt_vision::calib::{stereo_rectify, CameraIntrinsics, StereoCalibration};
 use videt_vision::canny::CannyWorkspace;
+use videt_vision::rectify::StereoRectifier;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -43,30 +50,101 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut pipeline = StereoPipeline::new();
     let mut canny = CannyWorkspace::new();
-    let mut run = || -> Result<(), Box<dyn std::error::Error>> {
+    let rectifier = StereoRectifier::from_calibration(&rig_calibration())?;
+    let frame = |img: &image::GrayImage| GrayFrame {
+        width: img.width(),
+        height: img.height(),
+        data: img.as_raw().clone(),
+    };
+    let raw = StereoFrame {
+        left: frame(&left),
+        right: frame(&right),
+        ..StereoFrame::default()
+    };
+    let (mut rect_left, mut rect_right) = (GrayFrame::default(), GrayFrame::default());
+    let mut times = Vec::with_capacity(iterations);
+    let mut rectify_times = Vec::with_capacity(iterations);
+    let mut stages: Vec<[f64; 5]> = Vec::with_capacity(iterations);
+    for _ in 0..iterations {
+        let t = Instant::now();
         match mode.as_str() {
             "canny" => canny.detect(&lv, &params.canny)?,
             "whole" => {
                 pipeline.run(&lv, &rv, Some(&geometry), &params)?;
             }
+            "rectify_whole" => {
+                rectifier.apply(&raw, &mut rect_left, &mut rect_right)?;
+                rectify_times.push(t.elapsed().as_secs_f64() * 1e3);
+                let l = GrayView::new(&rect_left.data, 640, 480)?;
+                let r = GrayView::new(&rect_right.data, 640, 480)?;
+                pipeline.run(&l, &r, Some(&geometry), &params)?;
+            }
             "local" => {
                 pipeline.run_local(&lv, &rv, Some(&geometry), &params, &region)?;
             }
-            other => return Err(format!("unknown mode {other} (canny, whole, local)").into()),
+            other => {
+                return Err(
+                    format!("unknown mode {other} (canny, whole, local, rectify_whole)").into(),
+                )
+            }
         }
-        Ok(())
-    };
-    let mut times = Vec::with_capacity(iterations);
-    for _ in 0..iterations {
-        let t = Instant::now();
-        run()?;
         times.push(t.elapsed().as_secs_f64() * 1e3);
+        let s = pipeline.output().timings;
+        stages.push(
+            [s.edges, s.chains, s.segments, s.matching, s.reconstruction]
+                .map(|d| d.as_secs_f64() * 1e3),
+        );
     }
-    times.sort_by(f64::total_cmp);
-    println!(
-        "{mode}: {iterations} runs, wall-clock median {:.3} ms, min {:.3} ms",
-        times[iterations / 2],
-        times[0]
-    );
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        (v[v.len() / 2], v[0])
+    };
+    let (med, min) = median(times);
+    println!("{mode}: {iterations} runs, wall-clock median {med:.3} ms, min {min:.3} ms");
+    if !rectify_times.is_empty() {
+        let (med, min) = median(rectify_times);
+        println!(
+            "  stage {:<15} median {med:.3} ms, min {min:.3} ms",
+            "rectify"
+        );
+    }
+    if mode != "canny" {
+        let names = ["edges", "chains", "segments", "matching", "reconstruction"];
+        for (k, name) in names.iter().enumerate() {
+            let (med, min) = median(stages.iter().map(|s| s[k]).collect());
+            println!("  stage {name:<15} median {med:.3} ms, min {min:.3} ms");
+        }
+    }
     Ok(())
+}
+
+/// A calibration shaped like the real 640x480 rig's (as in the `rectify` bench).
+fn rig_calibration() -> StereoCalibration {
+    let left = CameraIntrinsics {
+        fx: 536.0,
+        fy: 536.0,
+        cx: 342.4,
+        cy: 235.5,
+        dist: [-0.265, -0.047, 0.0018, -0.0003, 0.252],
+    };
+    let right = CameraIntrinsics {
+        fx: 542.3,
+        fy: 541.6,
+        cx: 328.3,
+        cy: 247.0,
+        dist: [-0.281, 0.104, -0.0006, 0.0013, -0.024],
+    };
+    let r = Matrix3::new(
+        0.99998, 0.00413, 0.00352, -0.00413, 0.99999, -0.0003, -0.00353, 0.00029, 0.99999,
+    );
+    let r = videt_vision::calib::geometry::nearest_rotation(&r);
+    let t = Vector3::new(-3.344, 0.0417, 0.0528);
+    let rect = stereo_rectify(&left, &right, &r, &t, 640, 480, 1.0);
+    let q = QualityFigures {
+        rms_left_px: 0.2,
+        rms_right_px: 0.2,
+        rms_stereo_px: 0.2,
+        epipolar_error_px: 0.1,
+    };
+    StereoCalibration::new(640, 480, &left, &right, &r, &t, &rect, q)
 }

@@ -378,20 +378,32 @@ impl CannyWorkspace {
 /// Packs the direction code (2 bits) and the parabola-vertex offset (6 bits, 1/62 px).
 fn encode_subpixel(code: u8, before: i32, at: i32, after: i32) -> u8 {
     // offset = 0.5 (before - after) / (before - 2 at + after), within +-0.5 at a maximum;
-    // q = round(62 offset) in integer arithmetic.
+    // q = round(62 offset), halves away from zero: floor((|n| + floor(den / 2)) / den) with
+    // the sign of n.
     let den = 2 * at - before - after;
     let q = if den > 0 {
         let n = 31 * (after - before);
-        let q = if n >= 0 {
-            (n + den / 2) / den
+        let magnitude = floor_quotient(n.abs() + den / 2, den).min(31) as i8;
+        if n >= 0 {
+            magnitude
         } else {
-            -((-n + den / 2) / den)
-        };
-        q.clamp(-31, 31) as i8
+            -magnitude
+        }
     } else {
         0
     };
     code | ((q as u8) << 2)
+}
+
+/// `floor(num / den)` for `0 <= num < 2^24`, `0 < den < 2^24` (magnitudes of 8-bit images stay
+/// far below), through one single-precision division, which is exact here: both operands are
+/// exact in `f32`; an integer quotient is representable, so the correctly rounded division
+/// returns it; otherwise the quotient is at least `1 / den` away from the integers while the
+/// rounding error is at most `num / den * 2^-24 < 1 / den`, so truncation gives the floor.
+#[inline]
+fn floor_quotient(num: i32, den: i32) -> i32 {
+    debug_assert!((0..1 << 24).contains(&num) && (1..1 << 24).contains(&den));
+    (num as f32 / den as f32) as i32
 }
 
 fn decode_subpixel(byte: u8) -> ((i32, i32), f32) {
@@ -422,6 +434,48 @@ mod tests {
             }
         }
         data
+    }
+
+    /// The sub-pixel code with integer divisions.
+    fn encode_subpixel_integer(code: u8, before: i32, at: i32, after: i32) -> u8 {
+        let den = 2 * at - before - after;
+        let q = if den > 0 {
+            let n = 31 * (after - before);
+            let q = if n >= 0 {
+                (n + den / 2) / den
+            } else {
+                -((-n + den / 2) / den)
+            };
+            q.clamp(-31, 31) as i8
+        } else {
+            0
+        };
+        code | ((q as u8) << 2)
+    }
+
+    /// Every (denominator, magnitude difference) an 8-bit image can produce at a maximum gives
+    /// the code of integer division.
+    #[test]
+    fn single_precision_subpixel_code_equals_integer_division_everywhere() {
+        for diff in -2040i32..=2040 {
+            let before = (-diff).max(0);
+            let after = before + diff;
+            // den = 2 at - before - after has the parity of diff.
+            for den in (2 - (diff & 1)..=4080).step_by(2) {
+                let at = (den + before + after) / 2;
+                assert_eq!(
+                    encode_subpixel(3, before, at, after),
+                    encode_subpixel_integer(3, before, at, after),
+                    "before {before} at {at} after {after}"
+                );
+            }
+        }
+        for (before, at, after) in [(5, 1, 3), (0, 0, 0), (2040, 1020, 0)] {
+            assert_eq!(
+                encode_subpixel(1, before, at, after),
+                encode_subpixel_integer(1, before, at, after)
+            );
+        }
     }
 
     #[test]
