@@ -111,6 +111,25 @@ fn stages(c: &mut Criterion) {
                 .len()
         })
     });
+    // The single pass over the region plus its context margin (not grown until the matches
+    // equal the whole-image run's): the fast mode, exact except near chains cut by the window.
+    let mut single_pass = params;
+    single_pass.local.exact = false;
+    c.bench_function("local_region_100x100_single_pass", |b| {
+        b.iter(|| {
+            pipeline
+                .run_local(
+                    black_box(&lv),
+                    black_box(&rv),
+                    Some(&g),
+                    &single_pass,
+                    &region,
+                )
+                .unwrap()
+                .segments_3d
+                .len()
+        })
+    });
     // Per-call medians: robust to other processes preempting the bench on a shared machine.
     let mut medians = Vec::new();
     medians.push((
@@ -144,6 +163,14 @@ fn stages(c: &mut Criterion) {
         per_call_median_ms(|| {
             pipeline
                 .run_local(&lv, &rv, Some(&g), &params, &region)
+                .unwrap();
+        }),
+    ));
+    medians.push((
+        "local_region_100x100_single_pass",
+        per_call_median_ms(|| {
+            pipeline
+                .run_local(&lv, &rv, Some(&g), &single_pass, &region)
                 .unwrap();
         }),
     ));

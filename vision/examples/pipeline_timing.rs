@@ -4,7 +4,8 @@
 //!
 //! `perf stat -e task-clock cargo run --release -p videt-vision --example pipeline_timing -- whole 500`
 //!
-//! Modes: `canny` (one image), `whole` (both images to 3D segments), `local` (100x100 region),
+//! Modes: `canny` (one image), `whole` (both images to 3D segments), `local` (100x100 region,
+//! exact: equal to the whole-image run inside it), `local_single_pass` (one pass, not grown),
 //! `rectify_whole` (both raw frames rectified with the remap tables of a calibration shaped like
 //! the real 640x480 rig's, then `whole`). Prints the wall-clock median and minimum of each run
 //! and, for the pipeline modes, of each stage.
@@ -37,6 +38,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (lv, rv) = (GrayView::from_image(&left)?, GrayView::from_image(&right)?);
     let mut params = VisionParams::default();
     params.matching.disparity_max_px = 96.0;
+    let mut single_pass = params;
+    single_pass.local.exact = false;
     let geometry = RectifiedGeometry {
         focal_px: 600.0,
         cx_px: 320.0,
@@ -82,10 +85,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "local" => {
                 pipeline.run_local(&lv, &rv, Some(&geometry), &params, &region)?;
             }
+            "local_single_pass" => {
+                pipeline.run_local(&lv, &rv, Some(&geometry), &single_pass, &region)?;
+            }
             other => {
-                return Err(
-                    format!("unknown mode {other} (canny, whole, local, rectify_whole)").into(),
+                return Err(format!(
+                    "unknown mode {other} (canny, whole, local, local_single_pass, rectify_whole)"
                 )
+                .into())
             }
         }
         times.push(t.elapsed().as_secs_f64() * 1e3);
