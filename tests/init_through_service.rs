@@ -3,6 +3,9 @@
 //! service runs the procedure on its own (real-time) twin, writes the calibration, and renders
 //! forces with it. A failure, a second request and a client that leaves change nothing.
 
+#[path = "common/init_json.rs"]
+mod init_json;
+
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
@@ -18,10 +21,6 @@ const TRUE_GUIDES: [[f64; 2]; 3] = [[-0.05, 0.02], [0.33, -0.03], [0.12, 0.29]];
 
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()
-}
-
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
 }
 
 fn videt(args: &[&str]) -> Output {
@@ -72,33 +71,7 @@ impl Drop for Daemon {
 
 /// The sides and the guides (paper's frame) `json` reports are within 0.5 mm / 1 mm of the truth.
 fn check_against_truth(json: &serde_json::Value) {
-    let sides: Vec<f64> = serde_json::from_value(json["sides_m"].clone()).unwrap();
-    let guides: Vec<[f64; 3]> = serde_json::from_value(json["guides_m"].clone()).unwrap();
-    let t = TRUE_GUIDES;
-    let truth = [dist(t[0], t[1]), dist(t[0], t[2]), dist(t[1], t[2])];
-    for k in 0..3 {
-        assert!(
-            (sides[k] - truth[k]).abs() < 0.5e-3,
-            "side {k}: {} vs {}",
-            sides[k],
-            truth[k]
-        );
-    }
-    let ex = [
-        (t[1][0] - t[0][0]) / truth[0],
-        (t[1][1] - t[0][1]) / truth[0],
-    ];
-    let ey = [-ex[1], ex[0]];
-    for i in 0..3 {
-        let d = [t[i][0] - t[0][0], t[i][1] - t[0][1]];
-        let expected = [d[0] * ex[0] + d[1] * ex[1], d[0] * ey[0] + d[1] * ey[1]];
-        let e = dist([guides[i][0], guides[i][1]], expected);
-        assert!(
-            e < 1e-3 && guides[i][2] == 0.0,
-            "guide {i}: {:?} vs {expected:?}",
-            guides[i]
-        );
-    }
+    init_json::assert_matches_truth(json, TRUE_GUIDES);
 }
 
 #[test]

@@ -2,6 +2,9 @@
 //! `tension-calibrate` and `status` as a technician runs them, with the exit codes, the JSON, the
 //! calibration file and its backup, and the motors lock.
 
+#[path = "common/init_json.rs"]
+mod init_json;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -52,10 +55,6 @@ fn init(f: &Files, extra: &[&str]) -> Output {
     videt(&args)
 }
 
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
-}
-
 #[test]
 fn init_prints_the_calibration_as_json_and_writes_it() {
     let f = files();
@@ -70,36 +69,9 @@ fn init_prints_the_calibration_as_json_and_writes_it() {
     let v: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
     let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
     assert_eq!(keys.len(), 3, "{text}");
-    let sides: Vec<f64> = serde_json::from_value(v["sides_m"].clone()).unwrap();
-    let guides: Vec<[f64; 3]> = serde_json::from_value(v["guides_m"].clone()).unwrap();
     let residuals: Vec<f64> = serde_json::from_value(v["residuals_m"].clone()).unwrap();
     assert_eq!(residuals.len(), 6);
-    let t = TRUE_GUIDES;
-    let truth = [dist(t[0], t[1]), dist(t[0], t[2]), dist(t[1], t[2])];
-    for k in 0..3 {
-        assert!(
-            (sides[k] - truth[k]).abs() < 0.5e-3,
-            "side {k}: {} vs {}",
-            sides[k],
-            truth[k]
-        );
-    }
-    // The paper's frame: x0 at the origin, x1 on +x, x2 at y > 0; the truth moved there.
-    let ex = [
-        (t[1][0] - t[0][0]) / truth[0],
-        (t[1][1] - t[0][1]) / truth[0],
-    ];
-    let ey = [-ex[1], ex[0]];
-    for i in 0..3 {
-        let d = [t[i][0] - t[0][0], t[i][1] - t[0][1]];
-        let expected = [d[0] * ex[0] + d[1] * ex[1], d[0] * ey[0] + d[1] * ey[1]];
-        let e = dist([guides[i][0], guides[i][1]], expected);
-        assert!(
-            e < 1e-3 && guides[i][2] == 0.0,
-            "guide {i}: {:?} vs {expected:?}",
-            guides[i]
-        );
-    }
+    init_json::assert_matches_truth(&v, TRUE_GUIDES);
     let status = videt(&[
         "status",
         "--json",

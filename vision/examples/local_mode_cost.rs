@@ -5,22 +5,14 @@
 //!
 //! `cargo run --release -p videt-vision --example local_mode_cost`
 
-use image::imageops::FilterType;
+#[path = "../benches/common/mod.rs"]
+mod common;
+
 use std::time::Instant;
 use videt_vision::{GrayView, LocalRegion, StereoPipeline, VisionParams};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = videt_testdata::data_dir("stereo/teddy").ok_or("teddy pair not found")?;
-    let load = |name: &str| -> Result<image::GrayImage, Box<dyn std::error::Error>> {
-        let img = image::open(dir.join(name))?.to_luma8();
-        Ok(image::imageops::resize(
-            &img,
-            640,
-            480,
-            FilterType::Triangle,
-        ))
-    };
-    let (left, right) = (load("left.ppm")?, load("right.ppm")?);
+    let (left, right) = common::vga_pair();
     let (lv, rv) = (GrayView::from_image(&left)?, GrayView::from_image(&right)?);
     let mut exact = VisionParams::default();
     exact.matching.disparity_max_px = 96.0;

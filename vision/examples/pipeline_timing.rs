@@ -10,12 +10,11 @@
 //! the real 640x480 rig's, then `whole`). Prints the wall-clock median and minimum of each run
 //! and, for the pipeline modes, of each stage.
 
-use image::imageops::FilterType;
-use nalgebra::{Matrix3, Vector3};
+#[path = "../benches/common/mod.rs"]
+mod common;
+
 use std::time::Instant;
 use videt_hal::{GrayFrame, StereoFrame};
-use videt_vision::calib::file::QualityFigures;
-use videt_vision::calib::{stereo_rectify, CameraIntrinsics, StereoCalibration};
 use videt_vision::canny::CannyWorkspace;
 use videt_vision::rectify::StereoRectifier;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
@@ -24,17 +23,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let mode = args.next().unwrap_or_else(|| "whole".into());
     let iterations: usize = args.next().map(|n| n.parse()).transpose()?.unwrap_or(200);
-    let dir = videt_testdata::data_dir("stereo/teddy").ok_or("teddy pair not found")?;
-    let load = |name: &str| -> Result<image::GrayImage, Box<dyn std::error::Error>> {
-        let img = image::open(dir.join(name))?.to_luma8();
-        Ok(image::imageops::resize(
-            &img,
-            640,
-            480,
-            FilterType::Triangle,
-        ))
-    };
-    let (left, right) = (load("left.ppm")?, load("right.ppm")?);
+    let (left, right) = common::vga_pair();
     let (lv, rv) = (GrayView::from_image(&left)?, GrayView::from_image(&right)?);
     let mut params = VisionParams::default();
     params.matching.disparity_max_px = 96.0;
@@ -53,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut pipeline = StereoPipeline::new();
     let mut canny = CannyWorkspace::new();
-    let rectifier = StereoRectifier::from_calibration(&rig_calibration())?;
+    let rectifier = StereoRectifier::from_calibration(&common::rig_calibration())?;
     let frame = |img: &image::GrayImage| GrayFrame {
         width: img.width(),
         height: img.height(),
@@ -123,35 +112,4 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
-}
-
-/// A calibration shaped like the real 640x480 rig's (as in the `rectify` bench).
-fn rig_calibration() -> StereoCalibration {
-    let left = CameraIntrinsics {
-        fx: 536.0,
-        fy: 536.0,
-        cx: 342.4,
-        cy: 235.5,
-        dist: [-0.265, -0.047, 0.0018, -0.0003, 0.252],
-    };
-    let right = CameraIntrinsics {
-        fx: 542.3,
-        fy: 541.6,
-        cx: 328.3,
-        cy: 247.0,
-        dist: [-0.281, 0.104, -0.0006, 0.0013, -0.024],
-    };
-    let r = Matrix3::new(
-        0.99998, 0.00413, 0.00352, -0.00413, 0.99999, -0.0003, -0.00353, 0.00029, 0.99999,
-    );
-    let r = videt_vision::calib::geometry::nearest_rotation(&r);
-    let t = Vector3::new(-3.344, 0.0417, 0.0528);
-    let rect = stereo_rectify(&left, &right, &r, &t, 640, 480, 1.0);
-    let q = QualityFigures {
-        rms_left_px: 0.2,
-        rms_right_px: 0.2,
-        rms_stereo_px: 0.2,
-        epipolar_error_px: 0.1,
-    };
-    StereoCalibration::new(640, 480, &left, &right, &r, &t, &rect, q)
 }

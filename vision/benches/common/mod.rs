@@ -1,8 +1,14 @@
 //! Bench inputs: a 640x480 rectified pair made from a Middlebury pair of the shared data
 //! (teddy, bilinearly upscaled from 450x375; disparities scale by 640/450), or a synthetic
-//! textured pair when the data is absent.
+//! textured pair when the data is absent; and a calibration shaped like the real rig's.
+//!
+//! Shared by several bench and example targets, each of which uses part of it.
+#![allow(dead_code)]
 
 use image::{imageops::FilterType, GrayImage};
+use nalgebra::{Matrix3, Vector3};
+use videt_vision::calib::file::QualityFigures;
+use videt_vision::calib::{stereo_rectify, CameraIntrinsics, StereoCalibration};
 
 /// The 640x480 bench pair (left, right).
 pub fn vga_pair() -> (GrayImage, GrayImage) {
@@ -38,4 +44,35 @@ pub fn synthetic_pair(w: u32, h: u32, disparity: u32) -> (GrayImage, GrayImage) 
     let l = image::imageops::crop_imm(&left, disparity, 0, w, h).to_image();
     let r = image::imageops::crop_imm(&left, 0, 0, w, h).to_image();
     (l, r)
+}
+
+/// A calibration shaped like the real 640x480 rig's.
+pub fn rig_calibration() -> StereoCalibration {
+    let left = CameraIntrinsics {
+        fx: 536.0,
+        fy: 536.0,
+        cx: 342.4,
+        cy: 235.5,
+        dist: [-0.265, -0.047, 0.0018, -0.0003, 0.252],
+    };
+    let right = CameraIntrinsics {
+        fx: 542.3,
+        fy: 541.6,
+        cx: 328.3,
+        cy: 247.0,
+        dist: [-0.281, 0.104, -0.0006, 0.0013, -0.024],
+    };
+    let r = Matrix3::new(
+        0.99998, 0.00413, 0.00352, -0.00413, 0.99999, -0.0003, -0.00353, 0.00029, 0.99999,
+    );
+    let r = videt_vision::calib::geometry::nearest_rotation(&r);
+    let t = Vector3::new(-3.344, 0.0417, 0.0528);
+    let rect = stereo_rectify(&left, &right, &r, &t, 640, 480, 1.0);
+    let q = QualityFigures {
+        rms_left_px: 0.2,
+        rms_right_px: 0.2,
+        rms_stereo_px: 0.2,
+        epipolar_error_px: 0.1,
+    };
+    StereoCalibration::new(640, 480, &left, &right, &r, &t, &rect, q)
 }
