@@ -96,6 +96,12 @@ pub struct MatchParams {
     pub left_right_check: bool,
     /// Match nearly horizontal segments during propagation.
     pub match_horizontal: bool,
+    /// Nearly horizontal pairs: largest distance of the left midpoint from the right line
+    /// shifted by the context disparity, pixels.
+    pub horizontal_line_tolerance_px: f32,
+    /// Nearly horizontal pairs: largest difference between an endpoint disparity and the
+    /// context disparity, pixels.
+    pub horizontal_endpoint_tolerance_px: f32,
     /// Propagation: minimum ratio shorter/longer length when the left segment lies within the
     /// rows of a longer right segment (a fragment of its edge).
     pub contained_min_length_ratio: f32,
@@ -115,7 +121,9 @@ impl Default for MatchParams {
     /// 50 px (the 24 closest); disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
     /// levels, contrast ratio <= 2.5; seeds need 2 supporting neighbours, other matches 1;
     /// photometric error <= 7 grey levels; left-right check on; horizontal segments matched;
-    /// right fragments joined across gaps of <= 8 rows when within 6 deg of each other.
+    /// right fragments joined across gaps of <= 8 rows when within 6 deg of each other; nearly
+    /// horizontal pairs within 2 px of the shifted line, an endpoint disparity within 2.5 px of
+    /// the context.
     fn default() -> Self {
         Self {
             disparity_min_px: 0.0,
@@ -140,6 +148,8 @@ impl Default for MatchParams {
             left_right_check: true,
             match_horizontal: true,
             contained_min_length_ratio: 0.25,
+            horizontal_line_tolerance_px: 2.0,
+            horizontal_endpoint_tolerance_px: 2.5,
             join_right_fragments: true,
             max_fragment_gap_px: 8.0,
             max_fragment_angle_diff_deg: 6.0,
@@ -1210,7 +1220,7 @@ fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) 
     let m = l.midpoint();
     let (px, py) = (m[0] - (r.start[0] + disparity), m[1] - r.start[1]);
     let distance = (dx * py - dy * px).abs() / r.length_px.max(1e-3);
-    if distance > params.disparity_tolerance_px {
+    if distance > params.horizontal_line_tolerance_px {
         return None;
     }
     // The measured disparity: the mean of the endpoint disparities that agree with the
@@ -1218,7 +1228,7 @@ fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) 
     let (mut sum, mut count) = (0.0f32, 0u32);
     for (a, b) in [(l.start, r.start), (l.end, r.end)] {
         let d = a[0] - b[0];
-        if (d - disparity).abs() <= params.disparity_tolerance_px {
+        if (d - disparity).abs() <= params.horizontal_endpoint_tolerance_px {
             sum += d;
             count += 1;
         }

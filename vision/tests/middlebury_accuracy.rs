@@ -2,7 +2,7 @@
 //! defaults; every extracted left segment counts in the denominator). The goal is at least
 //! 60 % of the left segments matched with at most 2 % of the matches wrong (see
 //! `videt_vision::evaluation` for how a match is judged). Tsukuba, venus and teddy reach it and
-//! are held to it; cones does not yet (measured 55.3 % matched, 2.81 % wrong) and is held to
+//! are held to it; cones does not yet (measured 55.8 % matched, 2.79 % wrong) and is held to
 //! its measured level. The full table: `cargo run --release -p videt-vision --example
 //! stereo_accuracy`.
 
