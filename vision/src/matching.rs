@@ -116,7 +116,7 @@ pub struct MatchParams {
 
 impl Default for MatchParams {
     /// Disparities 0..64 px; 15 deg horizontal band; overlap >= 50 %; prediction within 8 deg and
-    /// length ratio >= 0.7 for segments >= 20 px; propagation within 20 deg and ratio >= 0.4
+    /// length ratio >= 0.7 for segments >= 20 px; propagation within 13 deg and ratio >= 0.4
     /// (>= 0.25 for a left segment within the rows of a longer right one); neighbours within
     /// 50 px (the 24 closest); disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
     /// levels, contrast ratio <= 2.5; seeds need 2 supporting neighbours, other matches 1;
@@ -133,7 +133,7 @@ impl Default for MatchParams {
             predict_max_angle_diff_deg: 8.0,
             predict_min_length_ratio: 0.7,
             predict_min_length_px: 20.0,
-            propagate_max_angle_diff_deg: 20.0,
+            propagate_max_angle_diff_deg: 13.0,
             propagate_min_length_ratio: 0.4,
             neighbourhood_radius_px: 50.0,
             max_neighbours: 24,
