@@ -202,6 +202,14 @@ fn override_param(p: &mut VisionParams, key: &str, v: f64) -> Result<(), String>
         "matching.min_support" => m.min_support = v as u32,
         "matching.left_right_check" => m.left_right_check = v != 0.0,
         "matching.match_horizontal" => m.match_horizontal = v != 0.0,
+        "matching.join_right_fragments" => m.join_right_fragments = v != 0.0,
+        "matching.horizontal_line_tolerance_px" => m.horizontal_line_tolerance_px = v as f32,
+        "matching.horizontal_endpoint_tolerance_px" => {
+            m.horizontal_endpoint_tolerance_px = v as f32
+        }
+        "matching.contained_min_length_ratio" => m.contained_min_length_ratio = v as f32,
+        "matching.max_fragment_gap_px" => m.max_fragment_gap_px = v as f32,
+        "matching.max_fragment_angle_diff_deg" => m.max_fragment_angle_diff_deg = v as f32,
         _ => return Err(format!("unknown parameter {key}")),
     }
     Ok(())

@@ -33,6 +33,12 @@
 //! A match's disparity is taken at the left segment's two endpoints: the right segment's line
 //! is intersected with the rows of the left endpoints.
 //!
+//! A segment may match part of another (Ayache): a left segment lying within the rows of a
+//! longer right segment meets a weaker length limit, and an edge broken into two collinear
+//! fragments in the right image (a short gap of rows) is matched as one, the disparity taken
+//! from the line joining the fragments; the match then uses rows of both right pieces and
+//! reports the longer one.
+//!
 //! Every ranking ends with a tie-break on image position, so that the result does not depend
 //! on the order in which segments were extracted (a local run sees them in another order).
 
@@ -90,14 +96,34 @@ pub struct MatchParams {
     pub left_right_check: bool,
     /// Match nearly horizontal segments during propagation.
     pub match_horizontal: bool,
+    /// Nearly horizontal pairs: largest distance of the left midpoint from the right line
+    /// shifted by the context disparity, pixels.
+    pub horizontal_line_tolerance_px: f32,
+    /// Nearly horizontal pairs: largest difference between an endpoint disparity and the
+    /// context disparity, pixels.
+    pub horizontal_endpoint_tolerance_px: f32,
+    /// Propagation: minimum ratio shorter/longer length when the left segment lies within the
+    /// rows of a longer right segment (a fragment of its edge).
+    pub contained_min_length_ratio: f32,
+    /// Also match a left segment to two collinear right segments (one edge broken into two
+    /// fragments in the right image), the disparity taken from the line joining them.
+    pub join_right_fragments: bool,
+    /// Joined fragments: largest row gap between the two pieces, pixels.
+    pub max_fragment_gap_px: f32,
+    /// Joined fragments: largest orientation difference of the two pieces, degrees.
+    pub max_fragment_angle_diff_deg: f32,
 }
 
 impl Default for MatchParams {
     /// Disparities 0..64 px; 15 deg horizontal band; overlap >= 50 %; prediction within 8 deg and
-    /// length ratio >= 0.7 for segments >= 20 px; propagation within 20 deg and ratio >= 0.4;
-    /// neighbours within 30 px; disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
+    /// length ratio >= 0.7 for segments >= 20 px; propagation within 13 deg and ratio >= 0.4
+    /// (>= 0.25 for a left segment within the rows of a longer right one); neighbours within
+    /// 50 px (the 24 closest); disparity gradient 0.3 px/px + 1.5 px; intensity within 30 grey
     /// levels, contrast ratio <= 2.5; seeds need 2 supporting neighbours, other matches 1;
-    /// photometric error <= 7 grey levels; left-right check on; horizontal segments matched.
+    /// photometric error <= 7 grey levels; left-right check on; horizontal segments matched;
+    /// right fragments joined across gaps of <= 8 rows when within 6 deg of each other; nearly
+    /// horizontal pairs within 2 px of the shifted line, an endpoint disparity within 2.5 px of
+    /// the context.
     fn default() -> Self {
         Self {
             disparity_min_px: 0.0,
@@ -107,7 +133,7 @@ impl Default for MatchParams {
             predict_max_angle_diff_deg: 8.0,
             predict_min_length_ratio: 0.7,
             predict_min_length_px: 20.0,
-            propagate_max_angle_diff_deg: 20.0,
+            propagate_max_angle_diff_deg: 13.0,
             propagate_min_length_ratio: 0.4,
             neighbourhood_radius_px: 50.0,
             max_neighbours: 24,
@@ -121,6 +147,12 @@ impl Default for MatchParams {
             max_photometric_error: 7.0,
             left_right_check: true,
             match_horizontal: true,
+            contained_min_length_ratio: 0.25,
+            horizontal_line_tolerance_px: 2.0,
+            horizontal_endpoint_tolerance_px: 2.5,
+            join_right_fragments: true,
+            max_fragment_gap_px: 8.0,
+            max_fragment_angle_diff_deg: 6.0,
         }
     }
 }
@@ -210,6 +242,10 @@ struct Candidate {
     support: u32,
     /// Rows of the right segment the match uses (all rows for nearly horizontal pairs).
     rows: [f32; 2],
+    /// Second right piece when the right side is two collinear fragments of one edge
+    /// ([`NONE`] otherwise), and the rows of it the match uses.
+    right2: u32,
+    rows2: [f32; 2],
     /// Left start row, left start column, right start column: the final tie-break.
     position: [f32; 3],
 }
@@ -296,9 +332,23 @@ pub struct MatchWorkspace {
     /// Nearly horizontal proposals of a round: candidate, measured disparity, distance to the
     /// neighbour giving the context.
     proposals: Vec<(u32, f32, f32)>,
+    /// Pairs of collinear right fragments: the virtual segment joining them and the two
+    /// pieces (the longer first) with their rows; sorted by the virtual segment's upper row.
+    fragments: Vec<JoinedFragments>,
 }
 
 const NONE: u32 = u32::MAX;
+
+/// Two right segments that are fragments of one straight edge.
+#[derive(Debug, Clone, Copy)]
+struct JoinedFragments {
+    /// The segment joining the outer endpoints.
+    joined: Segment,
+    /// The longer piece and its rows.
+    main: (u32, [f32; 2]),
+    /// The shorter piece and its rows.
+    other: (u32, [f32; 2]),
+}
 
 /// Rounds of nearly horizontal matching (the second lets nearly horizontal matches vouch for
 /// their nearly horizontal neighbours).
@@ -369,6 +419,7 @@ impl MatchWorkspace {
             right[a as usize].start[1].total_cmp(&right[b as usize].start[1])
         });
         let horizontal = params.horizontal_angle_deg.to_radians();
+        self.join_fragments(right, horizontal, params);
         for (i, l) in left.iter().enumerate() {
             self.candidate_start.push(self.candidates.len() as u32);
             let l_horizontal = l.is_nearly_horizontal(horizontal);
@@ -399,8 +450,139 @@ impl MatchWorkspace {
                 }
                 self.candidates.push(c);
             }
+            if !l_horizontal && params.join_right_fragments {
+                self.fragment_candidates(i as u32, l, images, params);
+            }
         }
         self.candidate_start.push(self.candidates.len() as u32);
+    }
+
+    /// Pairs of right segments that are two fragments of one straight edge broken by a short
+    /// gap (same polarity and similar sides, collinear, on consecutive rows). A left segment
+    /// spanning both is matched to the pair, its disparity taken from the joined line.
+    fn join_fragments(&mut self, right: &[Segment], horizontal: f32, params: &MatchParams) {
+        self.fragments.clear();
+        if !params.join_right_fragments {
+            return;
+        }
+        // `right_order` is sorted by upper row.
+        for (oa, &a) in self.right_order.iter().enumerate() {
+            let sa = &right[a as usize];
+            if sa.is_nearly_horizontal(horizontal) {
+                continue;
+            }
+            for &b in &self.right_order[oa + 1..] {
+                let sb = &right[b as usize];
+                if sb.start[1] > sa.end[1] + params.max_fragment_gap_px {
+                    break;
+                }
+                if sb.start[1] < sa.end[1] - 1.0
+                    || sb.polarity != sa.polarity
+                    || sb.is_nearly_horizontal(horizontal)
+                {
+                    continue;
+                }
+                let mut angle_diff = (sa.angle_rad - sb.angle_rad).abs();
+                if angle_diff > std::f32::consts::FRAC_PI_2 {
+                    angle_diff = std::f32::consts::PI - angle_diff;
+                }
+                if angle_diff.to_degrees() > params.max_fragment_angle_diff_deg
+                    || line_distance(sa, sb.start) > params.disparity_tolerance_px
+                    || line_distance(sb, sa.end) > params.disparity_tolerance_px
+                    || (sa.side_intensity[0] - sb.side_intensity[0]).abs()
+                        > params.max_intensity_diff
+                    || (sa.side_intensity[1] - sb.side_intensity[1]).abs()
+                        > params.max_intensity_diff
+                {
+                    continue;
+                }
+                let (start, end) = (sa.start, sb.end);
+                let (dx, dy) = (end[0] - start[0], end[1] - start[1]);
+                let mut angle = dy.atan2(dx);
+                if angle >= std::f32::consts::PI {
+                    angle -= std::f32::consts::PI;
+                }
+                if angle < 0.0 {
+                    angle += std::f32::consts::PI;
+                }
+                let (wa, wb) = (sa.length_px, sb.length_px);
+                let w = (wa + wb).max(1e-3);
+                let joined = Segment {
+                    start,
+                    end,
+                    length_px: (dx * dx + dy * dy).sqrt(),
+                    angle_rad: angle,
+                    polarity: sa.polarity,
+                    contrast: (wa * sa.contrast + wb * sb.contrast) / w,
+                    side_intensity: [
+                        (wa * sa.side_intensity[0] + wb * sb.side_intensity[0]) / w,
+                        (wa * sa.side_intensity[1] + wb * sb.side_intensity[1]) / w,
+                    ],
+                    chain: sa.chain,
+                };
+                let (pa, pb) = ((a, [sa.start[1], sa.end[1]]), (b, [sb.start[1], sb.end[1]]));
+                let (main, other) = if sb.length_px > sa.length_px {
+                    (pb, pa)
+                } else {
+                    (pa, pb)
+                };
+                self.fragments.push(JoinedFragments {
+                    joined,
+                    main,
+                    other,
+                });
+            }
+        }
+        // Order-independent: by upper row, then by the pieces' positions.
+        self.fragments.sort_unstable_by(|x, y| {
+            let (p, q) = (&x.joined, &y.joined);
+            p.start[1]
+                .total_cmp(&q.start[1])
+                .then(p.start[0].total_cmp(&q.start[0]))
+                .then(p.end[1].total_cmp(&q.end[1]))
+                .then(p.end[0].total_cmp(&q.end[0]))
+        });
+    }
+
+    /// Candidates of left segment `i` on joined right fragments covering rows of both pieces.
+    fn fragment_candidates(
+        &mut self,
+        i: u32,
+        l: &Segment,
+        images: Option<&StereoImages<'_>>,
+        params: &MatchParams,
+    ) {
+        let count = self
+            .fragments
+            .partition_point(|f| f.joined.start[1] <= l.end[1]);
+        for f in 0..count {
+            let JoinedFragments {
+                joined,
+                main,
+                other,
+            } = self.fragments[f];
+            if joined.end[1] < l.start[1] {
+                continue;
+            }
+            // Both pieces must lie on rows of the left segment.
+            let on_left = |rows: [f32; 2]| [rows[0].max(l.start[1]), rows[1].min(l.end[1])];
+            let (rows, rows2) = (on_left(main.1), on_left(other.1));
+            if rows[1] - rows[0] <= 1.0 || rows2[1] - rows2[0] <= 1.0 {
+                continue;
+            }
+            let Some(mut c) = evaluate_pair(i, l, main.0, &joined, false, params) else {
+                continue;
+            };
+            c.rows = rows;
+            c.rows2 = rows2;
+            c.right2 = other.0;
+            if let Some(images) = images {
+                if photometric_error(l, &c, images) > params.max_photometric_error {
+                    continue;
+                }
+            }
+            self.candidates.push(c);
+        }
     }
 
     /// Neighbours of each left segment: the `max_neighbours` closest segments within the
@@ -627,21 +809,32 @@ impl MatchWorkspace {
 
     /// Whether the rows of `c` on its right segment are still free.
     fn right_free(&self, c: &Candidate) -> bool {
-        let j = c.right as usize;
+        self.rows_free(c.right, c.rows) && (c.right2 == NONE || self.rows_free(c.right2, c.rows2))
+    }
+
+    fn rows_free(&self, j: u32, rows: [f32; 2]) -> bool {
+        let j = j as usize;
         let n = self.right_taken_len[j] as usize;
         if n >= MAX_PIECES_PER_RIGHT {
             return false;
         }
         !self.right_taken[j][..n]
             .iter()
-            .any(|&rows| rows_overlap(rows, c.rows))
+            .any(|&taken| rows_overlap(taken, rows))
     }
 
     fn take_right(&mut self, c: &Candidate) {
-        let j = c.right as usize;
+        self.take_rows(c.right, c.rows);
+        if c.right2 != NONE {
+            self.take_rows(c.right2, c.rows2);
+        }
+    }
+
+    fn take_rows(&mut self, j: u32, rows: [f32; 2]) {
+        let j = j as usize;
         let n = self.right_taken_len[j] as usize;
         if n < MAX_PIECES_PER_RIGHT {
-            self.right_taken[j][n] = c.rows;
+            self.right_taken[j][n] = rows;
             self.right_taken_len[j] += 1;
         }
     }
@@ -877,6 +1070,13 @@ fn continuous(a: &Candidate, b: &Candidate, n: &Neighbour, params: &MatchParams)
     (da - db).abs() <= params.disparity_tolerance_px + params.disparity_gradient_limit * n.distance
 }
 
+/// Distance of point `p` from the supporting line of `s`, pixels.
+fn line_distance(s: &Segment, p: [f32; 2]) -> f32 {
+    let (dx, dy) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
+    let (px, py) = (p[0] - s.start[0], p[1] - s.start[1]);
+    (dx * py - dy * px).abs() / s.length_px.max(1e-3)
+}
+
 fn min_max(a: f32, b: f32) -> (f32, f32) {
     if a < b {
         (a, b)
@@ -921,7 +1121,19 @@ fn evaluate_pair(
         return None;
     }
     let length_ratio = l.length_px.min(r.length_px) / l.length_px.max(r.length_px);
-    if length_ratio < params.propagate_min_length_ratio {
+    // A left segment lying within the rows of a longer right one may be a fragment of its
+    // edge (Ayache: a segment matches part of another); its disparity is interpolated on the
+    // right line, so a weaker length limit applies.
+    let contained = !l_horizontal
+        && l.start[1] >= r.start[1] - 1.0
+        && l.end[1] <= r.end[1] + 1.0
+        && r.length_px > l.length_px;
+    let min_length_ratio = if contained {
+        params.contained_min_length_ratio
+    } else {
+        params.propagate_min_length_ratio
+    };
+    if length_ratio < min_length_ratio {
         return None;
     }
     let (dmin, dmax) = (params.disparity_min_px, params.disparity_max_px);
@@ -989,6 +1201,8 @@ fn evaluate_pair(
         horizontal: l_horizontal,
         support: 0,
         position: [l.start[1], l.start[0], r.start[0]],
+        right2: NONE,
+        rows2: [0.0; 2],
         rows: if l_horizontal {
             [f32::NEG_INFINITY, f32::INFINITY]
         } else {
@@ -1006,7 +1220,7 @@ fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) 
     let m = l.midpoint();
     let (px, py) = (m[0] - (r.start[0] + disparity), m[1] - r.start[1]);
     let distance = (dx * py - dy * px).abs() / r.length_px.max(1e-3);
-    if distance > params.disparity_tolerance_px {
+    if distance > params.horizontal_line_tolerance_px {
         return None;
     }
     // The measured disparity: the mean of the endpoint disparities that agree with the
@@ -1014,7 +1228,7 @@ fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) 
     let (mut sum, mut count) = (0.0f32, 0u32);
     for (a, b) in [(l.start, r.start), (l.end, r.end)] {
         let d = a[0] - b[0];
-        if (d - disparity).abs() <= params.disparity_tolerance_px {
+        if (d - disparity).abs() <= params.horizontal_endpoint_tolerance_px {
             sum += d;
             count += 1;
         }
@@ -1154,6 +1368,56 @@ mod tests {
         let c = evaluate_pair(0, &l, 0, &r, false, &MatchParams::default()).unwrap();
         assert!((c.disparity[0] - 10.0).abs() < 1e-3, "{:?}", c.disparity);
         assert!((c.disparity[1] - 10.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_left_segment_within_a_longer_right_one_is_a_candidate() {
+        let params = MatchParams::default();
+        let r = seg(90.0, 10.0, 90.0, 70.0, 1, [50.0, 150.0]);
+        // 16 px within the right segment's rows: ratio 0.27, accepted as a fragment.
+        let inside = seg(100.0, 30.0, 100.0, 46.0, 1, [50.0, 150.0]);
+        let c = evaluate_pair(0, &inside, 0, &r, false, &params).unwrap();
+        assert!((c.disparity[0] - 10.0).abs() < 1e-3);
+        // The same length reaching beyond the right segment's rows is not.
+        let beyond = seg(100.0, 60.0, 100.0, 76.0, 1, [50.0, 150.0]);
+        assert!(evaluate_pair(0, &beyond, 0, &r, false, &params).is_none());
+    }
+
+    #[test]
+    fn an_edge_broken_in_two_on_the_right_is_matched_across_the_gap() {
+        let (left, mut right) = scene(23.0);
+        // Right segment 5 (55 px) broken into two 20-px pieces 6.6 rows apart: each alone is
+        // too short for the length limit.
+        let whole = right[5];
+        let at = |t: f32| {
+            [
+                whole.start[0] + t * (whole.end[0] - whole.start[0]),
+                whole.start[1] + t * (whole.end[1] - whole.start[1]),
+            ]
+        };
+        let piece = |t0: f32, t1: f32| {
+            let (a, b) = (at(t0), at(t1));
+            let mut s = seg(a[0], a[1], b[0], b[1], whole.polarity, whole.side_intensity);
+            s.contrast = whole.contrast;
+            s
+        };
+        right[5] = piece(0.02, 0.38);
+        right.push(piece(0.5, 0.86));
+        let mut ws = MatchWorkspace::new();
+        let mut out = Vec::new();
+        let mut params = MatchParams {
+            join_right_fragments: false,
+            ..MatchParams::default()
+        };
+        ws.match_segments(&left, &right, None, &params, &mut out);
+        assert!(out.iter().all(|m| m.left != 5));
+        params.join_right_fragments = true;
+        ws.match_segments(&left, &right, None, &params, &mut out);
+        let m = out.iter().find(|m| m.left == 5).expect("left 5 matched");
+        assert!(m.right == 5 || m.right as usize == right.len() - 1);
+        assert!((m.disparity_px[0] - 23.0).abs() < 1e-2, "{m:?}");
+        assert!((m.disparity_px[1] - 23.0).abs() < 1e-2, "{m:?}");
+        assert_eq!(out.len(), left.len());
     }
 
     #[test]
