@@ -320,7 +320,9 @@ where
     H: ProcedureDevice,
     O: CycleObserver + ?Sized,
 {
-    let Some(spec) = handle.spec.lock().ok().and_then(|mut s| s.take()) else {
+    // Never wait on the control thread: the slot is only contended while the client withdraws
+    // its request, which then has nothing to hand over either.
+    let Some(spec) = handle.spec.try_lock().ok().and_then(|mut s| s.take()) else {
         // A hand-over nobody waits for any more (the client gave up): render again.
         return (None, first_cycle);
     };
