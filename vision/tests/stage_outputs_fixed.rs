@@ -3,11 +3,12 @@
 //! sub-pixel offsets of the edge pixels, the chains and the segments (every field's bits) of
 //! both images of tsukuba, venus, cones and teddy, of the 640x480 bench pair (teddy upscaled)
 //! and of the windows of a 100x100 local run on it. A change that is meant to make these
-//! stages faster must leave every fingerprint unchanged.
+//! stages faster must leave every fingerprint unchanged. The matches of the whole pipeline on
+//! each pair (and of the local run) are pinned too: a change meant to make the matcher faster
+//! must leave them unchanged as well.
 //!
 //! `VIDET_PRINT_FINGERPRINTS=1 cargo test -p videt-vision --test stage_outputs_fixed -- --nocapture`
-//! prints the table (and the fingerprint of the matches, which belong to the matcher and are
-//! only printed).
+//! prints the tables.
 
 use image::imageops::FilterType;
 use image::GrayImage;
@@ -290,6 +291,16 @@ const EXPECTED: &[(&str, &str, [u64; 7])] = &[
     ),
 ];
 
+/// The pinned fingerprints of the matches (see [`matches_fingerprint`]) per input.
+const EXPECTED_MATCHES: &[(&str, u64)] = &[
+    ("tsukuba", 0x3ac9fbfd528f89a4),
+    ("venus", 0xc6cd1df32282e51c),
+    ("cones", 0xa7aba42d682c9bbb),
+    ("teddy", 0x192ea229d890c0ae),
+    ("teddy640", 0xce9e93f3a6a9066e),
+    ("teddy640-local", 0xc7ac9d2a6cdbac91),
+];
+
 fn load(dir: &std::path::Path, name: &str) -> GrayImage {
     image::open(dir.join(name)).unwrap().to_luma8()
 }
@@ -367,6 +378,11 @@ fn edge_and_segment_stages_reproduce_their_pinned_outputs() {
         for (stage, (a, e)) in STAGES.iter().zip(prints.iter().zip(e_prints)) {
             assert_eq!(a, e, "{name} {side}: stage {stage} changed");
         }
+    }
+    assert_eq!(match_prints.len(), EXPECTED_MATCHES.len());
+    for ((name, print), (e_name, e_print)) in match_prints.iter().zip(EXPECTED_MATCHES) {
+        assert_eq!(name, e_name);
+        assert_eq!(print, e_print, "{name}: matches changed");
     }
 }
 
