@@ -314,6 +314,10 @@ impl PartialOrd for Queued {
 #[derive(Debug, Default, Clone)]
 pub struct MatchWorkspace {
     right_order: Vec<u32>,
+    /// The first constraints of each right segment, in `right_order`.
+    right_keys: Vec<RightKey>,
+    /// Row and column extents of each left segment, in `left_order`.
+    left_extents: Vec<Extent>,
     candidates: Vec<Candidate>,
     candidate_start: Vec<u32>,
     neighbours: Vec<Neighbour>,
@@ -338,6 +342,31 @@ pub struct MatchWorkspace {
 }
 
 const NONE: u32 = u32::MAX;
+
+/// Row extent `[start, end]` and column extent `[min, max]` of a segment, pixels.
+#[derive(Debug, Clone, Copy)]
+struct Extent {
+    rows: [f32; 2],
+    columns: [f32; 2],
+}
+
+impl Extent {
+    fn of(s: &Segment) -> Self {
+        let (x0, x1) = min_max(s.start[0], s.end[0]);
+        Self {
+            rows: [s.start[1], s.end[1]],
+            columns: [x0, x1],
+        }
+    }
+}
+
+/// What the candidate search tests first of a right segment, stored contiguously.
+#[derive(Debug, Clone, Copy)]
+struct RightKey {
+    extent: Extent,
+    polarity: i8,
+    index: u32,
+}
 
 /// Two right segments that are fragments of one straight edge.
 #[derive(Debug, Clone, Copy)]
@@ -418,8 +447,20 @@ impl MatchWorkspace {
         self.right_order.sort_unstable_by(|&a, &b| {
             right[a as usize].start[1].total_cmp(&right[b as usize].start[1])
         });
+        self.right_keys.clear();
+        let mut tallest = 0.0f32;
+        for &j in &self.right_order {
+            let r = &right[j as usize];
+            tallest = tallest.max(r.height_px());
+            self.right_keys.push(RightKey {
+                extent: Extent::of(r),
+                polarity: r.polarity,
+                index: j,
+            });
+        }
         let horizontal = params.horizontal_angle_deg.to_radians();
         self.join_fragments(right, horizontal, params);
+        let (dmin, dmax) = (params.disparity_min_px, params.disparity_max_px);
         for (i, l) in left.iter().enumerate() {
             self.candidate_start.push(self.candidates.len() as u32);
             let l_horizontal = l.is_nearly_horizontal(horizontal);
@@ -427,17 +468,27 @@ impl MatchWorkspace {
                 continue;
             }
             // Right segments starting above the left segment's lower end (plus slack for
-            // horizontal segments whose rows must agree within 2 px).
+            // horizontal segments whose rows must agree within 2 px) and, being at most
+            // `tallest` high, not ending (with a pixel's margin) above its upper end.
             let slack = if l_horizontal { 2.0 } else { 0.0 };
             let upper = l.end[1] + slack;
-            let count = self
-                .right_order
-                .partition_point(|&j| right[j as usize].start[1] <= upper);
-            for &j in &self.right_order[..count] {
-                let r = &right[j as usize];
-                if r.end[1] + slack < l.start[1] {
+            let lower = l.start[1] - slack - tallest - 1.0;
+            let keys = &self.right_keys;
+            let first = keys.partition_point(|k| k.extent.rows[0] < lower);
+            let count = keys.partition_point(|k| k.extent.rows[0] <= upper);
+            let (lx0, lx1) = min_max(l.start[0], l.end[0]);
+            for key in &keys[first..count.max(first)] {
+                // The first tests of `evaluate_pair`, on contiguous data.
+                let [rx0, rx1] = key.extent.columns;
+                if key.extent.rows[1] + slack < l.start[1]
+                    || key.polarity != l.polarity
+                    || lx0 - rx1 > dmax + 1.0
+                    || lx1 - rx0 < dmin - 1.0
+                {
                     continue;
                 }
+                let j = key.index;
+                let r = &right[j as usize];
                 let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params) else {
                     continue;
                 };
@@ -601,21 +652,41 @@ impl MatchWorkspace {
         self.left_order.sort_unstable_by(|&a, &b| {
             left[a as usize].start[1].total_cmp(&left[b as usize].start[1])
         });
+        self.left_extents.clear();
+        self.left_extents.extend(
+            self.left_order
+                .iter()
+                .map(|&i| Extent::of(&left[i as usize])),
+        );
+        // Segments whose bounding boxes are farther apart than this cannot be neighbours (a
+        // pixel's margin over the radius for rounding).
+        let reach_sq = (radius + 1.0) * (radius + 1.0);
         for (oi, &i) in self.left_order.iter().enumerate() {
             let a = &left[i as usize];
-            let (ax0, ax1) = min_max(a.start[0], a.end[0]);
-            for &j in &self.left_order[oi + 1..] {
-                let b = &left[j as usize];
-                if b.start[1] > a.end[1] + radius {
+            let ea = self.left_extents[oi];
+            let [ax0, ax1] = ea.columns;
+            for (&j, eb) in self.left_order[oi + 1..]
+                .iter()
+                .zip(&self.left_extents[oi + 1..])
+            {
+                if eb.rows[0] > ea.rows[1] + radius {
                     break;
                 }
-                if b.end[1] < a.start[1] - radius {
+                if eb.rows[1] < ea.rows[0] - radius {
                     continue;
                 }
-                let (bx0, bx1) = min_max(b.start[0], b.end[0]);
+                let [bx0, bx1] = eb.columns;
                 if bx0 > ax1 + radius || bx1 < ax0 - radius {
                     continue;
                 }
+                let gap_x = (bx0 - ax1).max(ax0 - bx1).max(0.0);
+                let gap_y = (eb.rows[0] - ea.rows[1])
+                    .max(ea.rows[0] - eb.rows[1])
+                    .max(0.0);
+                if gap_x * gap_x + gap_y * gap_y > reach_sq {
+                    continue;
+                }
+                let b = &left[j as usize];
                 let (d, ta, tb) = segment_distance(a, b);
                 if d <= radius {
                     self.neighbour_pairs.push((
@@ -1003,19 +1074,43 @@ pub struct ImagePatch<'a> {
     pub origin_px: (usize, usize),
 }
 
-impl ImagePatch<'_> {
-    /// Intensity at frame coordinates (`x` interpolated linearly, `y` rounded); `None` outside.
-    fn sample(&self, x: f32, y: f32) -> Option<f32> {
-        let xl = x - self.origin_px.0 as f32;
+impl<'a> ImagePatch<'a> {
+    /// The row nearest to frame row `y` (rounded); `None` outside.
+    fn row(&self, y: f32) -> Option<PatchRow<'a>> {
         let yl = (y - self.origin_px.1 as f32).round();
-        if xl < 0.0 || yl < 0.0 || xl >= (self.width - 1) as f32 || yl >= self.height as f32 {
+        if yl < 0.0 || yl >= self.height as f32 {
+            return None;
+        }
+        let start = yl as usize * self.width;
+        Some(PatchRow {
+            pixels: &self.data[start..start + self.width],
+            origin_x: self.origin_px.0 as f32,
+            x_limit: self.width.saturating_sub(1) as f32,
+        })
+    }
+}
+
+/// One row of an [`ImagePatch`].
+#[derive(Debug, Clone, Copy)]
+struct PatchRow<'a> {
+    pixels: &'a [u8],
+    /// Frame column of the first pixel.
+    origin_x: f32,
+    /// Columns at or right of this (relative to the patch) cannot be interpolated.
+    x_limit: f32,
+}
+
+impl PatchRow<'_> {
+    /// Intensity at frame column `x` (interpolated linearly); `None` outside.
+    fn sample(&self, x: f32) -> Option<f32> {
+        let xl = x - self.origin_x;
+        if xl < 0.0 || xl >= self.x_limit {
             return None;
         }
         let x0 = xl as usize;
         let f = xl - x0 as f32;
-        let row = yl as usize * self.width;
-        let a = self.data[row + x0] as f32;
-        let b = self.data[row + x0 + 1] as f32;
+        let a = self.pixels[x0] as f32;
+        let b = self.pixels[x0 + 1] as f32;
         Some(a + f * (b - a))
     }
 }
@@ -1039,15 +1134,16 @@ fn photometric_error(l: &Segment, c: &Candidate, images: &StereoImages<'_>) -> f
         let x = l.start[0] + t * (l.end[0] - l.start[0]);
         let y = l.start[1] + t * (l.end[1] - l.start[1]);
         let d = c.disparity_at(t);
+        // Both images are sampled on the row nearest to `y`.
+        let (Some(left_row), Some(right_row)) = (images.left.row(y), images.right.row(y)) else {
+            continue;
+        };
         for (side, offsets) in [
             (0usize, [-4.0f32, -3.0, -2.0, -1.0]),
             (1, [1.0, 2.0, 3.0, 4.0]),
         ] {
             for o in offsets {
-                if let (Some(a), Some(b)) = (
-                    images.left.sample(x + o, y),
-                    images.right.sample(x - d + o, y),
-                ) {
+                if let (Some(a), Some(b)) = (left_row.sample(x + o), right_row.sample(x - d + o)) {
                     sums[side] += (a - b).abs();
                     counts[side] += 1;
                 }
