@@ -206,12 +206,31 @@ impl CannyWorkspace {
             pad[radius..radius + w].copy_from_slice(src);
             pad[radius + w..].fill(src[w - 1]);
             let out = &mut self.horizontal[y * w..(y + 1) * w];
-            convolve_row(kernel, w, |t, x| &pad[x + t..], out);
+            match kernel.len() {
+                5 => convolve_fixed::<5>(kernel, |t| &pad[t..t + w], out),
+                7 => convolve_fixed::<7>(kernel, |t| &pad[t..t + w], out),
+                _ => convolve_row(kernel, w, |t, x| &pad[x + t..], out),
+            }
         }
         // Vertical pass into `smoothed`.
         let horizontal = &self.horizontal[..w * h];
         for y in 0..h {
             let out = &mut self.smoothed[y * w..(y + 1) * w];
+            let tap_row = |t: usize| {
+                let sy = (y + t).saturating_sub(radius).min(h - 1);
+                &horizontal[sy * w..(sy + 1) * w]
+            };
+            match kernel.len() {
+                5 => {
+                    convolve_fixed::<5>(kernel, tap_row, out);
+                    continue;
+                }
+                7 => {
+                    convolve_fixed::<7>(kernel, tap_row, out);
+                    continue;
+                }
+                _ => {}
+            }
             convolve_row(
                 kernel,
                 w,
@@ -402,6 +421,45 @@ fn convolve_row<'a>(
             let p: &[u8; SMOOTH_LANES] = src(t, x0)[..SMOOTH_LANES].try_into().unwrap();
             for (a, &v) in acc.iter_mut().zip(p) {
                 *a += k * v as u16;
+            }
+        }
+        let o: &mut [u8; SMOOTH_LANES] = (&mut out[x0..x0 + SMOOTH_LANES]).try_into().unwrap();
+        for (o, &a) in o.iter_mut().zip(&acc) {
+            *o = (a >> 8) as u8;
+        }
+        x = x0 + SMOOTH_LANES;
+    }
+}
+
+/// [`convolve_row`] for a kernel of `N` taps: `tap_input(t)` is the input of tap `t` for the
+/// whole output row (`out.len()` samples from the first output's).
+#[inline(always)]
+fn convolve_fixed<'a, const N: usize>(
+    kernel: &[u16],
+    tap_input: impl Fn(usize) -> &'a [u8],
+    out: &mut [u8],
+) {
+    let w = out.len();
+    let kernel: [u16; N] = kernel[..N].try_into().unwrap();
+    let inputs: [&[u8]; N] = std::array::from_fn(|t| &tap_input(t)[..w]);
+    if w < SMOOTH_LANES {
+        for (x, o) in out.iter_mut().enumerate() {
+            let mut acc = 128u16;
+            for t in 0..N {
+                acc += kernel[t] * inputs[t][x] as u16;
+            }
+            *o = (acc >> 8) as u8;
+        }
+        return;
+    }
+    let mut x = 0;
+    while x < w {
+        let x0 = x.min(w - SMOOTH_LANES);
+        let mut acc = [128u16; SMOOTH_LANES];
+        for t in 0..N {
+            let p: &[u8; SMOOTH_LANES] = inputs[t][x0..x0 + SMOOTH_LANES].try_into().unwrap();
+            for (a, &v) in acc.iter_mut().zip(p) {
+                *a += kernel[t] * v as u16;
             }
         }
         let o: &mut [u8; SMOOTH_LANES] = (&mut out[x0..x0 + SMOOTH_LANES]).try_into().unwrap();
@@ -693,6 +751,28 @@ mod tests {
                 if value != 0 {
                     assert_eq!(block.codes[l], code, "lane {l}");
                 }
+            }
+        }
+    }
+
+    /// The fixed-tap convolutions equal the generic one (kernels of sigma 1.0 and 1.4).
+    #[test]
+    fn fixed_tap_convolution_equals_generic() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for sigma in [1.0f32, 1.4] {
+            let kernel = gaussian_kernel(sigma, (2.0 * sigma).ceil() as usize);
+            for w in [1usize, 7, 15, 16, 17, 37, 64] {
+                let input: Vec<u8> = (0..w + kernel.len()).map(|_| rng.random()).collect();
+                let mut generic = vec![0u8; w];
+                convolve_row(&kernel, w, |t, x| &input[x + t..], &mut generic);
+                let mut fixed = vec![0u8; w];
+                match kernel.len() {
+                    5 => convolve_fixed::<5>(&kernel, |t| &input[t..t + w], &mut fixed),
+                    7 => convolve_fixed::<7>(&kernel, |t| &input[t..t + w], &mut fixed),
+                    n => panic!("kernel of {n} taps"),
+                }
+                assert_eq!(fixed, generic, "sigma {sigma} width {w}");
             }
         }
     }
