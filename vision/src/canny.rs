@@ -364,20 +364,14 @@ impl CannyWorkspace {
         let edges = &mut self.edges;
         while let Some(i) = self.stack.pop() {
             let i = i as usize;
-            // Edge pixels never touch the border (NMS leaves it at 0), so the neighbours exist.
-            for j in [
-                i - w - 1,
-                i - w,
-                i - w + 1,
-                i - 1,
-                i + 1,
-                i + w - 1,
-                i + w,
-                i + w + 1,
-            ] {
-                if edges[j] == WEAK {
-                    edges[j] = EDGE;
-                    self.stack.push(j as u32);
+            // Edge pixels never touch the border (NMS leaves it at 0), so the neighbours exist;
+            // one slice from the top-left to the bottom-right neighbour holds them all.
+            let first = i - w - 1;
+            let window = &mut edges[first..=i + w + 1];
+            for k in [0, 1, 2, w, w + 2, 2 * w, 2 * w + 1, 2 * w + 2] {
+                if window[k] == WEAK {
+                    window[k] = EDGE;
+                    self.stack.push((first + k) as u32);
                 }
             }
         }
