@@ -191,10 +191,13 @@ impl CannyWorkspace {
     }
 
     /// Smoothing only (Gaussian, replicated borders) into [`Self::smoothed`].
+    ///
+    /// Both passes accumulate `128 + sum(k_t p_t)` in `u16` (weights sum to 256, so no overflow)
+    /// and keep the high byte; blocks of [`SMOOTH_LANES`] outputs are accumulated in registers.
     fn smooth(&mut self, image: &GrayView<'_>) {
         let (w, h) = (self.width, self.height);
         let radius = self.kernel.len() / 2;
-        let taps = self.kernel.len();
+        let kernel = &self.kernel[..];
         // Horizontal pass into `horizontal`.
         for y in 0..h {
             let src = image.row(y);
@@ -202,33 +205,41 @@ impl CannyWorkspace {
             pad[..radius].fill(src[0]);
             pad[radius..radius + w].copy_from_slice(src);
             pad[radius + w..].fill(src[w - 1]);
-            let acc = &mut self.accumulator[..w];
-            acc.fill(128);
-            for (t, &k) in self.kernel.iter().enumerate().take(taps) {
-                for (a, &p) in acc.iter_mut().zip(&pad[t..t + w]) {
-                    *a += k * p as u16;
-                }
-            }
             let out = &mut self.horizontal[y * w..(y + 1) * w];
-            for (o, &a) in out.iter_mut().zip(acc.iter()) {
-                *o = (a >> 8) as u8;
+            match kernel.len() {
+                5 => convolve_fixed::<5>(kernel, |t| &pad[t..t + w], out),
+                7 => convolve_fixed::<7>(kernel, |t| &pad[t..t + w], out),
+                _ => convolve_row(kernel, w, |t, x| &pad[x + t..], out),
             }
         }
         // Vertical pass into `smoothed`.
+        let horizontal = &self.horizontal[..w * h];
         for y in 0..h {
-            let acc = &mut self.accumulator[..w];
-            acc.fill(128);
-            for (t, &k) in self.kernel.iter().enumerate() {
-                let sy = (y + t).saturating_sub(radius).min(h - 1);
-                let src = &self.horizontal[sy * w..(sy + 1) * w];
-                for (a, &p) in acc.iter_mut().zip(src) {
-                    *a += k * p as u16;
-                }
-            }
             let out = &mut self.smoothed[y * w..(y + 1) * w];
-            for (o, &a) in out.iter_mut().zip(acc.iter()) {
-                *o = (a >> 8) as u8;
+            let tap_row = |t: usize| {
+                let sy = (y + t).saturating_sub(radius).min(h - 1);
+                &horizontal[sy * w..(sy + 1) * w]
+            };
+            match kernel.len() {
+                5 => {
+                    convolve_fixed::<5>(kernel, tap_row, out);
+                    continue;
+                }
+                7 => {
+                    convolve_fixed::<7>(kernel, tap_row, out);
+                    continue;
+                }
+                _ => {}
             }
+            convolve_row(
+                kernel,
+                w,
+                |t, x| {
+                    let sy = (y + t).saturating_sub(radius).min(h - 1);
+                    &horizontal[sy * w + x..(sy + 1) * w]
+                },
+                out,
+            );
         }
     }
 
@@ -279,8 +290,6 @@ impl CannyWorkspace {
         let (w, h) = (self.width, self.height);
         let low = params.low_threshold as i16;
         let high = params.high_threshold as i16;
-        // tan(22.5 deg) in Q15.
-        const TG22: i32 = 13573;
         self.stack.clear();
         self.edges[..w].fill(0);
         self.edges[(h - 1) * w..h * w].fill(0);
@@ -298,53 +307,53 @@ impl CannyWorkspace {
             let gxr = &self.gx[row..row + w];
             let gyr = &self.gy[row..row + w];
             let subpixel = &mut self.subpixel[row..row + w];
-            // Skip runs of 16 pixels below the low threshold with a vectorised maximum.
+            let rows = NmsRows {
+                prev: m_prev,
+                cur: m_cur,
+                next: m_next,
+                gx: gxr,
+                gy: gyr,
+            };
+            // Blocks of NMS_LANES pixels, branch-free inside; the last block is aligned to end at
+            // w - 1 (it may overlap the previous one: recomputing a pixel gives the same result).
             let mut x = 1;
+            let mut done = 1usize;
             while x < w - 1 {
-                let end = (x + 16).min(w - 1);
-                let run_max = m_cur[x..end].iter().fold(i16::MIN, |a, &b| a.max(b));
-                if run_max <= low {
-                    x = end;
+                if x + NMS_LANES > w - 1 {
+                    if w > 1 + NMS_LANES {
+                        x = w - 1 - NMS_LANES;
+                    } else {
+                        // Rows narrower than one block: pixel by pixel.
+                        for x in x..w - 1 {
+                            let (value, code) = suppress_pixel(&rows, x, low, high);
+                            out[x] = value;
+                            if value != 0 {
+                                subpixel[x] = code;
+                            }
+                            if value == EDGE {
+                                self.stack.push((row + x) as u32);
+                            }
+                        }
+                        break;
+                    }
+                }
+                let m = lanes(m_cur, x);
+                if m.iter().fold(i16::MIN, |a, &b| a.max(b)) <= low {
+                    x += NMS_LANES;
                     continue;
                 }
-                for x in x..end {
-                    let m = m_cur[x];
-                    if m <= low {
-                        continue;
-                    }
-                    let dx = gxr[x] as i32;
-                    let dy = gyr[x] as i32;
-                    let ax = dx.abs();
-                    let ay = dy.abs() << 15;
-                    let tg22x = ax * TG22;
-                    // Neighbours before/after along the quantised gradient direction.
-                    let (code, before, after, is_max) = if ay < tg22x {
-                        let (b, a) = (m_cur[x - 1], m_cur[x + 1]);
-                        (0u8, b, a, m > b && m >= a)
-                    } else {
-                        let tg67x = tg22x + (ax << 16);
-                        if ay > tg67x {
-                            let (b, a) = (m_prev[x], m_next[x]);
-                            (1, b, a, m > b && m >= a)
-                        } else if (dx ^ dy) < 0 {
-                            let (b, a) = (m_next[x - 1], m_prev[x + 1]);
-                            (2, b, a, m > a && m > b)
-                        } else {
-                            let (b, a) = (m_prev[x - 1], m_next[x + 1]);
-                            (3, b, a, m > b && m > a)
-                        }
-                    };
-                    if is_max {
-                        subpixel[x] = encode_subpixel(code, before as i32, m as i32, after as i32);
-                        if m > high {
-                            out[x] = EDGE;
-                            self.stack.push((row + x) as u32);
-                        } else {
-                            out[x] = WEAK;
-                        }
-                    }
+                let block = suppress_block(&rows, x, low, high);
+                out[x..x + NMS_LANES].copy_from_slice(&block.values);
+                subpixel[x..x + NMS_LANES].copy_from_slice(&block.codes);
+                // Pixels before `done` (an overlapping last block) were pushed already.
+                let mut strong = block.strong_mask & (u32::MAX << done.saturating_sub(x));
+                while strong != 0 {
+                    let lane = strong.trailing_zeros() as usize;
+                    strong &= strong - 1;
+                    self.stack.push((row + x + lane) as u32);
                 }
-                x = end;
+                x += NMS_LANES;
+                done = x;
             }
         }
     }
@@ -355,24 +364,253 @@ impl CannyWorkspace {
         let edges = &mut self.edges;
         while let Some(i) = self.stack.pop() {
             let i = i as usize;
-            // Edge pixels never touch the border (NMS leaves it at 0), so the neighbours exist.
-            for j in [
-                i - w - 1,
-                i - w,
-                i - w + 1,
-                i - 1,
-                i + 1,
-                i + w - 1,
-                i + w,
-                i + w + 1,
-            ] {
-                if edges[j] == WEAK {
-                    edges[j] = EDGE;
-                    self.stack.push(j as u32);
+            // Edge pixels never touch the border (NMS leaves it at 0), so the neighbours exist;
+            // one slice from the top-left to the bottom-right neighbour holds them all.
+            let first = i - w - 1;
+            let window = &mut edges[first..=i + w + 1];
+            for k in [0, 1, 2, w, w + 2, 2 * w, 2 * w + 1, 2 * w + 2] {
+                if window[k] == WEAK {
+                    window[k] = EDGE;
+                    self.stack.push((first + k) as u32);
                 }
             }
         }
     }
+}
+
+/// tan(22.5 deg) in Q15.
+const TG22: i32 = 13573;
+/// Pixels per block of the smoothing passes.
+const SMOOTH_LANES: usize = 16;
+/// Pixels per block of non-maximum suppression.
+const NMS_LANES: usize = 8;
+
+/// One output row of a 1-D convolution with `kernel` (weights summing to 256): pixel `x` is
+/// `(128 + sum_t kernel[t] * src(t, x)[0]) >> 8`, where `src(t, x)` starts at the input sample of
+/// tap `t` for output `x`. Computed in blocks of [`SMOOTH_LANES`] outputs kept in registers; the
+/// last block is aligned to end at the row end.
+#[inline(always)]
+fn convolve_row<'a>(
+    kernel: &[u16],
+    w: usize,
+    src: impl Fn(usize, usize) -> &'a [u8],
+    out: &mut [u8],
+) {
+    let out = &mut out[..w];
+    if w < SMOOTH_LANES {
+        for (x, o) in out.iter_mut().enumerate() {
+            let mut acc = 128u16;
+            for (t, &k) in kernel.iter().enumerate() {
+                acc += k * src(t, x)[0] as u16;
+            }
+            *o = (acc >> 8) as u8;
+        }
+        return;
+    }
+    let mut x = 0;
+    while x < w {
+        let x0 = x.min(w - SMOOTH_LANES);
+        let mut acc = [128u16; SMOOTH_LANES];
+        for (t, &k) in kernel.iter().enumerate() {
+            let p: &[u8; SMOOTH_LANES] = src(t, x0)[..SMOOTH_LANES].try_into().unwrap();
+            for (a, &v) in acc.iter_mut().zip(p) {
+                *a += k * v as u16;
+            }
+        }
+        let o: &mut [u8; SMOOTH_LANES] = (&mut out[x0..x0 + SMOOTH_LANES]).try_into().unwrap();
+        for (o, &a) in o.iter_mut().zip(&acc) {
+            *o = (a >> 8) as u8;
+        }
+        x = x0 + SMOOTH_LANES;
+    }
+}
+
+/// [`convolve_row`] for a kernel of `N` taps: `tap_input(t)` is the input of tap `t` for the
+/// whole output row (`out.len()` samples from the first output's).
+#[inline(always)]
+fn convolve_fixed<'a, const N: usize>(
+    kernel: &[u16],
+    tap_input: impl Fn(usize) -> &'a [u8],
+    out: &mut [u8],
+) {
+    let w = out.len();
+    let kernel: [u16; N] = kernel[..N].try_into().unwrap();
+    let inputs: [&[u8]; N] = std::array::from_fn(|t| &tap_input(t)[..w]);
+    if w < SMOOTH_LANES {
+        for (x, o) in out.iter_mut().enumerate() {
+            let mut acc = 128u16;
+            for t in 0..N {
+                acc += kernel[t] * inputs[t][x] as u16;
+            }
+            *o = (acc >> 8) as u8;
+        }
+        return;
+    }
+    let mut x = 0;
+    while x < w {
+        let x0 = x.min(w - SMOOTH_LANES);
+        let mut acc = [128u16; SMOOTH_LANES];
+        for t in 0..N {
+            let p: &[u8; SMOOTH_LANES] = inputs[t][x0..x0 + SMOOTH_LANES].try_into().unwrap();
+            for (a, &v) in acc.iter_mut().zip(p) {
+                *a += kernel[t] * v as u16;
+            }
+        }
+        let o: &mut [u8; SMOOTH_LANES] = (&mut out[x0..x0 + SMOOTH_LANES]).try_into().unwrap();
+        for (o, &a) in o.iter_mut().zip(&acc) {
+            *o = (a >> 8) as u8;
+        }
+        x = x0 + SMOOTH_LANES;
+    }
+}
+
+/// The rows of magnitude and gradient around the row being suppressed.
+struct NmsRows<'a> {
+    prev: &'a [i16],
+    cur: &'a [i16],
+    next: &'a [i16],
+    gx: &'a [i16],
+    gy: &'a [i16],
+}
+
+/// Result of non-maximum suppression on [`NMS_LANES`] pixels.
+struct NmsBlock {
+    /// 0, `WEAK` or [`EDGE`] per pixel.
+    values: [u8; NMS_LANES],
+    /// Sub-pixel codes (meaningful where `values` is not 0).
+    codes: [u8; NMS_LANES],
+    /// Bit `l` set when pixel `l` is [`EDGE`].
+    strong_mask: u32,
+}
+
+/// `NMS_LANES` values of `row` from `x`.
+#[inline(always)]
+fn lanes(row: &[i16], x: usize) -> [i16; NMS_LANES] {
+    row[x..x + NMS_LANES].try_into().unwrap()
+}
+
+/// Non-maximum suppression of the pixels `x..x + NMS_LANES` (all inside `1..w - 1`), without
+/// branches: the same decisions as [`suppress_pixel`] lane by lane.
+#[inline(always)]
+fn suppress_block(rows: &NmsRows<'_>, x: usize, low: i16, high: i16) -> NmsBlock {
+    let m = lanes(rows.cur, x);
+    let gx = lanes(rows.gx, x);
+    let gy = lanes(rows.gy, x);
+    let (cur_l, cur_r) = (lanes(rows.cur, x - 1), lanes(rows.cur, x + 1));
+    let (prev_l, prev_c, prev_r) = (
+        lanes(rows.prev, x - 1),
+        lanes(rows.prev, x),
+        lanes(rows.prev, x + 1),
+    );
+    let (next_l, next_c, next_r) = (
+        lanes(rows.next, x - 1),
+        lanes(rows.next, x),
+        lanes(rows.next, x + 1),
+    );
+    let mut values = [0u8; NMS_LANES];
+    let mut codes = [0u8; NMS_LANES];
+    let mut strong = [false; NMS_LANES];
+    for l in 0..NMS_LANES {
+        let dx = gx[l] as i32;
+        let dy = gy[l] as i32;
+        let ax = dx.abs();
+        let ay = dy.abs() << 15;
+        let tg22x = ax * TG22;
+        let tg67x = tg22x + (ax << 16);
+        let horizontal = ay < tg22x;
+        let vertical = !horizontal & (ay > tg67x);
+        let anti = !horizontal & !vertical & ((dx ^ dy) < 0);
+        let code = if horizontal {
+            0u8
+        } else if vertical {
+            1
+        } else if anti {
+            2
+        } else {
+            3
+        };
+        let pick = |h: i16, v: i16, a: i16, d: i16| {
+            if horizontal {
+                h
+            } else if vertical {
+                v
+            } else if anti {
+                a
+            } else {
+                d
+            }
+        };
+        let before = pick(cur_l[l], prev_c[l], next_l[l], prev_l[l]);
+        let after = pick(cur_r[l], next_c[l], prev_r[l], next_r[l]);
+        let mm = m[l];
+        // Ties with the neighbour after count as maxima on the axes only.
+        let tie = (horizontal | vertical) as i16;
+        let is_max = (mm > low) & (mm > before) & (mm + tie > after);
+        let is_strong = is_max & (mm > high);
+        values[l] = (is_max as u8) * (WEAK + is_strong as u8);
+        strong[l] = is_strong;
+        codes[l] = encode_subpixel_branchless(code, before as i32, mm as i32, after as i32);
+    }
+    let strong_mask = strong
+        .iter()
+        .enumerate()
+        .fold(0u32, |mask, (l, &s)| mask | (s as u32) << l);
+    NmsBlock {
+        values,
+        codes,
+        strong_mask,
+    }
+}
+
+/// Non-maximum suppression of pixel `x` (inside `1..w - 1`): its edge value (0, `WEAK` or
+/// [`EDGE`]) and sub-pixel code (meaningful where the value is not 0).
+fn suppress_pixel(rows: &NmsRows<'_>, x: usize, low: i16, high: i16) -> (u8, u8) {
+    let m = rows.cur[x];
+    if m <= low {
+        return (0, 0);
+    }
+    let dx = rows.gx[x] as i32;
+    let dy = rows.gy[x] as i32;
+    let ax = dx.abs();
+    let ay = dy.abs() << 15;
+    let tg22x = ax * TG22;
+    // Neighbours before/after along the quantised gradient direction.
+    let (code, before, after, is_max) = if ay < tg22x {
+        let (b, a) = (rows.cur[x - 1], rows.cur[x + 1]);
+        (0u8, b, a, m > b && m >= a)
+    } else {
+        let tg67x = tg22x + (ax << 16);
+        if ay > tg67x {
+            let (b, a) = (rows.prev[x], rows.next[x]);
+            (1, b, a, m > b && m >= a)
+        } else if (dx ^ dy) < 0 {
+            let (b, a) = (rows.next[x - 1], rows.prev[x + 1]);
+            (2, b, a, m > a && m > b)
+        } else {
+            let (b, a) = (rows.prev[x - 1], rows.next[x + 1]);
+            (3, b, a, m > b && m > a)
+        }
+    };
+    if !is_max {
+        return (0, 0);
+    }
+    let code = encode_subpixel(code, before as i32, m as i32, after as i32);
+    (if m > high { EDGE } else { WEAK }, code)
+}
+
+/// [`encode_subpixel`] without branches (so that a block of them vectorises); equal to it
+/// wherever `2 at - before - after > 0`, i.e. at every maximum. Magnitudes are within 0..=2040.
+#[inline(always)]
+fn encode_subpixel_branchless(code: u8, before: i32, at: i32, after: i32) -> u8 {
+    let den = 2 * at - before - after;
+    let positive = den > 0;
+    let den_safe = if positive { den } else { 1 };
+    let n = 31 * (after - before);
+    let num = n.abs() + den_safe / 2;
+    let magnitude = ((num as f32 / den_safe as f32) as i32).min(31);
+    let signed = if n >= 0 { magnitude } else { -magnitude };
+    let q = if positive { signed } else { 0 };
+    code | ((q as i8 as u8) << 2)
 }
 
 /// Packs the direction code (2 bits) and the parabola-vertex offset (6 bits, 1/62 px).
@@ -475,6 +713,61 @@ mod tests {
                 encode_subpixel(1, before, at, after),
                 encode_subpixel_integer(1, before, at, after)
             );
+        }
+    }
+
+    /// The branch-free block suppression takes the decisions of the pixel-by-pixel one, with
+    /// the same sub-pixel code at every maximum, on random gradients including ties.
+    #[test]
+    fn block_suppression_equals_pixel_suppression() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let w = 2 + NMS_LANES;
+        for _ in 0..20_000 {
+            let mut row =
+                |range: i16| -> Vec<i16> { (0..w).map(|_| rng.random_range(0..=range)).collect() };
+            let (prev, cur, next) = (row(60), row(60), row(60));
+            let mut signed = |_: usize| -> i16 { rng.random_range(-1020..=1020) };
+            let gx: Vec<i16> = (0..w).map(&mut signed).collect();
+            let gy: Vec<i16> = (0..w).map(&mut signed).collect();
+            let rows = NmsRows {
+                prev: &prev,
+                cur: &cur,
+                next: &next,
+                gx: &gx,
+                gy: &gy,
+            };
+            let block = suppress_block(&rows, 1, 20, 40);
+            for l in 0..NMS_LANES {
+                let (value, code) = suppress_pixel(&rows, 1 + l, 20, 40);
+                assert_eq!(block.values[l], value, "lane {l}");
+                assert_eq!((block.strong_mask >> l) & 1 == 1, value == EDGE);
+                if value != 0 {
+                    assert_eq!(block.codes[l], code, "lane {l}");
+                }
+            }
+        }
+    }
+
+    /// The fixed-tap convolutions equal the generic one (kernels of sigma 1.0 and 1.4).
+    #[test]
+    fn fixed_tap_convolution_equals_generic() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for sigma in [1.0f32, 1.4] {
+            let kernel = gaussian_kernel(sigma, (2.0 * sigma).ceil() as usize);
+            for w in [1usize, 7, 15, 16, 17, 37, 64] {
+                let input: Vec<u8> = (0..w + kernel.len()).map(|_| rng.random()).collect();
+                let mut generic = vec![0u8; w];
+                convolve_row(&kernel, w, |t, x| &input[x + t..], &mut generic);
+                let mut fixed = vec![0u8; w];
+                match kernel.len() {
+                    5 => convolve_fixed::<5>(&kernel, |t| &input[t..t + w], &mut fixed),
+                    7 => convolve_fixed::<7>(&kernel, |t| &input[t..t + w], &mut fixed),
+                    n => panic!("kernel of {n} taps"),
+                }
+                assert_eq!(fixed, generic, "sigma {sigma} width {w}");
+            }
         }
     }
 
