@@ -347,8 +347,7 @@ fn run_relief_demo(
     options: &ServiceOptions,
     calibration: SimCalibration,
 ) -> ExitCode {
-    use videt::relief_feed::relief_channel;
-    use videt::relief_scene::{blend_params, box_operator, box_relief, proxy_params, ReliefLayout};
+    use videt::relief_scene::{box_operator, box_relief, ReliefLayout};
 
     let layout = ReliefLayout::for_config(config);
     let (model, report) = match box_relief(&layout, 0.0) {
@@ -369,19 +368,9 @@ fn run_relief_demo(
             .as_micros() as u64,
         "digital twin: a bas-relief box, a virtual operator sliding over it and off its edge"
     );
-    let period_s = 1.0 / f64::from(config.control.rate_hz);
-    let (mut writer, feed) = match relief_channel(
-        model,
-        proxy_params(),
-        blend_params(config),
-        config.control.stiffness_n_per_m,
-        period_s,
-    ) {
+    let (mut writer, feed) = match demo_relief_channel(config, model) {
         Ok(c) => c,
-        Err(e) => {
-            error!("{e}");
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
     let vision = std::thread::Builder::new()
         .name("videt-vision".into())
@@ -416,10 +405,7 @@ fn run_stereo_relief_demo(
     calibration: SimCalibration,
     dir: Option<&std::path::Path>,
 ) -> ExitCode {
-    use videt::relief_feed::relief_channel;
-    use videt::relief_scene::{
-        blend_params, proxy_params, sweep_operator, ReliefLayout, SweepPath,
-    };
+    use videt::relief_scene::{sweep_operator, ReliefLayout, SweepPath};
     use videt::stereo_relief::{
         spawn_live_updates, LiveSettings, LiveStats, StereoPair, StereoRelief,
     };
@@ -470,19 +456,9 @@ fn run_stereo_relief_demo(
         "digital twin: the bas-relief of a real stereo pair, a virtual operator sweeping across it, live updates around the finger at {:.0} Hz",
         1.0 / live.update_period_s
     );
-    let period_s = 1.0 / f64::from(config.control.rate_hz);
-    let (writer, feed) = match relief_channel(
-        model.clone(),
-        proxy_params(),
-        blend_params(config),
-        config.control.stiffness_n_per_m,
-        period_s,
-    ) {
+    let (writer, feed) = match demo_relief_channel(config, model.clone()) {
         Ok(c) => c,
-        Err(e) => {
-            error!("{e}");
-            return ExitCode::from(2);
-        }
+        Err(code) => return code,
     };
     let mut scene = setup::demo_scene(config, 1);
     let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
@@ -561,6 +537,34 @@ fn calibrate_twin(
             (configured, WireZero::default(), false)
         }
     }
+}
+
+/// The relief channel of the twin's demonstrations, with the proxy, blend and stiffness of
+/// `config`; an invalid setting is logged and ends the service (exit 2).
+fn demo_relief_channel(
+    config: &Config,
+    model: videt_vision::surface::ReliefModel,
+) -> Result<
+    (
+        videt::snapshot::SnapshotWriter<videt_vision::surface::ReliefModel>,
+        videt::relief_feed::ReliefFeed,
+    ),
+    ExitCode,
+> {
+    use videt::relief_feed::relief_channel;
+    use videt::relief_scene::{blend_params, proxy_params};
+    let period_s = 1.0 / f64::from(config.control.rate_hz);
+    relief_channel(
+        model,
+        proxy_params(),
+        blend_params(config),
+        config.control.stiffness_n_per_m,
+        period_s,
+    )
+    .map_err(|e| {
+        error!("{e}");
+        ExitCode::from(2)
+    })
 }
 
 #[cfg(test)]
