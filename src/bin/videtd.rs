@@ -243,20 +243,13 @@ fn main() -> ExitCode {
             run_relief_demo(&config, rig, &options, args.sim_calibration)
         }
         Some(SimMode::Hal) => {
-            let mut scene = setup::demo_scene(&config, 1);
-            tracing::info!(
-                rate_hz = config.control.rate_hz,
-                wall_z_m = scene.wall_z_m,
-                "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
+            let (scene, cycle) = wall_demo(
+                &config,
+                rig,
+                args.sim_calibration,
+                &mut options,
+                "digital twin: a virtual wall, a virtual operator touching it and sliding along it",
             );
-            let (rig, wire_zero, calibrated) =
-                calibrate_twin(&config, &mut scene, rig, args.sim_calibration);
-            let cycle = setup::control_cycle(&config, rig, wire_zero, calibrated);
-            // Colour under the finger: a demo image over the explored area.
-            match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
-                Ok(source) => options.colour = Some(source),
-                Err(e) => tracing::warn!("colour rendering disabled: {e}"),
-            }
             let tension_path = videt_rt_config::calibration::TensionCalibration::path_beside(
                 &args.calibration.clone().unwrap_or_else(|| {
                     videt::init::daemon::sim_state_dir().join("calibration-sim.toml")
@@ -292,19 +285,13 @@ fn main() -> ExitCode {
             }
         }
         Some(SimMode::Can) => {
-            let mut scene = setup::demo_scene(&config, 1);
-            tracing::info!(
-                rate_hz = config.control.rate_hz,
-                wall_z_m = scene.wall_z_m,
-                "digital twin behind CiA 402 drives on a userspace CAN bus: a virtual wall, a virtual operator touching it and sliding along it"
+            let (scene, cycle) = wall_demo(
+                &config,
+                rig,
+                args.sim_calibration,
+                &mut options,
+                "digital twin behind CiA 402 drives on a userspace CAN bus: a virtual wall, a virtual operator touching it and sliding along it",
             );
-            let (rig, wire_zero, calibrated) =
-                calibrate_twin(&config, &mut scene, rig, args.sim_calibration);
-            let cycle = setup::control_cycle(&config, rig, wire_zero, calibrated);
-            match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
-                Ok(source) => options.colour = Some(source),
-                Err(e) => tracing::warn!("colour rendering disabled: {e}"),
-            }
             let hw = match CanTwin::new(
                 scene.twin,
                 can_twin::drive_config(&config),
@@ -537,6 +524,30 @@ fn calibrate_twin(
             (configured, WireZero::default(), false)
         }
     }
+}
+
+/// The twin's wall demonstration: the scene, calibrated as `calibration` says, its control cycle,
+/// and the colour under the finger from a demo image over the explored area.
+fn wall_demo(
+    config: &Config,
+    rig: videt_control::Rig3,
+    calibration: SimCalibration,
+    options: &mut ServiceOptions,
+    what: &str,
+) -> (setup::DemoScene, videt::cycle::ControlCycle) {
+    let mut scene = setup::demo_scene(config, 1);
+    tracing::info!(
+        rate_hz = config.control.rate_hz,
+        wall_z_m = scene.wall_z_m,
+        "{what}"
+    );
+    let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
+    let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
+    match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
+        Ok(source) => options.colour = Some(source),
+        Err(e) => tracing::warn!("colour rendering disabled: {e}"),
+    }
+    (scene, cycle)
 }
 
 /// The relief channel of the twin's demonstrations, with the proxy, blend and stiffness of

@@ -218,8 +218,13 @@ pub fn rectify_point(
 mod tests {
     use super::*;
 
-    #[test]
-    fn rectified_projections_share_rows() {
+    /// Two cameras and their extrinsics shaped like the real 640x480 rig's.
+    fn rig() -> (
+        CameraIntrinsics,
+        CameraIntrinsics,
+        nalgebra::Matrix3<f64>,
+        Vector3<f64>,
+    ) {
         let left = CameraIntrinsics {
             fx: 536.0,
             fy: 536.0,
@@ -236,6 +241,12 @@ mod tests {
         };
         let r = rodrigues_to_matrix(&Vector3::new(0.0003, 0.0035, -0.0041));
         let t = Vector3::new(-3.34, 0.04, 0.05);
+        (left, right, r, t)
+    }
+
+    #[test]
+    fn rectified_projections_share_rows() {
+        let (left, right, r, t) = rig();
         let rect = stereo_rectify(&left, &right, &r, &t, 640, 480, 1.0);
         // Points in front of the rig must land on the same rectified row in both images.
         for p in [
@@ -265,22 +276,7 @@ mod tests {
     #[test]
     fn alpha_zero_keeps_only_valid_pixels_and_alpha_one_keeps_all_source_pixels() {
         use crate::rectify::RectifyMap;
-        let left = CameraIntrinsics {
-            fx: 536.0,
-            fy: 536.0,
-            cx: 342.0,
-            cy: 235.0,
-            dist: [-0.26, -0.05, 0.002, 0.0, 0.25],
-        };
-        let right = CameraIntrinsics {
-            fx: 542.0,
-            fy: 541.0,
-            cx: 328.0,
-            cy: 247.0,
-            dist: [-0.28, 0.1, 0.0, 0.001, -0.02],
-        };
-        let r = rodrigues_to_matrix(&Vector3::new(0.0003, 0.0035, -0.0041));
-        let t = Vector3::new(-3.34, 0.04, 0.05);
+        let (left, right, r, t) = rig();
         let (w, h) = (160u32, 120u32);
         let scale = |c: &CameraIntrinsics| CameraIntrinsics {
             fx: c.fx / 4.0,
