@@ -146,14 +146,10 @@ fn follow(
     (mut x, mut y): (u16, u16),
     out: &mut Vec<[u16; 2]>,
 ) {
-    let width = offsets[1] as usize; // NEIGHBOURS[1] is (0, 1)
     loop {
-        // The first available neighbour in NEIGHBOURS order, from one table lookup on the
-        // 3x3 neighbourhood (the next direction along a curve is unpredictable for a branch).
-        let k = FIRST_NEIGHBOUR[neighbourhood(available, width, i)] as usize;
-        if k == 8 {
+        let Some(k) = (0..8).find(|&k| available[i.wrapping_add_signed(offsets[k])] != 0) else {
             return;
-        }
+        };
         i = i.wrapping_add_signed(offsets[k]);
         available[i] = 0;
         let (dx, dy) = NEIGHBOURS[k];
@@ -162,44 +158,6 @@ fn follow(
         out.push([x, y]);
     }
 }
-
-/// The 0/1 flags of the 8 neighbours of pixel `i` (at least one pixel inside the border of a
-/// `width`-wide image) as bits: row above in bits 0..3 (left to right), the left and right
-/// neighbours in bits 3 and 4, the row below in bits 5..8.
-#[inline(always)]
-fn neighbourhood(flags: &[u8], width: usize, i: usize) -> usize {
-    // Three bytes 0/1 at bits 0, 8, 16 of a word go to bits 0, 1, 2 (the products do not
-    // overlap, so there is no carry).
-    let three = |start: usize| -> usize {
-        let b: [u8; 3] = flags[start..start + 3].try_into().unwrap_or([0; 3]);
-        let word = u32::from(b[0]) | u32::from(b[1]) << 8 | u32::from(b[2]) << 16;
-        ((word.wrapping_mul(0x4081) >> 14) & 7) as usize
-    };
-    let above = three(i - width - 1);
-    let here = three(i - 1);
-    let below = three(i + width - 1);
-    above | (here & 1) << 3 | (here >> 2) << 4 | below << 5
-}
-
-/// For every [`neighbourhood`] pattern, the index in [`NEIGHBOURS`] of its first set neighbour
-/// (8 when none is set).
-const FIRST_NEIGHBOUR: [u8; 256] = {
-    // Bit of each NEIGHBOURS entry in the pattern: E, S, W, N, SE, SW, NW, NE.
-    const BIT: [u32; 8] = [4, 6, 3, 1, 7, 5, 0, 2];
-    let mut table = [8u8; 256];
-    let mut pattern = 0;
-    while pattern < 256 {
-        let mut k = 8;
-        while k > 0 {
-            k -= 1;
-            if pattern & (1 << BIT[k]) != 0 {
-                table[pattern] = k as u8;
-            }
-        }
-        pattern += 1;
-    }
-    table
-};
 
 /// Calls `f(i)` for every `i` with `bytes[i] == value`, in increasing order. Eight bytes at a
 /// time are compared at once as one 64-bit word (exact zero-byte test of `word ^ value`), and
