@@ -405,7 +405,7 @@ const TG22: i32 = 13573;
 /// Pixels per block of the smoothing passes.
 const SMOOTH_LANES: usize = 16;
 /// Pixels per block of non-maximum suppression.
-const NMS_LANES: usize = 8;
+const NMS_LANES: usize = 16;
 
 /// One output row of a 1-D convolution with `kernel` (weights summing to 256): pixel `x` is
 /// `(128 + sum_t kernel[t] * src(t, x)[0]) >> 8`, where `src(t, x)` starts at the input sample of
@@ -533,15 +533,7 @@ fn suppress_block(rows: &NmsRows<'_>, x: usize, low: i16, high: i16) -> NmsBlock
     let mut codes = [0u8; NMS_LANES];
     let mut strong = [false; NMS_LANES];
     for l in 0..NMS_LANES {
-        let dx = gx[l] as i32;
-        let dy = gy[l] as i32;
-        let ax = dx.abs();
-        let ay = dy.abs() << 15;
-        let tg22x = ax * TG22;
-        let tg67x = tg22x + (ax << 16);
-        let horizontal = ay < tg22x;
-        let vertical = !horizontal & (ay > tg67x);
-        let anti = !horizontal & !vertical & ((dx ^ dy) < 0);
+        let (horizontal, vertical, anti) = direction_sector(gx[l], gy[l]);
         let code = if horizontal {
             0u8
         } else if vertical {
@@ -582,6 +574,23 @@ fn suppress_block(rows: &NmsRows<'_>, x: usize, low: i16, high: i16) -> NmsBlock
         codes,
         strong_mask,
     }
+}
+
+/// The sector of the gradient `(gx, gy)` (components within +-1020) as flags: horizontal
+/// (within 22.5 degrees of the x axis), vertical (within 22.5 degrees of the y axis), or else
+/// anti-diagonal (components of opposite signs) or diagonal. The same decisions as the Q15
+/// comparisons of [`suppress_pixel`], in 16-bit lanes: with `t = floor(|gx| tan 22.5)` (a
+/// high-half product), `|gy| 2^15 < |gx| TG22` is `|gx| > 0 && |gy| <= t` (the product is
+/// never a multiple of 2^15 for `0 < |gx| < 2^15`) and `|gy| 2^15 > |gx| (TG22 + 2^16)` is
+/// `|gy| > 2 |gx| + t`.
+#[inline(always)]
+fn direction_sector(gx: i16, gy: i16) -> (bool, bool, bool) {
+    let (ax, ay) = (gx.abs(), gy.abs());
+    let t = ((i32::from(ax) * (2 * TG22)) >> 16) as i16;
+    let horizontal = (ax > 0) & (ay <= t);
+    let vertical = !horizontal & (ay > 2 * ax + t);
+    let anti = !horizontal & !vertical & ((gx ^ gy) < 0);
+    (horizontal, vertical, anti)
 }
 
 /// Non-maximum suppression of pixel `x` (inside `1..w - 1`): its edge value (0, `WEAK` or
@@ -792,6 +801,28 @@ mod tests {
                 if value != 0 {
                     assert_eq!(block.codes[l], code, "lane {l}");
                 }
+            }
+        }
+    }
+
+    /// The 16-bit sector test decides as the Q15 one of `suppress_pixel` for every gradient a
+    /// 3x3 Sobel of an 8-bit image can give.
+    #[test]
+    fn sixteen_bit_sectors_equal_q15_sectors() {
+        for gx in -1020i16..=1020 {
+            for gy in -1020i16..=1020 {
+                let (dx, dy) = (gx as i32, gy as i32);
+                let ax = dx.abs();
+                let ay = dy.abs() << 15;
+                let tg22x = ax * TG22;
+                let horizontal = ay < tg22x;
+                let vertical = !horizontal && ay > tg22x + (ax << 16);
+                let anti = !horizontal && !vertical && (dx ^ dy) < 0;
+                assert_eq!(
+                    direction_sector(gx, gy),
+                    (horizontal, vertical, anti),
+                    "gx {gx} gy {gy}"
+                );
             }
         }
     }
