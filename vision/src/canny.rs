@@ -133,11 +133,6 @@ impl CannyWorkspace {
         &self.gy[..self.width * self.height]
     }
 
-    /// L1 gradient magnitude `|gx| + |gy|` of the last image.
-    pub fn magnitude(&self) -> &[i16] {
-        &self.magnitude[..self.width * self.height]
-    }
-
     /// Sub-pixel localisation of the edge pixels of the last image: for pixel `i` (valid
     /// where [`Self::edges`] is [`EDGE`]), the step `(sx, sy)` of the quantised gradient
     /// direction and the offset along it (pixels, within +-0.5) of the vertex of the parabola
@@ -173,7 +168,7 @@ impl CannyWorkspace {
         grow(&mut self.smoothed, n);
         grow(&mut self.gx, n);
         grow(&mut self.gy, n);
-        grow(&mut self.magnitude, n);
+        grow(&mut self.magnitude, 3 * width);
         grow(&mut self.edges, n);
         grow(&mut self.subpixel, n);
         if self.stack.capacity() < n / 4 {
@@ -248,120 +243,131 @@ impl CannyWorkspace {
         }
     }
 
-    /// 3x3 Sobel gradients and L1 magnitude; the first and last columns get zero gradient.
+    /// Sobel gradients row by row, and the non-maximum suppression of each row as soon as the
+    /// magnitudes of the rows around it exist: only three rows of magnitude are kept, so the
+    /// gradients are still in cache when they are suppressed.
     #[inline(always)]
-    fn sobel(&mut self) {
-        let (w, h) = (self.width, self.height);
-        if w < 3 {
-            self.gx[..w * h].fill(0);
-            self.gy[..w * h].fill(0);
-            self.magnitude[..w * h].fill(0);
-            return;
-        }
-        let n = w - 2;
-        for y in 0..h {
-            let ya = y.saturating_sub(1);
-            let yc = (y + 1).min(h - 1);
-            let a = &self.smoothed[ya * w..ya * w + w];
-            let b = &self.smoothed[y * w..y * w + w];
-            let c = &self.smoothed[yc * w..yc * w + w];
-            let (a0, a1, a2) = (&a[..n], &a[1..n + 1], &a[2..n + 2]);
-            let (b0, b2) = (&b[..n], &b[2..n + 2]);
-            let (c0, c1, c2) = (&c[..n], &c[1..n + 1], &c[2..n + 2]);
-            let row = y * w;
-            let gx = &mut self.gx[row + 1..row + 1 + n];
-            let gy = &mut self.gy[row + 1..row + 1 + n];
-            let mag = &mut self.magnitude[row + 1..row + 1 + n];
-            for i in 0..n {
-                let dx = (a2[i] as i16 - a0[i] as i16)
-                    + 2 * (b2[i] as i16 - b0[i] as i16)
-                    + (c2[i] as i16 - c0[i] as i16);
-                let dy = (c0[i] as i16 + 2 * c1[i] as i16 + c2[i] as i16)
-                    - (a0[i] as i16 + 2 * a1[i] as i16 + a2[i] as i16);
-                gx[i] = dx;
-                gy[i] = dy;
-                mag[i] = dx.abs() + dy.abs();
-            }
-            for x in [0, w - 1] {
-                self.gx[row + x] = 0;
-                self.gy[row + x] = 0;
-                self.magnitude[row + x] = 0;
-            }
-        }
-    }
-
-    /// Non-maximum suppression along the quantised gradient direction; strong maxima are
-    /// marked [`EDGE`] and pushed on the hysteresis stack, weak ones marked `WEAK`.
-    #[inline(always)]
-    fn suppress_non_maxima(&mut self, params: &CannyParams) {
+    fn gradients_and_suppression(&mut self, params: &CannyParams) {
         let (w, h) = (self.width, self.height);
         let low = params.low_threshold as i16;
         let high = params.high_threshold as i16;
         self.stack.clear();
         self.edges[..w].fill(0);
         self.edges[(h - 1) * w..h * w].fill(0);
-        if w < 3 || h < 3 {
+        if w < 3 {
+            self.gx[..w * h].fill(0);
+            self.gy[..w * h].fill(0);
             self.edges[..w * h].fill(0);
             return;
         }
-        for y in 1..h - 1 {
-            let row = y * w;
-            let out = &mut self.edges[row..row + w];
-            out.fill(0);
-            let m_prev = &self.magnitude[row - w..row];
-            let m_cur = &self.magnitude[row..row + w];
-            let m_next = &self.magnitude[row + w..row + 2 * w];
-            let gxr = &self.gx[row..row + w];
-            let gyr = &self.gy[row..row + w];
-            let subpixel = &mut self.subpixel[row..row + w];
-            let rows = NmsRows {
-                prev: m_prev,
-                cur: m_cur,
-                next: m_next,
-                gx: gxr,
-                gy: gyr,
-            };
-            // Blocks of NMS_LANES pixels, branch-free inside; the last block is aligned to end at
-            // w - 1 (it may overlap the previous one: recomputing a pixel gives the same result).
-            let mut x = 1;
-            let mut done = 1usize;
-            while x < w - 1 {
-                if x + NMS_LANES > w - 1 {
-                    if w > 1 + NMS_LANES {
-                        x = w - 1 - NMS_LANES;
-                    } else {
-                        // Rows narrower than one block: pixel by pixel.
-                        for x in x..w - 1 {
-                            let (value, code) = suppress_pixel(&rows, x, low, high);
-                            out[x] = value;
-                            if value != 0 {
-                                subpixel[x] = code;
-                            }
-                            if value == EDGE {
-                                self.stack.push((row + x) as u32);
-                            }
-                        }
-                        break;
-                    }
-                }
-                let m = lanes(m_cur, x);
-                if m.iter().fold(i16::MIN, |a, &b| a.max(b)) <= low {
-                    x += NMS_LANES;
-                    continue;
-                }
-                let block = suppress_block(&rows, x, low, high);
-                out[x..x + NMS_LANES].copy_from_slice(&block.values);
-                subpixel[x..x + NMS_LANES].copy_from_slice(&block.codes);
-                // Pixels before `done` (an overlapping last block) were pushed already.
-                let mut strong = block.strong_mask & (u32::MAX << done.saturating_sub(x));
-                while strong != 0 {
-                    let lane = strong.trailing_zeros() as usize;
-                    strong &= strong - 1;
-                    self.stack.push((row + x + lane) as u32);
-                }
-                x += NMS_LANES;
-                done = x;
+        for y in 0..h {
+            self.sobel_row(y);
+            if y >= 2 {
+                self.suppress_row(y - 1, low, high);
             }
+        }
+    }
+
+    /// 3x3 Sobel gradients of row `y` (replicated borders) into [`Self::gx`] and [`Self::gy`],
+    /// and its L1 magnitude into the ring slot `y % 3`; the first and last columns get zero
+    /// gradient. Needs `w >= 3`.
+    #[inline(always)]
+    fn sobel_row(&mut self, y: usize) {
+        let (w, h) = (self.width, self.height);
+        let n = w - 2;
+        let ya = y.saturating_sub(1);
+        let yc = (y + 1).min(h - 1);
+        let a = &self.smoothed[ya * w..ya * w + w];
+        let b = &self.smoothed[y * w..y * w + w];
+        let c = &self.smoothed[yc * w..yc * w + w];
+        let (a0, a1, a2) = (&a[..n], &a[1..n + 1], &a[2..n + 2]);
+        let (b0, b2) = (&b[..n], &b[2..n + 2]);
+        let (c0, c1, c2) = (&c[..n], &c[1..n + 1], &c[2..n + 2]);
+        let row = y * w;
+        let slot = (y % 3) * w;
+        let gx = &mut self.gx[row + 1..row + 1 + n];
+        let gy = &mut self.gy[row + 1..row + 1 + n];
+        let mag = &mut self.magnitude[slot + 1..slot + 1 + n];
+        for i in 0..n {
+            let dx = (a2[i] as i16 - a0[i] as i16)
+                + 2 * (b2[i] as i16 - b0[i] as i16)
+                + (c2[i] as i16 - c0[i] as i16);
+            let dy = (c0[i] as i16 + 2 * c1[i] as i16 + c2[i] as i16)
+                - (a0[i] as i16 + 2 * a1[i] as i16 + a2[i] as i16);
+            gx[i] = dx;
+            gy[i] = dy;
+            mag[i] = dx.abs() + dy.abs();
+        }
+        for x in [0, w - 1] {
+            self.gx[row + x] = 0;
+            self.gy[row + x] = 0;
+            self.magnitude[slot + x] = 0;
+        }
+    }
+
+    /// Non-maximum suppression of row `y` (inside `1..h - 1`) along the quantised gradient
+    /// direction, from the magnitude ring; strong maxima are marked [`EDGE`] and pushed on the
+    /// hysteresis stack, weak ones marked `WEAK`.
+    #[inline(always)]
+    fn suppress_row(&mut self, y: usize, low: i16, high: i16) {
+        let w = self.width;
+        let row = y * w;
+        let out = &mut self.edges[row..row + w];
+        out.fill(0);
+        let slot = |r: usize| (r % 3) * w;
+        let m_prev = &self.magnitude[slot(y - 1)..slot(y - 1) + w];
+        let m_cur = &self.magnitude[slot(y)..slot(y) + w];
+        let m_next = &self.magnitude[slot(y + 1)..slot(y + 1) + w];
+        let gxr = &self.gx[row..row + w];
+        let gyr = &self.gy[row..row + w];
+        let subpixel = &mut self.subpixel[row..row + w];
+        let rows = NmsRows {
+            prev: m_prev,
+            cur: m_cur,
+            next: m_next,
+            gx: gxr,
+            gy: gyr,
+        };
+        // Blocks of NMS_LANES pixels, branch-free inside; the last block is aligned to end at
+        // w - 1 (it may overlap the previous one: recomputing a pixel gives the same result).
+        let mut x = 1;
+        let mut done = 1usize;
+        while x < w - 1 {
+            if x + NMS_LANES > w - 1 {
+                if w > 1 + NMS_LANES {
+                    x = w - 1 - NMS_LANES;
+                } else {
+                    // Rows narrower than one block: pixel by pixel.
+                    for x in x..w - 1 {
+                        let (value, code) = suppress_pixel(&rows, x, low, high);
+                        out[x] = value;
+                        if value != 0 {
+                            subpixel[x] = code;
+                        }
+                        if value == EDGE {
+                            self.stack.push((row + x) as u32);
+                        }
+                    }
+                    break;
+                }
+            }
+            let m = lanes(m_cur, x);
+            if m.iter().fold(i16::MIN, |a, &b| a.max(b)) <= low {
+                x += NMS_LANES;
+                continue;
+            }
+            let block = suppress_block(&rows, x, low, high);
+            out[x..x + NMS_LANES].copy_from_slice(&block.values);
+            subpixel[x..x + NMS_LANES].copy_from_slice(&block.codes);
+            // Pixels before `done` (an overlapping last block) were pushed already.
+            let mut strong = block.strong_mask & (u32::MAX << done.saturating_sub(x));
+            while strong != 0 {
+                let lane = strong.trailing_zeros() as usize;
+                strong &= strong - 1;
+                self.stack.push((row + x + lane) as u32);
+            }
+            x += NMS_LANES;
+            done = x;
         }
     }
 
@@ -395,8 +401,7 @@ impl CannyWorkspace {
 #[multiversion::multiversion(targets("x86_64+avx2+bmi1+bmi2+popcnt+lzcnt", "x86_64+sse4.1"))]
 fn run_stages<'a>(workspace: &mut CannyWorkspace, image: &GrayView<'a>, params: &CannyParams) {
     workspace.smooth(image);
-    workspace.sobel();
-    workspace.suppress_non_maxima(params);
+    workspace.gradients_and_suppression(params);
     workspace.hysteresis();
 }
 

@@ -54,9 +54,10 @@ fn image_fingerprints(view: &GrayView<'_>, params: &VisionParams) -> [u64; 7] {
         gradient.bytes(&gx.to_le_bytes());
         gradient.bytes(&gy.to_le_bytes());
     }
+    // The detector keeps only three rows of magnitude: its definition |gx| + |gy| is hashed.
     let mut magnitude = Fingerprint::new();
-    for &m in canny.magnitude() {
-        magnitude.bytes(&m.to_le_bytes());
+    for (&gx, &gy) in canny.gx().iter().zip(canny.gy()) {
+        magnitude.bytes(&(gx.abs() + gy.abs()).to_le_bytes());
     }
     let mut edges = Fingerprint::new();
     let mut subpixel = Fingerprint::new();
