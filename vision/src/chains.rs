@@ -12,6 +12,7 @@ pub struct Chains {
     available: Vec<u8>,
     backward: Vec<[u16; 2]>,
     edge_list: Vec<u32>,
+    curve_ends: Vec<u32>,
 }
 
 /// Offsets of the 8 neighbours, 4-neighbours first so that thin curves are followed pixel by
@@ -81,25 +82,32 @@ impl Chains {
             });
         }
         // Pass 1: from curve ends; pass 2: what is left (closed curves, junction remainders).
+        // Curve ends (one edge neighbour, a property of the edge map alone) are listed first,
+        // in raster order, without a branch per pixel.
         let offsets = neighbour_offsets(width);
-        for pass in 0..2 {
-            for k in 0..self.edge_list.len() {
-                let i = self.edge_list[k] as usize;
-                if self.available[i] == 0 {
-                    continue;
-                }
-                if pass == 0 {
-                    // Edge pixels are at least one pixel inside the border.
-                    let degree = offsets
-                        .iter()
-                        .filter(|&&o| edges[i.wrapping_add_signed(o)] == EDGE)
-                        .count();
-                    if degree == 1 {
-                        self.walk_chain(&offsets, width, i, false, min_pixels);
-                    }
-                } else {
-                    self.walk_chain(&offsets, width, i, true, min_pixels);
-                }
+        self.curve_ends.clear();
+        self.curve_ends.resize(self.edge_list.len(), 0);
+        let mut ends = 0;
+        for &i in &self.edge_list {
+            let i = i as usize;
+            // Edge pixels are at least one pixel inside the border.
+            let degree: u32 = offsets
+                .iter()
+                .map(|&o| u32::from(edges[i.wrapping_add_signed(o)] == EDGE))
+                .sum();
+            self.curve_ends[ends] = i as u32;
+            ends += usize::from(degree == 1);
+        }
+        for k in 0..ends {
+            let i = self.curve_ends[k] as usize;
+            if self.available[i] != 0 {
+                self.walk_chain(&offsets, width, i, false, min_pixels);
+            }
+        }
+        for k in 0..self.edge_list.len() {
+            let i = self.edge_list[k] as usize;
+            if self.available[i] != 0 {
+                self.walk_chain(&offsets, width, i, true, min_pixels);
             }
         }
     }
