@@ -11,7 +11,8 @@ use crate::gray::GrayView;
 
 /// Value of an edge pixel in [`CannyWorkspace::edges`].
 pub const EDGE: u8 = 2;
-/// Value of a pixel that survived non-maximum suppression but was not connected to a strong edge.
+/// Value of a pixel that survived non-maximum suppression but was not connected to a strong edge
+/// (the only edge-map value with bit 0 set, which hysteresis relies on).
 const WEAK: u8 = 1;
 
 /// Parameters of the Canny detector.
@@ -382,6 +383,13 @@ impl CannyWorkspace {
             // one slice from the top-left to the bottom-right neighbour holds them all.
             let first = i - w - 1;
             let window = &mut edges[first..=i + w + 1];
+            // Most strong pixels have no weak neighbour: one test on the three rows' bytes
+            // (WEAK is the only value with bit 0 set) skips them.
+            let row = |r: &[u8]| u32::from(r[0] | r[1] | r[2]);
+            let rows = row(&window[..3]) | row(&window[w..w + 3]) | row(&window[2 * w..2 * w + 3]);
+            if rows & u32::from(WEAK) == 0 {
+                continue;
+            }
             for k in [0, 1, 2, w, w + 2, 2 * w, 2 * w + 1, 2 * w + 2] {
                 if window[k] == WEAK {
                     window[k] = EDGE;
