@@ -1,7 +1,11 @@
 //! VIDET vision: camera calibration and rectification, and the stereo pipeline from rectified
 //! images to 3D line segments (paper section 3): Canny edges, polygonal approximation, Ayache's
 //! segment matching, back-projection.
-#![forbid(unsafe_code)]
+//!
+//! The crate contains no `unsafe` code of its own (`unsafe_code` is denied). The one exemption is
+//! the run-time CPU-feature dispatcher that the `multiversion` crate generates for the
+//! rectification inner loop (see [`rectify`]).
+#![deny(unsafe_code)]
 
 pub mod calib;
 pub mod rectify;
