@@ -3,7 +3,7 @@
 //! pixel by pixel with a bounds-checked 2x2 window.
 //!
 //! This is the definition of what rectification computes. [`RectifyMap`](super::RectifyMap)
-//! stores the same table in a compact, run-based layout and must produce identical frames; this
+//! stores the same table in a compact block layout and must produce identical frames; this
 //! form is kept as the oracle of its tests and the baseline of the `rectify` bench.
 
 use nalgebra::{Matrix3, Matrix3x4, Vector3};
