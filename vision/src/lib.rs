@@ -2,9 +2,10 @@
 //! images to 3D line segments (paper section 3): Canny edges, polygonal approximation, Ayache's
 //! segment matching, back-projection.
 //!
-//! The crate contains no `unsafe` code of its own (`unsafe_code` is denied). The one exemption is
-//! the run-time CPU-feature dispatcher that the `multiversion` crate generates for the
-//! rectification inner loop (see [`rectify`]).
+//! The crate contains no `unsafe` code of its own (`unsafe_code` is denied). The exemption is the
+//! run-time CPU-feature dispatch that the `multiversion` crate generates for the hot image loops
+//! (Canny's stages, the rectification inner loop in [`rectify`]); each such function carries a
+//! local `allow`.
 #![deny(unsafe_code)]
 
 pub mod calib;

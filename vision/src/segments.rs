@@ -143,7 +143,7 @@ impl SegmentWorkspace {
         out.clear();
         for c in 0..chains.len() {
             let points = chains.chain(c);
-            if points.len() < params.min_chain_pixels.max(2) {
+            if points.len() < params.min_chain_pixels.max(2) || !can_reach(points, params) {
                 continue;
             }
             split_chain(
@@ -169,6 +169,22 @@ impl SegmentWorkspace {
             }
         }
     }
+}
+
+/// Largest distance between a chain pixel and its sub-pixel position: half a pixel along
+/// each axis of a diagonal gradient direction.
+const SUBPIXEL_SHIFT_MAX_PX: f32 = std::f32::consts::FRAC_1_SQRT_2;
+
+/// Whether a piece of the chain can be as long as `min_length_px`: no piece is longer than
+/// the diagonal of the chain's bounding box plus the sub-pixel shifts of its two endpoints.
+fn can_reach(points: &[[u16; 2]], params: &SegmentParams) -> bool {
+    let (mut lo, mut hi) = (points[0], points[0]);
+    for p in points {
+        lo = [lo[0].min(p[0]), lo[1].min(p[1])];
+        hi = [hi[0].max(p[0]), hi[1].max(p[1])];
+    }
+    let (dx, dy) = (f32::from(hi[0] - lo[0]), f32::from(hi[1] - lo[1]));
+    (dx * dx + dy * dy).sqrt() + 2.0 * SUBPIXEL_SHIFT_MAX_PX + 0.01 >= params.min_length_px
 }
 
 /// Recursive splitting (explicit stack) of `points` into index ranges `(a, b)` whose pixels
@@ -234,8 +250,8 @@ fn subpixel_positions(points: &[[u16; 2]], canny: &CannyWorkspace, out: &mut Vec
     let w = canny.width();
     for p in points {
         let (x, y) = (p[0] as usize, p[1] as usize);
-        let ((sx, sy), offset) = canny.subpixel_offset(y * w + x);
-        out.push([x as f32 + offset * sx as f32, y as f32 + offset * sy as f32]);
+        let [dx, dy] = canny.subpixel_shift(y * w + x);
+        out.push([x as f32 + dx, y as f32 + dy]);
     }
 }
 
@@ -272,6 +288,11 @@ fn make_segment(
 ) -> Option<Segment> {
     let mut p0 = subpixel[a];
     let mut p1 = subpixel[b];
+    // Projecting both endpoints on any line cannot lengthen the piece: a chord already too
+    // short is dropped without fitting.
+    if ((p1[0] - p0[0]).powi(2) + (p1[1] - p0[1]).powi(2)).sqrt() < params.min_length_px {
+        return None;
+    }
     if params.refit && b > a + 1 {
         let (c, u) = fit_line(subpixel, a, b);
         let project = |p: [f32; 2]| {
@@ -341,6 +362,19 @@ mod tests {
     use super::*;
     use crate::canny::CannyParams;
     use crate::gray::GrayView;
+
+    #[test]
+    fn chains_too_small_for_a_segment_are_recognised_and_long_ones_kept() {
+        let params = SegmentParams::default();
+        // A closed ring of 6 x 6 pixels: diagonal 7.1 px + 1.4 px of sub-pixel shifts < 10 px.
+        let mut ring: Vec<[u16; 2]> = (0..6).map(|x| [x + 3, 3]).collect();
+        ring.extend((1..6).map(|y| [8, y + 3]));
+        ring.extend((0..5).rev().map(|x| [x + 3, 8]));
+        assert!(!can_reach(&ring, &params));
+        // 9 px of straight chain can still give a 10 px segment once shifted by sub-pixels.
+        let line: Vec<[u16; 2]> = (0..10).map(|x| [x + 3, 3 + x / 3]).collect();
+        assert!(can_reach(&line, &params));
+    }
 
     #[test]
     fn an_l_shaped_chain_splits_at_the_corner() {
