@@ -9,7 +9,9 @@
 //! [`reference`] defines the table and the interpolation in their plain per-pixel form (8 bytes
 //! per pixel, one bounds-checked window read per pixel). [`RectifyMap`] stores the same table
 //! in a compact block layout (module `layout`) and computes bit-identical frames several times
-//! faster:
+//! faster (measured by the `rectify` bench, `rectify_640x480_pair` against
+//! `rectify_640x480_pair_reference_table`, and inside the pipeline by
+//! `pipeline_timing rectify_compare`):
 //!
 //! - pixels without a source are not stored: the gaps between blocks are filled with 0;
 //! - a *shift block* of up to 32 consecutive rectified pixels reads its 2x2 windows from three
