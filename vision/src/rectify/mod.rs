@@ -6,8 +6,8 @@
 //! a pure integer loop that does not allocate when the destination frame already has the right
 //! size, so the vision thread can rectify every captured pair into preallocated frames.
 //!
-//! [`reference`](mod@reference) defines the table and the interpolation in their plain per-pixel form (8 bytes
-//! per pixel, one bounds-checked window read per pixel). [`RectifyMap`] stores the same table
+//! [`reference`](mod@reference) defines the table and the interpolation in their plain
+//! per-pixel form (8 bytes per pixel, one bounds-checked window read per pixel). [`RectifyMap`] stores the same table
 //! in a compact block layout (module `layout`) and computes bit-identical frames several times
 //! faster (measured by the `rectify` bench, `rectify_640x480_pair` against
 //! `rectify_640x480_pair_reference_table`, and inside the pipeline by
