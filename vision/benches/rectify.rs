@@ -1,5 +1,5 @@
 //! Rectification of 640x480 grey frames with precomputed bilinear remap tables: one camera, the
-//! pair (the compact run-based table and, as the baseline, the plain per-pixel reference table,
+//! pair (the compact block table and, as the baseline, the plain per-pixel reference table,
 //! which give identical frames), and building the tables from a calibration.
 
 use std::hint::black_box;
