@@ -1,5 +1,6 @@
 //! Rectification of 640x480 grey frames with precomputed bilinear remap tables: one camera, the
-//! pair, and building the tables from a calibration.
+//! pair (the compact block table and, as the baseline, the plain per-pixel reference table,
+//! which give identical frames), and building the tables from a calibration.
 
 use std::hint::black_box;
 
@@ -7,6 +8,7 @@ mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use videt_hal::{GrayFrame, StereoFrame};
+use videt_vision::rectify::reference::ReferenceMap;
 use videt_vision::rectify::StereoRectifier;
 
 fn frame(seed: u32) -> GrayFrame {
@@ -45,6 +47,18 @@ fn bench_rectify(c: &mut Criterion) {
         b.iter(|| {
             rectifier
                 .apply(black_box(&pair), &mut left, &mut right)
+                .expect("sizes match")
+        })
+    });
+    let reference_left = ReferenceMap::new(&cal.left(), &cal.r1(), &cal.p1(), 640, 480);
+    let reference_right = ReferenceMap::new(&cal.right(), &cal.r2(), &cal.p2(), 640, 480);
+    c.bench_function("rectify_640x480_pair_reference_table", |b| {
+        b.iter(|| {
+            reference_left
+                .apply(black_box(&pair.left), &mut left)
+                .expect("sizes match");
+            reference_right
+                .apply(black_box(&pair.right), &mut right)
                 .expect("sizes match")
         })
     });

@@ -7,7 +7,9 @@
 //! Modes: `canny` (one image), `whole` (both images to 3D segments), `local` (100x100 region,
 //! exact: equal to the whole-image run inside it), `local_single_pass` (one pass, not grown),
 //! `rectify_whole` (both raw frames rectified with the remap tables of a calibration shaped like
-//! the real 640x480 rig's, then `whole`). Prints the wall-clock median and minimum of each run
+//! the real 640x480 rig's, then `whole`), `rectify_compare` (as `rectify_whole`, but odd runs
+//! rectify with the plain per-pixel reference tables instead: both tables timed in one run under
+//! the same cache conditions). Prints the wall-clock median and minimum of each run
 //! and, for the pipeline modes, of each stage.
 
 #[path = "../benches/common/mod.rs"]
@@ -16,6 +18,7 @@ mod common;
 use std::time::Instant;
 use videt_hal::{GrayFrame, StereoFrame};
 use videt_vision::canny::CannyWorkspace;
+use videt_vision::rectify::reference::ReferenceMap;
 use videt_vision::rectify::StereoRectifier;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
@@ -42,7 +45,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut pipeline = StereoPipeline::new();
     let mut canny = CannyWorkspace::new();
-    let rectifier = StereoRectifier::from_calibration(&common::rig_calibration())?;
+    let calibration = common::rig_calibration();
+    let rectifier = StereoRectifier::from_calibration(&calibration)?;
+    let (w, h) = (calibration.image_width, calibration.image_height);
+    let reference = [
+        ReferenceMap::new(
+            &calibration.left(),
+            &calibration.r1(),
+            &calibration.p1(),
+            w,
+            h,
+        ),
+        ReferenceMap::new(
+            &calibration.right(),
+            &calibration.r2(),
+            &calibration.p2(),
+            w,
+            h,
+        ),
+    ];
     let frame = |img: &image::GrayImage| GrayFrame {
         width: img.width(),
         height: img.height(),
@@ -56,8 +77,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut rect_left, mut rect_right) = (GrayFrame::default(), GrayFrame::default());
     let mut times = Vec::with_capacity(iterations);
     let mut rectify_times = Vec::with_capacity(iterations);
+    let mut reference_times = Vec::with_capacity(iterations);
     let mut stages: Vec<[f64; 5]> = Vec::with_capacity(iterations);
-    for _ in 0..iterations {
+    for run in 0..iterations {
         let t = Instant::now();
         match mode.as_str() {
             "canny" => canny.detect(&lv, &params.canny)?,
@@ -71,6 +93,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let r = GrayView::new(&rect_right.data, 640, 480)?;
                 pipeline.run(&l, &r, Some(&geometry), &params)?;
             }
+            "rectify_compare" => {
+                if run % 2 == 1 {
+                    reference[0].apply(&raw.left, &mut rect_left)?;
+                    reference[1].apply(&raw.right, &mut rect_right)?;
+                    reference_times.push(t.elapsed().as_secs_f64() * 1e3);
+                } else {
+                    rectifier.apply(&raw, &mut rect_left, &mut rect_right)?;
+                    rectify_times.push(t.elapsed().as_secs_f64() * 1e3);
+                }
+                let l = GrayView::new(&rect_left.data, 640, 480)?;
+                let r = GrayView::new(&rect_right.data, 640, 480)?;
+                pipeline.run(&l, &r, Some(&geometry), &params)?;
+            }
             "local" => {
                 pipeline.run_local(&lv, &rv, Some(&geometry), &params, &region)?;
             }
@@ -79,7 +114,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             other => {
                 return Err(format!(
-                    "unknown mode {other} (canny, whole, local, local_single_pass, rectify_whole)"
+                    "unknown mode {other} (canny, whole, local, local_single_pass, rectify_whole, \
+                     rectify_compare)"
                 )
                 .into())
             }
@@ -102,6 +138,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!(
             "  stage {:<15} median {med:.3} ms, min {min:.3} ms",
             "rectify"
+        );
+    }
+    if !reference_times.is_empty() {
+        let (med, min) = median(reference_times);
+        println!(
+            "  stage {:<15} median {med:.3} ms, min {min:.3} ms",
+            "rectify (reference table)"
         );
     }
     if mode != "canny" {

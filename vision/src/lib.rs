@@ -1,8 +1,11 @@
 //! VIDET vision: camera calibration and rectification, and the stereo pipeline from rectified
 //! images to 3D line segments (paper section 3): Canny edges, polygonal approximation, Ayache's
 //! segment matching, back-projection.
-// `unsafe` appears only in the CPU-feature dispatch that `multiversion` generates for the
-// hot image loops (each such function carries a local `allow`).
+//!
+//! The crate contains no `unsafe` code of its own (`unsafe_code` is denied). The exemption is the
+//! run-time CPU-feature dispatch that the `multiversion` crate generates for the hot image loops
+//! (Canny's stages, the rectification inner loop in [`rectify`]); each such function carries a
+//! local `allow`.
 #![deny(unsafe_code)]
 
 pub mod calib;
