@@ -76,3 +76,39 @@ pub fn rig_calibration() -> StereoCalibration {
     };
     StereoCalibration::new(640, 480, &left, &right, &r, &t, &rect, q)
 }
+
+/// Raw (distorted, unrectified) 640x480 camera frames of the bench pair as the rig of
+/// [`rig_calibration`] would see it: every raw pixel takes the bench pair's value (bilinear) at
+/// the rectified position the calibration maps it to, 0 where that falls outside. Rectifying
+/// them gives back the bench pair (blurred by the two interpolations).
+pub fn raw_vga_pair() -> (GrayImage, GrayImage) {
+    let (left, right) = vga_pair();
+    let cal = rig_calibration();
+    let unrectify = |rectified: &GrayImage,
+                     cam: CameraIntrinsics,
+                     r: Matrix3<f64>,
+                     p: nalgebra::Matrix3x4<f64>| {
+        let (w, h) = rectified.dimensions();
+        GrayImage::from_fn(w, h, |u, v| {
+            let (xn, yn) = cam.pixel_to_normalised([f64::from(u), f64::from(v)]);
+            let ray = r * Vector3::new(xn, yn, 1.0);
+            let x = p[(0, 0)] * ray.x / ray.z + p[(0, 2)];
+            let y = p[(1, 1)] * ray.y / ray.z + p[(1, 2)];
+            if !(x >= 0.0 && y >= 0.0 && x < f64::from(w - 1) && y < f64::from(h - 1)) {
+                return image::Luma([0]);
+            }
+            let (x0, y0) = (x.floor(), y.floor());
+            let (fx, fy) = (x - x0, y - y0);
+            let at = |dx: u32, dy: u32| {
+                f64::from(rectified.get_pixel(x0 as u32 + dx, y0 as u32 + dy)[0])
+            };
+            let top = at(0, 0) * (1.0 - fx) + at(1, 0) * fx;
+            let bottom = at(0, 1) * (1.0 - fx) + at(1, 1) * fx;
+            image::Luma([(top * (1.0 - fy) + bottom * fy).round() as u8])
+        })
+    };
+    (
+        unrectify(&left, cal.left(), cal.r1(), cal.p1()),
+        unrectify(&right, cal.right(), cal.r2(), cal.p2()),
+    )
+}
