@@ -185,6 +185,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .collect::<Vec<_>>()
                 );
             }
+            if list && h {
+                for &j in &partners {
+                    for f in ws.diagnose_horizontal(ls, rs, i as u32, j) {
+                        println!(
+                            "      R{j} ({:.0},{:.0})-({:.0},{:.0}) context {:.1} line {:.1} end d {:.1},{:.1} overlap {:.2}",
+                            rs[j as usize].start[0],
+                            rs[j as usize].start[1],
+                            rs[j as usize].end[0],
+                            rs[j as usize].end[1],
+                            f[0], f[1], f[2], f[3], f[4]
+                        );
+                    }
+                }
+            }
             classes.entry(key).or_default().push(i as u32);
         }
         let wrong: Vec<&SegmentMatch> = matches

@@ -28,7 +28,10 @@
 //! matches vouch for nearly horizontal neighbours), each decided from the matches before it,
 //! so that the result does not depend on the order in which matches were found (a local run
 //! finds them in another order). They are flagged [`SegmentMatch::nearly_horizontal`] and
-//! never back-projected.
+//! never back-projected. A piece of a horizontal edge (neither endpoint agreeing with the
+//! context) is matched when it lies within 1 px of the shifted line and overlaps the other by
+//! half the shorter column extent, its disparity the context's; several nearly horizontal
+//! left pieces may share one right segment on disjoint columns.
 //!
 //! **Completion** (after propagation, before the nearly horizontal rounds): a left segment
 //! that propagation left unmatched may take a pair that fails the candidate limits on
@@ -41,7 +44,9 @@
 //! of the segments.
 //!
 //! A match's disparity is taken at the left segment's two endpoints: the right segment's line
-//! is intersected with the rows of the left endpoints.
+//! is intersected with the rows of the left endpoints. On a segment within 30 deg of
+//! horizontal these intersections are too sensitive to the orientations for the change along
+//! it to be measured: its match reports their mean at both ends.
 //!
 //! A segment may match part of another (Ayache): a left segment lying within the rows of a
 //! longer right segment meets a weaker length limit, and an edge broken into two collinear
@@ -122,6 +127,21 @@ pub struct MatchParams {
     pub max_fragment_gap_px: f32,
     /// Joined fragments: largest orientation difference of the two pieces, degrees.
     pub max_fragment_angle_diff_deg: f32,
+    /// Matches of segments within this angle of horizontal (but not nearly horizontal) report
+    /// one disparity along them, the mean of their endpoint disparities: on an oblique segment
+    /// the right line's intersections with the endpoint rows are too sensitive to its
+    /// orientation for the change along it to be measured, degrees.
+    pub single_disparity_angle_deg: f32,
+    /// Nearly horizontal pairs: minimum ratio shorter/longer length (they are matched from
+    /// their neighbours' context, pieces of an edge included).
+    pub horizontal_min_length_ratio: f32,
+    /// Nearly horizontal pairs without an endpoint agreeing with the context (pieces of an
+    /// edge): the fraction of the shorter column extent that must overlap the other once
+    /// shifted (above 1: such pairs are not matched).
+    pub horizontal_piece_overlap: f32,
+    /// Nearly horizontal pieces: largest distance of the left midpoint from the shifted right
+    /// line, pixels.
+    pub horizontal_piece_line_tolerance_px: f32,
     /// Completion: after propagation, an unmatched left segment may take a pair meeting only
     /// the completion limits below when enough matched neighbours agree with it.
     pub completion: bool,
@@ -168,8 +188,10 @@ impl Default for MatchParams {
     /// photometric error <= 7 grey levels; left-right check on; horizontal segments matched;
     /// right fragments joined across gaps of <= 8 rows when within 6 deg of each other; nearly
     /// horizontal pairs within 2 px of the shifted line, an endpoint disparity within 2.5 px of
-    /// the context. Completion on (one round): pairs within 25 deg, length ratio >= 0.1, row
-    /// overlap >= 0.2, slope <= 1, photometric error <= 9 and a disparity change <= 2 px along
+    /// the context, pieces (length ratio >= 0.25) within 1 px of it overlapping by half; one
+    /// disparity for segments within 30 deg of horizontal. Completion on (one round): pairs
+    /// within 25 deg, length ratio >= 0.1, row overlap >= 0.2, slope <= 1, photometric error
+    /// <= 9 and a disparity change <= 2.5 px along
     /// the segment, taken when >= 2 matched neighbours agree within 1 px + 0.1 px/px on both
     /// halves, a matched neighbour within 25 px of each end agrees, and contradicting ones
     /// (beyond the continuity limit) are at most half the agreeing ones.
@@ -202,13 +224,17 @@ impl Default for MatchParams {
             join_right_fragments: true,
             max_fragment_gap_px: 8.0,
             max_fragment_angle_diff_deg: 6.0,
+            single_disparity_angle_deg: 30.0,
+            horizontal_min_length_ratio: 0.25,
+            horizontal_piece_overlap: 0.5,
+            horizontal_piece_line_tolerance_px: 1.0,
             completion: true,
             completion_rounds: 1,
             completion_min_agreeing: 2,
             completion_max_disagreeing_ratio: 0.5,
             completion_tolerance_px: 1.0,
             completion_gradient_limit: 0.1,
-            completion_max_disparity_change_px: 2.0,
+            completion_max_disparity_change_px: 2.5,
             completion_both_ends: true,
             completion_end_context: true,
             completion_end_radius_px: 25.0,
@@ -473,6 +499,9 @@ pub struct MatchWorkspace {
     right_fill: Vec<u32>,
     right_taken: Vec<[[f32; 2]; MAX_PIECES_PER_RIGHT]>,
     right_taken_len: Vec<u8>,
+    /// Columns of each right segment taken by nearly horizontal matches.
+    right_columns: Vec<[[f32; 2]; MAX_PIECES_PER_RIGHT]>,
+    right_columns_len: Vec<u8>,
     left_used: Vec<bool>,
     accepted_candidate: Vec<u32>,
     heap: BinaryHeap<Queued>,
@@ -576,16 +605,22 @@ impl MatchWorkspace {
         self.compute_support(params);
         self.best_candidates(left.len(), right.len());
         self.grow(left, right, images, params);
+        let flat = params.single_disparity_angle_deg.to_radians();
         for (i, &c) in self.accepted_candidate.iter().enumerate() {
             if c == NONE {
                 continue;
             }
             let cand = self.candidates[c as usize];
             debug_assert_eq!(cand.left as usize, i);
+            let mut disparity = cand.disparity;
+            if !cand.horizontal && left[i].is_nearly_horizontal(flat) {
+                // The change along an oblique segment is not measurable: its mean.
+                disparity = [0.5 * (disparity[0] + disparity[1]); 2];
+            }
             out.push(SegmentMatch {
                 left: cand.left,
                 right: cand.right,
-                disparity_px: cand.disparity,
+                disparity_px: disparity,
                 support: cand.support,
                 predicted: cand.tight,
                 nearly_horizontal: cand.horizontal,
@@ -1031,6 +1066,44 @@ impl MatchWorkspace {
         })
     }
 
+    /// For a nearly horizontal pair, how the right segment fits the left one shifted by each
+    /// matched neighbour's context disparity (after the last run): per neighbour, the context
+    /// disparity, the distance of the left midpoint from the shifted right line, the two
+    /// endpoint disparities, and the column overlap divided by the shorter column extent.
+    /// Diagnostics only: not used by the matcher.
+    pub fn diagnose_horizontal(
+        &self,
+        left: &[Segment],
+        right: &[Segment],
+        i: u32,
+        j: u32,
+    ) -> Vec<[f32; 5]> {
+        let (l, r) = (&left[i as usize], &right[j as usize]);
+        self.neighbours_of(i)
+            .filter_map(|n| {
+                let nb = self.neighbours[n];
+                let a = self.accepted_candidate[nb.other as usize];
+                (a != NONE).then(|| {
+                    let context = self.candidates[a as usize].disparity_at(nb.t_other);
+                    let (dx, dy) = (r.end[0] - r.start[0], r.end[1] - r.start[1]);
+                    let m = l.midpoint();
+                    let (px, py) = (m[0] - (r.start[0] + context), m[1] - r.start[1]);
+                    let distance = (dx * py - dy * px).abs() / r.length_px.max(1e-3);
+                    let (a0, a1) = min_max(l.start[0], l.end[0]);
+                    let (b0, b1) = min_max(r.start[0] + context, r.end[0] + context);
+                    let overlap = (a1.min(b1) - a0.max(b0)) / (a1 - a0).min(b1 - b0).max(1e-3);
+                    [
+                        context,
+                        distance,
+                        l.start[0] - r.start[0],
+                        l.end[0] - r.end[0],
+                        overlap,
+                    ]
+                })
+            })
+            .collect()
+    }
+
     fn candidates_of(&self, left: u32) -> std::ops::Range<usize> {
         self.candidate_start[left as usize] as usize
             ..self.candidate_start[left as usize + 1] as usize
@@ -1152,6 +1225,27 @@ impl MatchWorkspace {
         }
     }
 
+    /// Whether right segment `j` is free for a nearly horizontal match on `columns` of it: no
+    /// other match uses its rows, nearly horizontal ones only other columns.
+    fn horizontal_free(&self, j: u32, columns: [f32; 2]) -> bool {
+        let j = j as usize;
+        let n = self.right_columns_len[j] as usize;
+        self.right_taken_len[j] == 0
+            && n < MAX_PIECES_PER_RIGHT
+            && !self.right_columns[j][..n]
+                .iter()
+                .any(|&taken| rows_overlap(taken, columns))
+    }
+
+    fn take_columns(&mut self, j: u32, columns: [f32; 2]) {
+        let j = j as usize;
+        let n = self.right_columns_len[j] as usize;
+        if n < MAX_PIECES_PER_RIGHT {
+            self.right_columns[j][n] = columns;
+            self.right_columns_len[j] += 1;
+        }
+    }
+
     fn grow(
         &mut self,
         left: &[Segment],
@@ -1167,6 +1261,11 @@ impl MatchWorkspace {
             .resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
         self.right_taken_len.clear();
         self.right_taken_len.resize(n_right, 0);
+        self.right_columns.clear();
+        self.right_columns
+            .resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
+        self.right_columns_len.clear();
+        self.right_columns_len.resize(n_right, 0);
         self.accepted_candidate.clear();
         self.accepted_candidate.resize(n_left, NONE);
         self.heap.clear();
@@ -1478,14 +1577,16 @@ impl MatchWorkspace {
                 let mut best: Option<(usize, f32)> = None;
                 for m in self.candidates_of(h) {
                     let c = &self.candidates[m];
-                    if !self.right_free(c) {
-                        continue;
-                    }
                     let Some(measured) =
                         fits_shifted(&left[h as usize], &right[c.right as usize], context, params)
                     else {
                         continue;
                     };
+                    let columns =
+                        shifted_columns(&left[h as usize], &right[c.right as usize], measured);
+                    if !self.horizontal_free(c.right, columns) {
+                        continue;
+                    }
                     if best.is_none_or(|(b, _)| c.better_than(&self.candidates[b])) {
                         best = Some((m, measured));
                     }
@@ -1507,12 +1608,14 @@ impl MatchWorkspace {
         for p in 0..self.proposals.len() {
             let (m, measured, _) = self.proposals[p];
             let c = self.candidates[m as usize];
-            if !self.right_free(&c) {
+            let columns =
+                shifted_columns(&left[c.left as usize], &right[c.right as usize], measured);
+            if !self.horizontal_free(c.right, columns) {
                 continue;
             }
             self.candidates[m as usize].disparity = [measured; 2];
             self.left_used[c.left as usize] = true;
-            self.take_right(&c);
+            self.take_columns(c.right, columns);
             self.accepted_candidate[c.left as usize] = m;
             accepted = true;
         }
@@ -1683,7 +1786,9 @@ fn evaluate_pair(
         && l.start[1] >= r.start[1] - 1.0
         && l.end[1] <= r.end[1] + 1.0
         && r.length_px > l.length_px;
-    let min_length_ratio = if contained {
+    let min_length_ratio = if l_horizontal {
+        params.horizontal_min_length_ratio
+    } else if contained {
         params.contained_min_length_ratio
     } else {
         params.propagate_min_length_ratio
@@ -1788,13 +1893,26 @@ fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) 
             count += 1;
         }
     }
-    if count == 0 {
-        return None;
-    }
     let (a0, a1) = min_max(l.start[0], l.end[0]);
     let (b0, b1) = min_max(r.start[0] + disparity, r.end[0] + disparity);
     let overlap = a1.min(b1) - a0.max(b0);
+    if count == 0 {
+        // A piece of the edge: the shorter one lies within the other once shifted, on the
+        // line; the context is the disparity.
+        let inside = overlap >= params.horizontal_piece_overlap * (a1 - a0).min(b1 - b0);
+        return (params.horizontal_piece_overlap <= 1.0
+            && distance <= params.horizontal_piece_line_tolerance_px
+            && inside)
+            .then_some(disparity);
+    }
     (overlap >= 0.5 * (a1 - a0).min(b1 - b0)).then_some(sum / count as f32)
+}
+
+/// The columns of right segment `r` covered by left segment `l` shifted left by `disparity`.
+fn shifted_columns(l: &Segment, r: &Segment, disparity: f32) -> [f32; 2] {
+    let (a0, a1) = min_max(l.start[0] - disparity, l.end[0] - disparity);
+    let (b0, b1) = min_max(r.start[0], r.end[0]);
+    [a0.max(b0), a1.min(b1)]
 }
 
 /// Distance between two segments and the parameters (0 at `start`, 1 at `end`) of the closest
