@@ -1383,7 +1383,17 @@ impl MatchWorkspace {
             }
             let strict = self.candidates_of(i as u32);
             let loose = self.loose_start[i] as usize..self.loose_start[i + 1] as usize;
-            if strict.is_empty() && loose.is_empty() {
+            // Only pairs with a small disparity change along them and free right rows can be
+            // taken: skip the neighbour search when there is none.
+            let possible = |c: &Candidate| {
+                !c.horizontal
+                    && (c.disparity[1] - c.disparity[0]).abs()
+                        <= params.completion_max_disparity_change_px
+                    && self.right_free(c)
+            };
+            if !strict.clone().any(|k| possible(&self.candidates[k]))
+                && !loose.clone().any(|k| possible(&self.loose[k].0))
+            {
                 continue;
             }
             // Matched neighbours within the radius.
