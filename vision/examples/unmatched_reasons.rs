@@ -9,7 +9,14 @@
 //! pair failing the photometric check before a pair failing a weak constraint), then by what
 //! stopped that candidate.
 //!
-//! `cargo run --release -p videt-vision --example unmatched_reasons [pair ...] [--list]`
+//! Segments without a partner are split by what lies near their true position in the right
+//! image. `--list` prints every unmatched segment (with, for nearly horizontal ones, how each
+//! partner fits the matched neighbours' contexts) and the wrong matches; `--completed` prints
+//! the matches that completion added and how they fared; `key=value` overrides a few
+//! completion parameters (see the source).
+//!
+//! `cargo run --release -p videt-vision --example unmatched_reasons [pair ...] [--list]
+//! [--completed] [key=value ...]`
 
 use std::collections::BTreeMap;
 use videt_vision::canny::CannyWorkspace;
