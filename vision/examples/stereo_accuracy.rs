@@ -210,6 +210,35 @@ fn override_param(p: &mut VisionParams, key: &str, v: f64) -> Result<(), String>
         "matching.contained_min_length_ratio" => m.contained_min_length_ratio = v as f32,
         "matching.max_fragment_gap_px" => m.max_fragment_gap_px = v as f32,
         "matching.max_fragment_angle_diff_deg" => m.max_fragment_angle_diff_deg = v as f32,
+        "matching.completion" => m.completion = v != 0.0,
+        "matching.single_disparity_angle_deg" => m.single_disparity_angle_deg = v as f32,
+        "matching.horizontal_min_length_ratio" => m.horizontal_min_length_ratio = v as f32,
+        "matching.horizontal_piece_overlap" => m.horizontal_piece_overlap = v as f32,
+        "matching.horizontal_piece_line_tolerance_px" => {
+            m.horizontal_piece_line_tolerance_px = v as f32
+        }
+        "matching.completion_rounds" => m.completion_rounds = v as u32,
+        "matching.completion_end_radius_px" => m.completion_end_radius_px = v as f32,
+        "matching.completion_end_context" => m.completion_end_context = v != 0.0,
+        "matching.completion_max_disparity_change_px" => {
+            m.completion_max_disparity_change_px = v as f32
+        }
+        "matching.completion_both_ends" => m.completion_both_ends = v != 0.0,
+        "matching.completion_tolerance_px" => m.completion_tolerance_px = v as f32,
+        "matching.completion_gradient_limit" => m.completion_gradient_limit = v as f32,
+        "matching.completion_min_agreeing" => m.completion_min_agreeing = v as u32,
+        "matching.completion_max_disagreeing_ratio" => {
+            m.completion_max_disagreeing_ratio = v as f32
+        }
+        "matching.completion_max_angle_diff_deg" => m.completion_max_angle_diff_deg = v as f32,
+        "matching.completion_min_length_ratio" => m.completion_min_length_ratio = v as f32,
+        "matching.completion_max_disparity_slope" => m.completion_max_disparity_slope = v as f32,
+        "matching.completion_max_photometric_error" => {
+            m.completion_max_photometric_error = v as f32
+        }
+        "matching.completion_min_row_overlap_ratio" => {
+            m.completion_min_row_overlap_ratio = v as f32
+        }
         _ => return Err(format!("unknown parameter {key}")),
     }
     Ok(())

@@ -28,10 +28,25 @@
 //! matches vouch for nearly horizontal neighbours), each decided from the matches before it,
 //! so that the result does not depend on the order in which matches were found (a local run
 //! finds them in another order). They are flagged [`SegmentMatch::nearly_horizontal`] and
-//! never back-projected.
+//! never back-projected. A piece of a horizontal edge (neither endpoint agreeing with the
+//! context) is matched when it lies within 1 px of the shifted line and overlaps the other by
+//! half the shorter column extent, its disparity the context's; several nearly horizontal
+//! left pieces may share one right segment on disjoint columns.
+//!
+//! **Completion** (after propagation, before the nearly horizontal rounds): a left segment
+//! that propagation left unmatched may take a pair that fails the candidate limits on
+//! orientation, length, row overlap, disparity slope or the photometric check (within wider
+//! completion limits) when its matched neighbours vouch for it: enough of them agree tightly
+//! with its disparity (within 1 px plus 0.1 px per pixel of distance), on both halves of the
+//! segment, a matched neighbour near each end agrees with the disparity there, few contradict
+//! it, and the disparity changes little along it. Decided from the matches of propagation only
+//! (proposals accepted best first where the right rows are free), so independent of the order
+//! of the segments.
 //!
 //! A match's disparity is taken at the left segment's two endpoints: the right segment's line
-//! is intersected with the rows of the left endpoints.
+//! is intersected with the rows of the left endpoints. On a segment within 30 deg of
+//! horizontal these intersections are too sensitive to the orientations for the change along
+//! it to be measured: its match reports their mean at both ends.
 //!
 //! A segment may match part of another (Ayache): a left segment lying within the rows of a
 //! longer right segment meets a weaker length limit, and an edge broken into two collinear
@@ -112,6 +127,56 @@ pub struct MatchParams {
     pub max_fragment_gap_px: f32,
     /// Joined fragments: largest orientation difference of the two pieces, degrees.
     pub max_fragment_angle_diff_deg: f32,
+    /// Matches of segments within this angle of horizontal (but not nearly horizontal) report
+    /// one disparity along them, the mean of their endpoint disparities: on an oblique segment
+    /// the right line's intersections with the endpoint rows are too sensitive to its
+    /// orientation for the change along it to be measured, degrees.
+    pub single_disparity_angle_deg: f32,
+    /// Nearly horizontal pairs: minimum ratio shorter/longer length (they are matched from
+    /// their neighbours' context, pieces of an edge included).
+    pub horizontal_min_length_ratio: f32,
+    /// Nearly horizontal pairs without an endpoint agreeing with the context (pieces of an
+    /// edge): the fraction of the shorter column extent that must overlap the other once
+    /// shifted (above 1: such pairs are not matched).
+    pub horizontal_piece_overlap: f32,
+    /// Nearly horizontal pieces: largest distance of the left midpoint from the shifted right
+    /// line, pixels.
+    pub horizontal_piece_line_tolerance_px: f32,
+    /// Completion: after propagation, an unmatched left segment may take a pair meeting only
+    /// the completion limits below when enough matched neighbours agree with it.
+    pub completion: bool,
+    /// Completion: rounds (each decided from the matches before it).
+    pub completion_rounds: u32,
+    /// Completion: matched neighbours (within the neighbourhood radius) that must meet the
+    /// continuity constraint with the pair.
+    pub completion_min_agreeing: u32,
+    /// Completion: largest number of matched neighbours that may contradict the pair, as a
+    /// fraction of the agreeing ones.
+    pub completion_max_disagreeing_ratio: f32,
+    /// Completion: an agreeing neighbour's disparity (at the closest points) differs by at
+    /// most this plus [`MatchParams::completion_gradient_limit`] times the distance, pixels.
+    pub completion_tolerance_px: f32,
+    /// Completion: allowed disparity change per pixel of distance for an agreeing neighbour.
+    pub completion_gradient_limit: f32,
+    /// Completion: largest disparity change between the two ends of the pair, pixels.
+    pub completion_max_disparity_change_px: f32,
+    /// Completion: agreeing neighbours must be found near both halves of the left segment.
+    pub completion_both_ends: bool,
+    /// Completion: the disparity at each end of the pair must agree with the matched
+    /// neighbour closest to that end.
+    pub completion_end_context: bool,
+    /// Completion: neighbours within this distance of an end give its context, pixels.
+    pub completion_end_radius_px: f32,
+    /// Completion: maximum orientation difference, degrees.
+    pub completion_max_angle_diff_deg: f32,
+    /// Completion: minimum ratio shorter/longer length.
+    pub completion_min_length_ratio: f32,
+    /// Completion: maximum change of disparity along a segment per pixel of its height.
+    pub completion_max_disparity_slope: f32,
+    /// Completion: photometric error limit, grey levels.
+    pub completion_max_photometric_error: f32,
+    /// Completion: minimum row overlap ratio.
+    pub completion_min_row_overlap_ratio: f32,
 }
 
 impl Default for MatchParams {
@@ -123,7 +188,13 @@ impl Default for MatchParams {
     /// photometric error <= 7 grey levels; left-right check on; horizontal segments matched;
     /// right fragments joined across gaps of <= 8 rows when within 6 deg of each other; nearly
     /// horizontal pairs within 2 px of the shifted line, an endpoint disparity within 2.5 px of
-    /// the context.
+    /// the context, pieces (length ratio >= 0.25) within 1 px of it overlapping by half; one
+    /// disparity for segments within 30 deg of horizontal. Completion on (one round): pairs
+    /// within 25 deg, length ratio >= 0.1, row overlap >= 0.2, slope <= 1, photometric error
+    /// <= 9 and a disparity change <= 2.5 px along
+    /// the segment, taken when >= 2 matched neighbours agree within 1 px + 0.1 px/px on both
+    /// halves, a matched neighbour within 25 px of each end agrees, and contradicting ones
+    /// (beyond the continuity limit) are at most half the agreeing ones.
     fn default() -> Self {
         Self {
             disparity_min_px: 0.0,
@@ -153,6 +224,25 @@ impl Default for MatchParams {
             join_right_fragments: true,
             max_fragment_gap_px: 8.0,
             max_fragment_angle_diff_deg: 6.0,
+            single_disparity_angle_deg: 30.0,
+            horizontal_min_length_ratio: 0.25,
+            horizontal_piece_overlap: 0.5,
+            horizontal_piece_line_tolerance_px: 1.0,
+            completion: true,
+            completion_rounds: 1,
+            completion_min_agreeing: 2,
+            completion_max_disagreeing_ratio: 0.5,
+            completion_tolerance_px: 1.0,
+            completion_gradient_limit: 0.1,
+            completion_max_disparity_change_px: 2.5,
+            completion_both_ends: true,
+            completion_end_context: true,
+            completion_end_radius_px: 25.0,
+            completion_max_angle_diff_deg: 25.0,
+            completion_min_length_ratio: 0.1,
+            completion_max_disparity_slope: 1.0,
+            completion_max_photometric_error: 9.0,
+            completion_min_row_overlap_ratio: 0.2,
         }
     }
 }
@@ -160,7 +250,7 @@ impl Default for MatchParams {
 impl MatchParams {
     /// Checks the parameter ranges.
     pub fn validate(&self) -> Result<(), VisionError> {
-        let checks: [(&'static str, f32, bool, &'static str); 6] = [
+        let checks: [(&'static str, f32, bool, &'static str); 9] = [
             (
                 "matching.disparity_max_px",
                 self.disparity_max_px,
@@ -198,6 +288,25 @@ impl MatchParams {
                 self.max_contrast_ratio >= 1.0,
                 ">= 1",
             ),
+            (
+                "matching.completion_max_angle_diff_deg",
+                self.completion_max_angle_diff_deg,
+                self.completion_max_angle_diff_deg >= self.propagate_max_angle_diff_deg
+                    && self.completion_max_angle_diff_deg <= 90.0,
+                "propagate_max_angle_diff_deg..=90",
+            ),
+            (
+                "matching.completion_min_length_ratio",
+                self.completion_min_length_ratio,
+                (0.0..=1.0).contains(&self.completion_min_length_ratio),
+                "0..=1",
+            ),
+            (
+                "matching.completion_min_row_overlap_ratio",
+                self.completion_min_row_overlap_ratio,
+                (0.0..=1.0).contains(&self.completion_min_row_overlap_ratio),
+                "0..=1",
+            ),
         ];
         for (name, value, ok, allowed) in checks {
             if !ok {
@@ -227,6 +336,66 @@ pub struct SegmentMatch {
     pub predicted: bool,
     /// Whether the left segment is nearly horizontal (matched, but not back-projected).
     pub nearly_horizontal: bool,
+}
+
+/// The weak constraint a pair fails (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum PairConstraint {
+    /// Opposite gradient polarity.
+    Polarity,
+    /// Disparity outside the searched range.
+    DisparityRange,
+    /// Contrasts too different.
+    Contrast,
+    /// Intensities differ on both sides.
+    Intensity,
+    /// Orientations too different.
+    Orientation,
+    /// Lengths too different.
+    Length,
+    /// Nearly horizontal pair on different rows.
+    HorizontalRows,
+    /// Too little row overlap.
+    RowOverlap,
+    /// Disparity changes too fast along the segment.
+    DisparitySlope,
+}
+
+/// How the matcher treated one pair of segments (a diagnostic, see
+/// [`MatchWorkspace::diagnose_pair`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PairDiagnosis {
+    /// The pair fails a weak constraint.
+    Constraint(PairConstraint),
+    /// The pair fails the photometric check with this error, grey levels.
+    Photometric(f32),
+    /// The pair is a candidate (the right segment alone or as a joined fragment).
+    Candidate(CandidateDiagnosis),
+}
+
+/// A candidate's state at the end of the last [`MatchWorkspace::match_segments`] run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CandidateDiagnosis {
+    /// Disparity at the left segment's endpoints, pixels.
+    pub disparity_px: [f32; 2],
+    /// Supporting neighbours.
+    pub support: u32,
+    /// Meets the prediction constraints.
+    pub tight: bool,
+    /// Nearly horizontal left segment.
+    pub horizontal: bool,
+    /// The best candidate of its left segment.
+    pub best_of_left: bool,
+    /// Passes the left-right consistency check.
+    pub consistent: bool,
+    /// Its right rows were still free at the end.
+    pub right_free: bool,
+    /// Some matched neighbour is continuous with it (propagation could reach it).
+    pub reached: bool,
+    /// The accepted match of its left segment.
+    pub accepted: bool,
+    /// Number of candidates of its left segment.
+    pub rivals: u32,
 }
 
 /// A candidate pair.
@@ -330,6 +499,9 @@ pub struct MatchWorkspace {
     right_fill: Vec<u32>,
     right_taken: Vec<[[f32; 2]; MAX_PIECES_PER_RIGHT]>,
     right_taken_len: Vec<u8>,
+    /// Columns of each right segment taken by nearly horizontal matches.
+    right_columns: Vec<[[f32; 2]; MAX_PIECES_PER_RIGHT]>,
+    right_columns_len: Vec<u8>,
     left_used: Vec<bool>,
     accepted_candidate: Vec<u32>,
     heap: BinaryHeap<Queued>,
@@ -339,6 +511,23 @@ pub struct MatchWorkspace {
     /// Pairs of collinear right fragments: the virtual segment joining them and the two
     /// pieces (the longer first) with their rows; sorted by the virtual segment's upper row.
     fragments: Vec<JoinedFragments>,
+    /// Pairs meeting only the completion limits, grouped by left segment, with their
+    /// photometric error when known (`NaN` otherwise).
+    loose: Vec<(Candidate, f32)>,
+    loose_start: Vec<u32>,
+    /// Left segments matched by completion.
+    completed: Vec<bool>,
+    /// Completion: the matched segments (extent, index, accepted candidate) by upper row, and
+    /// the running maximum of their lower rows.
+    matched_sorted: Vec<(Extent, u32, u32)>,
+    matched_reach: Vec<f32>,
+    /// Matched neighbours of the segment being completed.
+    matched_near: Vec<(Neighbour, u32)>,
+    /// Completion: matched neighbours near an end of the segment being completed (end, their
+    /// disparity there, distance).
+    end_context: Vec<(u8, f32, f32)>,
+    /// Completion proposals: candidate, agreeing neighbours.
+    completion_proposals: Vec<(Candidate, u32)>,
 }
 
 const NONE: u32 = u32::MAX;
@@ -415,17 +604,23 @@ impl MatchWorkspace {
         self.build_neighbours(left, params);
         self.compute_support(params);
         self.best_candidates(left.len(), right.len());
-        self.grow(left, right, params);
+        self.grow(left, right, images, params);
+        let flat = params.single_disparity_angle_deg.to_radians();
         for (i, &c) in self.accepted_candidate.iter().enumerate() {
             if c == NONE {
                 continue;
             }
             let cand = self.candidates[c as usize];
             debug_assert_eq!(cand.left as usize, i);
+            let mut disparity = cand.disparity;
+            if !cand.horizontal && left[i].is_nearly_horizontal(flat) {
+                // The change along an oblique segment is not measurable: its mean.
+                disparity = [0.5 * (disparity[0] + disparity[1]); 2];
+            }
             out.push(SegmentMatch {
                 left: cand.left,
                 right: cand.right,
-                disparity_px: cand.disparity,
+                disparity_px: disparity,
                 support: cand.support,
                 predicted: cand.tight,
                 nearly_horizontal: cand.horizontal,
@@ -461,9 +656,23 @@ impl MatchWorkspace {
         let horizontal = params.horizontal_angle_deg.to_radians();
         self.join_fragments(right, horizontal, params);
         let (dmin, dmax) = (params.disparity_min_px, params.disparity_max_px);
+        let loose_params = MatchParams {
+            propagate_max_angle_diff_deg: params.completion_max_angle_diff_deg,
+            propagate_min_length_ratio: params.completion_min_length_ratio,
+            contained_min_length_ratio: params
+                .contained_min_length_ratio
+                .min(params.completion_min_length_ratio),
+            max_disparity_slope: params.completion_max_disparity_slope,
+            min_row_overlap_ratio: params.completion_min_row_overlap_ratio,
+            ..*params
+        };
+        self.loose.clear();
+        self.loose_start.clear();
         for (i, l) in left.iter().enumerate() {
             self.candidate_start.push(self.candidates.len() as u32);
+            self.loose_start.push(self.loose.len() as u32);
             let l_horizontal = l.is_nearly_horizontal(horizontal);
+            let complete = params.completion && !l_horizontal;
             if l_horizontal && !params.match_horizontal {
                 continue;
             }
@@ -489,14 +698,32 @@ impl MatchWorkspace {
                 }
                 let j = key.index;
                 let r = &right[j as usize];
-                let Some(c) = evaluate_pair(i as u32, l, j, r, l_horizontal, params) else {
-                    continue;
+                let c = match evaluate_pair(i as u32, l, j, r, l_horizontal, params) {
+                    Ok(c) => c,
+                    // Completion pairs: the geometric limits only (the photometric check
+                    // comes last, for the few that neighbours vouch for).
+                    Err(
+                        PairConstraint::Orientation
+                        | PairConstraint::Length
+                        | PairConstraint::RowOverlap
+                        | PairConstraint::DisparitySlope,
+                    ) if complete => {
+                        if let Ok(c) = evaluate_pair(i as u32, l, j, r, false, &loose_params) {
+                            self.loose.push((Candidate { tight: false, ..c }, f32::NAN));
+                        }
+                        continue;
+                    }
+                    Err(_) => continue,
                 };
                 if let Some(images) = images {
-                    if !c.horizontal
-                        && photometric_error(l, &c, images) > params.max_photometric_error
-                    {
-                        continue;
+                    if !c.horizontal {
+                        let error = photometric_error(l, &c, images);
+                        if error > params.max_photometric_error {
+                            if complete {
+                                self.loose.push((Candidate { tight: false, ..c }, error));
+                            }
+                            continue;
+                        }
                     }
                 }
                 self.candidates.push(c);
@@ -506,6 +733,7 @@ impl MatchWorkspace {
             }
         }
         self.candidate_start.push(self.candidates.len() as u32);
+        self.loose_start.push(self.loose.len() as u32);
     }
 
     /// Pairs of right segments that are two fragments of one straight edge broken by a short
@@ -621,7 +849,7 @@ impl MatchWorkspace {
             if rows[1] - rows[0] <= 1.0 || rows2[1] - rows2[0] <= 1.0 {
                 continue;
             }
-            let Some(mut c) = evaluate_pair(i, l, main.0, &joined, false, params) else {
+            let Ok(mut c) = evaluate_pair(i, l, main.0, &joined, false, params) else {
                 continue;
             };
             c.rows = rows;
@@ -769,8 +997,8 @@ impl MatchWorkspace {
         self.neighbours.truncate(write);
     }
 
-    /// Whether some left segment for which `inside` holds was left unmatched although it has
-    /// a candidate that validation would accept (the best of its segment, not beaten on its
+    /// Whether some left segment for which `inside` holds was left unmatched (or matched only
+    /// by completion) although it has a candidate that validation would accept (the best of its segment, not beaten on its
     /// right segment's rows, enough support): propagation did not reach it from the matches
     /// found. Call after [`MatchWorkspace::match_segments`] with the same segments.
     pub fn has_unreached(
@@ -780,13 +1008,100 @@ impl MatchWorkspace {
         inside: impl Fn(&Segment) -> bool,
     ) -> bool {
         (0..left.len()).any(|i| {
-            self.accepted_candidate.get(i) == Some(&NONE)
+            (self.accepted_candidate.get(i) == Some(&NONE) || self.completed[i])
                 && inside(&left[i])
                 && self.candidates_of(i as u32).any(|k| {
                     let c = &self.candidates[k];
                     !c.horizontal && c.support >= params.min_support && self.consistent(k, params)
                 })
         })
+    }
+
+    /// How the last [`MatchWorkspace::match_segments`] run (with the same segments, images and
+    /// parameters) treated the pair `(left[i], right[j])`: the weak constraint or photometric
+    /// check it fails, or its state as a candidate (when `j` is a piece of joined fragments,
+    /// the joined candidate). Diagnostics only: not used by the matcher.
+    pub fn diagnose_pair(
+        &self,
+        left: &[Segment],
+        right: &[Segment],
+        images: Option<&StereoImages<'_>>,
+        params: &MatchParams,
+        i: u32,
+        j: u32,
+    ) -> PairDiagnosis {
+        let l = &left[i as usize];
+        let horizontal = l.is_nearly_horizontal(params.horizontal_angle_deg.to_radians());
+        let found = self
+            .candidates_of(i)
+            .find(|&k| self.candidates[k].right == j || self.candidates[k].right2 == j);
+        let Some(k) = found else {
+            return match evaluate_pair(i, l, j, &right[j as usize], horizontal, params) {
+                Err(e) => PairDiagnosis::Constraint(e),
+                Ok(c) => match images {
+                    Some(images) if !horizontal => {
+                        PairDiagnosis::Photometric(photometric_error(l, &c, images))
+                    }
+                    _ => PairDiagnosis::Photometric(f32::NAN),
+                },
+            };
+        };
+        let c = self.candidates[k];
+        let reached = self.neighbours_of(i).any(|n| {
+            let nb = self.neighbours[n];
+            let a = self.accepted_candidate[nb.other as usize];
+            a != NONE && continuous(&c, &self.candidates[a as usize], &nb, params)
+        });
+        PairDiagnosis::Candidate(CandidateDiagnosis {
+            disparity_px: c.disparity,
+            support: c.support,
+            tight: c.tight,
+            horizontal: c.horizontal,
+            best_of_left: self.best_for_left[i as usize] == k as u32,
+            consistent: self.consistent(k, params),
+            right_free: self.right_free(&c),
+            reached,
+            accepted: self.accepted_candidate[i as usize] == k as u32,
+            rivals: self.candidates_of(i).len() as u32,
+        })
+    }
+
+    /// For a nearly horizontal pair, how the right segment fits the left one shifted by each
+    /// matched neighbour's context disparity (after the last run): per neighbour, the context
+    /// disparity, the distance of the left midpoint from the shifted right line, the two
+    /// endpoint disparities, and the column overlap divided by the shorter column extent.
+    /// Diagnostics only: not used by the matcher.
+    pub fn diagnose_horizontal(
+        &self,
+        left: &[Segment],
+        right: &[Segment],
+        i: u32,
+        j: u32,
+    ) -> Vec<[f32; 5]> {
+        let (l, r) = (&left[i as usize], &right[j as usize]);
+        self.neighbours_of(i)
+            .filter_map(|n| {
+                let nb = self.neighbours[n];
+                let a = self.accepted_candidate[nb.other as usize];
+                (a != NONE).then(|| {
+                    let context = self.candidates[a as usize].disparity_at(nb.t_other);
+                    let (dx, dy) = (r.end[0] - r.start[0], r.end[1] - r.start[1]);
+                    let m = l.midpoint();
+                    let (px, py) = (m[0] - (r.start[0] + context), m[1] - r.start[1]);
+                    let distance = (dx * py - dy * px).abs() / r.length_px.max(1e-3);
+                    let (a0, a1) = min_max(l.start[0], l.end[0]);
+                    let (b0, b1) = min_max(r.start[0] + context, r.end[0] + context);
+                    let overlap = (a1.min(b1) - a0.max(b0)) / (a1 - a0).min(b1 - b0).max(1e-3);
+                    [
+                        context,
+                        distance,
+                        l.start[0] - r.start[0],
+                        l.end[0] - r.end[0],
+                        overlap,
+                    ]
+                })
+            })
+            .collect()
     }
 
     fn candidates_of(&self, left: u32) -> std::ops::Range<usize> {
@@ -910,7 +1225,34 @@ impl MatchWorkspace {
         }
     }
 
-    fn grow(&mut self, left: &[Segment], right: &[Segment], params: &MatchParams) {
+    /// Whether right segment `j` is free for a nearly horizontal match on `columns` of it: no
+    /// other match uses its rows, nearly horizontal ones only other columns.
+    fn horizontal_free(&self, j: u32, columns: [f32; 2]) -> bool {
+        let j = j as usize;
+        let n = self.right_columns_len[j] as usize;
+        self.right_taken_len[j] == 0
+            && n < MAX_PIECES_PER_RIGHT
+            && !self.right_columns[j][..n]
+                .iter()
+                .any(|&taken| rows_overlap(taken, columns))
+    }
+
+    fn take_columns(&mut self, j: u32, columns: [f32; 2]) {
+        let j = j as usize;
+        let n = self.right_columns_len[j] as usize;
+        if n < MAX_PIECES_PER_RIGHT {
+            self.right_columns[j][n] = columns;
+            self.right_columns_len[j] += 1;
+        }
+    }
+
+    fn grow(
+        &mut self,
+        left: &[Segment],
+        right: &[Segment],
+        images: Option<&StereoImages<'_>>,
+        params: &MatchParams,
+    ) {
         let (n_left, n_right) = (left.len(), right.len());
         self.left_used.clear();
         self.left_used.resize(n_left, false);
@@ -919,6 +1261,11 @@ impl MatchWorkspace {
             .resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
         self.right_taken_len.clear();
         self.right_taken_len.resize(n_right, 0);
+        self.right_columns.clear();
+        self.right_columns
+            .resize(n_right, [[0.0; 2]; MAX_PIECES_PER_RIGHT]);
+        self.right_columns_len.clear();
+        self.right_columns_len.resize(n_right, 0);
         self.accepted_candidate.clear();
         self.accepted_candidate.resize(n_left, NONE);
         self.heap.clear();
@@ -977,6 +1324,15 @@ impl MatchWorkspace {
                 }
             }
         }
+        self.completed.clear();
+        self.completed.resize(n_left, false);
+        if params.completion {
+            for _ in 0..params.completion_rounds {
+                if !self.complete(left, images, params) {
+                    break;
+                }
+            }
+        }
         if params.match_horizontal {
             for _ in 0..HORIZONTAL_ROUNDS {
                 if !self.match_horizontal_round(left, right, params) {
@@ -984,6 +1340,218 @@ impl MatchWorkspace {
                 }
             }
         }
+    }
+
+    /// Completion: each left segment left unmatched by propagation (not nearly horizontal)
+    /// proposes its candidate or completion pair (see [`MatchParams::completion`]) with the
+    /// most matched neighbours meeting the continuity constraint with it, when they are enough,
+    /// few contradict it, and its right rows are free; proposals are accepted best first where
+    /// the right rows are still free. Decided from the matches of propagation only, so the
+    /// result does not depend on the order of the segments.
+    fn complete(
+        &mut self,
+        left: &[Segment],
+        images: Option<&StereoImages<'_>>,
+        params: &MatchParams,
+    ) -> bool {
+        let radius = params.neighbourhood_radius_px;
+        let horizontal = params.horizontal_angle_deg.to_radians();
+        // The matched segments (not nearly horizontal) sorted by upper row, and the running
+        // maximum of their lower rows (to skip those ending above a segment's reach).
+        self.matched_sorted.clear();
+        for (&j, ej) in self.left_order.iter().zip(&self.left_extents) {
+            let a = self.accepted_candidate[j as usize];
+            if a != NONE && !self.candidates[a as usize].horizontal {
+                self.matched_sorted.push((*ej, j, a));
+            }
+        }
+        self.matched_reach.clear();
+        let mut lowest = f32::NEG_INFINITY;
+        for m in &self.matched_sorted {
+            lowest = lowest.max(m.0.rows[1]);
+            self.matched_reach.push(lowest);
+        }
+        let reach_sq = (radius + 1.0) * (radius + 1.0);
+        self.completion_proposals.clear();
+        for i in 0..left.len() {
+            if self.left_used[i] {
+                continue;
+            }
+            let l = &left[i];
+            if l.is_nearly_horizontal(horizontal) {
+                continue;
+            }
+            let strict = self.candidates_of(i as u32);
+            let loose = self.loose_start[i] as usize..self.loose_start[i + 1] as usize;
+            // Only pairs with a small disparity change along them and free right rows can be
+            // taken: skip the neighbour search when there is none.
+            let possible = |c: &Candidate| {
+                !c.horizontal
+                    && (c.disparity[1] - c.disparity[0]).abs()
+                        <= params.completion_max_disparity_change_px
+                    && self.right_free(c)
+            };
+            if !strict.clone().any(|k| possible(&self.candidates[k]))
+                && !loose.clone().any(|k| possible(&self.loose[k].0))
+            {
+                continue;
+            }
+            // Matched neighbours within the radius.
+            self.matched_near.clear();
+            let e = Extent::of(l);
+            let first = self
+                .matched_reach
+                .partition_point(|&y| y < e.rows[0] - radius - 1.0);
+            for &(ej, j, a) in &self.matched_sorted[first..] {
+                if ej.rows[0] > e.rows[1] + radius {
+                    break;
+                }
+                let gap_x = (ej.columns[0] - e.columns[1])
+                    .max(e.columns[0] - ej.columns[1])
+                    .max(0.0);
+                let gap_y = (ej.rows[0] - e.rows[1])
+                    .max(e.rows[0] - ej.rows[1])
+                    .max(0.0);
+                if gap_x * gap_x + gap_y * gap_y > reach_sq {
+                    continue;
+                }
+                let b = &left[j as usize];
+                let (d, ta, tb) = segment_distance(l, b);
+                if d <= radius {
+                    self.matched_near.push((
+                        Neighbour {
+                            other: j,
+                            other_start: b.start,
+                            t_self: ta,
+                            t_other: tb,
+                            distance: d,
+                        },
+                        a,
+                    ));
+                }
+            }
+            if (self.matched_near.len() as u32) < params.completion_min_agreeing {
+                continue;
+            }
+            // Each end of the segment, the matched neighbours near it: their disparity at the
+            // point closest to the end, and the distance.
+            self.end_context.clear();
+            for &(nb, a) in &self.matched_near {
+                let o = &left[nb.other as usize];
+                for (e, p) in [l.start, l.end].into_iter().enumerate() {
+                    let t = project_param(o, p);
+                    let q = lerp(o, t);
+                    let d = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt();
+                    if d <= params.completion_end_radius_px {
+                        self.end_context.push((
+                            e as u8,
+                            self.candidates[a as usize].disparity_at(t),
+                            d,
+                        ));
+                    }
+                }
+            }
+            if params.completion_end_context
+                && !(0..2u8).all(|e| self.end_context.iter().any(|x| x.0 == e))
+            {
+                continue;
+            }
+            let mut best: Option<(Candidate, u32)> = None;
+            let n_strict = strict.len();
+            for k in 0..n_strict + loose.len() {
+                let (c, known_error) = if k < n_strict {
+                    (self.candidates[strict.start + k], 0.0)
+                } else {
+                    self.loose[loose.start + k - n_strict]
+                };
+                if c.horizontal
+                    || (c.disparity[1] - c.disparity[0]).abs()
+                        > params.completion_max_disparity_change_px
+                    || !self.right_free(&c)
+                {
+                    continue;
+                }
+                let ends_agree = (0..2u8).all(|e| {
+                    self.end_context.iter().any(|&(end, context, d)| {
+                        end == e
+                            && (c.disparity[e as usize] - context).abs()
+                                <= params.completion_tolerance_px
+                                    + params.completion_gradient_limit * d
+                    })
+                });
+                if params.completion_end_context && !ends_agree {
+                    continue;
+                }
+                let (mut agree, mut disagree) = (0u32, 0u32);
+                let mut ends = [false; 2];
+                for &(nb, a) in &self.matched_near {
+                    let other = &self.candidates[a as usize];
+                    let change = (c.disparity_at(nb.t_self) - other.disparity_at(nb.t_other)).abs();
+                    if change
+                        <= params.completion_tolerance_px
+                            + params.completion_gradient_limit * nb.distance
+                    {
+                        agree += 1;
+                        ends[0] |= nb.t_self <= 0.5;
+                        ends[1] |= nb.t_self >= 0.5;
+                    } else if !continuous(&c, other, &nb, params) {
+                        disagree += 1;
+                    }
+                }
+                if (params.completion_both_ends && !(ends[0] && ends[1]))
+                    || agree < params.completion_min_agreeing
+                    || disagree as f32 > params.completion_max_disagreeing_ratio * agree as f32
+                {
+                    continue;
+                }
+                // Completion pairs are checked photometrically last (the costliest test).
+                if let Some(images) = images {
+                    let error = if known_error.is_nan() {
+                        photometric_error(l, &c, images)
+                    } else {
+                        known_error
+                    };
+                    if error > params.completion_max_photometric_error {
+                        continue;
+                    }
+                }
+                let better = best.is_none_or(|(b, b_agree)| {
+                    agree
+                        .cmp(&b_agree)
+                        .then_with(|| b.cost.total_cmp(&c.cost))
+                        .then_with(|| b.position[2].total_cmp(&c.position[2]))
+                        == Ordering::Greater
+                });
+                if better {
+                    best = Some((c, agree));
+                }
+            }
+            if let Some(p) = best {
+                self.completion_proposals.push(p);
+            }
+        }
+        self.completion_proposals.sort_unstable_by(|a, b| {
+            b.1.cmp(&a.1)
+                .then_with(|| a.0.cost.total_cmp(&b.0.cost))
+                .then_with(|| a.0.position[0].total_cmp(&b.0.position[0]))
+                .then_with(|| a.0.position[1].total_cmp(&b.0.position[1]))
+                .then_with(|| a.0.position[2].total_cmp(&b.0.position[2]))
+        });
+        let mut accepted = false;
+        for p in 0..self.completion_proposals.len() {
+            let (mut c, agree) = self.completion_proposals[p];
+            if !self.right_free(&c) {
+                continue;
+            }
+            c.support = agree;
+            self.left_used[c.left as usize] = true;
+            self.completed[c.left as usize] = true;
+            self.take_right(&c);
+            self.accepted_candidate[c.left as usize] = self.candidates.len() as u32;
+            self.candidates.push(c);
+            accepted = true;
+        }
+        accepted
     }
 
     /// One round of matching nearly horizontal left segments from the matches accepted before
@@ -1019,14 +1587,16 @@ impl MatchWorkspace {
                 let mut best: Option<(usize, f32)> = None;
                 for m in self.candidates_of(h) {
                     let c = &self.candidates[m];
-                    if !self.right_free(c) {
-                        continue;
-                    }
                     let Some(measured) =
                         fits_shifted(&left[h as usize], &right[c.right as usize], context, params)
                     else {
                         continue;
                     };
+                    let columns =
+                        shifted_columns(&left[h as usize], &right[c.right as usize], measured);
+                    if !self.horizontal_free(c.right, columns) {
+                        continue;
+                    }
                     if best.is_none_or(|(b, _)| c.better_than(&self.candidates[b])) {
                         best = Some((m, measured));
                     }
@@ -1048,12 +1618,14 @@ impl MatchWorkspace {
         for p in 0..self.proposals.len() {
             let (m, measured, _) = self.proposals[p];
             let c = self.candidates[m as usize];
-            if !self.right_free(&c) {
+            let columns =
+                shifted_columns(&left[c.left as usize], &right[c.right as usize], measured);
+            if !self.horizontal_free(c.right, columns) {
                 continue;
             }
             self.candidates[m as usize].disparity = [measured; 2];
             self.left_used[c.left as usize] = true;
-            self.take_right(&c);
+            self.take_columns(c.right, columns);
             self.accepted_candidate[c.left as usize] = m;
             accepted = true;
         }
@@ -1181,7 +1753,7 @@ fn min_max(a: f32, b: f32) -> (f32, f32) {
     }
 }
 
-/// Evaluates the pair against the weak constraints; `None` when it fails them.
+/// Evaluates the pair against the weak constraints; the first one failed when it fails them.
 fn evaluate_pair(
     i: u32,
     l: &Segment,
@@ -1189,24 +1761,24 @@ fn evaluate_pair(
     r: &Segment,
     l_horizontal: bool,
     params: &MatchParams,
-) -> Option<Candidate> {
+) -> Result<Candidate, PairConstraint> {
     if l.polarity != r.polarity {
-        return None;
+        return Err(PairConstraint::Polarity);
     }
     // Cheap disparity-range test on the column extents before anything else.
     let (lx0, lx1) = min_max(l.start[0], l.end[0]);
     let (rx0, rx1) = min_max(r.start[0], r.end[0]);
     if lx0 - rx1 > params.disparity_max_px + 1.0 || lx1 - rx0 < params.disparity_min_px - 1.0 {
-        return None;
+        return Err(PairConstraint::DisparityRange);
     }
     let contrast_ratio = l.contrast.max(r.contrast) / l.contrast.min(r.contrast).max(1e-3);
     if contrast_ratio > params.max_contrast_ratio {
-        return None;
+        return Err(PairConstraint::Contrast);
     }
     let di0 = (l.side_intensity[0] - r.side_intensity[0]).abs();
     let di1 = (l.side_intensity[1] - r.side_intensity[1]).abs();
     if di0.min(di1) > params.max_intensity_diff {
-        return None;
+        return Err(PairConstraint::Intensity);
     }
     let mut angle_diff = (l.angle_rad - r.angle_rad).abs();
     if angle_diff > std::f32::consts::FRAC_PI_2 {
@@ -1214,7 +1786,7 @@ fn evaluate_pair(
     }
     let angle_diff_deg = angle_diff.to_degrees();
     if angle_diff_deg > params.propagate_max_angle_diff_deg {
-        return None;
+        return Err(PairConstraint::Orientation);
     }
     let length_ratio = l.length_px.min(r.length_px) / l.length_px.max(r.length_px);
     // A left segment lying within the rows of a longer right one may be a fragment of its
@@ -1224,27 +1796,29 @@ fn evaluate_pair(
         && l.start[1] >= r.start[1] - 1.0
         && l.end[1] <= r.end[1] + 1.0
         && r.length_px > l.length_px;
-    let min_length_ratio = if contained {
+    let min_length_ratio = if l_horizontal {
+        params.horizontal_min_length_ratio
+    } else if contained {
         params.contained_min_length_ratio
     } else {
         params.propagate_min_length_ratio
     };
     if length_ratio < min_length_ratio {
-        return None;
+        return Err(PairConstraint::Length);
     }
     let (dmin, dmax) = (params.disparity_min_px, params.disparity_max_px);
     let disparity = if l_horizontal {
         // Rows must agree (within 2 px) and some disparity in range must make the columns
         // overlap; the disparity itself is inherited during propagation.
         if l.start[1].max(r.start[1]) > l.end[1].min(r.end[1]) + 2.0 {
-            return None;
+            return Err(PairConstraint::HorizontalRows);
         }
         let (a0, a1) = min_max(l.start[0], l.end[0]);
         let (b0, b1) = min_max(r.start[0], r.end[0]);
         let lo = (a0 - b1).max(dmin);
         let hi = (a1 - b0).min(dmax);
         if lo > hi {
-            return None;
+            return Err(PairConstraint::DisparityRange);
         }
         [0.5 * (lo + hi); 2]
     } else {
@@ -1254,32 +1828,32 @@ fn evaluate_pair(
         if overlap <= 0.0
             || overlap < params.min_row_overlap_ratio * l.height_px().min(r.height_px())
         {
-            return None;
+            return Err(PairConstraint::RowOverlap);
         }
         let (Some(xr0), Some(xr1)) = (r.x_at_row(l.start[1]), r.x_at_row(l.end[1])) else {
-            return None;
+            return Err(PairConstraint::RowOverlap);
         };
         let d = [l.start[0] - xr0, l.end[0] - xr1];
         if (d[1] - d[0]).abs() > 1.0 + params.max_disparity_slope * l.height_px() {
-            return None;
+            return Err(PairConstraint::DisparitySlope);
         }
         // The disparity must be in range over the overlapping rows.
         let (Some(xa), Some(xb)) = (l.x_at_row(y0), l.x_at_row(y1)) else {
-            return None;
+            return Err(PairConstraint::RowOverlap);
         };
         let (Some(ra), Some(rb)) = (r.x_at_row(y0), r.x_at_row(y1)) else {
-            return None;
+            return Err(PairConstraint::RowOverlap);
         };
         for dd in [xa - ra, xb - rb] {
             if dd < dmin - 0.5 || dd > dmax + 0.5 {
-                return None;
+                return Err(PairConstraint::DisparityRange);
             }
         }
         d
     };
     let mean_d = 0.5 * (disparity[0] + disparity[1]);
     if mean_d < dmin - 0.5 || mean_d > dmax + 0.5 {
-        return None;
+        return Err(PairConstraint::DisparityRange);
     }
     let tight = angle_diff_deg <= params.predict_max_angle_diff_deg
         && length_ratio >= params.predict_min_length_ratio
@@ -1288,7 +1862,7 @@ fn evaluate_pair(
     let cost = angle_diff_deg / params.propagate_max_angle_diff_deg
         + (1.0 - length_ratio)
         + (di0 + di1) / (2.0 * params.max_intensity_diff);
-    Some(Candidate {
+    Ok(Candidate {
         left: i,
         right: j,
         disparity,
@@ -1329,13 +1903,26 @@ fn fits_shifted(l: &Segment, r: &Segment, disparity: f32, params: &MatchParams) 
             count += 1;
         }
     }
-    if count == 0 {
-        return None;
-    }
     let (a0, a1) = min_max(l.start[0], l.end[0]);
     let (b0, b1) = min_max(r.start[0] + disparity, r.end[0] + disparity);
     let overlap = a1.min(b1) - a0.max(b0);
+    if count == 0 {
+        // A piece of the edge: the shorter one lies within the other once shifted, on the
+        // line; the context is the disparity.
+        let inside = overlap >= params.horizontal_piece_overlap * (a1 - a0).min(b1 - b0);
+        return (params.horizontal_piece_overlap <= 1.0
+            && distance <= params.horizontal_piece_line_tolerance_px
+            && inside)
+            .then_some(disparity);
+    }
     (overlap >= 0.5 * (a1 - a0).min(b1 - b0)).then_some(sum / count as f32)
+}
+
+/// The columns of right segment `r` covered by left segment `l` shifted left by `disparity`.
+fn shifted_columns(l: &Segment, r: &Segment, disparity: f32) -> [f32; 2] {
+    let (a0, a1) = min_max(l.start[0] - disparity, l.end[0] - disparity);
+    let (b0, b1) = min_max(r.start[0], r.end[0]);
+    [a0.max(b0), a1.min(b1)]
 }
 
 /// Distance between two segments and the parameters (0 at `start`, 1 at `end`) of the closest
@@ -1476,7 +2063,7 @@ mod tests {
         assert!((c.disparity[0] - 10.0).abs() < 1e-3);
         // The same length reaching beyond the right segment's rows is not.
         let beyond = seg(100.0, 60.0, 100.0, 76.0, 1, [50.0, 150.0]);
-        assert!(evaluate_pair(0, &beyond, 0, &r, false, &params).is_none());
+        assert!(evaluate_pair(0, &beyond, 0, &r, false, &params).is_err());
     }
 
     #[test]
@@ -1501,8 +2088,10 @@ mod tests {
         right.push(piece(0.5, 0.86));
         let mut ws = MatchWorkspace::new();
         let mut out = Vec::new();
+        // (Completion would take one piece on the neighbours' word: off here.)
         let mut params = MatchParams {
             join_right_fragments: false,
+            completion: false,
             ..MatchParams::default()
         };
         ws.match_segments(&left, &right, None, &params, &mut out);
@@ -1517,10 +2106,45 @@ mod tests {
     }
 
     #[test]
+    fn a_pair_beyond_the_candidate_limits_is_completed_when_neighbours_vouch_for_it() {
+        let (left, mut right) = scene(23.0);
+        // Right segment 5 keeps only 30 % of its edge: too short for the length limits.
+        let whole = right[5];
+        let at = |t: f32| {
+            [
+                whole.start[0] + t * (whole.end[0] - whole.start[0]),
+                whole.start[1] + t * (whole.end[1] - whole.start[1]),
+            ]
+        };
+        let (a, b) = (at(0.35), at(0.65));
+        right[5] = seg(a[0], a[1], b[0], b[1], whole.polarity, whole.side_intensity);
+        let mut ws = MatchWorkspace::new();
+        let mut out = Vec::new();
+        let mut params = MatchParams {
+            completion: false,
+            ..MatchParams::default()
+        };
+        ws.match_segments(&left, &right, None, &params, &mut out);
+        assert!(out.iter().all(|m| m.left != 5));
+        params.completion = true;
+        ws.match_segments(&left, &right, None, &params, &mut out);
+        let m = out.iter().find(|m| m.left == 5).expect("left 5 completed");
+        assert_eq!(m.right, 5);
+        assert!((m.disparity_px[0] - 23.0).abs() < 1e-2, "{m:?}");
+        assert!((m.disparity_px[1] - 23.0).abs() < 1e-2, "{m:?}");
+        assert_eq!(out.len(), left.len());
+        // The same piece 4 px further right (disparity 19, off the neighbours' 23): not taken.
+        right[5].start[0] += 4.0;
+        right[5].end[0] += 4.0;
+        ws.match_segments(&left, &right, None, &params, &mut out);
+        assert!(out.iter().all(|m| m.left != 5), "{out:?}");
+    }
+
+    #[test]
     fn opposite_polarity_is_rejected() {
         let l = seg(100.0, 10.0, 120.0, 90.0, 1, [50.0, 150.0]);
         let r = seg(90.0, 10.0, 110.0, 90.0, -1, [50.0, 150.0]);
-        assert!(evaluate_pair(0, &l, 0, &r, false, &MatchParams::default()).is_none());
+        assert!(evaluate_pair(0, &l, 0, &r, false, &MatchParams::default()).is_err());
     }
 
     #[test]

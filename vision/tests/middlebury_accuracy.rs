@@ -1,9 +1,9 @@
 //! Matching accuracy on the Middlebury pairs of the shared data (one parameter set, the
 //! defaults; every extracted left segment counts in the denominator). The goal is at least
 //! 60 % of the left segments matched with at most 2 % of the matches wrong (see
-//! `videt_vision::evaluation` for how a match is judged). Tsukuba, venus and teddy reach it and
-//! are held to it; cones does not yet (measured 55.7 % matched, 2.17 % wrong) and is held to
-//! its measured level. The full table: `cargo run --release -p videt-vision --example
+//! `videt_vision::evaluation` for how a match is judged); every pair is held to it (measured:
+//! tsukuba 72.6 % / 1.74 %, venus 73.3 % / 0.00 %, cones 60.3 % / 1.72 %, teddy 63.0 % /
+//! 1.84 %). The full table: `cargo run --release -p videt-vision --example
 //! stereo_accuracy`.
 
 use videt_vision::evaluation::{evaluate, DisparityMap};
@@ -16,7 +16,7 @@ fn every_middlebury_pair_is_matched_reliably() {
     for (name, scale, min_matched, max_wrong) in [
         ("tsukuba", 16.0, 0.60, 0.02),
         ("venus", 8.0, 0.60, 0.02),
-        ("cones", 4.0, 0.55, 0.025),
+        ("cones", 4.0, 0.60, 0.02),
         ("teddy", 4.0, 0.60, 0.02),
     ] {
         let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
