@@ -86,6 +86,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
             out.timings.total.as_secs_f64() * 1e3,
         );
+        let horizontal = params.matching.horizontal_angle_deg.to_radians();
+        let left_horizontal = out
+            .left_segments
+            .iter()
+            .filter(|s| s.is_nearly_horizontal(horizontal))
+            .count();
+        let left_other = r.left_segments - left_horizontal;
+        let matched_other = r.matches - r.horizontal_matches;
+        println!(
+            "    every match judged by endpoint disparity: {:.2}% wrong; without nearly horizontal \
+             segments: {}/{} = {:.1}% matched, {:.2}% wrong",
+            100.0 * r.disparity_wrong_fraction_all(),
+            matched_other,
+            left_other,
+            100.0 * matched_other as f64 / left_other.max(1) as f64,
+            100.0 * r.wrong_fraction_not_horizontal(),
+        );
         if std::env::args().any(|a| a == "--timing") {
             let mut pipeline = videt_vision::StereoPipeline::new();
             let (lv, rv) = (GrayView::from_image(&left)?, GrayView::from_image(&right)?);

@@ -223,6 +223,15 @@ pub struct AccuracyReport {
     pub horizontal_disparity_wrong: usize,
     /// Matches without usable ground truth.
     pub unevaluated: usize,
+    /// Nearly horizontal matches judged wrong (by correspondence), among `wrong`.
+    pub horizontal_wrong: usize,
+    /// Nearly horizontal matches without usable ground truth, among `unevaluated`.
+    pub horizontal_unevaluated: usize,
+    /// Every match judged by its endpoint disparity alone (nearly horizontal ones included):
+    /// wrong ones.
+    pub disparity_wrong_all: usize,
+    /// Every match judged by its endpoint disparity alone: unevaluated ones.
+    pub disparity_unevaluated_all: usize,
 }
 
 impl AccuracyReport {
@@ -234,6 +243,23 @@ impl AccuracyReport {
     /// Wrong matches / evaluated matches.
     pub fn wrong_fraction(&self) -> f64 {
         self.wrong as f64 / (self.matches - self.unevaluated).max(1) as f64
+    }
+
+    /// Wrong / evaluated when every match, nearly horizontal ones included, is judged by its
+    /// endpoint disparity alone (the stricter reading; nearly horizontal matches' disparity is
+    /// not observable along their rows and is never back-projected).
+    pub fn disparity_wrong_fraction_all(&self) -> f64 {
+        self.disparity_wrong_all as f64
+            / (self.matches - self.disparity_unevaluated_all).max(1) as f64
+    }
+
+    /// Wrong / evaluated among the matches that are not nearly horizontal (the ones
+    /// back-projected to 3D).
+    pub fn wrong_fraction_not_horizontal(&self) -> f64 {
+        let evaluated = self.matches
+            - self.horizontal_matches
+            - (self.unevaluated - self.horizontal_unevaluated);
+        (self.wrong - self.horizontal_wrong) as f64 / evaluated.max(1) as f64
     }
 }
 
@@ -252,14 +278,26 @@ pub fn evaluate(
     };
     for m in matches {
         let l = &left[m.left as usize];
+        let by_disparity = judge_match(l, m, truth);
+        match by_disparity {
+            MatchVerdict::Correct => {}
+            MatchVerdict::Wrong => report.disparity_wrong_all += 1,
+            MatchVerdict::Unevaluated => report.disparity_unevaluated_all += 1,
+        }
         let verdict = if m.nearly_horizontal {
             report.horizontal_matches += 1;
-            if judge_match(l, m, truth) == MatchVerdict::Wrong {
+            if by_disparity == MatchVerdict::Wrong {
                 report.horizontal_disparity_wrong += 1;
             }
-            judge_correspondence(l, &right[m.right as usize], truth)
+            let verdict = judge_correspondence(l, &right[m.right as usize], truth);
+            match verdict {
+                MatchVerdict::Correct => {}
+                MatchVerdict::Wrong => report.horizontal_wrong += 1,
+                MatchVerdict::Unevaluated => report.horizontal_unevaluated += 1,
+            }
+            verdict
         } else {
-            judge_match(l, m, truth)
+            by_disparity
         };
         match verdict {
             MatchVerdict::Correct => {}
