@@ -1,5 +1,6 @@
-//! Time of each stage of the stereo pipeline and of the whole pipeline (rectified images to 3D
-//! segments) on a 640x480 pair, and of a local run on a 100x100 region.
+//! Time of each stage of the stereo pipeline, of the whole pipeline (rectified images to 3D
+//! segments, and raw camera frames through rectification to 3D segments) on a 640x480 pair, and
+//! of a local run on a 100x100 region.
 //!
 //! `cargo bench -p videt-vision --bench stereo_pipeline_stages`
 
@@ -7,9 +8,11 @@ mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
+use videt_hal::{GrayFrame, StereoFrame};
 use videt_vision::canny::CannyWorkspace;
 use videt_vision::chains::Chains;
 use videt_vision::matching::MatchWorkspace;
+use videt_vision::rectify::StereoRectifier;
 use videt_vision::segments::SegmentWorkspace;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
@@ -97,6 +100,38 @@ fn stages(c: &mut Criterion) {
         })
     });
 
+    // From raw camera frames: both rectified with the remap tables of the rig calibration, then
+    // the pipeline (the raw frames are the bench pair as that rig would see it).
+    let rectifier = StereoRectifier::from_calibration(&common::rig_calibration()).unwrap();
+    let (raw_left, raw_right) = common::raw_vga_pair();
+    let frame = |img: &image::GrayImage| GrayFrame {
+        width: img.width(),
+        height: img.height(),
+        data: img.as_raw().clone(),
+    };
+    let raw = StereoFrame {
+        left: frame(&raw_left),
+        right: frame(&raw_right),
+        ..StereoFrame::default()
+    };
+    let (mut rect_left, mut rect_right) = (GrayFrame::default(), GrayFrame::default());
+    let mut from_raw = || {
+        rectifier
+            .apply(black_box(&raw), &mut rect_left, &mut rect_right)
+            .unwrap();
+        let l = GrayView::new(&rect_left.data, 640, 480).unwrap();
+        let r = GrayView::new(&rect_right.data, 640, 480).unwrap();
+        pipeline
+            .run(&l, &r, Some(&g), &params)
+            .unwrap()
+            .segments_3d
+            .len()
+    };
+    c.bench_function("raw_frames_to_3d_640x480", |b| b.iter(&mut from_raw));
+    let from_raw_median = per_call_median_ms(|| {
+        from_raw();
+    });
+
     let region = LocalRegion {
         centre_px: [400.0, 260.0],
         size_px: [100.0, 100.0],
@@ -153,6 +188,7 @@ fn stages(c: &mut Criterion) {
             pipeline.run(&lv, &rv, Some(&g), &params).unwrap();
         }),
     ));
+    medians.push(("raw_frames_to_3d_640x480", from_raw_median));
     let stage = pipeline.output().timings;
     medians.push((
         "  of which matching (last run)",
