@@ -157,6 +157,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let (med, min) = median(stages.iter().map(|s| s[k]).collect());
             println!("  stage {name:<15} median {med:.3} ms, min {min:.3} ms");
         }
+        let out = pipeline.output();
+        println!(
+            "  last run: {} left / {} right segments, {} matches, {} 3D segments",
+            out.left_segments.len(),
+            out.right_segments.len(),
+            out.matches.len(),
+            out.segments_3d.len()
+        );
     }
     Ok(())
 }
