@@ -83,6 +83,31 @@ fn gaussian_kernel(sigma_px: f32, radius: usize) -> Vec<u16> {
     kernel
 }
 
+/// A smoothed image moved out of a [`CannyWorkspace`] by [`CannyWorkspace::keep_smoothed`].
+#[derive(Debug, Default, Clone)]
+pub struct KeptSmoothed {
+    data: Vec<u8>,
+    width: usize,
+    height: usize,
+}
+
+impl KeptSmoothed {
+    /// Row-major pixels.
+    pub fn data(&self) -> &[u8] {
+        &self.data[..self.width * self.height]
+    }
+
+    /// Width, pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height, pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+}
+
 /// Reusable buffers of the Canny detector. Create once, call [`CannyWorkspace::detect`] per
 /// frame: no allocation happens once the buffers have grown to the frame size.
 #[derive(Debug, Default, Clone)]
@@ -152,6 +177,17 @@ impl CannyWorkspace {
     /// The smoothed last image.
     pub fn smoothed(&self) -> &[u8] {
         &self.smoothed[..self.width * self.height]
+    }
+
+    /// Moves the smoothed last image into `kept` by exchanging buffers (no copy, and no
+    /// allocation once both buffers have grown to the frame size), so that the workspace can
+    /// detect the next image while this one is still read. [`Self::smoothed`] holds stale
+    /// pixels until the next [`Self::detect`].
+    pub fn keep_smoothed(&mut self, kept: &mut KeptSmoothed) {
+        std::mem::swap(&mut self.smoothed, &mut kept.data);
+        kept.width = self.width;
+        kept.height = self.height;
+        grow(&mut self.smoothed, self.width * self.height);
     }
 
     fn prepare(&mut self, params: &CannyParams, width: usize, height: usize) {
@@ -838,6 +874,29 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A kept smoothed image survives the next detection, which smooths into the other buffer.
+    #[test]
+    fn a_kept_smoothed_image_survives_the_next_detection() {
+        let (a, b) = (step_image(30, 20, 10), step_image(30, 20, 17));
+        let params = CannyParams::default();
+        let mut ws = CannyWorkspace::new();
+        ws.detect(&GrayView::new(&a, 30, 20).unwrap(), &params)
+            .unwrap();
+        let smoothed_a = ws.smoothed().to_vec();
+        let mut kept = KeptSmoothed::default();
+        ws.keep_smoothed(&mut kept);
+        ws.detect(&GrayView::new(&b, 30, 20).unwrap(), &params)
+            .unwrap();
+        assert_eq!(kept.data(), &smoothed_a[..]);
+        assert_eq!((kept.width(), kept.height()), (30, 20));
+        let mut alone = CannyWorkspace::new();
+        alone
+            .detect(&GrayView::new(&b, 30, 20).unwrap(), &params)
+            .unwrap();
+        assert_eq!(ws.smoothed(), alone.smoothed());
+        assert_ne!(ws.smoothed(), kept.data());
     }
 
     /// The fixed-tap convolutions equal the generic one (kernels of sigma 1.0 and 1.4).

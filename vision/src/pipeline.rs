@@ -2,7 +2,7 @@
 //! per-stage timings. [`StereoPipeline`] keeps every buffer between frames; [`run_pipeline`]
 //! is the one-shot convenience.
 
-use crate::canny::{CannyParams, CannyWorkspace};
+use crate::canny::{CannyParams, CannyWorkspace, KeptSmoothed};
 use crate::chains::Chains;
 use crate::error::VisionError;
 use crate::gray::{GrayView, PixelRect};
@@ -102,8 +102,10 @@ pub struct PipelineOutput {
 /// The stereo pipeline with all its reusable buffers.
 #[derive(Debug, Default, Clone)]
 pub struct StereoPipeline {
+    /// One detector for both images: the right image reuses the buffers the left one has just
+    /// left in cache; only the left smoothed image, which matching reads, is kept apart.
     canny: CannyWorkspace,
-    canny_right: CannyWorkspace,
+    left_smoothed: KeptSmoothed,
     chains: Chains,
     segments: SegmentWorkspace,
     matcher: MatchWorkspace,
@@ -290,13 +292,17 @@ impl StereoPipeline {
         let mut cut = [[false; 4]; 2];
         let mut timings = StageTimings::default();
         let out = &mut self.output;
-        for (side, (view, canny, segments)) in [
-            (left, &mut self.canny, &mut out.left_segments),
-            (right, &mut self.canny_right, &mut out.right_segments),
+        for (side, (view, segments)) in [
+            (left, &mut out.left_segments),
+            (right, &mut out.right_segments),
         ]
         .into_iter()
         .enumerate()
         {
+            let canny = &mut self.canny;
+            if side == 1 {
+                canny.keep_smoothed(&mut self.left_smoothed);
+            }
             let t = Instant::now();
             canny.detect(view, &params.canny)?;
             timings.edges += t.elapsed();
@@ -348,8 +354,13 @@ impl StereoPipeline {
         }
         let t = Instant::now();
         let images = StereoImages {
-            left: patch(&self.canny, left),
-            right: patch(&self.canny_right, right),
+            left: ImagePatch {
+                data: self.left_smoothed.data(),
+                width: self.left_smoothed.width(),
+                height: self.left_smoothed.height(),
+                origin_px: left.origin_px(),
+            },
+            right: patch(&self.canny, right),
         };
         self.matcher.match_segments(
             &out.left_segments,
