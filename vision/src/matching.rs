@@ -451,6 +451,32 @@ struct Neighbour {
     distance: f32,
 }
 
+impl Neighbour {
+    /// Segment `b` (index `j`) as a neighbour of `a`, when their closest points are within
+    /// `radius`.
+    fn within(a: &Segment, j: u32, b: &Segment, radius: f32) -> Option<Self> {
+        let (distance, t_self, t_other) = segment_distance(a, b);
+        (distance <= radius).then_some(Neighbour {
+            other: j,
+            other_start: b.start,
+            t_self,
+            t_other,
+            distance,
+        })
+    }
+
+    /// The same pair seen from the other segment: `a` (index `i`) as its neighbour.
+    fn seen_from_other(&self, i: u32, a: &Segment) -> Self {
+        Neighbour {
+            other: i,
+            other_start: a.start,
+            t_self: self.t_other,
+            t_other: self.t_self,
+            distance: self.distance,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Queued {
     support: u32,
@@ -546,6 +572,17 @@ impl Extent {
             rows: [s.start[1], s.end[1]],
             columns: [x0, x1],
         }
+    }
+
+    /// Squared distance between this box and `other` (0 when they overlap).
+    fn gap_squared(&self, other: &Extent) -> f32 {
+        let gap_x = (self.columns[0] - other.columns[1])
+            .max(other.columns[0] - self.columns[1])
+            .max(0.0);
+        let gap_y = (self.rows[0] - other.rows[1])
+            .max(other.rows[0] - self.rows[1])
+            .max(0.0);
+        gap_x * gap_x + gap_y * gap_y
     }
 }
 
@@ -907,36 +944,13 @@ impl MatchWorkspace {
                 if bx0 > ax1 + radius || bx1 < ax0 - radius {
                     continue;
                 }
-                let gap_x = (bx0 - ax1).max(ax0 - bx1).max(0.0);
-                let gap_y = (eb.rows[0] - ea.rows[1])
-                    .max(ea.rows[0] - eb.rows[1])
-                    .max(0.0);
-                if gap_x * gap_x + gap_y * gap_y > reach_sq {
+                if eb.gap_squared(&ea) > reach_sq {
                     continue;
                 }
                 let b = &left[j as usize];
-                let (d, ta, tb) = segment_distance(a, b);
-                if d <= radius {
-                    self.neighbour_pairs.push((
-                        i,
-                        Neighbour {
-                            other: j,
-                            other_start: b.start,
-                            t_self: ta,
-                            t_other: tb,
-                            distance: d,
-                        },
-                    ));
-                    self.neighbour_pairs.push((
-                        j,
-                        Neighbour {
-                            other: i,
-                            other_start: a.start,
-                            t_self: tb,
-                            t_other: ta,
-                            distance: d,
-                        },
-                    ));
+                if let Some(n) = Neighbour::within(a, j, b, radius) {
+                    self.neighbour_pairs.push((i, n));
+                    self.neighbour_pairs.push((j, n.seen_from_other(i, a)));
                 }
             }
         }
@@ -1406,28 +1420,11 @@ impl MatchWorkspace {
                 if ej.rows[0] > e.rows[1] + radius {
                     break;
                 }
-                let gap_x = (ej.columns[0] - e.columns[1])
-                    .max(e.columns[0] - ej.columns[1])
-                    .max(0.0);
-                let gap_y = (ej.rows[0] - e.rows[1])
-                    .max(e.rows[0] - ej.rows[1])
-                    .max(0.0);
-                if gap_x * gap_x + gap_y * gap_y > reach_sq {
+                if ej.gap_squared(&e) > reach_sq {
                     continue;
                 }
-                let b = &left[j as usize];
-                let (d, ta, tb) = segment_distance(l, b);
-                if d <= radius {
-                    self.matched_near.push((
-                        Neighbour {
-                            other: j,
-                            other_start: b.start,
-                            t_self: ta,
-                            t_other: tb,
-                            distance: d,
-                        },
-                        a,
-                    ));
+                if let Some(n) = Neighbour::within(l, j, &left[j as usize], radius) {
+                    self.matched_near.push((n, a));
                 }
             }
             if (self.matched_near.len() as u32) < params.completion_min_agreeing {
