@@ -246,7 +246,7 @@ impl CannyWorkspace {
             match kernel.len() {
                 5 => convolve_fixed::<5>(kernel, |t| &pad[t..t + w], out),
                 7 => convolve_fixed::<7>(kernel, |t| &pad[t..t + w], out),
-                _ => convolve_row(kernel, w, |t, x| &pad[x + t..], out),
+                _ => convolve_row(kernel, |t| &pad[t..t + w], out),
             }
         }
         // Vertical pass into `smoothed`.
@@ -258,25 +258,10 @@ impl CannyWorkspace {
                 &horizontal[sy * w..(sy + 1) * w]
             };
             match kernel.len() {
-                5 => {
-                    convolve_fixed::<5>(kernel, tap_row, out);
-                    continue;
-                }
-                7 => {
-                    convolve_fixed::<7>(kernel, tap_row, out);
-                    continue;
-                }
-                _ => {}
+                5 => convolve_fixed::<5>(kernel, tap_row, out),
+                7 => convolve_fixed::<7>(kernel, tap_row, out),
+                _ => convolve_row(kernel, tap_row, out),
             }
-            convolve_row(
-                kernel,
-                w,
-                |t, x| {
-                    let sy = (y + t).saturating_sub(radius).min(h - 1);
-                    &horizontal[sy * w + x..(sy + 1) * w]
-                },
-                out,
-            );
         }
     }
 
@@ -457,22 +442,17 @@ const SMOOTH_LANES: usize = 16;
 const NMS_LANES: usize = 16;
 
 /// One output row of a 1-D convolution with `kernel` (weights summing to 256): pixel `x` is
-/// `(128 + sum_t kernel[t] * src(t, x)[0]) >> 8`, where `src(t, x)` starts at the input sample of
-/// tap `t` for output `x`. Computed in blocks of [`SMOOTH_LANES`] outputs kept in registers; the
+/// `(128 + sum_t kernel[t] * tap_input(t)[x]) >> 8`, where `tap_input(t)` is the input of tap `t`
+/// for the whole output row (`out.len()` samples from the first output's). Computed in blocks of [`SMOOTH_LANES`] outputs kept in registers; the
 /// last block is aligned to end at the row end.
 #[inline(always)]
-fn convolve_row<'a>(
-    kernel: &[u16],
-    w: usize,
-    src: impl Fn(usize, usize) -> &'a [u8],
-    out: &mut [u8],
-) {
-    let out = &mut out[..w];
+fn convolve_row<'a>(kernel: &[u16], tap_input: impl Fn(usize) -> &'a [u8], out: &mut [u8]) {
+    let w = out.len();
     if w < SMOOTH_LANES {
         for (x, o) in out.iter_mut().enumerate() {
             let mut acc = 128u16;
             for (t, &k) in kernel.iter().enumerate() {
-                acc += k * src(t, x)[0] as u16;
+                acc += k * tap_input(t)[x] as u16;
             }
             *o = (acc >> 8) as u8;
         }
@@ -483,7 +463,7 @@ fn convolve_row<'a>(
         let x0 = x.min(w - SMOOTH_LANES);
         let mut acc = [128u16; SMOOTH_LANES];
         for (t, &k) in kernel.iter().enumerate() {
-            let p: &[u8; SMOOTH_LANES] = src(t, x0)[..SMOOTH_LANES].try_into().unwrap();
+            let p: &[u8; SMOOTH_LANES] = tap_input(t)[x0..x0 + SMOOTH_LANES].try_into().unwrap();
             for (a, &v) in acc.iter_mut().zip(p) {
                 *a += k * v as u16;
             }
@@ -909,7 +889,7 @@ mod tests {
             for w in [1usize, 7, 15, 16, 17, 37, 64] {
                 let input: Vec<u8> = (0..w + kernel.len()).map(|_| rng.random()).collect();
                 let mut generic = vec![0u8; w];
-                convolve_row(&kernel, w, |t, x| &input[x + t..], &mut generic);
+                convolve_row(&kernel, |t| &input[t..t + w], &mut generic);
                 let mut fixed = vec![0u8; w];
                 match kernel.len() {
                     5 => convolve_fixed::<5>(&kernel, |t| &input[t..t + w], &mut fixed),

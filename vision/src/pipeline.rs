@@ -354,13 +354,16 @@ impl StereoPipeline {
         }
         let t = Instant::now();
         let images = StereoImages {
-            left: ImagePatch {
-                data: self.left_smoothed.data(),
-                width: self.left_smoothed.width(),
-                height: self.left_smoothed.height(),
-                origin_px: left.origin_px(),
-            },
-            right: patch(&self.canny, right),
+            left: patch(
+                self.left_smoothed.data(),
+                (self.left_smoothed.width(), self.left_smoothed.height()),
+                left,
+            ),
+            right: patch(
+                self.canny.smoothed(),
+                (self.canny.width(), self.canny.height()),
+                right,
+            ),
         };
         self.matcher.match_segments(
             &out.left_segments,
@@ -399,12 +402,12 @@ struct CutCheck {
     influence: [PixelRect; 2],
 }
 
-/// The smoothed image held by `canny` for the view `v`.
-fn patch<'a>(canny: &'a CannyWorkspace, v: &GrayView<'_>) -> ImagePatch<'a> {
+/// A smoothed image of `size` (width, height) made from the view `v`.
+fn patch<'a>(data: &'a [u8], (width, height): (usize, usize), v: &GrayView<'_>) -> ImagePatch<'a> {
     ImagePatch {
-        data: canny.smoothed(),
-        width: canny.width(),
-        height: canny.height(),
+        data,
+        width,
+        height,
         origin_px: v.origin_px(),
     }
 }
