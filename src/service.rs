@@ -297,6 +297,12 @@ where
                     );
                     let Some(handle) = procedure_handle.as_mut().filter(|_| report.handed_over)
                     else {
+                        if report.handed_over {
+                            // A hand-over with no procedure to take it: power off as the loop
+                            // does when it ends on its own.
+                            let _ = hw.disable();
+                            let _ = hw.deactivate();
+                        }
                         break report;
                     };
                     // Procedure mode: same thread, same priority, same period.

@@ -466,6 +466,7 @@ fn wait_until_saved<H: ProcedureDevice>(
 ) -> bool {
     let limit = (SAVE_WAIT_S * f64::from(runner.settings().rate_hz.max(1))) as u64;
     let hold = [runner.settings().pay_out_tension_n; WIRES];
+    let mut disabled = false;
     for period in 0.. {
         let state = control.saved.load(Ordering::Acquire);
         if state == saved::SAVED || state == saved::NOT_SAVED {
@@ -493,8 +494,10 @@ fn wait_until_saved<H: ProcedureDevice>(
         // A faulted or stopped device is not commanded further here; the control cycle's
         // supervisor takes over as soon as this returns.
         let (r, _) = runner.period(hw, &hold, None);
-        if r.input.estop_pressed || r.input.drive_fault.is_some() {
+        if !disabled && (r.input.estop_pressed || r.input.drive_fault.is_some()) {
+            // Once: the drives stay disabled, no bus command is repeated every period.
             let _ = hw.disable();
+            disabled = true;
         }
     }
     control.saved.load(Ordering::Acquire) == saved::SAVED
