@@ -20,7 +20,9 @@
 
 use std::collections::BTreeMap;
 use videt_vision::canny::CannyWorkspace;
-use videt_vision::evaluation::{judge_correspondence, judge_match, DisparityMap, MatchVerdict};
+use videt_vision::evaluation::{
+    judge, judge_correspondence, point_segment_distance, DisparityMap, MatchVerdict,
+};
 use videt_vision::matching::{
     ImagePatch, MatchWorkspace, PairDiagnosis, SegmentMatch, StereoImages,
 };
@@ -109,11 +111,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     continue;
                 }
                 let l = &ls[m.left as usize];
-                let v = if m.nearly_horizontal {
-                    judge_correspondence(l, &rs[m.right as usize], &truth)
-                } else {
-                    judge_match(l, m, &truth)
-                };
+                let v = judge(l, &rs[m.right as usize], m, &truth);
                 let strict = ws0.diagnose_pair(ls, rs, Some(&images), &plain, m.left, m.right);
                 let strict = match strict {
                     PairDiagnosis::Candidate(c) => format!(
@@ -212,11 +210,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .iter()
             .filter(|m| {
                 let l = &ls[m.left as usize];
-                let v = if m.nearly_horizontal {
-                    judge_correspondence(l, &rs[m.right as usize], &truth)
-                } else {
-                    judge_match(l, m, &truth)
-                };
+                let v = judge(l, &rs[m.right as usize], m, &truth);
                 v == MatchVerdict::Wrong
             })
             .collect();
@@ -387,21 +381,13 @@ fn landing_samples(l: &Segment, r: &Segment, truth: &DisparityMap) -> usize {
         for dy in -2..=2 {
             for dx in -2..=2 {
                 if let Some(d) = truth.at(xi + dx, yi + dy) {
-                    lands |= point_distance([x - d, y], r) <= 1.5;
+                    lands |= point_segment_distance([x - d, y], r) <= 1.5;
                 }
             }
         }
         landing += lands as usize;
     }
     landing
-}
-
-fn point_distance(p: [f32; 2], s: &Segment) -> f32 {
-    let (dx, dy) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
-    let len2 = (dx * dx + dy * dy).max(1e-9);
-    let t = (((p[0] - s.start[0]) * dx + (p[1] - s.start[1]) * dy) / len2).clamp(0.0, 1.0);
-    let (qx, qy) = (s.start[0] + t * dx, s.start[1] + t * dy);
-    ((p[0] - qx).powi(2) + (p[1] - qy).powi(2)).sqrt()
 }
 
 fn truth_known(l: &Segment, truth: &DisparityMap) -> bool {

@@ -155,7 +155,8 @@ fn truth_known_along(s: &Segment, truth: &DisparityMap) -> bool {
     })
 }
 
-fn point_segment_distance(p: [f32; 2], s: &Segment) -> f32 {
+/// Distance from point `p` to the segment `s` (its closest point, endpoints included), pixels.
+pub fn point_segment_distance(p: [f32; 2], s: &Segment) -> f32 {
     let (dx, dy) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
     let len2 = (dx * dx + dy * dy).max(1e-9);
     let t = (((p[0] - s.start[0]) * dx + (p[1] - s.start[1]) * dy) / len2).clamp(0.0, 1.0);
@@ -201,6 +202,21 @@ pub fn judge_match(left: &Segment, m: &SegmentMatch, truth: &DisparityMap) -> Ma
         MatchVerdict::Wrong
     } else {
         MatchVerdict::Correct
+    }
+}
+
+/// Judges one match as [`evaluate`] does: nearly horizontal matches by their correspondence
+/// ([`judge_correspondence`]), the others by their disparity ([`judge_match`]).
+pub fn judge(
+    left: &Segment,
+    right: &Segment,
+    m: &SegmentMatch,
+    truth: &DisparityMap,
+) -> MatchVerdict {
+    if m.nearly_horizontal {
+        judge_correspondence(left, right, truth)
+    } else {
+        judge_match(left, m, truth)
     }
 }
 

@@ -798,11 +798,7 @@ impl MatchWorkspace {
                 {
                     continue;
                 }
-                let mut angle_diff = (sa.angle_rad - sb.angle_rad).abs();
-                if angle_diff > std::f32::consts::FRAC_PI_2 {
-                    angle_diff = std::f32::consts::PI - angle_diff;
-                }
-                if angle_diff.to_degrees() > params.max_fragment_angle_diff_deg
+                if angle_difference(sa, sb).to_degrees() > params.max_fragment_angle_diff_deg
                     || line_distance(sa, sb.start) > params.disparity_tolerance_px
                     || line_distance(sb, sa.end) > params.disparity_tolerance_px
                     || (sa.side_intensity[0] - sb.side_intensity[0]).abs()
@@ -1777,11 +1773,7 @@ fn evaluate_pair(
     if di0.min(di1) > params.max_intensity_diff {
         return Err(PairConstraint::Intensity);
     }
-    let mut angle_diff = (l.angle_rad - r.angle_rad).abs();
-    if angle_diff > std::f32::consts::FRAC_PI_2 {
-        angle_diff = std::f32::consts::PI - angle_diff;
-    }
-    let angle_diff_deg = angle_diff.to_degrees();
+    let angle_diff_deg = angle_difference(l, r).to_degrees();
     if angle_diff_deg > params.propagate_max_angle_diff_deg {
         return Err(PairConstraint::Orientation);
     }
@@ -1924,6 +1916,16 @@ fn shifted_columns(l: &Segment, r: &Segment, disparity: f32) -> [f32; 2] {
 
 /// Distance between two segments and the parameters (0 at `start`, 1 at `end`) of the closest
 /// points.
+/// Angle between the directions of two segments, radians in `[0, pi/2]`.
+fn angle_difference(a: &Segment, b: &Segment) -> f32 {
+    let difference = (a.angle_rad - b.angle_rad).abs();
+    if difference > std::f32::consts::FRAC_PI_2 {
+        std::f32::consts::PI - difference
+    } else {
+        difference
+    }
+}
+
 fn segment_distance(a: &Segment, b: &Segment) -> (f32, f32, f32) {
     let mut best = (f32::INFINITY, 0.0, 0.0);
     // Segments that do not cross are closest at an endpoint of one of them.
