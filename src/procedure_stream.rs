@@ -11,7 +11,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
-use videt_control::autoinit::Stage;
+use videt_control::autoinit::{Failure, Stage};
 use videt_rt_config::calibration::{backup_path, Calibration};
 
 use crate::control_loop::ControlCommand;
@@ -256,10 +256,11 @@ pub fn serve(
             }
         }
         if !started && asked.elapsed() > hand_over_within && session.withdraw() {
+            let cancelled = InitError::Procedure(Failure::Cancelled);
             stream.send(
                 &failed_json(
-                    20,
-                    "cancelled",
+                    cancelled.exit_code(),
+                    cancelled.name(),
                     "the control loop did not hand the motors over (is the service stopping?); nothing was changed",
                 ),
                 port,
@@ -396,7 +397,6 @@ mod tests {
     use super::*;
     use crate::init::remote::{procedure_channel, Text};
     use crate::init::session::Request;
-    use videt_control::autoinit::Failure;
     use videt_rt_config::Config;
 
     fn request(line: &str) -> ProcedureRequest {

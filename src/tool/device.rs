@@ -278,12 +278,7 @@ impl<H: InitHardware> Technician<H> for TerminalTechnician {
         if !std::io::stdin().is_terminal() {
             return Err(Failure::Cancelled);
         }
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let mut line = String::new();
-            let _ = std::io::stdin().lock().read_line(&mut line);
-            let _ = tx.send(());
-        });
+        let rx = enter_pressed();
         runner.hold_until(
             hw,
             request.released_wire(),
@@ -296,4 +291,16 @@ impl<H: InitHardware> Technician<H> for TerminalTechnician {
     fn inform(&mut self, message: &str) {
         eprintln!("videt: {message}");
     }
+}
+
+/// A receiver that gets one message when the technician presses Enter (stdin is read on its own
+/// thread, so the caller keeps its period).
+pub(crate) fn enter_pressed() -> std::sync::mpsc::Receiver<()> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::stdin().lock().read_line(&mut line);
+        let _ = tx.send(());
+    });
+    rx
 }

@@ -190,15 +190,7 @@ pub fn run(socket: &Path, request: &ProcedureRequest) -> Result<Done, Exit> {
                             cancel_sent = true;
                         }
                     }
-                    Step::Confirm => {
-                        let (tx, rx) = mpsc::channel();
-                        std::thread::spawn(move || {
-                            let mut answer = String::new();
-                            let _ = std::io::stdin().lock().read_line(&mut answer);
-                            let _ = tx.send(());
-                        });
-                        enter = Some(rx);
-                    }
+                    Step::Confirm => enter = Some(super::device::enter_pressed()),
                 }
             }
             Ok(_) => {}
