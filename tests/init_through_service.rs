@@ -3,16 +3,20 @@
 //! service runs the procedure on its own (real-time) twin, writes the calibration, and renders
 //! forces with it. A failure, a second request and a client that leaves change nothing.
 
+#[path = "common/daemon.rs"]
+mod daemon;
 #[path = "common/init_json.rs"]
 mod init_json;
 
+use daemon::Daemon;
+
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request, StatusReport};
+use videt::socket::{request, Request};
 use videt_rt_config::calibration::{backup_path, Calibration};
 use videt_rt_config::Config;
 
@@ -29,44 +33,6 @@ fn videt(args: &[&str]) -> Output {
         .stdin(Stdio::null())
         .output()
         .expect("videt runs")
-}
-
-struct Daemon {
-    child: Child,
-    socket: PathBuf,
-}
-
-impl Daemon {
-    fn status(&self) -> StatusReport {
-        request(&self.socket, &Request::Status, Duration::from_secs(2))
-            .expect("videtd answers")
-            .status
-            .expect("a status")
-    }
-    /// Wait until `check` holds for the status (or fail after `secs`).
-    fn wait_for(
-        &self,
-        secs: f64,
-        what: &str,
-        check: impl Fn(&StatusReport) -> bool,
-    ) -> StatusReport {
-        let deadline = Instant::now() + Duration::from_secs_f64(secs);
-        loop {
-            let s = self.status();
-            if check(&s) {
-                return s;
-            }
-            assert!(Instant::now() < deadline, "{what}: {s:?}");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-}
-
-impl Drop for Daemon {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 /// The sides and the guides (paper's frame) `json` reports are within 0.5 mm / 1 mm of the truth.
@@ -107,23 +73,23 @@ fn videtd_auto_initializes_its_own_twin_for_videt_init_through_the_socket() {
     let previous = std::fs::read(&calibration).unwrap();
 
     // The service on a twin of that frame, not calibrated: no force rendered.
-    let daemon = Daemon {
-        child: Command::new(env!("CARGO_BIN_EXE_videtd"))
-            .args(["--sim", "--sim-calibration", "none", "--no-telemetry"])
-            .args(["--config", cfg, "--sim-guides", GUIDES, "--duration", "120"])
-            .args(["--socket", p(&socket), "--calibration", p(&calibration)])
-            .env("RUST_LOG", "warn")
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-        socket: socket.clone(),
-    };
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !socket.exists() {
-        assert!(Instant::now() < deadline, "videtd did not start");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let mut daemon = Daemon::start(
+        &[
+            "--sim",
+            "--sim-calibration",
+            "none",
+            "--no-telemetry",
+            "--config",
+            cfg,
+            "--sim-guides",
+            GUIDES,
+            "--duration",
+            "120",
+            "--calibration",
+            p(&calibration),
+        ],
+        &socket,
+    );
     daemon.wait_for(10.0, "videtd runs uncalibrated", |s| {
         s.cycles > 200 && s.safety == "not-calibrated"
     });
@@ -256,8 +222,7 @@ fn videtd_auto_initializes_its_own_twin_for_videt_init_through_the_socket() {
 
     let r = request(&socket, &Request::Stop, Duration::from_secs(2)).unwrap();
     assert!(r.ok);
-    let mut daemon = daemon;
-    let status = daemon.child.wait().unwrap();
+    let status = daemon.wait();
     assert!(status.success(), "videtd stopped cleanly: {status:?}");
 }
 

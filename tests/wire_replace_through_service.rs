@@ -3,11 +3,15 @@
 //! yarn fitted by its twin's technician, re-homes it, checks its length, re-initializes and
 //! renders with the new calibration; a yarn too short changes nothing.
 
+#[path = "common/daemon.rs"]
+mod daemon;
+
+use daemon::Daemon;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request, StatusReport};
+use videt::socket::{request, Request};
 use videt_rt_config::calibration::Calibration;
 use videt_rt_config::Config;
 
@@ -16,25 +20,6 @@ const TRUE_GUIDES: [[f64; 2]; 3] = [[0.02, -0.01], [0.40, 0.03], [0.17, 0.31]];
 
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()
-}
-
-fn status(socket: &Path) -> StatusReport {
-    request(socket, &Request::Status, Duration::from_secs(2))
-        .expect("videtd answers")
-        .status
-        .expect("a status")
-}
-
-fn wait_for(socket: &Path, secs: f64, what: &str, check: impl Fn(&StatusReport) -> bool) {
-    let deadline = Instant::now() + Duration::from_secs_f64(secs);
-    loop {
-        let s = status(socket);
-        if check(&s) {
-            return;
-        }
-        assert!(Instant::now() < deadline, "{what}: {s:?}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
 }
 
 #[test]
@@ -47,21 +32,24 @@ fn videt_wire_replace_runs_in_the_service_and_a_short_yarn_changes_nothing() {
     config.autoinit.wind_speed_m_s = 0.3;
     std::fs::write(&config_path, toml::to_string(&config).unwrap()).unwrap();
     let cfg = p(&config_path);
-    let mut daemon = Command::new(env!("CARGO_BIN_EXE_videtd"))
-        .args(["--sim", "--sim-calibration", "none", "--no-telemetry"])
-        .args(["--config", cfg, "--sim-guides", GUIDES, "--duration", "90"])
-        .args(["--socket", p(&socket), "--calibration", p(&calibration)])
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !socket.exists() {
-        assert!(Instant::now() < deadline, "videtd did not start");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    wait_for(&socket, 10.0, "videtd runs", |s| s.cycles > 200);
+    let mut daemon = Daemon::start(
+        &[
+            "--sim",
+            "--sim-calibration",
+            "none",
+            "--no-telemetry",
+            "--config",
+            cfg,
+            "--sim-guides",
+            GUIDES,
+            "--duration",
+            "90",
+            "--calibration",
+            p(&calibration),
+        ],
+        &socket,
+    );
+    daemon.wait_for(10.0, "videtd runs", |s| s.cycles > 200);
 
     // Replace wire 1 (a new yarn of 0.95 m, enough for this frame): the service does it all on
     // its twin.
@@ -101,7 +89,7 @@ fn videt_wire_replace_runs_in_the_service_and_a_short_yarn_changes_nothing() {
             truth[k]
         );
     }
-    wait_for(&socket, 10.0, "rendering with the new calibration", |s| {
+    daemon.wait_for(10.0, "rendering with the new calibration", |s| {
         s.procedure.is_none() && s.safety == "normal" && s.force_n > 0.5
     });
 
@@ -130,11 +118,11 @@ fn videt_wire_replace_runs_in_the_service_and_a_short_yarn_changes_nothing() {
     let failed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(failed["error"], "wire-too-short", "{failed}");
     assert_eq!(std::fs::read(&calibration).unwrap(), before);
-    wait_for(&socket, 10.0, "rendering resumes", |s| {
+    daemon.wait_for(10.0, "rendering resumes", |s| {
         s.procedure.is_none() && s.safety == "normal" && s.force_n > 0.5
     });
 
     let r = request(&socket, &Request::Stop, Duration::from_secs(2)).unwrap();
     assert!(r.ok);
-    assert!(daemon.wait().unwrap().success());
+    assert!(daemon.wait().success());
 }

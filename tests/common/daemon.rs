@@ -1,0 +1,78 @@
+//! A `videtd` child process for the whole-stack tests: started on a socket, queried for its
+//! status, and killed when dropped, so that a failed assertion never leaves it running.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+use videt::socket::{request, Request, StatusReport};
+
+pub struct Daemon {
+    child: Child,
+    socket: PathBuf,
+}
+
+impl Daemon {
+    /// Starts `videtd` with `args` and `--socket socket` (quiet, its output discarded) and waits
+    /// until the socket exists.
+    pub fn start(args: &[&str], socket: &Path) -> Daemon {
+        let child = Command::new(env!("CARGO_BIN_EXE_videtd"))
+            .args(args)
+            .arg("--socket")
+            .arg(socket)
+            .env("RUST_LOG", "warn")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let daemon = Daemon {
+            child,
+            socket: socket.to_path_buf(),
+        };
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while !socket.exists() {
+            assert!(Instant::now() < deadline, "videtd did not start");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        daemon
+    }
+
+    /// The service's status.
+    pub fn status(&self) -> StatusReport {
+        request(&self.socket, &Request::Status, Duration::from_secs(2))
+            .expect("videtd answers")
+            .status
+            .expect("a status")
+    }
+
+    /// Wait until `check` holds for the status (or fail after `secs`).
+    pub fn wait_for(
+        &self,
+        secs: f64,
+        what: &str,
+        check: impl Fn(&StatusReport) -> bool,
+    ) -> StatusReport {
+        let deadline = Instant::now() + Duration::from_secs_f64(secs);
+        loop {
+            let s = self.status();
+            if check(&s) {
+                return s;
+            }
+            assert!(Instant::now() < deadline, "{what}: {s:?}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Waits for the process to end (after a stop request) and returns how it ended.
+    pub fn wait(&mut self) -> ExitStatus {
+        self.child.wait().unwrap()
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
