@@ -103,10 +103,16 @@ pub struct Calibration {
     pub workspace: WorkspaceRecord,
 }
 
+/// Wire lengths at encoder count zero, metres, of wires whose free length is zero at
+/// `zero_counts` with `metres_per_count` of wire per count.
+pub fn length_at_zero_m(zero_counts: &[i64; 3], metres_per_count: f64) -> [f64; 3] {
+    core::array::from_fn(|i| zero_counts[i] as f64 * metres_per_count)
+}
+
 impl Calibration {
     /// Wire length at encoder count zero, metres (`length = this - counts · m/count`).
     pub fn length_at_zero_m(&self) -> [f64; 3] {
-        core::array::from_fn(|i| self.wire_zero_counts[i] as f64 * self.metres_per_count)
+        length_at_zero_m(&self.wire_zero_counts, self.metres_per_count)
     }
 
     /// Age at `now_unix_s`, seconds (0 when the clock is behind the file).

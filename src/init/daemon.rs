@@ -42,8 +42,7 @@ pub fn from_calibration(config: &Config, c: &Calibration) -> Result<CalibrationS
             c.metres_per_count
         ));
     }
-    let rig = Rig3::from_sides(c.sides_m[0], c.sides_m[1], c.sides_m[2])
-        .map_err(|e| format!("its sides do not make a rig: {e}"))?;
+    let rig = rig_from_sides(&c.sides_m)?;
     Ok(CalibrationState {
         rig,
         wire_zero: WireZero {
@@ -139,4 +138,10 @@ pub fn sim_state_dir() -> PathBuf {
         return PathBuf::from(h).join(".local/state/videt");
     }
     std::env::temp_dir().join("videt")
+}
+
+/// The control cycle's rig for measured base-triangle sides, metres.
+pub fn rig_from_sides(sides_m: &[f64; 3]) -> Result<Rig3, String> {
+    Rig3::from_sides(sides_m[0], sides_m[1], sides_m[2])
+        .map_err(|e| format!("its sides do not make a rig: {e}"))
 }

@@ -403,10 +403,9 @@ where
     };
     // The control cycle's rig, as a loaded calibration file would give it.
     let result = result.and_then(|m| {
-        let s = m.triangle.sides_m;
-        Rig3::from_sides(s[0], s[1], s[2])
+        super::daemon::rig_from_sides(&m.triangle.sides_m)
             .map(|rig| (m, rig))
-            .map_err(|e| InitError::Unusable(format!("its sides do not make a rig: {e}")))
+            .map_err(InitError::Unusable)
     });
     let recalibration = match result {
         Ok((measurement, rig)) => {

@@ -258,7 +258,7 @@ pub struct Measurement {
 impl Measurement {
     /// Wire length at encoder count zero, metres (the control cycle's encoder zeros).
     pub fn length_at_zero_m(&self) -> [f64; WIRES] {
-        core::array::from_fn(|i| self.zero_counts[i] as f64 * self.metres_per_count)
+        videt_rt_config::calibration::length_at_zero_m(&self.zero_counts, self.metres_per_count)
     }
 }
 
