@@ -5,7 +5,7 @@
 //! calibration when the procedure succeeds (atomically, the previous kept as backup). The client
 //! leaving aborts the procedure.
 
-use std::io::{self, BufRead, BufReader, Write};
+use std::io::{self, BufRead, BufReader};
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -151,12 +151,6 @@ pub fn failed_json(exit_code: u8, name: &str, message: &str) -> Value {
     json!({"ok": false, "event": "failed", "error": name, "exit_code": exit_code, "message": message})
 }
 
-fn write_json(writer: &mut UnixStream, value: &Value) -> io::Result<()> {
-    let mut line = serde_json::to_vec(value).map_err(io::Error::other)?;
-    line.push(b'\n');
-    writer.write_all(&line)
-}
-
 /// The stream's writer: stops writing (and cancels the procedure) once the client is gone.
 struct Stream<'a> {
     writer: &'a mut UnixStream,
@@ -165,7 +159,7 @@ struct Stream<'a> {
 
 impl Stream<'_> {
     fn send(&mut self, value: &Value, port: &ProcedurePort) {
-        if !self.gone && write_json(self.writer, value).is_err() {
+        if !self.gone && crate::socket::write_line(self.writer, value).is_err() {
             self.left(port);
         }
     }

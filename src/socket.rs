@@ -438,7 +438,12 @@ fn authorised(stream: &UnixStream, socket_gid: u32) -> bool {
 
 /// Write one reply line.
 pub fn reply(stream: &mut UnixStream, response: &Response) -> io::Result<()> {
-    let mut line = serde_json::to_vec(response).map_err(io::Error::other)?;
+    write_line(stream, response)
+}
+
+/// Write `value` as one JSON line (the socket protocol's framing), in one write.
+pub fn write_line<T: Serialize + ?Sized>(stream: &mut impl Write, value: &T) -> io::Result<()> {
+    let mut line = serde_json::to_vec(value).map_err(io::Error::other)?;
     line.push(b'\n');
     stream.write_all(&line)
 }

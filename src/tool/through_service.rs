@@ -3,7 +3,7 @@
 //! run prints them, pass the technician's confirmations back, and return the calibration the
 //! service wrote — or the same error (name, message, exit code) a direct run gives.
 
-use std::io::{BufRead, BufReader, IsTerminal, Write};
+use std::io::{BufRead, BufReader, IsTerminal};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
@@ -15,7 +15,7 @@ use videt_rt_config::calibration::Calibration;
 use videt_rt_config::Config;
 
 use super::device::{stop_on_signals, DeviceArgs, Exit, EXIT_MOTORS_BUSY, EXIT_USAGE};
-use crate::socket::{ProcedureCommand, ProcedureRequest};
+use crate::socket::{write_line, ProcedureCommand, ProcedureRequest};
 
 /// The connection to the service broke before the procedure ended.
 pub const EXIT_SERVICE_LOST: u8 = 26;
@@ -141,11 +141,7 @@ pub fn run(socket: &Path, request: &ProcedureRequest) -> Result<Done, Exit> {
     let mut stream = UnixStream::connect(socket)
         .map_err(|e| lost(format!("cannot reach videtd on {}: {e}", socket.display())))?;
     let send = |stream: &mut UnixStream, value: &Value| -> Result<(), Exit> {
-        let mut line = serde_json::to_vec(value).map_err(|e| lost(e.to_string()))?;
-        line.push(b'\n');
-        stream
-            .write_all(&line)
-            .map_err(|e| lost(format!("videtd's control socket: {e}")))
+        write_line(stream, value).map_err(|e| lost(format!("videtd's control socket: {e}")))
     };
     let request_value = serde_json::to_value(request).map_err(|e| lost(e.to_string()))?;
     send(&mut stream, &request_value)?;
