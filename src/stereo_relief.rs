@@ -25,7 +25,8 @@ use videt_vision::surface::{
     build_from_scene, BuildReport, PinholeCamera, ReliefModel, ReliefParams, SceneSegment3,
 };
 use videt_vision::{
-    GrayView, LocalRegion, RectifiedGeometry, Segment3d, StereoPipeline, VisionParams,
+    GrayView, LocalRegion, PipelineOutput, RectifiedGeometry, Segment3d, StereoPipeline,
+    VisionParams,
 };
 
 use crate::relief_scene::ReliefLayout;
@@ -224,6 +225,23 @@ pub fn pinhole(geometry: &RectifiedGeometry) -> PinholeCamera {
         cx_px: geometry.cx_px,
         cy_px: geometry.cy_px,
     }
+}
+
+/// The whole-image pipeline on `pair`: its 3D segments as scene segments, and the run's output.
+fn run_whole<'p>(
+    pipeline: &'p mut StereoPipeline,
+    pair: &StereoPair,
+    geometry: &RectifiedGeometry,
+    vision: &VisionParams,
+) -> Result<(Vec<SceneSegment3>, &'p PipelineOutput), String> {
+    let lv = GrayView::from_image(&pair.left).map_err(|e| e.to_string())?;
+    let rv = GrayView::from_image(&pair.right).map_err(|e| e.to_string())?;
+    let out = pipeline
+        .run(&lv, &rv, Some(geometry), vision)
+        .map_err(|e| format!("stereo pipeline: {e}"))?;
+    let mut segments = Vec::with_capacity(out.segments_3d.len());
+    scene_segments(&out.segments_3d, &mut segments);
+    Ok((segments, out))
 }
 
 /// The pipeline's 3D segments as the surface builder's input (appended to `out`).
@@ -474,13 +492,8 @@ impl StereoRelief {
         let mut pipeline = StereoPipeline::new();
         let start = Instant::now();
         let (segments, matches, left_segments) = {
-            let lv = GrayView::from_image(&pair.left).map_err(|e| e.to_string())?;
-            let rv = GrayView::from_image(&pair.right).map_err(|e| e.to_string())?;
-            let out = pipeline
-                .run(&lv, &rv, Some(&geometry), &vision)
-                .map_err(|e| format!("{}: stereo pipeline: {e}", pair.name))?;
-            let mut segments = Vec::with_capacity(out.segments_3d.len());
-            scene_segments(&out.segments_3d, &mut segments);
+            let (segments, out) = run_whole(&mut pipeline, &pair, &geometry, &vision)
+                .map_err(|e| format!("{}: {e}", pair.name))?;
             (segments, out.matches.len(), out.left_segments.len())
         };
         let pipeline_time = start.elapsed();
@@ -569,14 +582,8 @@ impl StereoRelief {
     /// Re-runs the whole-image pipeline and rebuilds the relief from its segments (the scene
     /// depth range of the first build is kept). Returns the relief and the builder's report.
     pub fn refresh_full(&mut self) -> Result<(ReliefModel, BuildReport), String> {
-        let lv = GrayView::from_image(&self.pair.left).map_err(|e| e.to_string())?;
-        let rv = GrayView::from_image(&self.pair.right).map_err(|e| e.to_string())?;
-        let out = self
-            .pipeline
-            .run(&lv, &rv, Some(&self.geometry), &self.vision)
-            .map_err(|e| format!("stereo pipeline: {e}"))?;
-        let mut segments = Vec::with_capacity(out.segments_3d.len());
-        scene_segments(&out.segments_3d, &mut segments);
+        let (segments, _) =
+            run_whole(&mut self.pipeline, &self.pair, &self.geometry, &self.vision)?;
         let (model, report) = build_from_scene(&segments, &[], &self.camera, &self.relief)
             .map_err(|e| e.to_string())?;
         self.segments = segments;
