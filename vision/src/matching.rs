@@ -1204,6 +1204,14 @@ impl MatchWorkspace {
     }
 
     /// Whether the rows of `c` on its right segment are still free.
+    /// Whether completion may take candidate `c`: not nearly horizontal, a disparity change
+    /// along it within the completion limit, and its right segment free.
+    fn completion_possible(&self, c: &Candidate, params: &MatchParams) -> bool {
+        !c.horizontal
+            && (c.disparity[1] - c.disparity[0]).abs() <= params.completion_max_disparity_change_px
+            && self.right_free(c)
+    }
+
     fn right_free(&self, c: &Candidate) -> bool {
         self.rows_free(c.right, c.rows) && (c.right2 == NONE || self.rows_free(c.right2, c.rows2))
     }
@@ -1395,14 +1403,12 @@ impl MatchWorkspace {
             let loose = self.loose_start[i] as usize..self.loose_start[i + 1] as usize;
             // Only pairs with a small disparity change along them and free right rows can be
             // taken: skip the neighbour search when there is none.
-            let possible = |c: &Candidate| {
-                !c.horizontal
-                    && (c.disparity[1] - c.disparity[0]).abs()
-                        <= params.completion_max_disparity_change_px
-                    && self.right_free(c)
-            };
-            if !strict.clone().any(|k| possible(&self.candidates[k]))
-                && !loose.clone().any(|k| possible(&self.loose[k].0))
+            if !strict
+                .clone()
+                .any(|k| self.completion_possible(&self.candidates[k], params))
+                && !loose
+                    .clone()
+                    .any(|k| self.completion_possible(&self.loose[k].0, params))
             {
                 continue;
             }
@@ -1457,11 +1463,7 @@ impl MatchWorkspace {
                 } else {
                     self.loose[loose.start + k - n_strict]
                 };
-                if c.horizontal
-                    || (c.disparity[1] - c.disparity[0]).abs()
-                        > params.completion_max_disparity_change_px
-                    || !self.right_free(&c)
-                {
+                if !self.completion_possible(&c, params) {
                     continue;
                 }
                 let ends_agree = (0..2u8).all(|e| {
