@@ -14,6 +14,8 @@ pub const EDGE: u8 = 2;
 /// Value of a pixel that survived non-maximum suppression but was not connected to a strong edge
 /// (the only edge-map value with bit 0 set, which hysteresis relies on).
 const WEAK: u8 = 1;
+// Hysteresis turns a weak pixel into an edge pixel by adding one.
+const _: () = assert!(EDGE == WEAK + 1);
 
 /// Parameters of the Canny detector.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -125,7 +127,11 @@ pub struct CannyWorkspace {
     magnitude: Vec<i16>,
     edges: Vec<u8>,
     subpixel: Vec<u8>,
+    /// Pixels whose neighbours hysteresis has still to visit: the first `pushed` entries.
+    /// Every pixel is pushed at most once per image, so `n + NMS_LANES` entries never
+    /// overflow although a push writes its slot before deciding whether to keep it.
     stack: Vec<u32>,
+    pushed: usize,
 }
 
 impl CannyWorkspace {
@@ -208,9 +214,7 @@ impl CannyWorkspace {
         grow(&mut self.magnitude, 3 * width);
         grow(&mut self.edges, n);
         grow(&mut self.subpixel, n);
-        if self.stack.capacity() < n / 4 {
-            self.stack.reserve(n / 4);
-        }
+        grow(&mut self.stack, n + NMS_LANES);
     }
 
     /// Runs the detector on `image`; results are read through [`Self::edges`], [`Self::gx`],
@@ -273,7 +277,7 @@ impl CannyWorkspace {
         let (w, h) = (self.width, self.height);
         let low = params.low_threshold as i16;
         let high = params.high_threshold as i16;
-        self.stack.clear();
+        self.pushed = 0;
         self.edges[..w].fill(0);
         self.edges[(h - 1) * w..h * w].fill(0);
         if w < 3 {
@@ -350,47 +354,62 @@ impl CannyWorkspace {
             gx: gxr,
             gy: gyr,
         };
-        // Blocks of NMS_LANES pixels, branch-free inside; the last block is aligned to end at
-        // w - 1 (it may overlap the previous one: recomputing a pixel gives the same result).
-        let mut x = 1;
-        let mut done = 1usize;
-        while x < w - 1 {
-            if x + NMS_LANES > w - 1 {
-                if w > 1 + NMS_LANES {
-                    x = w - 1 - NMS_LANES;
-                } else {
-                    // Rows narrower than one block: pixel by pixel.
-                    for x in x..w - 1 {
-                        let (value, code) = suppress_pixel(&rows, x, low, high);
-                        out[x] = value;
-                        if value != 0 {
-                            subpixel[x] = code;
-                        }
-                        if value == EDGE {
-                            self.stack.push((row + x) as u32);
-                        }
-                    }
-                    break;
+        let stack = &mut self.stack[..];
+        let mut pushed = self.pushed;
+        if w <= 1 + NMS_LANES {
+            // Rows narrower than one block: pixel by pixel.
+            for x in 1..w - 1 {
+                let (value, code) = suppress_pixel(&rows, x, low, high);
+                out[x] = value;
+                if value != 0 {
+                    subpixel[x] = code;
                 }
+                stack[pushed] = (row + x) as u32;
+                pushed += usize::from(value == EDGE);
             }
-            let m = lanes(m_cur, x);
-            if m.iter().fold(i16::MIN, |a, &b| a.max(b)) <= low {
-                x += NMS_LANES;
-                continue;
-            }
-            let block = suppress_block(&rows, x, low, high);
-            out[x..x + NMS_LANES].copy_from_slice(&block.values);
-            subpixel[x..x + NMS_LANES].copy_from_slice(&block.codes);
-            // Pixels before `done` (an overlapping last block) were pushed already.
-            let mut strong = block.strong_mask & (u32::MAX << done.saturating_sub(x));
-            while strong != 0 {
-                let lane = strong.trailing_zeros() as usize;
-                strong &= strong - 1;
-                self.stack.push((row + x + lane) as u32);
-            }
-            x += NMS_LANES;
-            done = x;
+            self.pushed = pushed;
+            return;
         }
+        // Blocks of NMS_LANES pixels from x = 1, branch-free inside; the last block is aligned
+        // to end at w - 1 (it may overlap the previous one: recomputing a pixel gives the same
+        // result). Blocks without a magnitude above `low` hold no maximum and are skipped.
+        // Which blocks to visit is decided first for up to 64 blocks at once, as a bit mask,
+        // so that skipping costs no branch per block: the pattern of empty blocks differs in
+        // every frame, and a branch on it would often be mispredicted.
+        let full_blocks = (w - 2) / NMS_LANES;
+        let blocks = full_blocks + usize::from((w - 2) % NMS_LANES != 0);
+        let block_x = |k: usize| {
+            if k < full_blocks {
+                1 + k * NMS_LANES
+            } else {
+                w - 1 - NMS_LANES
+            }
+        };
+        let mut done = 1usize;
+        for first in (0..blocks).step_by(64) {
+            let mut visit = 0u64;
+            for k in first..blocks.min(first + 64) {
+                let m = lanes(m_cur, block_x(k));
+                let busy = m.iter().fold(i16::MIN, |a, &b| a.max(b)) > low;
+                visit |= u64::from(busy) << (k - first);
+            }
+            while visit != 0 {
+                let x = block_x(first + visit.trailing_zeros() as usize);
+                visit &= visit - 1;
+                let block = suppress_block(&rows, x, low, high);
+                out[x..x + NMS_LANES].copy_from_slice(&block.values);
+                subpixel[x..x + NMS_LANES].copy_from_slice(&block.codes);
+                // Pixels before `done` (an overlapping last block) were pushed already. Every
+                // lane is written; only strong ones advance the count (no branch per pixel).
+                let strong = block.strong_mask & (u32::MAX << done.saturating_sub(x));
+                for lane in 0..NMS_LANES {
+                    stack[pushed] = (row + x + lane) as u32;
+                    pushed += ((strong >> lane) & 1) as usize;
+                }
+                done = x + NMS_LANES;
+            }
+        }
+        self.pushed = pushed;
     }
 
     /// Grows strong edges through 8-connected weak pixels.
@@ -398,8 +417,11 @@ impl CannyWorkspace {
     fn hysteresis(&mut self) {
         let w = self.width;
         let edges = &mut self.edges;
-        while let Some(i) = self.stack.pop() {
-            let i = i as usize;
+        let stack = &mut self.stack[..];
+        let mut pushed = self.pushed;
+        while pushed > 0 {
+            pushed -= 1;
+            let i = stack[pushed] as usize;
             // Edge pixels never touch the border (NMS leaves it at 0), so the neighbours exist;
             // one slice from the top-left to the bottom-right neighbour holds them all.
             let first = i - w - 1;
@@ -411,13 +433,15 @@ impl CannyWorkspace {
             if rows & u32::from(WEAK) == 0 {
                 continue;
             }
+            // Without a branch per neighbour: weak ones become edges and are pushed.
             for k in [0, 1, 2, w, w + 2, 2 * w, 2 * w + 1, 2 * w + 2] {
-                if window[k] == WEAK {
-                    window[k] = EDGE;
-                    self.stack.push((first + k) as u32);
-                }
+                let weak = window[k] == WEAK;
+                window[k] += u8::from(weak);
+                stack[pushed] = (first + k) as u32;
+                pushed += usize::from(weak);
             }
         }
+        self.pushed = 0;
     }
 }
 

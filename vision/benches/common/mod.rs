@@ -12,7 +12,13 @@ use videt_vision::calib::{stereo_rectify, CameraIntrinsics, StereoCalibration};
 
 /// The 640x480 bench pair (left, right).
 pub fn vga_pair() -> (GrayImage, GrayImage) {
-    if let Some(dir) = videt_testdata::data_dir("stereo/teddy") {
+    vga_pair_of("teddy")
+}
+
+/// The Middlebury pair `name` of the shared data upscaled to 640x480 (left, right), or the
+/// synthetic pair when the data is absent.
+pub fn vga_pair_of(name: &str) -> (GrayImage, GrayImage) {
+    if let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) {
         let load = |name: &str| {
             let img = image::open(dir.join(name))
                 .expect("readable bench image")
