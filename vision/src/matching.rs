@@ -541,6 +541,10 @@ pub struct MatchWorkspace {
     /// photometric error when known (`NaN` otherwise).
     loose: Vec<(Candidate, f32)>,
     loose_start: Vec<u32>,
+    /// Positions gathered by a search before its exact tests: in `right_keys`, the right
+    /// segments passing the candidate search's first tests; in `left_order`, the segments
+    /// whose boxes come within the neighbourhood radius.
+    key_survivors: Vec<u32>,
     /// Left segments matched by completion.
     completed: Vec<bool>,
     /// Completion: the matched segments (extent, index, accepted candidate) by upper row, and
@@ -705,6 +709,9 @@ impl MatchWorkspace {
         };
         self.loose.clear();
         self.loose_start.clear();
+        let mut survivors = std::mem::take(&mut self.key_survivors);
+        survivors.clear();
+        survivors.resize(self.right_keys.len(), 0);
         for (i, l) in left.iter().enumerate() {
             self.candidate_start.push(self.candidates.len() as u32);
             self.loose_start.push(self.loose.len() as u32);
@@ -723,17 +730,21 @@ impl MatchWorkspace {
             let first = keys.partition_point(|k| k.extent.rows[0] < lower);
             let count = keys.partition_point(|k| k.extent.rows[0] <= upper);
             let (lx0, lx1) = min_max(l.start[0], l.end[0]);
-            for key in &keys[first..count.max(first)] {
-                // The first tests of `evaluate_pair`, on contiguous data.
+            // The first tests of `evaluate_pair`, on contiguous data and without a branch per
+            // right segment (most fail them, in no predictable pattern): the positions of the
+            // ones that pass are gathered first.
+            let mut passed = 0;
+            for (k, key) in keys.iter().enumerate().take(count).skip(first) {
                 let [rx0, rx1] = key.extent.columns;
-                if key.extent.rows[1] + slack < l.start[1]
-                    || key.polarity != l.polarity
-                    || lx0 - rx1 > dmax + 1.0
-                    || lx1 - rx0 < dmin - 1.0
-                {
-                    continue;
-                }
-                let j = key.index;
+                let pass = !(key.extent.rows[1] + slack < l.start[1])
+                    & (key.polarity == l.polarity)
+                    & !(lx0 - rx1 > dmax + 1.0)
+                    & !(lx1 - rx0 < dmin - 1.0);
+                survivors[passed] = k as u32;
+                passed += usize::from(pass);
+            }
+            for &k in &survivors[..passed] {
+                let j = keys[k as usize].index;
                 let r = &right[j as usize];
                 let c = match evaluate_pair(i as u32, l, j, r, l_horizontal, params) {
                     Ok(c) => c,
@@ -771,6 +782,7 @@ impl MatchWorkspace {
         }
         self.candidate_start.push(self.candidates.len() as u32);
         self.loose_start.push(self.loose.len() as u32);
+        self.key_survivors = survivors;
     }
 
     /// Pairs of right segments that are two fragments of one straight edge broken by a short
@@ -922,27 +934,29 @@ impl MatchWorkspace {
         // Segments whose bounding boxes are farther apart than this cannot be neighbours (a
         // pixel's margin over the radius for rounding).
         let reach_sq = (radius + 1.0) * (radius + 1.0);
+        let mut near = std::mem::take(&mut self.key_survivors);
+        near.clear();
+        near.resize(self.left_order.len(), 0);
         for (oi, &i) in self.left_order.iter().enumerate() {
             let a = &left[i as usize];
             let ea = self.left_extents[oi];
             let [ax0, ax1] = ea.columns;
-            for (&j, eb) in self.left_order[oi + 1..]
-                .iter()
-                .zip(&self.left_extents[oi + 1..])
-            {
-                if eb.rows[0] > ea.rows[1] + radius {
-                    break;
-                }
-                if eb.rows[1] < ea.rows[0] - radius {
-                    continue;
-                }
+            // Segments starting within reach below (the order is by upper row); of those,
+            // the ones whose boxes come within reach are gathered without a branch each.
+            let later = &self.left_extents[oi + 1..];
+            let end = later.partition_point(|eb| eb.rows[0] <= ea.rows[1] + radius);
+            let mut found = 0;
+            for (k, eb) in later[..end].iter().enumerate() {
                 let [bx0, bx1] = eb.columns;
-                if bx0 > ax1 + radius || bx1 < ax0 - radius {
-                    continue;
-                }
-                if eb.gap_squared(&ea) > reach_sq {
-                    continue;
-                }
+                let pass = !(eb.rows[1] < ea.rows[0] - radius)
+                    & !(bx0 > ax1 + radius)
+                    & !(bx1 < ax0 - radius)
+                    & !(eb.gap_squared(&ea) > reach_sq);
+                near[found] = (oi + 1 + k) as u32;
+                found += usize::from(pass);
+            }
+            for &ob in &near[..found] {
+                let j = self.left_order[ob as usize];
                 let b = &left[j as usize];
                 if let Some(n) = Neighbour::within(a, j, b, radius) {
                     self.neighbour_pairs.push((i, n));
@@ -950,6 +964,7 @@ impl MatchWorkspace {
                 }
             }
         }
+        self.key_survivors = near;
         // Group by owner (counting sort), keep the closest ones.
         let n = left.len();
         self.neighbour_start.clear();
