@@ -736,12 +736,12 @@ impl MatchWorkspace {
             let mut passed = 0;
             for (k, key) in keys.iter().enumerate().take(count).skip(first) {
                 let [rx0, rx1] = key.extent.columns;
-                let pass = !(key.extent.rows[1] + slack < l.start[1])
-                    & (key.polarity == l.polarity)
-                    & !(lx0 - rx1 > dmax + 1.0)
-                    & !(lx1 - rx0 < dmin - 1.0);
+                let fail = (key.extent.rows[1] + slack < l.start[1])
+                    | (key.polarity != l.polarity)
+                    | (lx0 - rx1 > dmax + 1.0)
+                    | (lx1 - rx0 < dmin - 1.0);
                 survivors[passed] = k as u32;
-                passed += usize::from(pass);
+                passed += usize::from(!fail);
             }
             for &k in &survivors[..passed] {
                 let j = keys[k as usize].index;
@@ -948,12 +948,12 @@ impl MatchWorkspace {
             let mut found = 0;
             for (k, eb) in later[..end].iter().enumerate() {
                 let [bx0, bx1] = eb.columns;
-                let pass = !(eb.rows[1] < ea.rows[0] - radius)
-                    & !(bx0 > ax1 + radius)
-                    & !(bx1 < ax0 - radius)
-                    & !(eb.gap_squared(&ea) > reach_sq);
+                let fail = (eb.rows[1] < ea.rows[0] - radius)
+                    | (bx0 > ax1 + radius)
+                    | (bx1 < ax0 - radius)
+                    | (eb.gap_squared(&ea) > reach_sq);
                 near[found] = (oi + 1 + k) as u32;
-                found += usize::from(pass);
+                found += usize::from(!fail);
             }
             for &ob in &near[..found] {
                 let j = self.left_order[ob as usize];
