@@ -71,24 +71,32 @@ impl Chains {
             return;
         }
         // The edge pixels off the border in raster order, marked available.
-        self.edge_list.clear();
+        if self.edge_list.len() < n + POSITIONS_PER_WORD {
+            self.edge_list.resize(n + POSITIONS_PER_WORD, 0);
+        }
+        let mut count = 0;
         for y in 1..height - 1 {
             let row = y * width;
-            let (list, available) = (&mut self.edge_list, &mut self.available);
-            for_each_equal(&edges[row + 1..row + width - 1], EDGE, |x| {
-                let i = row + 1 + x;
-                list.push(i as u32);
-                available[i] = 1;
-            });
+            count = push_positions_equal(
+                &edges[row + 1..row + width - 1],
+                EDGE,
+                (row + 1) as u32,
+                &mut self.edge_list,
+                count,
+            );
+        }
+        let edge_count = count;
+        for &i in &self.edge_list[..edge_count] {
+            self.available[i as usize] = 1;
         }
         // Pass 1: from curve ends; pass 2: what is left (closed curves, junction remainders).
         // Curve ends (one edge neighbour, a property of the edge map alone) are listed first,
         // in raster order, without a branch per pixel.
         let offsets = neighbour_offsets(width);
         self.curve_ends.clear();
-        self.curve_ends.resize(self.edge_list.len(), 0);
+        self.curve_ends.resize(edge_count, 0);
         let mut ends = 0;
-        for &i in &self.edge_list {
+        for &i in &self.edge_list[..edge_count] {
             let i = i as usize;
             // Edge pixels are at least one pixel inside the border.
             let degree: u32 = offsets
@@ -104,7 +112,7 @@ impl Chains {
                 self.walk_chain(&offsets, width, i, false, min_pixels);
             }
         }
-        for k in 0..self.edge_list.len() {
+        for k in 0..edge_count {
             let i = self.edge_list[k] as usize;
             if self.available[i] != 0 {
                 self.walk_chain(&offsets, width, i, true, min_pixels);
@@ -167,32 +175,50 @@ fn follow(
     }
 }
 
-/// Calls `f(i)` for every `i` with `bytes[i] == value`, in increasing order. Eight bytes at a
-/// time are compared at once as one 64-bit word (exact zero-byte test of `word ^ value`), and
-/// the set bits of the resulting mask visited.
+/// Bytes compared at once by [`push_positions_equal`].
+const POSITIONS_PER_WORD: usize = 16;
+
+/// Writes `first + i` for every `i` with `bytes[i] == value`, in increasing order, into
+/// `out[count..]`; returns the new count. `out` must have [`POSITIONS_PER_WORD`] slots to
+/// spare beyond the positions written. Sixteen bytes are compared at once into a bit mask
+/// (a vector compare and mask extraction on x86-64), whose set bits are then visited.
 #[inline]
-fn for_each_equal(bytes: &[u8], value: u8, mut f: impl FnMut(usize)) {
-    const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
-    let pattern = u64::from_le_bytes([value; 8]);
-    let mut chunks = bytes.chunks_exact(8);
-    let mut base = 0;
+fn push_positions_equal(
+    bytes: &[u8],
+    value: u8,
+    first: u32,
+    out: &mut [u32],
+    mut count: usize,
+) -> usize {
+    let mut chunks = bytes.chunks_exact(POSITIONS_PER_WORD);
+    let mut base = first;
     for chunk in &mut chunks {
-        let word = u64::from_le_bytes(chunk.try_into().unwrap_or([0; 8])) ^ pattern;
-        // High bit of each byte set iff the byte of `word` is non-zero (no carries between
-        // bytes: each byte's low 7 bits plus 0x7f stays below 0x100).
-        let nonzero = ((word & LOW7) + LOW7) | word;
-        let mut equal = !nonzero & !LOW7;
-        while equal != 0 {
-            f(base + (equal.trailing_zeros() / 8) as usize);
-            equal &= equal - 1;
+        let mut equal = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |m, (k, &b)| m | (u32::from(b == value) << k));
+        // Four positions are written whatever their number (one loop per set bit would end
+        // at an unpredictable point in most words), then the rest, if any.
+        let found = equal.count_ones() as usize;
+        let slots = &mut out[count..count + POSITIONS_PER_WORD];
+        for slot in &mut slots[..4] {
+            *slot = base + equal.trailing_zeros();
+            equal &= equal.wrapping_sub(1);
         }
-        base += 8;
+        let mut k = 4;
+        while equal != 0 {
+            slots[k] = base + equal.trailing_zeros();
+            equal &= equal - 1;
+            k += 1;
+        }
+        count += found;
+        base += POSITIONS_PER_WORD as u32;
     }
     for (k, &b) in chunks.remainder().iter().enumerate() {
-        if b == value {
-            f(base + k);
-        }
+        out[count] = base + k as u32;
+        count += usize::from(b == value);
     }
+    count
 }
 
 #[cfg(test)]
@@ -256,16 +282,23 @@ mod tests {
             ..ProptestConfig::default()
         })]
 
-        /// The word-at-a-time search finds exactly the positions of a plain comparison.
+        /// The sixteen-bytes-at-a-time search writes exactly the positions of a plain
+        /// comparison after those already there, for any length and density of matches.
         #[test]
-        fn for_each_equal_finds_every_match(
+        fn pushed_positions_are_every_match(
             bytes in prop::collection::vec(prop_oneof![Just(0u8), Just(1), Just(2), any::<u8>()], 0..70),
             value in prop_oneof![Just(0u8), Just(2), Just(0x80), any::<u8>()],
+            first in 0u32..1000,
         ) {
-            let mut found = Vec::new();
-            for_each_equal(&bytes, value, |i| found.push(i));
-            let expected: Vec<usize> = (0..bytes.len()).filter(|&i| bytes[i] == value).collect();
-            prop_assert_eq!(found, expected);
+            let mut out = vec![0u32; 3 + bytes.len() + POSITIONS_PER_WORD];
+            out[..3].copy_from_slice(&[7, 8, 9]);
+            let count = push_positions_equal(&bytes, value, first, &mut out, 3);
+            let expected: Vec<u32> = (0..bytes.len() as u32)
+                .filter(|&i| bytes[i as usize] == value)
+                .map(|i| first + i)
+                .collect();
+            prop_assert_eq!(&out[..3], &[7, 8, 9]);
+            prop_assert_eq!(&out[3..count], &expected[..]);
         }
     }
 
