@@ -142,13 +142,58 @@ fn the_control_thread_allocates_and_frees_nothing() {
 /// control thread allocates only at its stage changes and its end, never per period.
 #[test]
 fn a_hand_over_allocates_nothing_and_a_procedure_nothing_per_period() {
+    // The same initialisation at two winding speeds: the slower one runs many more periods
+    // (and emits more progress events) through the same stages.
+    let fast = hand_over_and_initialise(0.25);
+    let slow = hand_over_and_initialise(0.125);
+    for run in [&fast, &slow] {
+        assert!(run.succeeded, "the procedure succeeded");
+        assert!(run.handed_over);
+        assert_eq!(
+            run.hand_over_counts,
+            videt_testkit::AllocCounts::default(),
+            "the hand-over allocates nothing"
+        );
+        assert!(run.recalibrated);
+        assert!(run.periods > 5_000, "{} periods", run.periods);
+    }
+    assert!(
+        slow.periods as f64 > 1.3 * fast.periods as f64,
+        "{} periods slow, {} fast",
+        slow.periods,
+        fast.periods
+    );
+    // Stage changes and the end allocate (messages, the result); periods and progress events
+    // do not: the count does not grow with the number of periods.
+    assert_eq!(
+        slow.procedure_counts, fast.procedure_counts,
+        "allocations on the control thread: {} periods {:?}, {} periods {:?}",
+        slow.periods, slow.procedure_counts, fast.periods, fast.procedure_counts
+    );
+    assert!(fast.procedure_counts.allocations < 64, "{fast:?}");
+}
+
+/// What [`hand_over_and_initialise`] saw.
+#[derive(Debug)]
+struct ProcedureRun {
+    succeeded: bool,
+    handed_over: bool,
+    hand_over_counts: videt_testkit::AllocCounts,
+    recalibrated: bool,
+    periods: u64,
+    procedure_counts: videt_testkit::AllocCounts,
+}
+
+/// Renders a second on the twin, hands the control thread over to an initialisation run at
+/// `wind_speed_m_s`, and counts the control thread's allocations in both parts.
+fn hand_over_and_initialise(wind_speed_m_s: f64) -> ProcedureRun {
     use videt::control_loop::ControlCommand;
     use videt::init::remote::{
         procedure_channel, run_procedure, saved, ProcedureEvent, ProcedureKind, ProcedureSpec,
     };
 
     let mut config = Config::default();
-    config.autoinit.wind_speed_m_s = 0.25;
+    config.autoinit.wind_speed_m_s = wind_speed_m_s;
     let scene = setup::demo_scene(&config, 5);
     let rig = setup::rig(&config).unwrap();
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
@@ -256,23 +301,17 @@ fn a_hand_over_allocates_nothing_and_a_procedure_nothing_per_period() {
             procedure_counts,
         )
     });
-    let (report, loop_counts, recalibrated, procedure_periods, procedure_counts) =
+    let (report, hand_over_counts, recalibrated, periods, procedure_counts) =
         control.join().unwrap();
-    eprintln!("procedure: {procedure_periods} periods, {procedure_counts:?} on the control thread");
-    assert!(client.join().unwrap(), "the procedure succeeded");
-    assert!(report.handed_over, "{report:?}");
-    assert_eq!(
-        loop_counts,
-        videt_testkit::AllocCounts::default(),
-        "the hand-over allocates nothing"
-    );
-    assert!(recalibrated);
-    assert!(procedure_periods > 5_000, "{procedure_periods} periods");
-    // Stage changes and the end allocate (messages, the result); periods do not.
-    assert!(
-        procedure_counts.allocations < 64,
-        "{procedure_counts:?} over {procedure_periods} periods"
-    );
+    eprintln!("procedure: {periods} periods, {procedure_counts:?} on the control thread");
+    ProcedureRun {
+        succeeded: client.join().unwrap(),
+        handed_over: report.handed_over,
+        hand_over_counts,
+        recalibrated,
+        periods,
+        procedure_counts,
+    }
 }
 
 /// Counts the periods it is shown.
