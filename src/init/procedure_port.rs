@@ -37,12 +37,20 @@ pub enum ProcedureKind {
 impl ProcedureKind {
     /// `init` or `wire-replace`.
     pub fn name(&self) -> &'static str {
+        KIND_NAMES[usize::from(self.code()) - 1]
+    }
+
+    /// The kind's code in [`ProcedurePort`]'s slot (1, 2; 0 is no procedure).
+    fn code(&self) -> u8 {
         match self {
-            ProcedureKind::Initialize => "init",
-            ProcedureKind::ReplaceWire { .. } => "wire-replace",
+            ProcedureKind::Initialize => 1,
+            ProcedureKind::ReplaceWire { .. } => 2,
         }
     }
 }
+
+/// The names of the procedure kinds, by code minus one.
+const KIND_NAMES: [&str; 2] = ["init", "wire-replace"];
 
 /// A procedure a client asked for, checked.
 #[derive(Debug, Clone, PartialEq)]
@@ -244,22 +252,15 @@ impl ProcedurePort {
 
     /// The procedure running, by name (`init`, `wire-replace`).
     pub fn current(&self) -> Option<&'static str> {
-        match self.kind.load(Ordering::Acquire) {
-            1 => Some("init"),
-            2 => Some("wire-replace"),
-            _ => None,
-        }
+        let code = usize::from(self.kind.load(Ordering::Acquire));
+        code.checked_sub(1).and_then(|k| KIND_NAMES.get(k).copied())
     }
 }
 
 impl ProcedureSession<'_> {
     /// Hand `spec` to the control thread (it takes it on the hand-over).
     pub fn submit(&mut self, spec: ProcedureSpec) {
-        let kind = match spec.kind {
-            ProcedureKind::Initialize => 1,
-            ProcedureKind::ReplaceWire { .. } => 2,
-        };
-        self.port.kind.store(kind, Ordering::Release);
+        self.port.kind.store(spec.kind.code(), Ordering::Release);
         if let Ok(mut slot) = self.port.spec.lock() {
             *slot = Some(spec);
         }
@@ -311,5 +312,32 @@ mod tests {
         drop(first);
         assert!(!port.busy());
         assert!(port.begin().is_some());
+    }
+
+    #[test]
+    fn the_submitted_procedure_is_reported_by_its_name_until_the_session_ends() {
+        let (port, _handle) = procedure_channel(Config::default(), "c.toml".into(), true);
+        for kind in [
+            ProcedureKind::Initialize,
+            ProcedureKind::ReplaceWire {
+                wire: 1,
+                required_length_m: 2.0,
+            },
+        ] {
+            let mut session = port.begin().expect("free");
+            assert_eq!(port.current(), None, "nothing submitted yet");
+            let name = kind.name();
+            session.submit(ProcedureSpec {
+                kind,
+                yes: true,
+                sim_seed: 0,
+                sim_faults: Vec::new(),
+                sim_new_wire_length_m: None,
+            });
+            assert_eq!(port.current(), Some(name));
+            drop(session);
+            assert_eq!(port.current(), None);
+        }
+        assert_eq!(ProcedureKind::Initialize.name(), "init");
     }
 }
