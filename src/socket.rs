@@ -169,7 +169,12 @@ impl ClientRequest {
 impl Request {
     /// Parse one one-reply request line; the error says what is wrong.
     pub fn parse(line: &[u8]) -> Result<Request, String> {
-        match ClientRequest::parse(line)? {
+        Self::one_reply(ClientRequest::parse(line)?)
+    }
+
+    /// The one-reply request `request` is, or why it is not one.
+    pub fn one_reply(request: ClientRequest) -> Result<Request, String> {
+        match request {
             ClientRequest::Simple(r) => Ok(r),
             ClientRequest::Procedure(p) => Err(format!(
                 "`{}` streams its replies: send it on a connection of its own",
@@ -488,9 +493,10 @@ fn serve_client(
             return Ok(());
         }
         let last = !line.ends_with(b"\n");
-        if let Ok(ClientRequest::Procedure(procedure)) = ClientRequest::parse(&line) {
+        let parsed = ClientRequest::parse(&line);
+        if let Ok(ClientRequest::Procedure(procedure)) = &parsed {
             // The connection carries the procedure's stream until it ends.
-            crate::procedure_stream::serve(&mut reader, &mut writer, &procedure, shared)?;
+            crate::procedure_stream::serve(&mut reader, &mut writer, procedure, shared)?;
             reader
                 .get_ref()
                 .get_ref()
@@ -500,7 +506,7 @@ fn serve_client(
             }
             continue;
         }
-        let response = handle(&line, shared);
+        let response = answer(parsed.and_then(Request::one_reply), shared);
         reply(&mut writer, &response)?;
         if last {
             // End of stream without a newline: answered, now close.
@@ -511,7 +517,12 @@ fn serve_client(
 
 /// Answer one request line.
 pub fn handle(line: &[u8], shared: &ServerShared) -> Response {
-    let request = match Request::parse(line) {
+    answer(Request::parse(line), shared)
+}
+
+/// Answer one parsed request line (or say why it could not be parsed).
+fn answer(request: Result<Request, String>, shared: &ServerShared) -> Response {
+    let request = match request {
         Ok(r) => r,
         Err(e) => return Response::error(format!("malformed request: {e}")),
     };
