@@ -73,23 +73,7 @@ fn videtd_auto_initializes_its_own_twin_for_videt_init_through_the_socket() {
     let previous = std::fs::read(&calibration).unwrap();
 
     // The service on a twin of that frame, not calibrated: no force rendered.
-    let mut daemon = Daemon::start(
-        &[
-            "--sim",
-            "--sim-calibration",
-            "none",
-            "--no-telemetry",
-            "--config",
-            cfg,
-            "--sim-guides",
-            GUIDES,
-            "--duration",
-            "120",
-            "--calibration",
-            p(&calibration),
-        ],
-        &socket,
-    );
+    let mut daemon = Daemon::start_uncalibrated_twin(cfg, GUIDES, p(&calibration), 120, &socket);
     daemon.wait_for(10.0, "videtd runs uncalibrated", |s| {
         s.cycles > 200 && s.safety == "not-calibrated"
     });

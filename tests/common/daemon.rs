@@ -14,6 +14,37 @@ pub struct Daemon {
 }
 
 impl Daemon {
+    /// Starts `videtd` on the twin of the rig with `guides` (the `--sim-guides` text), with the
+    /// configuration file `config` and the calibration file `calibration` but not calibrated
+    /// (no force rendered until a procedure calibrates it), without telemetry, for
+    /// `duration_s` seconds.
+    pub fn start_uncalibrated_twin(
+        config: &str,
+        guides: &str,
+        calibration: &str,
+        duration_s: u32,
+        socket: &Path,
+    ) -> Daemon {
+        let duration = duration_s.to_string();
+        Daemon::start(
+            &[
+                "--sim",
+                "--sim-calibration",
+                "none",
+                "--no-telemetry",
+                "--config",
+                config,
+                "--sim-guides",
+                guides,
+                "--duration",
+                &duration,
+                "--calibration",
+                calibration,
+            ],
+            socket,
+        )
+    }
+
     /// Starts `videtd` with `args` and `--socket socket` (quiet, its output discarded) and waits
     /// until the socket exists.
     pub fn start(args: &[&str], socket: &Path) -> Daemon {
