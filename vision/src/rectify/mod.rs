@@ -204,6 +204,26 @@ mod tests {
         }
     }
 
+    /// A scrambled `w x h` frame (pattern `seed`) rectified by the compact map and by the
+    /// per-pixel reference table of the same camera, rotation and projection.
+    fn compact_and_reference(
+        cam: &CameraIntrinsics,
+        r: &Matrix3<f64>,
+        p: &Matrix3x4<f64>,
+        (w, h): (u32, u32),
+        seed: u32,
+    ) -> (GrayFrame, GrayFrame) {
+        let src = scrambled(w, h, seed);
+        let (mut dst, mut expected) = (GrayFrame::default(), GrayFrame::default());
+        RectifyMap::new(cam, r, p, w, h)
+            .apply(&src, &mut dst)
+            .unwrap();
+        reference::ReferenceMap::new(cam, r, p, w, h)
+            .apply(&src, &mut expected)
+            .unwrap();
+        (dst, expected)
+    }
+
     #[test]
     fn distorted_rotated_map_with_outside_pixels_matches_the_per_pixel_formula() {
         let mut cam = identity_camera();
@@ -287,13 +307,7 @@ mod tests {
 
     #[test]
     fn a_distorted_vga_map_is_almost_all_shift_blocks() {
-        let cam = CameraIntrinsics {
-            fx: 536.0,
-            fy: 536.0,
-            cx: 342.4,
-            cy: 235.5,
-            dist: [-0.265, -0.047, 0.0018, -0.0003, 0.252],
-        };
+        let cam = crate::calib::file::tests::sample().left();
         let r = nalgebra::Rotation3::from_euler_angles(0.003, -0.004, 0.004).into_inner();
         let p = Matrix3x4::new(
             500.0, 0.0, 320.0, 0.0, 0.0, 500.0, 240.0, 0.0, 0.0, 0.0, 1.0, 0.0,
@@ -301,12 +315,7 @@ mod tests {
         let map = RectifyMap::new(&cam, &r, &p, 640, 480);
         let fraction = shift_block_fraction(&map);
         assert!(fraction > 0.99, "{fraction}");
-        let src = scrambled(640, 480, 3);
-        let (mut dst, mut expected) = (GrayFrame::default(), GrayFrame::default());
-        map.apply(&src, &mut dst).unwrap();
-        reference::ReferenceMap::new(&cam, &r, &p, 640, 480)
-            .apply(&src, &mut expected)
-            .unwrap();
+        let (dst, expected) = compact_and_reference(&cam, &r, &p, (640, 480), 3);
         assert!(dst == expected);
     }
 
@@ -341,11 +350,7 @@ mod tests {
             let mut p = projection(&cam);
             p[(0, 0)] = focal / zoom;
             p[(1, 1)] = focal / zoom;
-            let map = RectifyMap::new(&cam, &r, &p, w, h);
-            let src = scrambled(w, h, seed);
-            let (mut dst, mut expected) = (GrayFrame::default(), GrayFrame::default());
-            map.apply(&src, &mut dst).unwrap();
-            reference::ReferenceMap::new(&cam, &r, &p, w, h).apply(&src, &mut expected).unwrap();
+            let (dst, expected) = compact_and_reference(&cam, &r, &p, (w, h), seed);
             proptest::prop_assert!(dst == expected);
         }
     }
