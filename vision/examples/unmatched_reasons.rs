@@ -121,13 +121,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     other => format!("{other:?}"),
                 };
                 println!(
-                    "  new {v:?} L{} -> R{} ({:.0},{:.0})-({:.0},{:.0}) len {:.0} ang {:.0} d [{:.1},{:.1}] truth {:?} agree {} horiz {} | {strict}",
-                    m.left,
-                    m.right,
-                    l.start[0],
-                    l.start[1],
-                    l.end[0],
-                    l.end[1],
+                    "  new {v:?} {} len {:.0} ang {:.0} d [{:.1},{:.1}] truth {:?} agree {} horiz {} | {strict}",
+                    pair_text(m, l),
                     l.length_px,
                     l.angle_rad.to_degrees(),
                     m.disparity_px[0],
@@ -230,13 +225,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for m in wrong {
                 let l = &ls[m.left as usize];
                 println!(
-                    "  wrong L{} -> R{} ({:.0},{:.0})-({:.0},{:.0}) d {:?} truth {:?} support {} pred {} horiz {}",
-                    m.left,
-                    m.right,
-                    l.start[0],
-                    l.start[1],
-                    l.end[0],
-                    l.end[1],
+                    "  wrong {} d {:?} truth {:?} support {} pred {} horiz {}",
+                    pair_text(m, l),
                     m.disparity_px,
                     true_disparity(l, &truth),
                     m.support,
@@ -410,4 +400,12 @@ fn true_disparity(l: &Segment, truth: &DisparityMap) -> Option<f32> {
     }
     v.sort_by(|a, b| a.total_cmp(b));
     Some(v[v.len() / 2])
+}
+
+/// `L<left> -> R<right> (x0,y0)-(x1,y1)`: a match and its left segment's endpoints.
+fn pair_text(m: &SegmentMatch, l: &Segment) -> String {
+    format!(
+        "L{} -> R{} ({:.0},{:.0})-({:.0},{:.0})",
+        m.left, m.right, l.start[0], l.start[1], l.end[0], l.end[1]
+    )
 }
