@@ -9,6 +9,7 @@ pub mod can_twin;
 pub mod colour_thread;
 pub mod control_loop;
 pub mod cycle;
+pub mod hardware;
 pub mod histogram;
 pub mod init;
 pub mod procedure_stream;

@@ -85,6 +85,12 @@ fn shipped_unit_is_a_notify_service_with_realtime_limits_and_hardening() {
         devices.iter().any(|d| d.contains("video4linux")),
         "cameras allowed"
     );
+    for spi in &config.sensors.spi_devices {
+        assert!(
+            devices.iter().any(|d| d == &format!("{spi} rw")),
+            "{spi} (sensors.spi_devices) allowed"
+        );
+    }
     assert!(
         one(&unit, "Service.RestrictAddressFamilies").contains("AF_CAN"),
         "SocketCAN allowed"
@@ -326,4 +332,54 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
             "--sim {sim}: in contact for {contact} periods only"
         );
     }
+}
+
+/// Without --sim the service opens the device named by the configuration. A part that is not
+/// there ends the start with an error naming it and the configuration field to look at; no
+/// panic, and nothing else is opened after it (the e-stop is opened first).
+#[test]
+fn on_the_device_a_missing_part_is_named_with_its_configuration_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display();
+    let config = dir.path().join("videt.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[files]\ncalibration = \"{d}/calibration.toml\"\nmotors_lock = \"{d}/motors.lock\"\n\
+             [sensors]\ngpio_chip = \"{d}/gpiochip-absent\"\n\
+             [socket]\npath = \"{d}/videt.sock\"\n[telemetry]\ndirectory = \"{d}/logs\"\n"
+        ),
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        .arg("--config")
+        .arg(&config)
+        .args(["--duration", "1"])
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "device: GPIO {d}/gpiochip-absent line 17 (e-stop): "
+        )) && stderr.contains("(sensors.gpio_chip, sensors.estop_line)"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("forces will not be rendered (not calibrated)"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!stderr.contains("CAN interface"), "{stderr}");
+
+    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        .arg("--config")
+        .arg(&config)
+        .args(["--scene", "box"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("needs --sim"), "{stderr}");
 }

@@ -186,6 +186,21 @@ pub struct SensorsConfig {
     pub estop_line: u32,
     /// GPIO lines of the three vibrotactors (red, green, blue channels).
     pub vibrotactor_lines: [u32; 3],
+    /// ADS1220: the spidev device of each wire's converter.
+    pub spi_devices: [String; 3],
+    /// ADS1220: the GPIO line (on `gpio_chip`) of each converter's data-ready output.
+    pub drdy_lines: [u32; 3],
+    /// HX711: the GPIO line of each converter's clock (`PD_SCK`).
+    pub hx711_clock_lines: [u32; 3],
+    /// HX711: the GPIO line of each converter's data output (`DOUT`).
+    pub hx711_data_lines: [u32; 3],
+    /// Raw reading of each wire's converter at zero tension, counts (nominal: the tension
+    /// calibration written by `videt tension-calibrate` corrects what remains).
+    pub zero_counts: [i32; 3],
+    /// Newtons per raw count of each wire's converter (nominal, from the load cell's rated
+    /// output; negative for a bridge wired inverted). A 50 N, 2 mV/V cell gives 2.33e-5 on the
+    /// ADS1220 at gain 128 and 1.16e-5 on the HX711 at gain 128 with a 5 V supply.
+    pub newtons_per_count: [f64; 3],
 }
 
 /// Vision thread.
@@ -244,6 +259,16 @@ impl Default for SensorsConfig {
             gpio_chip: "/dev/gpiochip0".into(),
             estop_line: 17,
             vibrotactor_lines: [22, 23, 24],
+            spi_devices: [
+                "/dev/spidev0.0".into(),
+                "/dev/spidev0.1".into(),
+                "/dev/spidev1.0".into(),
+            ],
+            drdy_lines: [5, 6, 13],
+            hx711_clock_lines: [20, 21, 26],
+            hx711_data_lines: [16, 19, 12],
+            zero_counts: [0; 3],
+            newtons_per_count: [2.33e-5; 3],
         }
     }
 }
@@ -608,6 +633,7 @@ impl Config {
             1.0,
             1000.0,
         )?;
+        self.validate_sensors()?;
         in_range(
             "vision.surface_max_age_s",
             self.vision.surface_max_age_s,
@@ -650,6 +676,71 @@ impl Config {
 }
 
 impl Config {
+    /// The GPIO lines and converter settings of `[sensors]`: every line in use is distinct, and
+    /// each converter has a usable device and a plausible nominal scale.
+    fn validate_sensors(&self) -> Result<(), ConfigError> {
+        let s = &self.sensors;
+        if s.gpio_chip.is_empty() {
+            return Err(ConfigError::Invalid {
+                field: "sensors.gpio_chip".into(),
+                value: String::new(),
+                allowed: "a GPIO character device path".into(),
+            });
+        }
+        let mut lines: Vec<(String, u32)> = vec![("sensors.estop_line".into(), s.estop_line)];
+        let mut named = |field: &str, values: &[u32; 3]| {
+            for (i, v) in values.iter().enumerate() {
+                lines.push((format!("{field}[{i}]"), *v));
+            }
+        };
+        named("sensors.vibrotactor_lines", &s.vibrotactor_lines);
+        match s.adc {
+            TensionAdc::Ads1220 => named("sensors.drdy_lines", &s.drdy_lines),
+            TensionAdc::Hx711 => {
+                named("sensors.hx711_clock_lines", &s.hx711_clock_lines);
+                named("sensors.hx711_data_lines", &s.hx711_data_lines);
+            }
+        }
+        for (k, (field, line)) in lines.iter().enumerate() {
+            if let Some((other, _)) = lines[..k].iter().find(|(_, l)| l == line) {
+                return Err(ConfigError::Invalid {
+                    field: field.clone(),
+                    value: line.to_string(),
+                    allowed: format!("a GPIO line not used already (it is {other})"),
+                });
+            }
+        }
+        if s.adc == TensionAdc::Ads1220 {
+            for (i, path) in s.spi_devices.iter().enumerate() {
+                if path.is_empty() || s.spi_devices[..i].contains(path) {
+                    return Err(ConfigError::Invalid {
+                        field: format!("sensors.spi_devices[{i}]"),
+                        value: format!("{path:?}"),
+                        allowed: "a spidev device path, one per wire".into(),
+                    });
+                }
+            }
+        }
+        for i in 0..3 {
+            in_range(
+                &format!("sensors.zero_counts[{i}]"),
+                f64::from(s.zero_counts[i]),
+                -8_388_608.0,
+                8_388_607.0,
+            )?;
+            let scale = s.newtons_per_count[i];
+            if !(scale.is_finite() && (1e-9..=1e-2).contains(&scale.abs())) {
+                return Err(ConfigError::Invalid {
+                    field: format!("sensors.newtons_per_count[{i}]"),
+                    value: scale.to_string(),
+                    allowed: "between 1e-9 and 1e-2 in magnitude (negative for an inverted bridge)"
+                        .into(),
+                });
+            }
+        }
+        Ok(())
+    }
+
     fn validate_autoinit(&self) -> Result<(), ConfigError> {
         let a = &self.autoinit;
         let c = &self.control;
@@ -782,6 +873,26 @@ mod tests {
             ),
             ("[sensors]\nstale_after_ms = 0\n", "sensors.stale_after_ms"),
             (
+                "[sensors]\ndrdy_lines = [5, 17, 13]\n",
+                "sensors.drdy_lines[1]",
+            ),
+            (
+                "[sensors]\nadc = \"hx711\"\nhx711_data_lines = [16, 20, 12]\n",
+                "sensors.hx711_data_lines[1]",
+            ),
+            (
+                "[sensors]\nspi_devices = [\"/dev/spidev0.0\", \"/dev/spidev0.0\", \"/dev/spidev1.0\"]\n",
+                "sensors.spi_devices[1]",
+            ),
+            (
+                "[sensors]\nnewtons_per_count = [2e-5, 0.0, 2e-5]\n",
+                "sensors.newtons_per_count[1]",
+            ),
+            (
+                "[sensors]\nzero_counts = [0, 0, 9000000]\n",
+                "sensors.zero_counts[2]",
+            ),
+            (
                 "[vision]\nsurface_max_age_s = 0.0\n",
                 "vision.surface_max_age_s",
             ),
@@ -799,6 +910,22 @@ mod tests {
             let e = Config::from_toml_str(text, "t").unwrap_err().to_string();
             assert!(e.contains(field), "{text:?}: {e}");
         }
+    }
+
+    #[test]
+    fn a_gpio_line_used_twice_names_both_fields() {
+        let e = Config::from_toml_str("[sensors]\nvibrotactor_lines = [22, 23, 17]\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "sensors.vibrotactor_lines[2] = 17: must be a GPIO line not used already (it is sensors.estop_line)"
+        );
+        // The HX711's lines are only checked when the HX711 is the converter in use.
+        Config::from_toml_str("[sensors]\nhx711_clock_lines = [17, 17, 17]\n", "t").unwrap();
+        let inverted =
+            Config::from_toml_str("[sensors]\nnewtons_per_count = [-2e-5, 2e-5, 2e-5]\n", "t");
+        assert!(inverted.is_ok(), "an inverted bridge is allowed");
     }
 
     #[test]

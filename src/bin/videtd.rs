@@ -10,6 +10,10 @@
 //! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
 //! control loop is healthy.
 //!
+//! Without `--sim` it runs on the device: the CiA 402 drives on the SocketCAN interface, the
+//! strain-gauge converters and the e-stop that the configuration names, the geometry of the
+//! calibration file, and the check wall as the surface.
+//!
 //! Forces are rendered only with a valid calibration (`videt init`); without one every wire is
 //! held at minimum tension and the log says why. On the twin, `--sim-calibration` chooses where
 //! the calibration comes from (the configured geometry, an auto-initialization at start-up, or
@@ -250,39 +254,16 @@ fn main() -> ExitCode {
                 &mut options,
                 "digital twin: a virtual wall, a virtual operator touching it and sliding along it",
             );
-            let tension_path = videt_rt_config::calibration::TensionCalibration::path_beside(
-                &args.calibration.clone().unwrap_or_else(|| {
-                    videt::init::daemon::sim_state_dir().join("calibration-sim.toml")
-                }),
-            );
-            match videt_rt_config::calibration::TensionCalibration::load(&tension_path) {
-                Ok(tc) => {
-                    info!(file = %tension_path.display(), "tension readings corrected");
-                    run_service(
-                        videt::init::corrected::CorrectedTensions::new(
-                            RealTimeTwin::new(scene.twin),
-                            tc,
-                        ),
-                        FixedSurface(scene.wall),
-                        cycle,
-                        &options,
-                    )
-                }
-                Err(e) => {
-                    if !matches!(
-                        e,
-                        videt_rt_config::calibration::CalibrationError::Missing { .. }
-                    ) {
-                        warn!("tension readings not corrected: {e}");
-                    }
-                    run_service(
-                        RealTimeTwin::new(scene.twin),
-                        FixedSurface(scene.wall),
-                        cycle,
-                        &options,
-                    )
-                }
-            }
+            let calibration_path = args.calibration.clone().unwrap_or_else(|| {
+                videt::init::daemon::sim_state_dir().join("calibration-sim.toml")
+            });
+            run_with_tension_correction(
+                RealTimeTwin::new(scene.twin),
+                FixedSurface(scene.wall),
+                cycle,
+                &options,
+                &calibration_path,
+            )
         }
         Some(SimMode::Can) => {
             let (scene, cycle) = wall_demo(
@@ -305,23 +286,92 @@ fn main() -> ExitCode {
             };
             run_service(hw, FixedSurface(scene.wall), cycle, &options)
         }
-        None => {
-            let path = args
-                .calibration
-                .clone()
-                .unwrap_or_else(|| PathBuf::from(&config.files.calibration));
-            if let Ok(s) = videt::init::daemon::load(&config, &path) {
-                if !s.calibrated {
-                    warn!(
-                        "forces will not be rendered (not calibrated): {}",
-                        s.reason.unwrap_or_default()
-                    );
-                }
+        None => run_on_device(&config, &args, &mut options),
+    }
+}
+
+/// The service on the device: the drives on SocketCAN, the strain-gauge converters and the
+/// e-stop named by the configuration, the geometry of the calibration file; the wearer touches
+/// the check wall (a flat virtual wall in front of the frame, as on the twin).
+fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> ExitCode {
+    if args.scene != SimScene::Wall {
+        error!(
+            "--scene {:?} needs --sim: on the device the surface is the check wall",
+            args.scene
+        );
+        return ExitCode::from(2);
+    }
+    let path = args
+        .calibration
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(&config.files.calibration));
+    let state = match videt::init::daemon::load(config, &path) {
+        Ok(s) => s,
+        Err(e) => {
+            error!("calibration: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if let Some(reason) = &state.reason {
+        warn!("forces will not be rendered (not calibrated): {reason}");
+    }
+    let cycle = setup::control_cycle(config, state.rig, state.wire_zero, state.calibrated);
+    let (wall, wall_z_m) = setup::check_wall();
+    info!(
+        rate_hz = config.control.rate_hz,
+        can = %config.drives.can_interface,
+        adc = ?config.sensors.adc,
+        wall_z_m,
+        "device: the check wall in front of the frame"
+    );
+    options.colour = None;
+    let hw = match videt::hardware::open_device(config) {
+        Ok(hw) => hw,
+        Err(e) => {
+            error!("device: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    run_with_tension_correction(hw, FixedSurface(wall), cycle, options, &path)
+}
+
+/// Run the service on `hw`, its tension readings corrected by the strain-gauge calibration
+/// beside `calibration_path` when there is one (`videt tension-calibrate` writes it).
+fn run_with_tension_correction<H, F>(
+    hw: H,
+    feed: F,
+    cycle: videt::cycle::ControlCycle,
+    options: &ServiceOptions,
+    calibration_path: &std::path::Path,
+) -> ExitCode
+where
+    H: videt_hal::Lifecycle
+        + videt_hal::WireDrives
+        + videt_hal::TensionSensors
+        + videt_hal::EStop
+        + videt_hal::Clock
+        + videt::init::remote::ProcedureDevice
+        + Send
+        + 'static,
+    F: videt::snapshot::SurfaceFeed + Send + 'static,
+{
+    use videt_rt_config::calibration::{CalibrationError, TensionCalibration};
+    let tension_path = TensionCalibration::path_beside(calibration_path);
+    match TensionCalibration::load(&tension_path) {
+        Ok(tc) => {
+            info!(file = %tension_path.display(), "tension readings corrected");
+            run_service(
+                videt::init::corrected::CorrectedTensions::new(hw, tc),
+                feed,
+                cycle,
+                options,
+            )
+        }
+        Err(e) => {
+            if !matches!(e, CalibrationError::Missing { .. }) {
+                warn!("tension readings not corrected: {e}");
             }
-            error!(
-                "no device backend is built into this videtd: run with --sim for the digital twin"
-            );
-            ExitCode::from(2)
+            run_service(hw, feed, cycle, options)
         }
     }
 }

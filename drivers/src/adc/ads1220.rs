@@ -74,6 +74,21 @@ impl Config {
         }
     }
 
+    /// The bridge of [`Config::bridge`] converted fast enough for the 1 kHz tension loop:
+    /// turbo mode at 2000 samples/s (a fresh sample every 0.5 ms), without the 50/60 Hz
+    /// filter (it works only at 20 samples/s). The loop's PI and the staleness limit
+    /// (`sensors.stale_after_ms`) expect this rate; [`Config::bridge`] suits static weighing.
+    pub const fn bridge_for_control(gain: PgaGain) -> Config {
+        Config {
+            reg0: (gain as u8) << 1,
+            // DR 110 (2000 SPS in turbo), MODE 10 (turbo), CM 1 (continuous), TS 0, BCS 0.
+            reg1: 0b1101_0100,
+            // VREF 01 (REFP0/REFN0), 50/60 00 (off), PSW 0, IDAC 000.
+            reg2: 0b0100_0000,
+            reg3: 0x00,
+        }
+    }
+
     /// Continuous conversion mode is on.
     pub const fn is_continuous(&self) -> bool {
         self.reg1 & 0x04 != 0
@@ -221,6 +236,16 @@ mod tests {
             [0x0E, 0x04, 0x50, 0x00]
         );
         assert!(CFG.is_continuous());
+    }
+
+    #[test]
+    fn control_config_converts_at_2000_per_second_without_the_mains_filter() {
+        let c = Config::bridge_for_control(PgaGain::X128);
+        assert_eq!([c.reg0, c.reg1, c.reg2, c.reg3], [0x0E, 0xD4, 0x40, 0x00]);
+        assert_eq!(c.reg1 >> 5, 0b110, "data rate 2000 SPS in turbo mode");
+        assert_eq!((c.reg1 >> 3) & 0b11, 0b10, "turbo mode");
+        assert_eq!((c.reg2 >> 4) & 0b11, 0, "50/60 Hz filter off");
+        assert!(c.is_continuous());
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! Strain-gauge ADCs for the wire-tension sensors, generic over embedded-hal 1.0 traits:
 //! [`hx711::Hx711`] (bit-banged clock/data) and [`ads1220::Ads1220`] (SPI precision ADC), the
-//! two-point tension [`calibration`], and the three-sensor set implementing
-//! `videt_hal::TensionSensors` ([`tension_set`]).
+//! two-point tension [`calibration`], the three-sensor set implementing
+//! `videt_hal::TensionSensors` ([`tension_set`]), and their Linux devices ([`linux`]).
 //!
 //! Reads never block the control loop: a driver answers `nb::Error::WouldBlock` while no new
 //! conversion is ready, and the set then keeps the last sample (failing only once a sample is
@@ -10,6 +10,8 @@
 pub mod ads1220;
 pub mod calibration;
 pub mod hx711;
+#[cfg(target_os = "linux")]
+pub mod linux;
 pub mod tension_set;
 
 /// An ADC delivering raw signed conversions without blocking.

@@ -2,7 +2,7 @@
 //! linux-embedded-hal's `CdevPin` (pure Rust, no system library).
 
 use gpio_cdev::{Chip, LineRequestFlags};
-use linux_embedded_hal::CdevPin;
+pub use linux_embedded_hal::CdevPin;
 use videt_hal::VIBROTACTORS;
 
 use super::estop::EStopInput;
@@ -23,7 +23,8 @@ pub struct OpenError {
     pub source: gpio_cdev::errors::Error,
 }
 
-fn open(
+/// Request `line` of `chip_path` as an input, or an output set low, labelled "videt".
+pub(crate) fn open_line(
     chip_path: &str,
     line: u32,
     role: &'static str,
@@ -55,7 +56,7 @@ pub fn estop(
     debounce_samples: u8,
 ) -> Result<EStopInput<CdevPin>, OpenError> {
     Ok(EStopInput::new(
-        open(chip_path, line, "e-stop", false)?,
+        open_line(chip_path, line, "e-stop", false)?,
         debounce_samples,
     ))
 }
@@ -66,9 +67,9 @@ pub fn vibrotactors(
     lines: [u32; VIBROTACTORS],
 ) -> Result<VibrotactorOutputs<CdevPin>, Box<dyn std::error::Error + Send + Sync>> {
     let pins = [
-        open(chip_path, lines[0], "vibrotactor 0", true)?,
-        open(chip_path, lines[1], "vibrotactor 1", true)?,
-        open(chip_path, lines[2], "vibrotactor 2", true)?,
+        open_line(chip_path, lines[0], "vibrotactor 0", true)?,
+        open_line(chip_path, lines[1], "vibrotactor 1", true)?,
+        open_line(chip_path, lines[2], "vibrotactor 2", true)?,
     ];
     Ok(VibrotactorOutputs::new(pins)?)
 }

@@ -1,0 +1,434 @@
+//! The device itself: its three CiA 402 drives on SocketCAN, its three strain-gauge converters
+//! and its e-stop, put together as the one hardware object the service runs on, on the system's
+//! monotonic clock.
+//!
+//! [`DeviceHardware`] only delegates each capability to the part that has it; the parts are the
+//! `drivers` crate's, and [`open_device`] opens them from the configuration, e-stop first.
+
+use core::fmt;
+use std::time::Duration;
+
+use videt_drivers::adc::calibration::TensionCalibration;
+use videt_drivers::cia402::DriveSetConfig;
+use videt_hal::{
+    Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState, MonoTime,
+    TensionSensors, WireDrives, WIRES,
+};
+use videt_rt_config::Config;
+
+use crate::init::remote::ProcedureDevice;
+use crate::rt::SystemClock;
+
+/// Consecutive e-stop readings (one per control period) that make a press: 3 ms at 1 kHz.
+pub const ESTOP_DEBOUNCE_SAMPLES: u8 = 3;
+
+/// The device's drives `D`, tension sensors `T` and e-stop `E` as one hardware object.
+pub struct DeviceHardware<D, T, E> {
+    drives: D,
+    tensions: T,
+    estop: E,
+    clock: SystemClock,
+}
+
+impl<D, T, E> fmt::Debug for DeviceHardware<D, T, E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DeviceHardware").finish_non_exhaustive()
+    }
+}
+
+impl<D, T, E> DeviceHardware<D, T, E> {
+    /// Put the parts together.
+    pub fn new(drives: D, tensions: T, estop: E) -> Self {
+        DeviceHardware {
+            drives,
+            tensions,
+            estop,
+            clock: SystemClock,
+        }
+    }
+
+    /// The drives.
+    pub fn drives(&self) -> &D {
+        &self.drives
+    }
+}
+
+/// A failure of one part of [`DeviceHardware`], carrying that part's own error.
+#[derive(Debug)]
+pub enum DeviceError<DE, TE, EE> {
+    /// The drives.
+    Drives(DE),
+    /// The tension sensors.
+    Tensions(TE),
+    /// The e-stop.
+    EStop(EE),
+}
+
+impl<DE, TE, EE> videt_hal::Error for DeviceError<DE, TE, EE>
+where
+    DE: videt_hal::Error,
+    TE: videt_hal::Error,
+    EE: videt_hal::Error,
+{
+    fn kind(&self) -> ErrorKind {
+        match self {
+            DeviceError::Drives(e) => e.kind(),
+            DeviceError::Tensions(e) => e.kind(),
+            DeviceError::EStop(e) => e.kind(),
+        }
+    }
+}
+
+impl<DE: fmt::Display, TE: fmt::Display, EE: fmt::Display> fmt::Display
+    for DeviceError<DE, TE, EE>
+{
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DeviceError::Drives(e) => write!(f, "drives: {e}"),
+            DeviceError::Tensions(e) => write!(f, "{e}"),
+            DeviceError::EStop(e) => write!(f, "e-stop: {e}"),
+        }
+    }
+}
+
+impl<DE, TE, EE> std::error::Error for DeviceError<DE, TE, EE>
+where
+    DE: fmt::Debug + fmt::Display,
+    TE: fmt::Debug + fmt::Display,
+    EE: fmt::Debug + fmt::Display,
+{
+}
+
+impl<D: ErrorType, T: ErrorType, E: ErrorType> ErrorType for DeviceHardware<D, T, E> {
+    type Error = DeviceError<D::Error, T::Error, E::Error>;
+}
+
+impl<D: Lifecycle, T: ErrorType, E: ErrorType> Lifecycle for DeviceHardware<D, T, E> {
+    fn configure(&mut self) -> Result<(), Self::Error> {
+        self.drives.configure().map_err(DeviceError::Drives)
+    }
+    fn activate(&mut self) -> Result<(), Self::Error> {
+        self.drives.activate().map_err(DeviceError::Drives)
+    }
+    fn deactivate(&mut self) -> Result<(), Self::Error> {
+        self.drives.deactivate().map_err(DeviceError::Drives)
+    }
+    fn lifecycle_state(&self) -> LifecycleState {
+        self.drives.lifecycle_state()
+    }
+}
+
+impl<D: WireDrives, T: ErrorType, E: ErrorType> WireDrives for DeviceHardware<D, T, E> {
+    fn enable(&mut self) -> Result<(), Self::Error> {
+        self.drives.enable().map_err(DeviceError::Drives)
+    }
+    fn disable(&mut self) -> Result<(), Self::Error> {
+        self.drives.disable().map_err(DeviceError::Drives)
+    }
+    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), Self::Error> {
+        self.drives.read_drives(out).map_err(DeviceError::Drives)
+    }
+    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), Self::Error> {
+        self.drives
+            .write_torques(torque_nm)
+            .map_err(DeviceError::Drives)
+    }
+}
+
+impl<D: ErrorType, T: TensionSensors, E: ErrorType> TensionSensors for DeviceHardware<D, T, E> {
+    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
+        self.tensions
+            .read_tensions(out_n)
+            .map_err(DeviceError::Tensions)
+    }
+}
+
+impl<D: ErrorType, T: ErrorType, E: EStop> EStop for DeviceHardware<D, T, E> {
+    fn is_pressed(&mut self) -> Result<bool, Self::Error> {
+        self.estop.is_pressed().map_err(DeviceError::EStop)
+    }
+    fn reset(&mut self) -> Result<(), Self::Error> {
+        self.estop.reset().map_err(DeviceError::EStop)
+    }
+}
+
+impl<D, T, E> Clock for DeviceHardware<D, T, E> {
+    fn now(&self) -> MonoTime {
+        self.clock.now()
+    }
+    fn sleep_until(&mut self, deadline: MonoTime) {
+        self.clock.sleep_until(deadline);
+    }
+}
+
+/// Procedures (`videt init`, wire replacement) run on the device with a real technician.
+impl<D: WireDrives, T: TensionSensors, E: EStop> ProcedureDevice for DeviceHardware<D, T, E> {}
+
+/// The drive-set settings of the device: node ids, rated torque and heartbeats from
+/// `[drives]`, the transmission and limits from `[transmission]` and `[control]`, one SYNC per
+/// control period.
+pub fn drive_set_config(config: &Config) -> DriveSetConfig {
+    let d = &config.drives;
+    let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
+    let mut c = DriveSetConfig::new(
+        d.node_ids,
+        period,
+        d.rated_torque_nm,
+        config.control.t_max_n,
+    );
+    c.transmission = crate::setup::transmission(config);
+    c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
+    c.drive_heartbeat_ms = d.heartbeat_ms;
+    c.drive_heartbeat_timeout = Duration::from_millis(u64::from(d.heartbeat_timeout_ms));
+    c
+}
+
+/// The nominal raw-count-to-newton scale of each wire's converter, from `[sensors]`.
+pub fn nominal_tension_scales(config: &Config) -> [TensionCalibration; WIRES] {
+    let s = &config.sensors;
+    core::array::from_fn(|i| TensionCalibration {
+        offset_counts: f64::from(s.zero_counts[i]),
+        newtons_per_count: s.newtons_per_count[i],
+    })
+}
+
+#[cfg(target_os = "linux")]
+pub use linux::{open_device, LinuxDevice};
+
+#[cfg(target_os = "linux")]
+mod linux {
+    use std::time::Duration;
+
+    use videt_drivers::adc::linux::{open_ads1220, open_hx711, LinuxAdc};
+    use videt_drivers::adc::tension_set::{MonotonicClock, StrainGaugeSet};
+    use videt_drivers::can::socketcan_port::SocketCanPort;
+    use videt_drivers::cia402::Cia402DriveSet;
+    use videt_drivers::gpio::estop::EStopInput;
+    use videt_drivers::gpio::linux::CdevPin;
+    use videt_rt_config::{Config, TensionAdc};
+
+    use super::{drive_set_config, nominal_tension_scales, DeviceHardware, ESTOP_DEBOUNCE_SAMPLES};
+
+    /// The device on Linux: SocketCAN drives, spidev or GPIO converters, a GPIO e-stop.
+    pub type LinuxDevice = DeviceHardware<
+        Cia402DriveSet<SocketCanPort>,
+        StrainGaugeSet<LinuxAdc, MonotonicClock>,
+        EStopInput<CdevPin>,
+    >;
+
+    /// Open the device's parts named by `config`: the e-stop first (so no drive is reached
+    /// without it), then the three converters, then the CAN interface. Nothing is powered: the
+    /// service configures and enables the drives. An error names the part, its device and the
+    /// configuration field to look at.
+    pub fn open_device(config: &Config) -> Result<LinuxDevice, String> {
+        let s = &config.sensors;
+        let estop =
+            videt_drivers::gpio::linux::estop(&s.gpio_chip, s.estop_line, ESTOP_DEBOUNCE_SAMPLES)
+                .map_err(|e| format!("{e} (sensors.gpio_chip, sensors.estop_line)"))?;
+        let open_adc = |wire: usize| match s.adc {
+            TensionAdc::Ads1220 => {
+                open_ads1220(wire, &s.spi_devices[wire], &s.gpio_chip, s.drdy_lines[wire])
+                    .map_err(|e| format!("{e} (sensors.spi_devices, sensors.drdy_lines)"))
+            }
+            TensionAdc::Hx711 => open_hx711(
+                wire,
+                &s.gpio_chip,
+                s.hx711_clock_lines[wire],
+                s.hx711_data_lines[wire],
+            )
+            .map_err(|e| format!("{e} (sensors.hx711_clock_lines, sensors.hx711_data_lines)")),
+        };
+        let adcs = [open_adc(0)?, open_adc(1)?, open_adc(2)?];
+        let tensions = StrainGaugeSet::new(
+            adcs,
+            nominal_tension_scales(config),
+            MonotonicClock::default(),
+            Duration::from_millis(u64::from(s.stale_after_ms)),
+        );
+        let interface = &config.drives.can_interface;
+        let port = SocketCanPort::open(interface)
+            .map_err(|e| format!("CAN interface {interface}: {e} (drives.can_interface)"))?;
+        let drives =
+            Cia402DriveSet::new(port, drive_set_config(config)).map_err(|e| e.to_string())?;
+        Ok(DeviceHardware::new(drives, tensions, estop))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use videt_hal::ErrorKind;
+
+    /// One capability of a device, scripted: its error kind when failing.
+    #[derive(Debug, Default)]
+    struct Part {
+        fail: Option<ErrorKind>,
+        calls: Vec<&'static str>,
+        pressed: bool,
+        state: Option<LifecycleState>,
+    }
+
+    impl Part {
+        fn step(&mut self, name: &'static str) -> Result<(), ErrorKind> {
+            self.calls.push(name);
+            self.fail.map_or(Ok(()), Err)
+        }
+    }
+
+    impl ErrorType for Part {
+        type Error = ErrorKind;
+    }
+
+    impl Lifecycle for Part {
+        fn configure(&mut self) -> Result<(), ErrorKind> {
+            self.state = Some(LifecycleState::Inactive);
+            self.step("configure")
+        }
+        fn activate(&mut self) -> Result<(), ErrorKind> {
+            self.state = Some(LifecycleState::Active);
+            self.step("activate")
+        }
+        fn deactivate(&mut self) -> Result<(), ErrorKind> {
+            self.state = Some(LifecycleState::Inactive);
+            self.step("deactivate")
+        }
+        fn lifecycle_state(&self) -> LifecycleState {
+            self.state.unwrap_or(LifecycleState::Unconfigured)
+        }
+    }
+
+    impl WireDrives for Part {
+        fn enable(&mut self) -> Result<(), ErrorKind> {
+            self.step("enable")
+        }
+        fn disable(&mut self) -> Result<(), ErrorKind> {
+            self.step("disable")
+        }
+        fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), ErrorKind> {
+            out[1].position_counts = 1234;
+            self.step("read_drives")
+        }
+        fn write_torques(&mut self, _: &[f64; WIRES]) -> Result<(), ErrorKind> {
+            self.step("write_torques")
+        }
+    }
+
+    impl TensionSensors for Part {
+        fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), ErrorKind> {
+            *out_n = [1.0, 2.0, 3.0];
+            self.step("read_tensions")
+        }
+    }
+
+    impl EStop for Part {
+        fn is_pressed(&mut self) -> Result<bool, ErrorKind> {
+            self.step("is_pressed").map(|()| self.pressed)
+        }
+        fn reset(&mut self) -> Result<(), ErrorKind> {
+            self.step("reset")
+        }
+    }
+
+    fn failing(kind: ErrorKind) -> Part {
+        Part {
+            fail: Some(kind),
+            ..Part::default()
+        }
+    }
+
+    #[test]
+    fn each_capability_goes_to_its_part() {
+        let estop = Part {
+            pressed: true,
+            ..Part::default()
+        };
+        let mut hw = DeviceHardware::new(Part::default(), Part::default(), estop);
+        hw.configure().unwrap();
+        hw.activate().unwrap();
+        assert_eq!(hw.lifecycle_state(), LifecycleState::Active);
+        hw.enable().unwrap();
+        let mut samples = [DriveSample::default(); WIRES];
+        hw.read_drives(&mut samples).unwrap();
+        assert_eq!(samples[1].position_counts, 1234);
+        hw.write_torques(&[0.0; WIRES]).unwrap();
+        let mut t = [0.0; WIRES];
+        hw.read_tensions(&mut t).unwrap();
+        assert_eq!(t, [1.0, 2.0, 3.0]);
+        assert!(hw.is_pressed().unwrap());
+        hw.reset().unwrap();
+        hw.disable().unwrap();
+        hw.deactivate().unwrap();
+        assert_eq!(
+            hw.drives.calls,
+            [
+                "configure",
+                "activate",
+                "enable",
+                "read_drives",
+                "write_torques",
+                "disable",
+                "deactivate"
+            ]
+        );
+        assert_eq!(hw.tensions.calls, ["read_tensions"]);
+        assert_eq!(hw.estop.calls, ["is_pressed", "reset"]);
+        let before = hw.now();
+        hw.sleep_until(before.add_nanos(200_000));
+        assert!(hw.now().nanos_since(before) >= 200_000);
+    }
+
+    #[test]
+    fn a_part_failure_keeps_its_kind_and_names_the_part() {
+        let mut hw = DeviceHardware::new(
+            failing(ErrorKind::Disconnected),
+            failing(ErrorKind::Timeout),
+            failing(ErrorKind::Fault),
+        );
+        let e = hw
+            .read_drives(&mut [DriveSample::default(); WIRES])
+            .unwrap_err();
+        assert!(matches!(e, DeviceError::Drives(ErrorKind::Disconnected)));
+        let e = hw.read_tensions(&mut [0.0; WIRES]).unwrap_err();
+        assert_eq!(videt_hal::Error::kind(&e), ErrorKind::Timeout);
+        let e = hw.is_pressed().unwrap_err();
+        assert_eq!(videt_hal::Error::kind(&e), ErrorKind::Fault);
+        let text = DeviceError::<&str, &str, &str>::EStop("line unreadable").to_string();
+        assert_eq!(text, "e-stop: line unreadable");
+    }
+
+    #[test]
+    fn the_drive_set_follows_the_configuration() {
+        let mut config = Config::default();
+        config.drives.node_ids = [4, 5, 6];
+        config.drives.rated_torque_nm = 0.08;
+        config.drives.heartbeat_ms = 20;
+        config.drives.heartbeat_timeout_ms = 70;
+        config.control.rate_hz = 2000;
+        let c = drive_set_config(&config);
+        assert_eq!(c.node_ids, [4, 5, 6]);
+        assert_eq!(c.rated_torque_nm, 0.08);
+        assert_eq!(c.drive_heartbeat_ms, 20);
+        assert_eq!(c.drive_heartbeat_timeout, Duration::from_millis(70));
+        assert_eq!(c.control_period, Duration::from_micros(500));
+        assert_eq!(c.t_max_n, config.control.t_max_n);
+        c.validate().unwrap();
+        let scales = nominal_tension_scales(&config);
+        assert_eq!(
+            scales[2].newtons_per_count,
+            config.sensors.newtons_per_count[2]
+        );
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_device_that_is_absent_is_named_with_its_configuration_field() {
+        let mut config = Config::default();
+        config.sensors.gpio_chip = "/dev/no-such-gpiochip".into();
+        let e = open_device(&config).unwrap_err();
+        assert!(
+            e.contains("/dev/no-such-gpiochip line 17 (e-stop)")
+                && e.contains("(sensors.gpio_chip, sensors.estop_line)"),
+            "{e}"
+        );
+    }
+}
