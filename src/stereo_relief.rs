@@ -46,12 +46,15 @@ const DEPTH_PERCENTILES: [f64; 2] = [0.02, 0.98];
 #[derive(Debug, Clone, Copy, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PairCamera {
-    /// Rectified focal length, pixels (> 0; principal point = image centre).
+    /// Rectified focal length, pixels (> 0).
     pub focal_px: f64,
     /// Baseline, metres (> 0).
     pub baseline_m: f64,
     /// Largest disparity searched, pixels (> 0).
     pub max_disparity_px: f32,
+    /// Rectified principal point `[cx, cy]`, pixels (default: the image centre).
+    #[serde(default)]
+    pub principal_px: Option<[f64; 2]>,
 }
 
 impl PairCamera {
@@ -64,6 +67,7 @@ impl PairCamera {
             focal_px: f64::from(image_width_px.max(1)),
             baseline_m: 0.1,
             max_disparity_px: 64.0,
+            principal_px: None,
         }
     }
 
@@ -87,6 +91,11 @@ impl PairCamera {
                 "baseline_m = {} must be finite and > 0",
                 self.baseline_m
             ));
+        }
+        if let Some(p) = self.principal_px {
+            if !p.iter().all(|v| v.is_finite()) {
+                return Err(format!("principal_px = {p:?} must be finite"));
+            }
         }
         if !(self.max_disparity_px.is_finite() && (1.0..=1000.0).contains(&self.max_disparity_px)) {
             return Err(format!(
@@ -202,12 +211,17 @@ impl StereoPair {
         Ok((pair, nominal))
     }
 
-    /// The rectified geometry (principal point at the image centre).
+    /// The rectified geometry (principal point at the image centre unless the camera gives
+    /// one).
     pub fn geometry(&self) -> RectifiedGeometry {
+        let [cx_px, cy_px] = self.camera.principal_px.unwrap_or([
+            (f64::from(self.left.width()) - 1.0) / 2.0,
+            (f64::from(self.left.height()) - 1.0) / 2.0,
+        ]);
         RectifiedGeometry {
             focal_px: self.camera.focal_px,
-            cx_px: (f64::from(self.left.width()) - 1.0) / 2.0,
-            cy_px: (f64::from(self.left.height()) - 1.0) / 2.0,
+            cx_px,
+            cy_px,
             baseline_m: self.camera.baseline_m,
         }
     }

@@ -213,6 +213,14 @@ pub struct VisionConfig {
     pub surface_max_age_s: f64,
     /// Time over which forces fade on a stale surface, seconds.
     pub surface_fade_s: f64,
+    /// The rig's stereo calibration (`videt calibrate-stereo --out FILE`): without it the
+    /// device renders the check wall instead of the scene.
+    pub stereo_calibration: String,
+    /// Time between two reliefs built from fresh camera frames, seconds.
+    pub rebuild_period_s: f64,
+    /// Largest disparity searched in the rectified pair, pixels (sets the nearest depth seen:
+    /// focal x baseline / disparity).
+    pub max_disparity_px: f64,
 }
 
 /// Per-cycle telemetry.
@@ -279,6 +287,9 @@ impl Default for VisionConfig {
             devices: ["/dev/video0".into(), "/dev/video2".into()],
             surface_max_age_s: 2.0,
             surface_fade_s: 0.5,
+            stereo_calibration: "/etc/videt/stereo.json".into(),
+            rebuild_period_s: 0.2,
+            max_disparity_px: 64.0,
         }
     }
 }
@@ -646,6 +657,25 @@ impl Config {
             0.0,
             10.0,
         )?;
+        if self.vision.stereo_calibration.is_empty() {
+            return Err(ConfigError::Invalid {
+                field: "vision.stereo_calibration".into(),
+                value: String::new(),
+                allowed: "a file path".into(),
+            });
+        }
+        in_range(
+            "vision.rebuild_period_s",
+            self.vision.rebuild_period_s,
+            0.02,
+            10.0,
+        )?;
+        in_range(
+            "vision.max_disparity_px",
+            self.vision.max_disparity_px,
+            1.0,
+            1000.0,
+        )?;
         in_range(
             "telemetry.ring_records",
             f64::from(self.telemetry.ring_records),
@@ -897,6 +927,8 @@ mod tests {
                 "vision.surface_max_age_s",
             ),
             ("[telemetry]\nring_records = 3\n", "telemetry.ring_records"),
+            ("[vision]\nrebuild_period_s = 0.0\n", "vision.rebuild_period_s"),
+            ("[vision]\nmax_disparity_px = 0.5\n", "vision.max_disparity_px"),
             ("[socket]\npath = \"\"\n", "socket.path"),
             (
                 "[control]\nslack_takeup_speed_m_s = 0.6\n",

@@ -12,7 +12,9 @@
 //!
 //! Without `--sim` it runs on the device: the CiA 402 drives on the SocketCAN interface, the
 //! strain-gauge converters and the e-stop that the configuration names, the geometry of the
-//! calibration file, and the check wall as the surface.
+//! calibration file, and the relief rebuilt from the cameras (built with `--features v4l`, a
+//! stereo calibration installed) or else the check wall. `--sim --scene camera:DIR` runs the
+//! same camera vision thread on the twin, with a folder of raw pairs as the camera.
 //!
 //! Forces are rendered only with a valid calibration (`videt init`); without one every wire is
 //! held at minimum tension and the log says why. On the twin, `--sim-calibration` chooses where
@@ -26,7 +28,7 @@ use clap::{Parser, ValueEnum};
 use tracing::{error, info, warn};
 use videt::can_twin::{self, CanTwin};
 use videt::cycle::WireZero;
-use videt::service::{run_service, ServiceOptions};
+use videt::service::{run_service, run_service_with, ServiceOptions};
 use videt::setup;
 use videt::snapshot::FixedSurface;
 use videt::twin_rt::RealTimeTwin;
@@ -43,6 +45,10 @@ enum SimScene {
     /// The bas-relief of a real stereo pair (the compiled-in demo pair, or a pair directory),
     /// re-matched around the finger on a vision thread and rendered through the proxy.
     Stereo(Option<PathBuf>),
+    /// Stereo pairs as a camera delivers them (a folder of raw left/right images played in a
+    /// loop), rectified with the stereo calibration and rebuilt into a relief again and again:
+    /// the device's vision thread, on the twin.
+    Camera(PathBuf),
 }
 
 fn parse_scene(text: &str) -> Result<SimScene, String> {
@@ -50,11 +56,13 @@ fn parse_scene(text: &str) -> Result<SimScene, String> {
         "wall" => Ok(SimScene::Wall),
         "box" => Ok(SimScene::Box),
         "stereo" => Ok(SimScene::Stereo(None)),
-        _ => match text.strip_prefix("stereo:") {
-            Some("") => Err("stereo:DIR needs a directory".into()),
-            Some(dir) => Ok(SimScene::Stereo(Some(PathBuf::from(dir)))),
-            None => Err(format!(
-                "unknown scene {text:?}: expected wall, box, stereo or stereo:DIR"
+        _ => match (text.strip_prefix("stereo:"), text.strip_prefix("camera:")) {
+            (Some(""), _) => Err("stereo:DIR needs a directory".into()),
+            (Some(dir), _) => Ok(SimScene::Stereo(Some(PathBuf::from(dir)))),
+            (_, Some("")) => Err("camera:DIR needs a directory".into()),
+            (_, Some(dir)) => Ok(SimScene::Camera(PathBuf::from(dir))),
+            _ => Err(format!(
+                "unknown scene {text:?}: expected wall, box, stereo, stereo:DIR or camera:DIR"
             )),
         },
     }
@@ -99,9 +107,16 @@ struct Args {
     /// (a bas-relief box built from known segments), `stereo` (the bas-relief of the compiled-in
     /// real stereo pair, Middlebury tsukuba, re-matched around the finger as it moves) or
     /// `stereo:DIR` (the same for the pair in DIR: left.png/right.png or .ppm, and optionally a
-    /// camera.toml with focal_px, baseline_m, max_disparity_px).
+    /// camera.toml with focal_px, baseline_m, max_disparity_px) or `camera:DIR` (the raw
+    /// pairs of DIR, `*left*`/`*right*` images, as a camera delivering them in a loop: rectified
+    /// with the stereo calibration and rebuilt into a relief every `vision.rebuild_period_s`).
+    /// Without --sim the scene is the cameras' when a stereo calibration is installed, else
+    /// the wall.
     #[arg(long, value_name = "SCENE", value_parser = parse_scene, default_value = "wall")]
     scene: SimScene,
+    /// Stereo calibration of the cameras (overrides vision.stereo_calibration).
+    #[arg(long, value_name = "FILE")]
+    stereo_calibration: Option<PathBuf>,
     /// Control socket path (overrides socket.path).
     #[arg(long, value_name = "PATH")]
     socket: Option<PathBuf>,
@@ -233,6 +248,13 @@ fn main() -> ExitCode {
     if args.sim == Some(SimMode::Can) && args.scene != SimScene::Wall {
         warn!("--scene applies to --sim (the HAL twin) only: the CAN twin touches the wall");
     }
+    if let Some(p) = &args.stereo_calibration {
+        config.vision.stereo_calibration = p.display().to_string();
+        options.config.vision.stereo_calibration = config.vision.stereo_calibration.clone();
+    }
+    if let (Some(SimMode::Hal), SimScene::Camera(dir)) = (args.sim, &args.scene) {
+        return run_camera_relief_demo(&config, rig, &options, args.sim_calibration, dir);
+    }
     if let (Some(SimMode::Hal), SimScene::Stereo(dir)) = (args.sim, &args.scene) {
         return run_stereo_relief_demo(
             &config,
@@ -263,6 +285,7 @@ fn main() -> ExitCode {
                 cycle,
                 &options,
                 &calibration_path,
+                videt::service::ServiceExtras::default(),
             )
         }
         Some(SimMode::Can) => {
@@ -291,12 +314,14 @@ fn main() -> ExitCode {
 }
 
 /// The service on the device: the drives on SocketCAN, the strain-gauge converters and the
-/// e-stop named by the configuration, the geometry of the calibration file; the wearer touches
-/// the check wall (a flat virtual wall in front of the frame, as on the twin).
+/// e-stop named by the configuration, the geometry of the calibration file. The wearer touches
+/// the relief of what the cameras see when a stereo calibration is installed
+/// (`vision.stereo_calibration`), else the check wall (a flat virtual wall in front of the
+/// frame, as on the twin) and the log says why.
 fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> ExitCode {
     if args.scene != SimScene::Wall {
         error!(
-            "--scene {:?} needs --sim: on the device the surface is the check wall",
+            "--scene {:?} needs --sim: on the device the surface is the cameras' or the check wall",
             args.scene
         );
         return ExitCode::from(2);
@@ -316,14 +341,6 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
         warn!("forces will not be rendered (not calibrated): {reason}");
     }
     let cycle = setup::control_cycle(config, state.rig, state.wire_zero, state.calibrated);
-    let (wall, wall_z_m) = setup::check_wall();
-    info!(
-        rate_hz = config.control.rate_hz,
-        can = %config.drives.can_interface,
-        adc = ?config.sensors.adc,
-        wall_z_m,
-        "device: the check wall in front of the frame"
-    );
     options.colour = None;
     let hw = match videt::hardware::open_device(config) {
         Ok(hw) => hw,
@@ -332,7 +349,191 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
             return ExitCode::FAILURE;
         }
     };
-    run_with_tension_correction(hw, FixedSurface(wall), cycle, options, &path)
+    info!(
+        rate_hz = config.control.rate_hz,
+        can = %config.drives.can_interface,
+        adc = ?config.sensors.adc,
+        "device opened"
+    );
+    match device_camera_feed(config) {
+        Ok(camera) => {
+            run_with_tension_correction(hw, camera.feed, cycle, options, &path, camera.extras)
+        }
+        Err(why) => {
+            let (wall, wall_z_m) = setup::check_wall();
+            warn!(
+                wall_z_m,
+                "the check wall is rendered instead of the scene: {why}"
+            );
+            run_with_tension_correction(
+                hw,
+                FixedSurface(wall),
+                cycle,
+                options,
+                &path,
+                videt::service::ServiceExtras::default(),
+            )
+        }
+    }
+}
+
+/// The device's cameras (`vision.devices`) feeding reliefs, rectified with
+/// `vision.stereo_calibration`.
+fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
+    use videt::camera_relief::{stereo_calibration_path, CalibratedRig};
+    let rig = CalibratedRig::load(&stereo_calibration_path(config))
+        .map_err(|e| format!("stereo calibration {e}"))?;
+    #[cfg(feature = "v4l")]
+    {
+        use videt_drivers::camera::v4l_stereo::{V4lStereo, V4lStereoConfig};
+        let [left, right] = &config.vision.devices;
+        let camera = V4lStereo::open(&V4lStereoConfig {
+            left: left.into(),
+            right: right.into(),
+            width: rig.size_px[0],
+            height: rig.size_px[1],
+            pair_tolerance: std::time::Duration::from_millis(10),
+            timeout: std::time::Duration::from_secs(1),
+            buffers: 4,
+        })
+        .map_err(|e| format!("cameras (vision.devices): {e}"))?;
+        start_camera_feed(config, camera, format!("cameras {left} + {right}"), rig)
+    }
+    #[cfg(not(feature = "v4l"))]
+    {
+        let _ = rig;
+        Err(
+            "this videtd is built without V4L2 capture (cargo build --release --features v4l)"
+                .into(),
+        )
+    }
+}
+
+/// A relief feed from a camera.
+struct CameraFeed {
+    /// What the control loop renders.
+    feed: videt::relief_feed::ReliefFeed,
+    /// The camera thread's counters on the status line.
+    extras: videt::service::ServiceExtras,
+    /// The first relief.
+    first: videt_vision::surface::ReliefModel,
+}
+
+/// Build the first relief from `camera` (rectified by `rig`), open the relief channel and
+/// start the thread that rebuilds it every `vision.rebuild_period_s`.
+fn start_camera_feed<C>(
+    config: &Config,
+    camera: C,
+    name: String,
+    rig: videt::camera_relief::CalibratedRig,
+) -> Result<CameraFeed, String>
+where
+    C: videt_hal::StereoCamera + Send + 'static,
+{
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+    use videt::camera_relief::{spawn_camera_updates, CameraRelief, CameraStats};
+    use videt::relief_scene::ReliefLayout;
+    let mut relief = CameraRelief::new(
+        camera,
+        name.clone(),
+        rig,
+        config.vision.max_disparity_px as f32,
+        ReliefLayout::for_config(config),
+    )?;
+    let (model, first) = relief.rebuild()?;
+    info!(
+        camera = %name,
+        matches = first.matches,
+        segments_3d = first.segments_3d,
+        depth_range_m = ?first.depth_range_m,
+        triangles = first.report.triangles,
+        pipeline_ms = first.pipeline_time.as_secs_f64() * 1e3,
+        build_ms = first.build_time.as_secs_f64() * 1e3,
+        "relief from the cameras, rebuilt every {} s",
+        config.vision.rebuild_period_s
+    );
+    let (writer, feed) = demo_relief_channel(config, model.clone())
+        .map_err(|_| "invalid relief settings (see above)".to_string())?;
+    let stats = Arc::new(CameraStats::default());
+    // The thread runs as long as the process: the service ends by exiting.
+    let stop = Arc::new(AtomicBool::new(false));
+    spawn_camera_updates(
+        relief,
+        writer,
+        std::time::Duration::from_secs_f64(config.vision.rebuild_period_s),
+        Arc::clone(&stats),
+        stop,
+    )
+    .map_err(|e| format!("cannot start the vision thread: {e}"))?;
+    let extras = videt::service::ServiceExtras {
+        thimble: None,
+        status_suffix: Some(Box::new(move || {
+            format!(
+                " | reliefs {} ({} failed), last {:.1} ms",
+                stats.rebuilds(),
+                stats.failures(),
+                stats.last_rebuild_us() as f64 / 1e3
+            )
+        })),
+    };
+    Ok(CameraFeed {
+        feed,
+        extras,
+        first: model,
+    })
+}
+
+/// The twin touching the relief of a folder of raw pairs played as a camera, through the same
+/// camera feed as the device.
+fn run_camera_relief_demo(
+    config: &Config,
+    rig: videt_control::Rig3,
+    options: &ServiceOptions,
+    calibration: SimCalibration,
+    dir: &std::path::Path,
+) -> ExitCode {
+    use videt::camera_relief::{stereo_calibration_path, CalibratedRig};
+    use videt::relief_scene::{sweep_operator, ReliefLayout, SweepPath};
+    let period = std::time::Duration::from_secs_f64(config.vision.rebuild_period_s);
+    let camera =
+        match videt_drivers::camera::file_source::FileStereoSource::from_folder(dir, period) {
+            Ok(c) => c.with_colour(false),
+            Err(e) => {
+                error!("camera scene: {e}");
+                return ExitCode::from(2);
+            }
+        };
+    let stereo_rig = match CalibratedRig::load(&stereo_calibration_path(config)) {
+        Ok(r) => r,
+        Err(e) => {
+            error!("camera scene: stereo calibration {e} (--stereo-calibration FILE)");
+            return ExitCode::from(2);
+        }
+    };
+    let camera_feed = match start_camera_feed(config, camera, dir.display().to_string(), stereo_rig)
+    {
+        Ok(f) => f,
+        Err(e) => {
+            error!("camera scene: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let mut scene = setup::demo_scene(config, 1);
+    let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
+    let layout = ReliefLayout::for_config(config);
+    let start = scene.twin.plant().position_m();
+    let (operator, _) = sweep_operator(&layout, &camera_feed.first, start, &SweepPath::default());
+    scene.twin.set_operator(operator);
+    info!("digital twin: a virtual operator sweeping across the relief of a camera's pairs");
+    let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
+    videt::service::run_service_with(
+        RealTimeTwin::new(scene.twin),
+        camera_feed.feed,
+        cycle,
+        options,
+        camera_feed.extras,
+    )
 }
 
 /// Run the service on `hw`, its tension readings corrected by the strain-gauge calibration
@@ -343,6 +544,7 @@ fn run_with_tension_correction<H, F>(
     cycle: videt::cycle::ControlCycle,
     options: &ServiceOptions,
     calibration_path: &std::path::Path,
+    extras: videt::service::ServiceExtras,
 ) -> ExitCode
 where
     H: videt_hal::Lifecycle
@@ -360,18 +562,19 @@ where
     match TensionCalibration::load(&tension_path) {
         Ok(tc) => {
             info!(file = %tension_path.display(), "tension readings corrected");
-            run_service(
+            run_service_with(
                 videt::init::corrected::CorrectedTensions::new(hw, tc),
                 feed,
                 cycle,
                 options,
+                extras,
             )
         }
         Err(e) => {
             if !matches!(e, CalibrationError::Missing { .. }) {
                 warn!("tension readings not corrected: {e}");
             }
-            run_service(hw, feed, cycle, options)
+            run_service_with(hw, feed, cycle, options, extras)
         }
     }
 }

@@ -14,9 +14,7 @@ use std::process::ExitCode;
 use clap::Args;
 use image::GrayImage;
 use videt_hal::GrayFrame;
-use videt_vision::calib::StereoCalibration;
 use videt_vision::io::{load_gray_image, write_results};
-use videt_vision::rectify::StereoRectifier;
 use videt_vision::surface::build_from_scene;
 use videt_vision::surface::export::write_surface_outputs;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
@@ -216,34 +214,19 @@ fn rectify_with_calibration(
     left: GrayImage,
     right: GrayImage,
 ) -> Result<(GrayImage, GrayImage, RectifiedGeometry), super::ToolError> {
-    let calibration =
-        StereoCalibration::load(path).map_err(|e| format!("--calib {}: {e}", path.display()))?;
-    if left.dimensions() != (calibration.image_width, calibration.image_height) {
+    let rig =
+        crate::camera_relief::CalibratedRig::load(path).map_err(|e| format!("--calib {e}"))?;
+    let [width, height] = rig.size_px;
+    if left.dimensions() != (width, height) {
         return Err(format!(
-            "the images are {}x{} but the calibration {} is for {}x{} images",
+            "the images are {}x{} but the calibration {} is for {width}x{height} images",
             left.width(),
             left.height(),
             path.display(),
-            calibration.image_width,
-            calibration.image_height
         )
         .into());
     }
-    let (p1, p2) = (calibration.p1(), calibration.p2());
-    if (p1[(0, 2)] - p2[(0, 2)]).abs() > 1e-6 {
-        return Err(format!(
-            "--calib {}: the rectified principal points differ (cx {} vs {}); \
-             rectify with zero disparity at infinity",
-            path.display(),
-            p1[(0, 2)],
-            p2[(0, 2)]
-        )
-        .into());
-    }
-    let geometry = RectifiedGeometry::from_projections(&p1, &p2)
-        .map_err(|e| format!("--calib {}: {e}", path.display()))?;
-    let rectifier = StereoRectifier::from_calibration(&calibration)
-        .map_err(|e| format!("--calib {}: {e}", path.display()))?;
+    let (geometry, rectifier) = (rig.geometry, rig.rectifier);
     let to_frame = |image: GrayImage| GrayFrame {
         width: image.width(),
         height: image.height(),

@@ -50,6 +50,11 @@ impl RtSpidev {
         )?;
         Ok(RtSpidev { device })
     }
+
+    /// An already opened and configured spidev device.
+    pub fn from_spidev(device: Spidev) -> RtSpidev {
+        RtSpidev { device }
+    }
 }
 
 /// An [`RtSpidev`] failure.

@@ -1,0 +1,174 @@
+//! Whole-stack tests of the vision thread on cameras: real frames of a real stereo rig (the
+//! shared chessboard set, played by the file camera), calibrated by `videt calibrate-stereo`,
+//! rectified, matched and built into reliefs, which the control loop renders on the twin.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use videt::camera_relief::{spawn_camera_updates, CalibratedRig, CameraRelief, CameraStats};
+use videt::relief_scene::ReliefLayout;
+use videt::snapshot::snapshot_channel;
+use videt_drivers::camera::file_source::FileStereoSource;
+use videt_rt_config::Config;
+
+/// The chessboard set and its calibration written into `dir` by the `videt` tool.
+fn calibrated_rig(dir: &Path) -> Option<(PathBuf, PathBuf)> {
+    let images = videt_testdata::data_dir("calib/chessboard")?;
+    let calibration = dir.join("stereo.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_videt"))
+        .args(["calibrate-stereo", "--images"])
+        .arg(&images)
+        .args(["--board", "9x6", "--square", "0.025", "--out"])
+        .arg(&calibration)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some((images, calibration))
+}
+
+fn camera(images: &Path) -> FileStereoSource {
+    FileStereoSource::from_folder(images, Duration::from_millis(200))
+        .unwrap()
+        .with_colour(false)
+}
+
+#[test]
+fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+        return;
+    };
+    let config = Config::default();
+    let layout = ReliefLayout::for_config(&config);
+    let rig = CalibratedRig::load(&calibration).unwrap();
+    assert_eq!(rig.size_px, [640, 480]);
+    let mut relief = CameraRelief::new(
+        camera(&images),
+        "chessboard".into(),
+        rig.clone(),
+        64.0,
+        layout,
+    )
+    .unwrap();
+    // Two different pairs of the set, each rectified, matched and built.
+    let mut builds = Vec::new();
+    for _ in 0..2 {
+        let (model, build) = relief.rebuild().unwrap();
+        assert!(build.segments_3d >= 3, "{} 3D segments", build.segments_3d);
+        assert!(build.report.triangles > 0);
+        drop(model);
+        builds.push((build.matches, build.segments_3d));
+    }
+    assert_ne!(
+        builds[0], builds[1],
+        "the second relief is of the next pair"
+    );
+    assert!(builds[0].1 >= 30, "first pair: {:?}", builds[0]);
+
+    // Frames of another size than the calibration's are refused with a clear message.
+    let small = tempfile::tempdir().unwrap();
+    let image = image::GrayImage::new(320, 240);
+    image.save(small.path().join("left.png")).unwrap();
+    image.save(small.path().join("right.png")).unwrap();
+    let mut wrong = CameraRelief::new(
+        camera(small.path()),
+        "small".into(),
+        rig.clone(),
+        64.0,
+        layout,
+    )
+    .unwrap();
+    let e = wrong.rebuild().unwrap_err();
+    assert_eq!(
+        e,
+        "small: the left frame is 320x240 but the stereo calibration is for 640x480 images"
+    );
+
+    // A camera that fails (its files are gone) leaves the published relief alone and is
+    // counted; the control loop then fades the stale relief out.
+    let gone = tempfile::tempdir().unwrap();
+    for name in ["left01.jpg", "right01.jpg"] {
+        std::fs::copy(images.join(name), gone.path().join(name)).unwrap();
+    }
+    let mut failing =
+        CameraRelief::new(camera(gone.path()), "gone".into(), rig, 64.0, layout).unwrap();
+    let (first, _) = failing.rebuild().unwrap();
+    for name in ["left01.jpg", "right01.jpg"] {
+        std::fs::remove_file(gone.path().join(name)).unwrap();
+    }
+    let (writer, mut reader) = snapshot_channel(first);
+    let stats = Arc::new(CameraStats::default());
+    let stop = Arc::new(AtomicBool::new(false));
+    let thread = spawn_camera_updates(
+        failing,
+        writer,
+        Duration::from_millis(5),
+        Arc::clone(&stats),
+        Arc::clone(&stop),
+    )
+    .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while stats.failures() < 3 {
+        assert!(Instant::now() < deadline, "no capture failure counted");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    thread.join().unwrap();
+    assert_eq!(stats.rebuilds(), 0);
+    assert_eq!(
+        reader.latest().version,
+        0,
+        "nothing published after the failure"
+    );
+}
+
+#[test]
+fn videtd_renders_the_relief_of_camera_frames_on_the_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+        return;
+    };
+    let logs = dir.path().join("logs");
+    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        .arg("--sim")
+        .arg("--scene")
+        .arg(format!("camera:{}", images.display()))
+        .arg("--stereo-calibration")
+        .arg(&calibration)
+        .args(["--duration", "4", "--no-socket", "--telemetry-dir"])
+        .arg(&logs)
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("relief from the cameras"), "{stderr}");
+    // The status lines count the reliefs rebuilt from fresh frames.
+    let last = stdout
+        .lines()
+        .chain(stderr.lines())
+        .filter_map(|l| l.split_once("| reliefs ").map(|(_, r)| r.to_string()))
+        .next_back()
+        .unwrap_or_else(|| panic!("no status line with reliefs: {stdout}{stderr}"));
+    let rebuilt: u64 = last.split_whitespace().next().unwrap().parse().unwrap();
+    assert!(rebuilt >= 2, "{last}");
+    assert!(last.contains("(0 failed)"), "{last}");
+    let log_file = std::fs::read_dir(&logs)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .next()
+        .unwrap();
+    let log = videt::telemetry::read_log(&log_file).unwrap();
+    let unsafe_state = log.records.iter().find(|r| r.safety.reason().is_some());
+    assert!(unsafe_state.is_none(), "{:?}", unsafe_state.map(|r| r.time));
+    let contact = log.records.iter().filter(|r| r.in_contact).count();
+    assert!(contact > 100, "in contact for {contact} periods only");
+}
