@@ -165,17 +165,24 @@ impl<C: StereoCamera> CameraRelief<C> {
 
 /// Rebuild the relief from the camera every `period` on a thread of its own, publishing each
 /// through `writer`, until `stop` is set. The first relief is expected to be published
-/// already (it starts the feed).
+/// already (it starts the feed). The thread runs SCHED_FIFO at `fifo_priority` when one is
+/// given (`realtime.vision_priority`, below the control thread's), else SCHED_OTHER.
 pub fn spawn_camera_updates<C: StereoCamera + Send + 'static>(
     mut relief: CameraRelief<C>,
     mut writer: SnapshotWriter<ReliefModel>,
     period: Duration,
     stats: Arc<CameraStats>,
     stop: Arc<AtomicBool>,
+    fifo_priority: Option<u8>,
 ) -> std::io::Result<std::thread::JoinHandle<()>> {
     std::thread::Builder::new()
         .name("videt-vision".into())
         .spawn(move || {
+            if let Some(p) = fifo_priority {
+                if let Err(e) = crate::rt::set_fifo(p) {
+                    tracing::warn!("the vision thread stays SCHED_OTHER (SCHED_FIFO {p}: {e})");
+                }
+            }
             let mut next = Instant::now() + period;
             while !stop.load(Ordering::Relaxed) {
                 let now = Instant::now();

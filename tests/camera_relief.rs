@@ -112,6 +112,7 @@ fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
         Duration::from_millis(5),
         Arc::clone(&stats),
         Arc::clone(&stop),
+        None,
     )
     .unwrap();
     let deadline = Instant::now() + Duration::from_secs(20);

@@ -464,6 +464,7 @@ where
         std::time::Duration::from_secs_f64(config.vision.rebuild_period_s),
         Arc::clone(&stats),
         stop,
+        (config.realtime.vision_priority > 0).then_some(config.realtime.vision_priority),
     )
     .map_err(|e| format!("cannot start the vision thread: {e}"))?;
     let extras = videt::service::ServiceExtras {
