@@ -202,6 +202,9 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
+    if let Some(p) = &args.stereo_calibration {
+        config.vision.stereo_calibration = p.display().to_string();
+    }
     let mut options = ServiceOptions::from_config(config.clone());
     options.duration_s = args.duration;
     // Where `videt init` through the control socket writes the calibration (the twin's default
@@ -248,10 +251,6 @@ fn main() -> ExitCode {
     if args.sim == Some(SimMode::Can) && args.scene != SimScene::Wall {
         warn!("--scene applies to --sim (the HAL twin) only: the CAN twin touches the wall");
     }
-    if let Some(p) = &args.stereo_calibration {
-        config.vision.stereo_calibration = p.display().to_string();
-        options.config.vision.stereo_calibration = config.vision.stereo_calibration.clone();
-    }
     if let (Some(SimMode::Hal), SimScene::Camera(dir)) = (args.sim, &args.scene) {
         return run_camera_relief_demo(&config, rig, &options, args.sim_calibration, dir);
     }
@@ -276,9 +275,7 @@ fn main() -> ExitCode {
                 &mut options,
                 "digital twin: a virtual wall, a virtual operator touching it and sliding along it",
             );
-            let calibration_path = args.calibration.clone().unwrap_or_else(|| {
-                videt::init::daemon::sim_state_dir().join("calibration-sim.toml")
-            });
+            let calibration_path = options.calibration_path.clone().unwrap_or_default();
             run_with_tension_correction(
                 RealTimeTwin::new(scene.twin),
                 FixedSurface(scene.wall),
@@ -326,10 +323,7 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
         );
         return ExitCode::from(2);
     }
-    let path = args
-        .calibration
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(&config.files.calibration));
+    let path = options.calibration_path.clone().unwrap_or_default();
     let state = match videt::init::daemon::load(config, &path) {
         Ok(s) => s,
         Err(e) => {
