@@ -7,7 +7,7 @@
 //! `vision.surface_max_age_s`, so a camera that stops never leaves a stale scene under the
 //! finger.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -207,11 +207,6 @@ pub fn spawn_camera_updates<C: StereoCamera + Send + 'static>(
                 }
             }
         })
-}
-
-/// Where the device's stereo calibration is looked for: `vision.stereo_calibration`.
-pub fn stereo_calibration_path(config: &videt_rt_config::Config) -> PathBuf {
-    PathBuf::from(&config.vision.stereo_calibration)
 }
 
 #[cfg(test)]

@@ -46,11 +46,6 @@ impl<D, T, E> DeviceHardware<D, T, E> {
             clock: SystemClock,
         }
     }
-
-    /// The drives.
-    pub fn drives(&self) -> &D {
-        &self.drives
-    }
 }
 
 /// A failure of one part of [`DeviceHardware`], carrying that part's own error.

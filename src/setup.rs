@@ -108,7 +108,7 @@ pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
     params.transmission = transmission(config);
     let centre = (params.guides_m[0] + params.guides_m[1] + params.guides_m[2]) / 3.0;
     let start = centre + videt_sim::Vec3::new(0.0, 0.0, 0.30);
-    let (_, wall_z_m) = check_wall();
+    let wall_z_m = CHECK_WALL_Z_M;
     let operator =
         VirtualOperator::touch_and_slide(start, wall_z_m, 0.02, 0.08, 6.0).repeating(6.0);
     let sensors = SensorModel {
@@ -116,10 +116,9 @@ pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
         ..SensorModel::default()
     };
     let twin = Twin::new(params, start, operator, sensors);
-    let (wall, wall_z_m) = check_wall();
     DemoScene {
         twin,
-        wall,
+        wall: check_wall(),
         wall_z_m,
     }
 }
@@ -128,12 +127,11 @@ pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
 pub const CHECK_WALL_Z_M: f64 = 0.33;
 
 /// The check wall: a flat virtual wall parallel to the frame, [`CHECK_WALL_Z_M`] in front of
-/// it, solid beyond, its outward normal towards the wearer (`-z`); with its distance.
-pub fn check_wall() -> (Plane, f64) {
-    let wall = Plane::new(
+/// it, solid beyond, its outward normal towards the wearer (`-z`).
+pub fn check_wall() -> Plane {
+    Plane::new(
         videt_control::Vec3::new(0.0, 0.0, CHECK_WALL_Z_M),
         videt_control::Vec3::new(0.0, 0.0, -1.0),
     )
-    .expect("constant wall is valid");
-    (wall, CHECK_WALL_Z_M)
+    .expect("constant wall is valid")
 }

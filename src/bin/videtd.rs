@@ -354,14 +354,13 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
             run_with_tension_correction(hw, camera.feed, cycle, options, &path, camera.extras)
         }
         Err(why) => {
-            let (wall, wall_z_m) = setup::check_wall();
             warn!(
-                wall_z_m,
+                wall_z_m = setup::CHECK_WALL_Z_M,
                 "the check wall is rendered instead of the scene: {why}"
             );
             run_with_tension_correction(
                 hw,
-                FixedSurface(wall),
+                FixedSurface(setup::check_wall()),
                 cycle,
                 options,
                 &path,
@@ -374,8 +373,8 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
 /// The device's cameras (`vision.devices`) feeding reliefs, rectified with
 /// `vision.stereo_calibration`.
 fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
-    use videt::camera_relief::{stereo_calibration_path, CalibratedRig};
-    let rig = CalibratedRig::load(&stereo_calibration_path(config))
+    use videt::camera_relief::CalibratedRig;
+    let rig = CalibratedRig::load(std::path::Path::new(&config.vision.stereo_calibration))
         .map_err(|e| format!("stereo calibration {e}"))?;
     #[cfg(feature = "v4l")]
     {
@@ -488,7 +487,7 @@ fn run_camera_relief_demo(
     calibration: SimCalibration,
     dir: &std::path::Path,
 ) -> ExitCode {
-    use videt::camera_relief::{stereo_calibration_path, CalibratedRig};
+    use videt::camera_relief::CalibratedRig;
     use videt::relief_scene::{sweep_operator, ReliefLayout, SweepPath};
     let period = std::time::Duration::from_secs_f64(config.vision.rebuild_period_s);
     let camera =
@@ -499,13 +498,14 @@ fn run_camera_relief_demo(
                 return ExitCode::from(2);
             }
         };
-    let stereo_rig = match CalibratedRig::load(&stereo_calibration_path(config)) {
-        Ok(r) => r,
-        Err(e) => {
-            error!("camera scene: stereo calibration {e} (--stereo-calibration FILE)");
-            return ExitCode::from(2);
-        }
-    };
+    let stereo_rig =
+        match CalibratedRig::load(std::path::Path::new(&config.vision.stereo_calibration)) {
+            Ok(r) => r,
+            Err(e) => {
+                error!("camera scene: stereo calibration {e} (--stereo-calibration FILE)");
+                return ExitCode::from(2);
+            }
+        };
     let camera_feed = match start_camera_feed(config, camera, dir.display().to_string(), stereo_rig)
     {
         Ok(f) => f,
