@@ -304,3 +304,65 @@ fn videtd_renders_forces_after_auto_initializing_its_twin_and_not_without_calibr
         assert!(daemon.wait().unwrap().success());
     }
 }
+
+/// Without --sim and without a running service, the motor subcommands open the device named by
+/// the configuration themselves. A missing part ends them with exit 22 and a message naming it
+/// and its configuration field, before any motor moves: the calibration files stay as they
+/// were, and the motors lock is free again afterwards. Bad arguments are refused before the
+/// device is opened.
+#[test]
+fn on_the_device_the_motor_subcommands_name_a_missing_part() {
+    let f = files();
+    let dir = f.lock.parent().unwrap().parent().unwrap();
+    let d = dir.display();
+    let config = dir.join("videt.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[files]\ncalibration = \"{cal}\"\nmotors_lock = \"{lock}\"\n\
+             [sensors]\ngpio_chip = \"{d}/gpiochip-absent\"\n\
+             [socket]\npath = \"{d}/videt.sock\"\n",
+            cal = p(&f.calibration),
+            lock = p(&f.lock),
+        ),
+    )
+    .unwrap();
+    for command in [
+        &["init"][..],
+        &["wire", "replace", "1"],
+        &["tension-calibrate", "1", "--mass-kg", "0.5"],
+    ] {
+        let mut args = command.to_vec();
+        args.extend_from_slice(&["--config", p(&config), "--json"]);
+        let out = videt(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(22), "{command:?}: {stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "device: GPIO {d}/gpiochip-absent line 17 (e-stop): "
+            )) && stderr.contains("(sensors.gpio_chip, sensors.estop_line)"),
+            "{command:?}: {stderr}"
+        );
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["error"], "device", "{v}");
+        assert_eq!(v["exit_code"], 22, "{v}");
+        assert!(!f.calibration.exists(), "{command:?} wrote a calibration");
+        drop(MotorsLock::acquire(&f.lock).expect("the lock is free again"));
+    }
+    let out = videt(&[
+        "tension-calibrate",
+        "1",
+        "--mass-kg",
+        "3",
+        "--config",
+        p(&config),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--mass-kg 3: must be in [0.05, 1.5] kg"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("gpiochip"), "{stderr}");
+}

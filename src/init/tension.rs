@@ -1,6 +1,8 @@
 //! Two-point calibration of one wire's strain gauge with a known weight: the reading with the
 //! wire unloaded (its end hanging free, the pulley released) and with the weight hanging on it
-//! (the motor balancing the weight, with damping against any motion), each averaged.
+//! (the motor balancing the weight, with damping against any motion), each averaged. The
+//! manual steps take the time a person takes: the motors hold the wires meanwhile, and the
+//! weight is caught as soon as it pulls.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -34,10 +36,34 @@ pub enum TensionStep {
     },
 }
 
+impl TensionStep {
+    /// What a person is asked to do.
+    pub fn instructions(&self) -> String {
+        match *self {
+            TensionStep::Unload { wire } => format!(
+                "wire {wire} is released: pull about 30 cm of it out of ring {wire}, unhook it from the thimble and let its end hang free and still with nothing on it; press Enter"
+            ),
+            TensionStep::HangWeight { wire, mass_kg } => format!(
+                "keep wire {wire}'s end in hand (the motor now pulls it gently), hang the {mass_kg:.3} kg weight on it and let go slowly: the motor takes its weight; when it hangs still, press Enter"
+            ),
+            TensionStep::Finish { wire } => format!(
+                "take the weight off wire {wire} and let the motor wind the wire back slowly; press Enter"
+            ),
+        }
+    }
+}
+
 /// Who performs the manual steps (a person prompted at the terminal, or the twin's technician).
+/// While a step is under way the wires are held as it needs: the calibrated wire released during
+/// [`TensionStep::Unload`], holding the weight once it pulls during [`TensionStep::HangWeight`],
+/// at the pay-out tension otherwise.
 pub trait TensionTechnician<H> {
-    /// Perform `step` and return once it is done.
+    /// Start `step`: the twin's technician does it at once; a person is told what to do.
     fn perform(&mut self, step: TensionStep, hw: &mut H) -> Result<(), Failure>;
+    /// Asked every period while `step`'s wires are held: whether the step is done.
+    fn step_done(&mut self, _step: TensionStep, _hw: &mut H) -> bool {
+        true
+    }
 }
 
 /// Why the calibration failed.
@@ -74,22 +100,26 @@ pub struct TensionPoint {
     pub loaded_reading_n: f64,
 }
 
-/// Average wire `wire`'s reading over `seconds` while applying `force` to it each period.
-fn average<H: InitHardware>(
+/// Drive wire `wire` with `force(reading_n, wind_speed_m_s)` (the last period's reading and
+/// winding speed; no torque at all when `released`), the other wires at the pay-out tension,
+/// until `until(hw, periods)` says so; returns the mean reading over those periods. Fails on an
+/// e-stop, a drive or sensor fault, or `stop`.
+#[allow(clippy::too_many_arguments)]
+fn hold_wire<H: InitHardware>(
     hw: &mut H,
     runner: &mut Runner,
     wire: usize,
-    seconds: f64,
     released: bool,
-    force: &mut dyn FnMut(f64) -> f64,
+    force: &mut dyn FnMut(f64, f64) -> f64,
     stop: &AtomicBool,
+    until: &mut dyn FnMut(&mut H, u32) -> bool,
 ) -> Result<f64, Failure> {
-    let periods = (seconds * f64::from(runner.settings().rate_hz)).max(1.0) as u32;
     let pay_out = runner.settings().pay_out_tension_n;
-    let (mut sum, mut wind_speed) = (0.0, 0.0);
-    for _ in 0..periods {
+    let (mut sum, mut periods) = (0.0, 0u32);
+    let (mut reading, mut wind_speed) = (0.0, 0.0);
+    loop {
         let mut f = [pay_out; WIRES];
-        f[wire] = force(wind_speed);
+        f[wire] = force(reading, wind_speed);
         let (r, ok) = runner.period(hw, &f, released.then_some(wire));
         if r.input.estop_pressed {
             let _ = hw.disable();
@@ -109,9 +139,34 @@ fn average<H: InitHardware>(
             return Err(Failure::Cancelled);
         }
         wind_speed = r.input.wind_speed_m_s[wire];
-        sum += r.tension_n[wire];
+        reading = r.tension_n[wire];
+        sum += reading;
+        periods += 1;
+        if until(hw, periods) {
+            return Ok(sum / f64::from(periods));
+        }
     }
-    Ok(sum / f64::from(periods))
+}
+
+/// The force that holds a weight pulling `load_n` on a wire still: its pull, less a damping
+/// against the wire's motion.
+fn weight_hold(load_n: f64, wind_speed_m_s: f64) -> f64 {
+    (load_n - 20.0 * wind_speed_m_s).clamp(0.0, 2.0 * load_n)
+}
+
+/// Check the wire and the weight before any motor moves.
+pub fn check_arguments(wire: usize, mass_kg: f64) -> Result<(), TensionCalibrationError> {
+    if wire >= WIRES {
+        return Err(TensionCalibrationError::Usage(format!(
+            "wire {wire} does not exist: wires are 0, 1, 2"
+        )));
+    }
+    if !(mass_kg.is_finite() && (0.05..=1.5).contains(&mass_kg)) {
+        return Err(TensionCalibrationError::Usage(format!(
+            "--mass-kg {mass_kg}: must be in [0.05, 1.5] kg (a load within the wire's 15 N)"
+        )));
+    }
+    Ok(())
 }
 
 /// Calibrate wire `wire`'s tension sensor with a weight of `mass_kg`. The hardware must be
@@ -124,31 +179,65 @@ pub fn calibrate_tension<H: InitHardware, T: TensionTechnician<H>>(
     mass_kg: f64,
     stop: &AtomicBool,
 ) -> Result<TensionPoint, TensionCalibrationError> {
-    if wire >= WIRES {
-        return Err(TensionCalibrationError::Usage(format!(
-            "wire {wire} does not exist: wires are 0, 1, 2"
-        )));
-    }
-    if !(mass_kg.is_finite() && (0.05..=1.5).contains(&mass_kg)) {
-        return Err(TensionCalibrationError::Usage(format!(
-            "--mass-kg {mass_kg}: must be in [0.05, 1.5] kg (a load within the wire's 15 N)"
-        )));
-    }
+    check_arguments(wire, mass_kg)?;
     let dev = TensionCalibrationError::Device;
     let load_n = mass_kg * GRAVITY_M_S2;
-    tech.perform(TensionStep::Unload { wire }, hw)
-        .map_err(dev)?;
+    let pay_out = runner.settings().pay_out_tension_n;
+    let periods = |seconds: f64| (seconds * f64::from(runner.settings().rate_hz)).max(1.0) as u32;
+    let (settle, measure) = (periods(0.5), periods(1.0));
+
     // Unloaded: the pulley released, the end hanging free; let it settle, then average.
-    average(hw, runner, wire, 0.5, true, &mut |_| 0.0, stop).map_err(dev)?;
-    let offset_n = average(hw, runner, wire, 1.0, true, &mut |_| 0.0, stop).map_err(dev)?;
-    tech.perform(TensionStep::HangWeight { wire, mass_kg }, hw)
-        .map_err(dev)?;
-    // Loaded: the motor balances the weight's pull, damped against motion.
-    let mut hold = |wind_speed_m_s: f64| (load_n - 20.0 * wind_speed_m_s).clamp(0.0, 2.0 * load_n);
-    average(hw, runner, wire, 0.5, false, &mut hold, stop).map_err(dev)?;
-    let loaded = average(hw, runner, wire, 1.0, false, &mut hold, stop).map_err(dev)?;
-    tech.perform(TensionStep::Finish { wire }, hw)
-        .map_err(dev)?;
+    let step = TensionStep::Unload { wire };
+    tech.perform(step, hw).map_err(dev)?;
+    let mut unloaded = |_: f64, _: f64| 0.0;
+    let mut step_done = |hw: &mut H, _: u32| tech.step_done(step, hw);
+    hold_wire(hw, runner, wire, true, &mut unloaded, stop, &mut step_done).map_err(dev)?;
+    hold_wire(hw, runner, wire, true, &mut unloaded, stop, &mut |_, n| {
+        n >= settle
+    })
+    .map_err(dev)?;
+    let offset_n = hold_wire(hw, runner, wire, true, &mut unloaded, stop, &mut |_, n| {
+        n >= measure
+    })
+    .map_err(dev)?;
+
+    // Loaded: while the weight is being hung the wire is held at the pay-out tension; once it
+    // pulls (the reading past half its weight) the motor balances it, damped against motion.
+    let step = TensionStep::HangWeight { wire, mass_kg };
+    tech.perform(step, hw).map_err(dev)?;
+    let mut hanging = |reading: f64, wind_speed: f64| {
+        if reading - offset_n > 0.5 * load_n {
+            weight_hold(load_n, wind_speed)
+        } else {
+            pay_out
+        }
+    };
+    let mut step_done = |hw: &mut H, _: u32| tech.step_done(step, hw);
+    hold_wire(hw, runner, wire, false, &mut hanging, stop, &mut step_done).map_err(dev)?;
+    let mut hold = |_: f64, wind_speed: f64| weight_hold(load_n, wind_speed);
+    hold_wire(hw, runner, wire, false, &mut hold, stop, &mut |_, n| {
+        n >= settle
+    })
+    .map_err(dev)?;
+    let loaded = hold_wire(hw, runner, wire, false, &mut hold, stop, &mut |_, n| {
+        n >= measure
+    })
+    .map_err(dev)?;
+
+    // The weight off, the wire wound back at the pay-out tension.
+    let step = TensionStep::Finish { wire };
+    tech.perform(step, hw).map_err(dev)?;
+    let mut step_done = |hw: &mut H, _: u32| tech.step_done(step, hw);
+    hold_wire(
+        hw,
+        runner,
+        wire,
+        false,
+        &mut |_, _| pay_out,
+        stop,
+        &mut step_done,
+    )
+    .map_err(dev)?;
     let change_n = loaded - offset_n;
     let gain = load_n / change_n;
     if !(gain.is_finite() && (0.5..=2.0).contains(&gain)) {

@@ -14,6 +14,7 @@ use videt_rt_config::Config;
 
 use crate::init::runner::{InitHardware, Runner};
 use crate::init::session::{Request, Technician};
+use crate::init::tension::{TensionStep, TensionTechnician};
 use crate::init::twin::{parse_fault, parse_guides, TwinSetup};
 use crate::init::{LockError, MotorsLock};
 use crate::socket::{request, Request as SocketRequest};
@@ -31,11 +32,12 @@ pub const EXIT_CALIBRATION_WRITE: u8 = 24;
 pub const EXIT_NO_BACKEND: u8 = 3;
 
 /// The exit codes, for `--help`.
-pub const EXIT_CODES_HELP: &str = "Exit codes: 0 done; 2 bad arguments or configuration; 3 no device backend (use --sim); \
+pub const EXIT_CODES_HELP: &str = "Exit codes: 0 done; 2 bad arguments or configuration; 3 no device backend on this system (use --sim); \
 10 e-stop pressed; 11 a limit was hit (tension, speed, length); 12 a wire is not connected (never moved); \
 13 a wire's tension never rose (broken or slipping); 14 the two measurements of a side disagree; \
 15 the sides violate the triangle inequality; 16 the triangle is degenerate; 17 drive fault; \
-18 tension-sensor fault; 19 timeout; 20 cancelled; 21 new wire too short; 22 the hardware would not start; \
+18 tension-sensor fault; 19 timeout; 20 cancelled (or no terminal to prompt, without --yes); 21 new wire too short; \
+22 the device could not be opened or would not start; \
 23 the motors are in use by another process (or videtd runs another procedure); 24 the calibration \
 could not be written; 25 a re-homed wire's stop moved; 26 the connection to videtd broke before the \
 procedure ended. When videtd answers on its control socket the procedure runs in videtd, on its \
@@ -261,6 +263,15 @@ pub fn stop_on_signals() -> Arc<AtomicBool> {
 pub struct TerminalTechnician {
     /// Do not wait.
     pub yes: bool,
+    /// Told when Enter is pressed, during a tension-calibration step.
+    enter: Option<std::sync::mpsc::Receiver<()>>,
+}
+
+impl TerminalTechnician {
+    /// A technician at this terminal; with `yes` the steps are taken as done already.
+    pub fn new(yes: bool) -> TerminalTechnician {
+        TerminalTechnician { yes, enter: None }
+    }
 }
 
 impl<H: InitHardware> Technician<H> for TerminalTechnician {
@@ -290,6 +301,25 @@ impl<H: InitHardware> Technician<H> for TerminalTechnician {
 
     fn inform(&mut self, message: &str) {
         eprintln!("videt: {message}");
+    }
+}
+
+impl<H: InitHardware> TensionTechnician<H> for TerminalTechnician {
+    fn perform(&mut self, step: TensionStep, _hw: &mut H) -> Result<(), Failure> {
+        eprintln!("videt: {}", step.instructions());
+        self.enter = None;
+        if self.yes {
+            return Ok(());
+        }
+        if !std::io::stdin().is_terminal() {
+            return Err(Failure::Cancelled);
+        }
+        self.enter = Some(enter_pressed());
+        Ok(())
+    }
+
+    fn step_done(&mut self, _step: TensionStep, _hw: &mut H) -> bool {
+        self.enter.as_ref().is_none_or(|rx| rx.try_recv().is_ok())
     }
 }
 

@@ -6,17 +6,18 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
 use clap::Args;
-use videt_hal::{Lifecycle, WireDrives};
 use videt_rt_config::calibration::{
     backup_path, Calibration, CalibrationError, TensionCalibration,
 };
 use videt_rt_config::Config;
 
-use super::device::{stop_on_signals, DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_CODES_HELP};
+use super::device::{DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_CODES_HELP};
+use super::motors::{on_motors, MotorJob};
 use super::ToolResult;
+use crate::init::remote::ProcedureDevice;
 use crate::init::runner::Runner;
-use crate::init::session::{self, run_settings, FlowContext, InitError, InitOutcome};
-use crate::init::twin::{rest_twin, SimTechnician};
+use crate::init::session::{self, run_settings, FlowContext, InitOutcome, Technician};
+use crate::init::tension::TensionTechnician;
 
 /// Arguments of `videt init`.
 #[derive(Debug, Args)]
@@ -79,27 +80,79 @@ pub fn summary(c: &Calibration, path: &Path) -> String {
     )
 }
 
-/// What a motor-driving flow does once the hardware is up.
-pub type Flow<'a, H, T> =
-    dyn FnMut(&mut H, &mut T, &mut Runner, &FlowContext<'_>) -> Result<InitOutcome, InitError> + 'a;
+/// A motor-driving flow of the rig's calibration.
+#[derive(Debug, Clone, Copy)]
+pub enum Flow {
+    /// `videt init`.
+    Initialize,
+    /// `videt wire replace N`: the new yarn must be usable to `required_m`.
+    ReplaceWire {
+        /// The wire.
+        wire: usize,
+        /// Usable length the workspace needs, metres.
+        required_m: f64,
+    },
+}
 
-/// Lock the motors, run `flow` on the twin (or report that no device backend is built in),
+/// A flow run as a [`MotorJob`].
+struct FlowJob<'a> {
+    flow: Flow,
+    config: &'a Config,
+    /// The file the calibration goes to (named by failure messages).
+    calibration_path: &'a Path,
+}
+
+impl MotorJob for FlowJob<'_> {
+    type Output = InitOutcome;
+
+    fn run<H, T>(
+        &mut self,
+        hw: &mut H,
+        tech: &mut T,
+        runner: &mut Runner,
+        source: &'static str,
+        stop: &AtomicBool,
+    ) -> Result<InitOutcome, Exit>
+    where
+        H: ProcedureDevice,
+        T: Technician<H> + TensionTechnician<H>,
+    {
+        let ctx = FlowContext {
+            config: self.config,
+            source,
+            stop,
+        };
+        match self.flow {
+            Flow::Initialize => session::initialize(hw, tech, runner, &ctx),
+            Flow::ReplaceWire { wire, required_m } => {
+                session::replace_wire(hw, tech, runner, &ctx, wire, required_m)
+            }
+        }
+        .map_err(|e| {
+            Exit::new(
+                e.exit_code(),
+                e.name(),
+                session::failure_message(&e, self.calibration_path),
+            )
+        })
+    }
+}
+
+/// Lock the motors, run `flow` on the twin (`--sim`, whose technician fits yarns of
+/// `sim_new_wire_length_m` when given) or on the device with the technician at the terminal,
 /// save the calibration on success, report. Shared by `init` and `wire replace`.
 pub fn run_flow(
     device: &DeviceArgs,
     config: &Config,
-    flow: &mut Flow<'_, videt_sim::Twin, SimTechnician>,
+    sim_new_wire_length_m: Option<f64>,
+    flow: Flow,
 ) -> Result<ExitCode, Exit> {
     let calibration_path = device.calibration_path(config);
     // Check every argument before touching anything.
-    let setup = device.twin_setup(config)?;
-    let _lock = device.lock_motors(config)?;
-    if !device.sim {
-        return Err(device.no_backend());
+    let mut setup = device.twin_setup(config)?;
+    if let Some(l) = sim_new_wire_length_m {
+        setup.new_wire_length_m = l;
     }
-    let mut twin = rest_twin(config, &setup);
-    let mut tech = SimTechnician::new(&setup);
-    tech.echo = true;
     let mut runner = Runner::new(run_settings(config));
     // The strain gauges' own calibration, when `videt tension-calibrate` wrote one.
     let tension_path = TensionCalibration::path_beside(&calibration_path);
@@ -114,24 +167,17 @@ pub fn run_flow(
         Err(CalibrationError::Missing { .. }) => {}
         Err(e) => eprintln!("videt: tension readings not corrected: {e}"),
     }
-    let stop = stop_on_signals();
-    let stop: &AtomicBool = &stop;
-    let ctx = FlowContext {
+    let outcome = on_motors(
+        device,
         config,
-        source: "twin",
-        stop,
-    };
-    let result =
-        session::start(&mut twin).and_then(|()| flow(&mut twin, &mut tech, &mut runner, &ctx));
-    let _ = twin.disable();
-    let _ = twin.deactivate();
-    let outcome = result.map_err(|e| {
-        Exit::new(
-            e.exit_code(),
-            e.name(),
-            session::failure_message(&e, &calibration_path),
-        )
-    })?;
+        &setup,
+        runner,
+        &mut FlowJob {
+            flow,
+            config,
+            calibration_path: &calibration_path,
+        },
+    )?;
     outcome.calibration.save(&calibration_path).map_err(|e| {
         Exit::new(
             EXIT_CALIBRATION_WRITE,
@@ -180,9 +226,7 @@ pub fn run(args: &InitArgs) -> ToolResult {
             )?;
             return run_through_service(device, &socket, &request);
         }
-        run_flow(device, &config, &mut |hw, tech, runner, ctx| {
-            session::initialize(hw, tech, runner, ctx)
-        })
+        run_flow(device, &config, None, Flow::Initialize)
     });
     Ok(result.unwrap_or_else(|e| e.report(device.json)))
 }

@@ -9,6 +9,7 @@ pub mod config;
 pub mod device;
 pub mod init;
 pub mod log;
+pub mod motors;
 pub mod service;
 pub mod status;
 pub mod tension_calibrate;

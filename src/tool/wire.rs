@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 use videt_rt_config::calibration::Calibration;
 
 use super::device::{DeviceArgs, Exit, EXIT_CODES_HELP, EXIT_USAGE};
-use super::init::run_flow;
+use super::init::{run_flow, Flow};
 use super::ToolResult;
 use crate::init::session::{self, InitError};
 
@@ -82,20 +82,13 @@ fn replace(args: &ReplaceArgs) -> Result<ExitCode, Exit> {
         // Winding a long new yarn back must not count as a runaway.
         config.autoinit.max_wind_travel_m = config.autoinit.max_wind_travel_m.max(l + 0.1);
     }
-    run_flow_with_length(device, &config, new_length, args.wire, required_m)
-}
-
-fn run_flow_with_length(
-    device: &DeviceArgs,
-    config: &videt_rt_config::Config,
-    new_length_m: Option<f64>,
-    wire: usize,
-    required_m: f64,
-) -> Result<ExitCode, Exit> {
-    run_flow(device, config, &mut |hw, tech, runner, ctx| {
-        if let Some(l) = new_length_m {
-            tech.set_new_wire_length_m(l);
-        }
-        session::replace_wire(hw, tech, runner, ctx, wire, required_m)
-    })
+    run_flow(
+        device,
+        &config,
+        new_length,
+        Flow::ReplaceWire {
+            wire: args.wire,
+            required_m,
+        },
+    )
 }
