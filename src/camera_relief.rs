@@ -13,9 +13,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use image::GrayImage;
-use videt_hal::{GrayFrame, StereoCamera, StereoFrame};
+use videt_hal::{GrayFrame, RgbFrame, StereoCamera, StereoFrame};
 use videt_vision::calib::StereoCalibration;
-use videt_vision::rectify::StereoRectifier;
+use videt_vision::rectify::{RgbPlanes, StereoRectifier};
 use videt_vision::surface::ReliefModel;
 use videt_vision::RectifiedGeometry;
 
@@ -90,6 +90,15 @@ pub struct CameraRelief<C> {
     frame: StereoFrame,
     left: GrayFrame,
     right: GrayFrame,
+    colour: Option<ColourPublisher>,
+}
+
+/// Where the rectified left colour frames go (the colour thread), and the buffers they are
+/// rectified through.
+struct ColourPublisher {
+    writer: SnapshotWriter<RgbFrame>,
+    rectified: RgbFrame,
+    planes: RgbPlanes,
 }
 
 impl<C: StereoCamera> CameraRelief<C> {
@@ -121,7 +130,20 @@ impl<C: StereoCamera> CameraRelief<C> {
             frame: StereoFrame::default(),
             left: GrayFrame::default(),
             right: GrayFrame::default(),
+            colour: None,
         })
+    }
+
+    /// Also publish each captured left colour frame, rectified like the grey one, through
+    /// `writer` (for the colour under the finger). A camera that delivers no colour publishes
+    /// nothing.
+    pub fn with_colour(mut self, writer: SnapshotWriter<RgbFrame>) -> Self {
+        self.colour = Some(ColourPublisher {
+            writer,
+            rectified: RgbFrame::default(),
+            planes: RgbPlanes::default(),
+        });
+        self
     }
 
     /// Capture the next pair and rectify it.
@@ -143,6 +165,17 @@ impl<C: StereoCamera> CameraRelief<C> {
             .rectifier
             .apply(&self.frame, &mut self.left, &mut self.right)
             .map_err(|e| format!("{name}: rectification: {e}"))?;
+        if let (Some(colour), Some(rgb)) = (self.colour.as_mut(), self.frame.left_rgb.as_ref()) {
+            self.rig
+                .rectifier
+                .left
+                .apply_rgb(rgb, &mut colour.rectified, &mut colour.planes)
+                .map_err(|e| format!("{name}: rectification of the colour frame: {e}"))?;
+            let rectified = &colour.rectified;
+            colour
+                .writer
+                .publish_with(|slot| slot.clone_from(rectified));
+        }
         let image = |f: &GrayFrame| {
             GrayImage::from_raw(f.width, f.height, f.data.clone())
                 .ok_or_else(|| format!("{name}: rectified frame of inconsistent size"))

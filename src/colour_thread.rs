@@ -11,7 +11,7 @@
 //! stops. Nothing on this thread allocates after start-up.
 
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
 use tracing::{error, info, warn};
@@ -139,6 +139,47 @@ pub fn demo_scene_map(
     )
 }
 
+/// Where the colour thread's vibration goes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum ColourOutputs {
+    /// The twin's recording vibrotactors.
+    Recording,
+    /// The device's vibrotactors: three lines of a GPIO character device.
+    Gpio {
+        /// The chip, e.g. `/dev/gpiochip0` (`sensors.gpio_chip`).
+        chip: String,
+        /// Red, green and blue lines (`sensors.vibrotactor_lines`).
+        lines: [u32; 3],
+    },
+}
+
+/// The reading end of the colour frames a camera thread publishes, handed to the colour thread
+/// once, when it starts.
+#[derive(Clone, Default)]
+pub struct CameraColourFrames(Arc<Mutex<Option<SnapshotReader<RgbFrame>>>>);
+
+impl std::fmt::Debug for CameraColourFrames {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("CameraColourFrames")
+    }
+}
+
+impl CameraColourFrames {
+    /// A channel: the writer for the camera thread, this for the colour source. Until the
+    /// camera publishes, the colour thread sees an empty frame (and stays quiet).
+    pub fn channel() -> (SnapshotWriter<RgbFrame>, CameraColourFrames) {
+        let (writer, reader) = snapshot_channel(RgbFrame::default());
+        (
+            writer,
+            CameraColourFrames(Arc::new(Mutex::new(Some(reader)))),
+        )
+    }
+
+    fn take(&self) -> Option<SnapshotReader<RgbFrame>> {
+        self.0.lock().ok()?.take()
+    }
+}
+
 /// What the colour thread renders from: the initial frame and the settings.
 #[derive(Debug, Clone)]
 pub struct ColourSource {
@@ -146,6 +187,46 @@ pub struct ColourSource {
     pub frame: RgbFrame,
     /// Sampling, quantization, pattern, mapping.
     pub settings: ColourSettings,
+    /// Where the vibration goes.
+    pub outputs: ColourOutputs,
+    /// Frames a camera publishes (`None`: `frame` only, or what is published through
+    /// [`ColourRuntime::frames`]).
+    pub camera_frames: Option<CameraColourFrames>,
+}
+
+/// The colour source of a camera scene: the colour under the finger from the rectified left
+/// camera frames the camera thread publishes on the returned writer, mapped to the workspace
+/// as the camera's relief is (`layout` over images of `image_size_px`), default sampling,
+/// quantization and pattern.
+pub fn camera_colour(
+    layout: &crate::relief_scene::ReliefLayout,
+    image_size_px: [u32; 2],
+    outputs: ColourOutputs,
+) -> Result<(ColourSource, SnapshotWriter<RgbFrame>), ColourThreadError> {
+    // The scene depth range does not enter the workspace-to-image mapping.
+    let map = layout
+        .params(image_size_px, [0.5, 5.0])
+        .map_err(config_error)?
+        .scene_map;
+    let (writer, frames) = CameraColourFrames::channel();
+    let source = ColourSource {
+        frame: RgbFrame::default(),
+        settings: default_settings(map),
+        outputs,
+        camera_frames: Some(frames),
+    };
+    Ok((source, writer))
+}
+
+/// Default sampling, quantization and pattern over `map`.
+fn default_settings(map: SceneMap) -> ColourSettings {
+    ColourSettings {
+        map,
+        sampler: SamplerConfig::default(),
+        quantizer: QuantizerConfig::default(),
+        pattern: PatternConfig::default(),
+        ticks_per_period: 20,
+    }
 }
 
 /// The twin's colour source for `videtd --sim`: the demo image over the explored area, default
@@ -163,13 +244,9 @@ pub fn demo_colour(
         demo_scene_map(guides_m, wall_z_m, [frame.width, frame.height]).map_err(config_error)?;
     Ok(ColourSource {
         frame,
-        settings: ColourSettings {
-            map,
-            sampler: SamplerConfig::default(),
-            quantizer: QuantizerConfig::default(),
-            pattern: PatternConfig::default(),
-            ticks_per_period: 20,
-        },
+        settings: default_settings(map),
+        outputs: ColourOutputs::Recording,
+        camera_frames: None,
     })
 }
 
@@ -269,33 +346,85 @@ where
     Ok((handles, join))
 }
 
-/// The colour thread as the service runs it: on the twin's recording vibrotactors and the
-/// system clock.
+/// The colour thread's join handle, by the vibrotactors it drives.
+enum ColourJoinOn {
+    Recording(ColourJoin<RecordingVibrotactors<SystemClock>>),
+    #[cfg(target_os = "linux")]
+    Gpio(
+        ColourJoin<
+            videt_drivers::gpio::vibro::VibrotactorOutputs<videt_drivers::gpio::linux::CdevPin>,
+        >,
+    ),
+}
+
+/// The colour thread as the service runs it: on the twin's recording vibrotactors or the
+/// device's GPIO ones, on the system clock.
 pub struct ColourRuntime {
     handles: ColourHandles,
-    join: ColourJoin<RecordingVibrotactors<SystemClock>>,
-    /// Where a camera publishes newer frames (kept so the channel lives as long as the thread).
-    pub frames: SnapshotWriter<RgbFrame>,
+    join: ColourJoinOn,
+    /// Where newer frames are published, unless a camera publishes them
+    /// ([`ColourSource::camera_frames`]).
+    pub frames: Option<SnapshotWriter<RgbFrame>>,
 }
 
 impl ColourRuntime {
-    /// Start the colour thread for `source`, reading thimble states from `thimble`.
+    /// Start the colour thread for `source`, reading thimble states from `thimble`. Fails when
+    /// the vibrotactors cannot be opened (the message names the lines and their fields).
     pub fn start(
         source: &ColourSource,
         thimble: SnapshotReader<ThimbleState>,
         fifo_priority: Option<u8>,
     ) -> Result<ColourRuntime, ColourThreadError> {
-        let (frames, frame_reader) = snapshot_channel(source.frame.clone());
-        let vibrotactors = RecordingVibrotactors::new(SystemClock, TWIN_EDGE_CAPACITY);
-        let (handles, join) = spawn_colour_thread(
-            vibrotactors,
-            SystemClock,
-            source.settings,
-            thimble,
-            frame_reader,
-            fifo_priority,
-        )
-        .map_err(|e| ColourThreadError::Config(format!("cannot start the colour thread: {e}")))?;
+        let (frames, frame_reader) = match source.camera_frames.as_ref().and_then(|f| f.take()) {
+            Some(reader) => (None, reader),
+            None => {
+                let (writer, reader) = snapshot_channel(source.frame.clone());
+                (Some(writer), reader)
+            }
+        };
+        let cannot_start = |e: std::io::Error| {
+            ColourThreadError::Config(format!("cannot start the colour thread: {e}"))
+        };
+        let (handles, join) = match &source.outputs {
+            ColourOutputs::Recording => {
+                let vibrotactors = RecordingVibrotactors::new(SystemClock, TWIN_EDGE_CAPACITY);
+                let (handles, join) = spawn_colour_thread(
+                    vibrotactors,
+                    SystemClock,
+                    source.settings,
+                    thimble,
+                    frame_reader,
+                    fifo_priority,
+                )
+                .map_err(cannot_start)?;
+                (handles, ColourJoinOn::Recording(join))
+            }
+            #[cfg(target_os = "linux")]
+            ColourOutputs::Gpio { chip, lines } => {
+                let vibrotactors =
+                    videt_drivers::gpio::linux::vibrotactors(chip, *lines).map_err(|e| {
+                        ColourThreadError::Config(format!(
+                            "vibrotactors: {e} (sensors.gpio_chip, sensors.vibrotactor_lines)"
+                        ))
+                    })?;
+                let (handles, join) = spawn_colour_thread(
+                    vibrotactors,
+                    SystemClock,
+                    source.settings,
+                    thimble,
+                    frame_reader,
+                    fifo_priority,
+                )
+                .map_err(cannot_start)?;
+                (handles, ColourJoinOn::Gpio(join))
+            }
+            #[cfg(not(target_os = "linux"))]
+            ColourOutputs::Gpio { .. } => {
+                return Err(ColourThreadError::Config(
+                    "GPIO vibrotactors need Linux".into(),
+                ))
+            }
+        };
         Ok(ColourRuntime {
             handles,
             join,
@@ -324,16 +453,28 @@ impl ColourRuntime {
     pub fn finish(self) {
         self.handles.inputs.set_active(false);
         self.handles.inputs.request_shutdown();
-        match self.join.join() {
-            Ok(Ok((jitter, vibro))) => info!(
+        let stopped = match self.join {
+            ColourJoinOn::Recording(join) => join.join().map(|r| {
+                r.map(|(jitter, vibro)| {
+                    let recorded = (vibro.edges().len(), vibro.dropped_edges());
+                    (jitter, Some(recorded))
+                })
+            }),
+            #[cfg(target_os = "linux")]
+            ColourJoinOn::Gpio(join) => join
+                .join()
+                .map(|r| r.map(|(jitter, _outputs)| (jitter, None))),
+        };
+        match stopped {
+            Ok(Ok((jitter, recorded))) => info!(
                 ticks = jitter.count() + 1,
                 p99_period_deviation_us = jitter
                     .p99_deviation_ns()
                     .map_or(f64::NAN, |v| v as f64 * 1e-3),
                 max_lateness_us = jitter.max_lateness_ns() as f64 * 1e-3,
                 missed_ticks = jitter.missed_ticks(),
-                edges = vibro.edges().len(),
-                dropped_edges = vibro.dropped_edges(),
+                edges = recorded.map(|r| r.0),
+                dropped_edges = recorded.map(|r| r.1),
                 "colour thread stopped: vibrotactors off"
             ),
             Ok(Err(e)) => error!("colour thread: {e}"),

@@ -33,6 +33,23 @@ fn calibrated_rig(dir: &Path) -> Option<(PathBuf, PathBuf)> {
     Some((images, calibration))
 }
 
+/// The first `pairs` pairs of the chessboard set in colour, written into `dir`: red the grey
+/// level, green half of it, blue a constant 77.
+fn colour_pairs(images: &Path, dir: &Path, pairs: usize) {
+    for k in 1..=pairs {
+        for side in ["left", "right"] {
+            let grey = image::open(images.join(format!("{side}{k:02}.jpg")))
+                .unwrap()
+                .to_luma8();
+            let colour = image::RgbImage::from_fn(grey.width(), grey.height(), |x, y| {
+                let g = grey.get_pixel(x, y)[0];
+                image::Rgb([g, g / 2, 77])
+            });
+            colour.save(dir.join(format!("{side}{k:02}.png"))).unwrap();
+        }
+    }
+}
+
 fn camera(images: &Path) -> FileStereoSource {
     FileStereoSource::from_folder(images, Duration::from_millis(200))
         .unwrap()
@@ -127,6 +144,104 @@ fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
         reader.latest().version,
         0,
         "nothing published after the failure"
+    );
+}
+
+/// A colour camera's left frames are published rectified, for the colour under the finger; a
+/// grey camera publishes none.
+#[test]
+fn a_colour_camera_publishes_its_rectified_left_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+        return;
+    };
+    let colour_dir = dir.path().join("colour");
+    std::fs::create_dir(&colour_dir).unwrap();
+    colour_pairs(&images, &colour_dir, 2);
+    let config = Config::default();
+    let layout = ReliefLayout::for_config(&config);
+    let rig = CalibratedRig::load(&calibration).unwrap();
+    let colour_camera =
+        FileStereoSource::from_folder(&colour_dir, Duration::from_millis(200)).unwrap();
+    let (writer, mut frames) = snapshot_channel(videt_hal::RgbFrame::default());
+    let mut relief = CameraRelief::new(colour_camera, "colour".into(), rig.clone(), 64.0, layout)
+        .unwrap()
+        .with_colour(writer);
+    let (_, build) = relief.rebuild().unwrap();
+    assert!(build.segments_3d >= 3, "{} 3D segments", build.segments_3d);
+    let published = frames.latest();
+    assert_eq!(published.version, 1);
+    let f = &published.value;
+    assert_eq!((f.width, f.height, f.data.len()), (640, 480, 640 * 480 * 3));
+    // Rectified channel by channel: every pixel with a source keeps the channels' relation
+    // (up to the interpolation's rounding); pixels without one are black.
+    let mut with_source = 0;
+    for p in f.data.chunks_exact(3) {
+        if p == [0, 0, 0] {
+            continue;
+        }
+        with_source += 1;
+        assert_eq!(p[2], 77, "{p:?}");
+        assert!((2 * i32::from(p[1]) - i32::from(p[0])).abs() <= 3, "{p:?}");
+    }
+    let expected = rig.rectifier.left.valid_fraction() * (640.0 * 480.0);
+    assert!(
+        (with_source as f64) > 0.98 * expected,
+        "{with_source} pixels with a source, {expected} expected"
+    );
+    // Not the raw frame: rectification moved it.
+    let raw = image::open(colour_dir.join("left01.png"))
+        .unwrap()
+        .to_rgb8();
+    assert_ne!(raw.as_raw(), &f.data);
+
+    let (writer, mut frames) = snapshot_channel(videt_hal::RgbFrame::default());
+    let mut grey = CameraRelief::new(camera(&images), "grey".into(), rig, 64.0, layout)
+        .unwrap()
+        .with_colour(writer);
+    grey.rebuild().unwrap();
+    assert_eq!(
+        frames.latest().version,
+        0,
+        "a grey camera publishes no colour"
+    );
+}
+
+/// On the twin, the colour under the finger comes from the camera's rectified left frames and
+/// is rendered as levels while the operator sweeps the relief.
+#[test]
+fn videtd_renders_the_colour_of_camera_frames_on_the_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+        return;
+    };
+    let colour_dir = dir.path().join("colour");
+    std::fs::create_dir(&colour_dir).unwrap();
+    colour_pairs(&images, &colour_dir, 3);
+    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        .arg("--sim")
+        .arg("--scene")
+        .arg(format!("camera:{}", colour_dir.display()))
+        .arg("--stereo-calibration")
+        .arg(&calibration)
+        .args(["--duration", "4", "--no-socket", "--no-telemetry"])
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    // `colour HLL rgb(...)`: the blue channel is 77 everywhere, a low-to-mid level.
+    let rendered: Vec<&str> = stdout
+        .lines()
+        .filter_map(|l| l.split_once("colour ").map(|(_, c)| c))
+        .filter(|c| c.contains("rgb("))
+        .collect();
+    assert!(!rendered.is_empty(), "no colour rendered: {stdout}{stderr}");
+    assert!(rendered.iter().all(|c| c.contains(" 77)")), "{rendered:?}");
+    assert!(
+        stderr.contains("colour thread stopped: vibrotactors off"),
+        "{stderr}"
     );
 }
 

@@ -159,3 +159,59 @@ fn videtd_sim_status_line_shows_the_colour() {
         "{stderr}"
     );
 }
+
+/// On the device the colour thread drives the GPIO vibrotactors named by the configuration; a
+/// chip that is not there is refused with a message naming the configuration fields (the
+/// service then runs without colour), and the colour frames a camera publishes reach the thread.
+#[test]
+fn device_vibrotactors_are_named_when_missing_and_camera_frames_reach_the_thread() {
+    use videt::colour_thread::{camera_colour, ColourOutputs, ColourRuntime};
+    use videt::relief_scene::ReliefLayout;
+    let config = Config::default();
+    let layout = ReliefLayout::for_config(&config);
+    let gpio = ColourOutputs::Gpio {
+        chip: "/nonexistent/gpiochip-absent".into(),
+        lines: config.sensors.vibrotactor_lines,
+    };
+    let (source, _writer) = camera_colour(&layout, [640, 480], gpio).unwrap();
+    let (_, thimble) = thimble_channel();
+    let Err(e) = ColourRuntime::start(&source, thimble, None) else {
+        panic!("opened vibrotactors on a missing chip");
+    };
+    let text = e.to_string();
+    assert!(
+        text.contains("/nonexistent/gpiochip-absent")
+            && text.contains("(sensors.gpio_chip, sensors.vibrotactor_lines)"),
+        "{text}"
+    );
+
+    // The camera's frames, over the relief's area: a red frame under the thimble is rendered.
+    let (source, mut writer) = camera_colour(&layout, [64, 48], ColourOutputs::Recording).unwrap();
+    let map = source.settings.map;
+    let (mut thimble_pub, thimble) = thimble_channel();
+    let runtime = ColourRuntime::start(&source, thimble, None).unwrap();
+    assert!(runtime.frames.is_none(), "the camera publishes the frames");
+    let [x, y] = map.image_to_workspace(32.0, 24.0);
+    let record = CycleRecord {
+        cycle: 1,
+        position_m: [x, y, 0.33],
+        safety: SafetyState::Normal,
+        ..CycleRecord::default()
+    };
+    thimble_pub.observe(&record, &WindowStats::default());
+    runtime.supervise(&record, false);
+    writer.publish_with(|f| {
+        *f = videt_hal::RgbFrame {
+            width: 64,
+            height: 48,
+            data: [230u8, 20, 20].repeat(64 * 48),
+        }
+    });
+    wait_for(runtime.handles(), |h| h.status_text().contains("rgb(230,"));
+    assert!(
+        runtime.status_text().starts_with("colour HLL"),
+        "{}",
+        runtime.status_text()
+    );
+    runtime.finish();
+}

@@ -252,7 +252,7 @@ fn main() -> ExitCode {
         warn!("--scene applies to --sim (the HAL twin) only: the CAN twin touches the wall");
     }
     if let (Some(SimMode::Hal), SimScene::Camera(dir)) = (args.sim, &args.scene) {
-        return run_camera_relief_demo(&config, rig, &options, args.sim_calibration, dir);
+        return run_camera_relief_demo(&config, rig, &mut options, args.sim_calibration, dir);
     }
     if let (Some(SimMode::Hal), SimScene::Stereo(dir)) = (args.sim, &args.scene) {
         return run_stereo_relief_demo(
@@ -351,6 +351,7 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
     );
     match device_camera_feed(config) {
         Ok(camera) => {
+            options.colour = camera.colour;
             run_with_tension_correction(hw, camera.feed, cycle, options, &path, camera.extras)
         }
         Err(why) => {
@@ -390,7 +391,17 @@ fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
             buffers: 4,
         })
         .map_err(|e| format!("cameras (vision.devices): {e}"))?;
-        start_camera_feed(config, camera, format!("cameras {left} + {right}"), rig)
+        let vibrotactors = videt::colour_thread::ColourOutputs::Gpio {
+            chip: config.sensors.gpio_chip.clone(),
+            lines: config.sensors.vibrotactor_lines,
+        };
+        start_camera_feed(
+            config,
+            camera,
+            format!("cameras {left} + {right}"),
+            rig,
+            vibrotactors,
+        )
     }
     #[cfg(not(feature = "v4l"))]
     {
@@ -410,6 +421,8 @@ struct CameraFeed {
     extras: videt::service::ServiceExtras,
     /// The first relief.
     first: videt_vision::surface::ReliefModel,
+    /// The colour under the finger from the camera's left frames.
+    colour: Option<videt::colour_thread::ColourSource>,
 }
 
 /// Build the first relief from `camera` (rectified by `rig`), open the relief channel and
@@ -419,6 +432,7 @@ fn start_camera_feed<C>(
     camera: C,
     name: String,
     rig: videt::camera_relief::CalibratedRig,
+    colour_outputs: videt::colour_thread::ColourOutputs,
 ) -> Result<CameraFeed, String>
 where
     C: videt_hal::StereoCamera + Send + 'static,
@@ -427,13 +441,26 @@ where
     use std::sync::Arc;
     use videt::camera_relief::{spawn_camera_updates, CameraRelief, CameraStats};
     use videt::relief_scene::ReliefLayout;
+    let layout = ReliefLayout::for_config(config);
+    // The colour under the finger, from the same left frames, mapped as the relief is.
+    let (colour, colour_frames) =
+        match videt::colour_thread::camera_colour(&layout, rig.size_px, colour_outputs) {
+            Ok((source, writer)) => (Some(source), Some(writer)),
+            Err(e) => {
+                warn!("colour rendering disabled: {e}");
+                (None, None)
+            }
+        };
     let mut relief = CameraRelief::new(
         camera,
         name.clone(),
         rig,
         config.vision.max_disparity_px as f32,
-        ReliefLayout::for_config(config),
+        layout,
     )?;
+    if let Some(writer) = colour_frames {
+        relief = relief.with_colour(writer);
+    }
     let (model, first) = relief.rebuild()?;
     info!(
         camera = %name,
@@ -475,6 +502,7 @@ where
         feed,
         extras,
         first: model,
+        colour,
     })
 }
 
@@ -483,7 +511,7 @@ where
 fn run_camera_relief_demo(
     config: &Config,
     rig: videt_control::Rig3,
-    options: &ServiceOptions,
+    options: &mut ServiceOptions,
     calibration: SimCalibration,
     dir: &std::path::Path,
 ) -> ExitCode {
@@ -492,7 +520,7 @@ fn run_camera_relief_demo(
     let period = std::time::Duration::from_secs_f64(config.vision.rebuild_period_s);
     let camera =
         match videt_drivers::camera::file_source::FileStereoSource::from_folder(dir, period) {
-            Ok(c) => c.with_colour(false),
+            Ok(c) => c,
             Err(e) => {
                 error!("camera scene: {e}");
                 return ExitCode::from(2);
@@ -506,8 +534,13 @@ fn run_camera_relief_demo(
                 return ExitCode::from(2);
             }
         };
-    let camera_feed = match start_camera_feed(config, camera, dir.display().to_string(), stereo_rig)
-    {
+    let camera_feed = match start_camera_feed(
+        config,
+        camera,
+        dir.display().to_string(),
+        stereo_rig,
+        videt::colour_thread::ColourOutputs::Recording,
+    ) {
         Ok(f) => f,
         Err(e) => {
             error!("camera scene: {e}");
@@ -521,6 +554,7 @@ fn run_camera_relief_demo(
     let (operator, _) = sweep_operator(&layout, &camera_feed.first, start, &SweepPath::default());
     scene.twin.set_operator(operator);
     info!("digital twin: a virtual operator sweeping across the relief of a camera's pairs");
+    options.colour = camera_feed.colour;
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     videt::service::run_service_with(
         RealTimeTwin::new(scene.twin),

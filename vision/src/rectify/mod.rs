@@ -32,7 +32,7 @@ mod layout;
 pub mod reference;
 
 use nalgebra::{Matrix3, Matrix3x4};
-use videt_hal::{GrayFrame, StereoFrame};
+use videt_hal::{GrayFrame, RgbFrame, StereoFrame};
 
 use crate::calib::{CalibError, CameraIntrinsics, StereoCalibration};
 use layout::RemapTable;
@@ -90,6 +90,59 @@ impl RectifyMap {
         kernel::remap(&self.table, &src.data, stride, &mut dst.data);
         for edge in &self.table.edge_pixels {
             dst.data[edge.index as usize] = reference::interpolate(&src.data, stride, &edge.entry);
+        }
+        Ok(())
+    }
+}
+
+/// The grey planes a colour frame is rectified through (reused between frames).
+#[derive(Debug, Clone, Default)]
+pub struct RgbPlanes {
+    source: GrayFrame,
+    rectified: GrayFrame,
+}
+
+impl RectifyMap {
+    /// Rectify the colour frame `src` into `dst`, each channel as a grey frame through
+    /// `planes`. `dst` and the planes are resized (allocating) only when their size differs
+    /// from the map's. Errors when `src` is not the calibrated size.
+    pub fn apply_rgb(
+        &self,
+        src: &RgbFrame,
+        dst: &mut RgbFrame,
+        planes: &mut RgbPlanes,
+    ) -> Result<(), CalibError> {
+        let n = self.width as usize * self.height as usize;
+        if src.width != self.width || src.height != self.height || src.data.len() != 3 * n {
+            return Err(CalibError::FrameSizeMismatch {
+                width: src.width,
+                height: src.height,
+                expected_width: self.width,
+                expected_height: self.height,
+            });
+        }
+        if dst.width != self.width || dst.height != self.height || dst.data.len() != 3 * n {
+            dst.width = self.width;
+            dst.height = self.height;
+            dst.data.clear();
+            dst.data.resize(3 * n, 0);
+        }
+        let source = &mut planes.source;
+        if source.width != self.width || source.height != self.height || source.data.len() != n {
+            source.width = self.width;
+            source.height = self.height;
+            source.data.clear();
+            source.data.resize(n, 0);
+        }
+        for channel in 0..3 {
+            let plane_data = &mut planes.source.data;
+            for (plane, pixel) in plane_data.iter_mut().zip(src.data.chunks_exact(3)) {
+                *plane = pixel[channel];
+            }
+            self.apply(&planes.source, &mut planes.rectified)?;
+            for (pixel, &plane) in dst.data.chunks_exact_mut(3).zip(&planes.rectified.data) {
+                pixel[channel] = plane;
+            }
         }
         Ok(())
     }
@@ -153,6 +206,53 @@ mod tests {
         Matrix3x4::new(
             cam.fx, 0.0, cam.cx, 0.0, 0.0, cam.fy, cam.cy, 0.0, 0.0, 0.0, 1.0, 0.0,
         )
+    }
+
+    #[test]
+    fn a_colour_frame_is_rectified_channel_by_channel_as_grey_frames_are() {
+        let (w, h) = (64u32, 48u32);
+        let cam = CameraIntrinsics {
+            dist: [-0.2, 0.05, 0.001, -0.002, 0.0],
+            ..identity_camera()
+        };
+        let r = nalgebra::Rotation3::from_euler_angles(0.01, -0.02, 0.03).into_inner();
+        let map = RectifyMap::new(&cam, &r, &projection(&identity_camera()), w, h);
+        let channel = |c: u32| GrayFrame {
+            width: w,
+            height: h,
+            data: (0..h)
+                .flat_map(|y| (0..w).map(move |x| ((x * (3 + c) + y * (2 + 5 * c)) % 256) as u8))
+                .collect(),
+        };
+        let planes = [channel(0), channel(1), channel(2)];
+        let src = RgbFrame {
+            width: w,
+            height: h,
+            data: (0..(w * h) as usize)
+                .flat_map(|i| planes.iter().map(move |p| p.data[i]))
+                .collect(),
+        };
+        let mut dst = RgbFrame::default();
+        let mut scratch = RgbPlanes::default();
+        map.apply_rgb(&src, &mut dst, &mut scratch).unwrap();
+        assert_eq!(
+            (dst.width, dst.height, dst.data.len()),
+            (w, h, (w * h * 3) as usize)
+        );
+        for (c, plane) in planes.iter().enumerate() {
+            let mut grey = GrayFrame::default();
+            map.apply(plane, &mut grey).unwrap();
+            let rectified: Vec<u8> = dst.data.chunks_exact(3).map(|p| p[c]).collect();
+            assert_eq!(rectified, grey.data, "channel {c}");
+        }
+        // The three channels differ, so a channel mix-up cannot pass.
+        assert_ne!(planes[0].data, planes[1].data);
+        let small = RgbFrame {
+            width: w - 1,
+            height: h,
+            data: vec![0; ((w - 1) * h * 3) as usize],
+        };
+        assert!(map.apply_rgb(&small, &mut dst, &mut scratch).is_err());
     }
 
     fn ramp(w: u32, h: u32) -> GrayFrame {
