@@ -274,6 +274,12 @@ fn classify(diagnoses: &[PairDiagnosis], min_support: u32) -> String {
     {
         return "photometric".into();
     }
+    if diagnoses
+        .iter()
+        .any(|d| matches!(d, PairDiagnosis::Unlisted))
+    {
+        return "meets the constraints, not a candidate".into();
+    }
     let mut names: Vec<String> = diagnoses
         .iter()
         .filter_map(|d| match d {

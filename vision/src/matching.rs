@@ -369,6 +369,9 @@ pub enum PairDiagnosis {
     Constraint(PairConstraint),
     /// The pair fails the photometric check with this error, grey levels.
     Photometric(f32),
+    /// The pair meets the weak constraints and no photometric check applies to it (a nearly
+    /// horizontal pair, or no images), yet it is not a candidate.
+    Unlisted,
     /// The pair is a candidate (the right segment alone or as a joined fragment).
     Candidate(CandidateDiagnosis),
 }
@@ -1067,7 +1070,7 @@ impl MatchWorkspace {
                     Some(images) if !horizontal => {
                         PairDiagnosis::Photometric(photometric_error(l, &c, images))
                     }
-                    _ => PairDiagnosis::Photometric(f32::NAN),
+                    _ => PairDiagnosis::Unlisted,
                 },
             };
         };
