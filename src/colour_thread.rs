@@ -346,22 +346,61 @@ where
     Ok((handles, join))
 }
 
-/// The colour thread's join handle, by the vibrotactors it drives.
-enum ColourJoinOn {
-    Recording(ColourJoin<RecordingVibrotactors<SystemClock>>),
+/// The vibrotactors the service drives: the twin's recording ones or the device's GPIO lines.
+pub enum ServiceVibrotactors {
+    /// The twin's.
+    Recording(RecordingVibrotactors<SystemClock>),
+    /// The device's (boxed: they are several times the twin's size).
     #[cfg(target_os = "linux")]
-    Gpio(
-        ColourJoin<
-            videt_drivers::gpio::vibro::VibrotactorOutputs<videt_drivers::gpio::linux::CdevPin>,
-        >,
-    ),
+    Gpio(Box<videt_drivers::gpio::vibro::VibrotactorOutputs<videt_drivers::gpio::linux::CdevPin>>),
+}
+
+impl ServiceVibrotactors {
+    /// Open the vibrotactors `outputs` names.
+    pub fn open(outputs: &ColourOutputs) -> Result<ServiceVibrotactors, ColourThreadError> {
+        match outputs {
+            ColourOutputs::Recording => Ok(ServiceVibrotactors::Recording(
+                RecordingVibrotactors::new(SystemClock, TWIN_EDGE_CAPACITY),
+            )),
+            #[cfg(target_os = "linux")]
+            ColourOutputs::Gpio { chip, lines } => {
+                videt_drivers::gpio::linux::vibrotactors(chip, *lines)
+                    .map(|v| ServiceVibrotactors::Gpio(Box::new(v)))
+                    .map_err(|e| {
+                        ColourThreadError::Config(format!(
+                            "vibrotactors: {e} (sensors.gpio_chip, sensors.vibrotactor_lines)"
+                        ))
+                    })
+            }
+            #[cfg(not(target_os = "linux"))]
+            ColourOutputs::Gpio { .. } => Err(ColourThreadError::Config(
+                "GPIO vibrotactors need Linux".into(),
+            )),
+        }
+    }
+}
+
+impl videt_hal::ErrorType for ServiceVibrotactors {
+    type Error = videt_hal::ErrorKind;
+}
+
+impl Vibrotactors for ServiceVibrotactors {
+    fn set_outputs(&mut self, on: &[bool; 3]) -> Result<(), videt_hal::ErrorKind> {
+        match self {
+            ServiceVibrotactors::Recording(v) => v.set_outputs(on),
+            #[cfg(target_os = "linux")]
+            ServiceVibrotactors::Gpio(v) => {
+                v.set_outputs(on).map_err(|e| videt_hal::Error::kind(&e))
+            }
+        }
+    }
 }
 
 /// The colour thread as the service runs it: on the twin's recording vibrotactors or the
 /// device's GPIO ones, on the system clock.
 pub struct ColourRuntime {
     handles: ColourHandles,
-    join: ColourJoinOn,
+    join: ColourJoin<ServiceVibrotactors>,
     /// Where newer frames are published, unless a camera publishes them
     /// ([`ColourSource::camera_frames`]).
     pub frames: Option<SnapshotWriter<RgbFrame>>,
@@ -382,49 +421,16 @@ impl ColourRuntime {
                 (Some(writer), reader)
             }
         };
-        let cannot_start = |e: std::io::Error| {
-            ColourThreadError::Config(format!("cannot start the colour thread: {e}"))
-        };
-        let (handles, join) = match &source.outputs {
-            ColourOutputs::Recording => {
-                let vibrotactors = RecordingVibrotactors::new(SystemClock, TWIN_EDGE_CAPACITY);
-                let (handles, join) = spawn_colour_thread(
-                    vibrotactors,
-                    SystemClock,
-                    source.settings,
-                    thimble,
-                    frame_reader,
-                    fifo_priority,
-                )
-                .map_err(cannot_start)?;
-                (handles, ColourJoinOn::Recording(join))
-            }
-            #[cfg(target_os = "linux")]
-            ColourOutputs::Gpio { chip, lines } => {
-                let vibrotactors =
-                    videt_drivers::gpio::linux::vibrotactors(chip, *lines).map_err(|e| {
-                        ColourThreadError::Config(format!(
-                            "vibrotactors: {e} (sensors.gpio_chip, sensors.vibrotactor_lines)"
-                        ))
-                    })?;
-                let (handles, join) = spawn_colour_thread(
-                    vibrotactors,
-                    SystemClock,
-                    source.settings,
-                    thimble,
-                    frame_reader,
-                    fifo_priority,
-                )
-                .map_err(cannot_start)?;
-                (handles, ColourJoinOn::Gpio(join))
-            }
-            #[cfg(not(target_os = "linux"))]
-            ColourOutputs::Gpio { .. } => {
-                return Err(ColourThreadError::Config(
-                    "GPIO vibrotactors need Linux".into(),
-                ))
-            }
-        };
+        let vibrotactors = ServiceVibrotactors::open(&source.outputs)?;
+        let (handles, join) = spawn_colour_thread(
+            vibrotactors,
+            SystemClock,
+            source.settings,
+            thimble,
+            frame_reader,
+            fifo_priority,
+        )
+        .map_err(|e| ColourThreadError::Config(format!("cannot start the colour thread: {e}")))?;
         Ok(ColourRuntime {
             handles,
             join,
@@ -453,18 +459,16 @@ impl ColourRuntime {
     pub fn finish(self) {
         self.handles.inputs.set_active(false);
         self.handles.inputs.request_shutdown();
-        let stopped = match self.join {
-            ColourJoinOn::Recording(join) => join.join().map(|r| {
-                r.map(|(jitter, vibro)| {
-                    let recorded = (vibro.edges().len(), vibro.dropped_edges());
-                    (jitter, Some(recorded))
-                })
-            }),
-            #[cfg(target_os = "linux")]
-            ColourJoinOn::Gpio(join) => join
-                .join()
-                .map(|r| r.map(|(jitter, _outputs)| (jitter, None))),
-        };
+        let stopped = self.join.join().map(|r| {
+            r.map(|(jitter, vibrotactors)| {
+                let recorded = match vibrotactors {
+                    ServiceVibrotactors::Recording(v) => Some((v.edges().len(), v.dropped_edges())),
+                    #[cfg(target_os = "linux")]
+                    ServiceVibrotactors::Gpio(_) => None,
+                };
+                (jitter, recorded)
+            })
+        });
         match stopped {
             Ok(Ok((jitter, recorded))) => info!(
                 ticks = jitter.count() + 1,

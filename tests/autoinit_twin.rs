@@ -335,17 +335,17 @@ fn a_replaced_wire_is_homed_checked_and_the_rig_reinitialized() {
     assert_eq!(e.exit_code(), 21);
 }
 
-#[test]
-fn tension_calibration_recovers_the_sensor_offset_and_gain() {
+/// Calibrate wire 1's sensor with 0.5 kg on a fresh twin, `tech` doing the steps, and check
+/// the offset and gain against the twin's sensor.
+fn calibrate_wire_1<T: videt::init::tension::TensionTechnician<Twin>>(tech: &mut T) {
     let config = Config::default();
     let s = setup(RIG, 4);
     let mut twin = rest_twin(&config, &s);
-    let mut tech = SimTechnician::new(&s);
     let mut runner = Runner::new(run_settings(&config));
     session::start(&mut twin).unwrap();
     let p = videt::init::tension::calibrate_tension(
         &mut twin,
-        &mut tech,
+        tech,
         &mut runner,
         1,
         0.5,
@@ -355,6 +355,11 @@ fn tension_calibration_recovers_the_sensor_offset_and_gain() {
     let (offset, gain_error) = (s.sensors.offset_n[1], s.sensors.gain_error[1]);
     assert!((p.offset_n - offset).abs() < 0.005, "{p:?}");
     assert!((p.gain - 1.0 / (1.0 + gain_error)).abs() < 0.002, "{p:?}");
+}
+
+#[test]
+fn tension_calibration_recovers_the_sensor_offset_and_gain() {
+    calibrate_wire_1(&mut SimTechnician::new(&setup(RIG, 4)));
 }
 
 /// A person: each step is done some time after it is asked for (200 periods), and confirmed
@@ -406,28 +411,12 @@ impl videt::init::tension::TensionTechnician<Twin> for SlowTechnician {
 /// calibration is as accurate as with steps done at once.
 #[test]
 fn tension_calibration_holds_the_wire_while_a_person_hangs_the_weight() {
-    let config = Config::default();
-    let s = setup(RIG, 4);
-    let mut twin = rest_twin(&config, &s);
     let mut tech = SlowTechnician {
         polls: 0,
         hung_at_free_length_m: 0.0,
         pulled_out_by_weight_m: 0.0,
     };
-    let mut runner = Runner::new(run_settings(&config));
-    session::start(&mut twin).unwrap();
-    let p = videt::init::tension::calibrate_tension(
-        &mut twin,
-        &mut tech,
-        &mut runner,
-        1,
-        0.5,
-        &AtomicBool::new(false),
-    )
-    .unwrap();
-    let (offset, gain_error) = (s.sensors.offset_n[1], s.sensors.gain_error[1]);
-    assert!((p.offset_n - offset).abs() < 0.005, "{p:?}");
-    assert!((p.gain - 1.0 / (1.0 + gain_error)).abs() < 0.002, "{p:?}");
+    calibrate_wire_1(&mut tech);
     assert!(
         tech.pulled_out_by_weight_m < 0.05,
         "the weight pulled {:.3} m of wire out",

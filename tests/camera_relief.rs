@@ -33,8 +33,16 @@ fn calibrated_rig(dir: &Path) -> Option<(PathBuf, PathBuf)> {
     Some((images, calibration))
 }
 
-/// The first `pairs` pairs of the chessboard set in colour, written into `dir`: red the grey
-/// level, green half of it, blue a constant 77.
+/// The calibrated chessboard set (as [`calibrated_rig`]) and its first `pairs` pairs in colour
+/// in `dir/colour`: red the grey level, green half of it, blue a constant 77.
+fn colour_rig(dir: &Path, pairs: usize) -> Option<(PathBuf, PathBuf, PathBuf)> {
+    let (images, calibration) = calibrated_rig(dir)?;
+    let colour_dir = dir.join("colour");
+    std::fs::create_dir(&colour_dir).unwrap();
+    colour_pairs(&images, &colour_dir, pairs);
+    Some((images, calibration, colour_dir))
+}
+
 fn colour_pairs(images: &Path, dir: &Path, pairs: usize) {
     for k in 1..=pairs {
         for side in ["left", "right"] {
@@ -152,12 +160,9 @@ fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
 #[test]
 fn a_colour_camera_publishes_its_rectified_left_frames() {
     let dir = tempfile::tempdir().unwrap();
-    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+    let Some((images, calibration, colour_dir)) = colour_rig(dir.path(), 2) else {
         return;
     };
-    let colour_dir = dir.path().join("colour");
-    std::fs::create_dir(&colour_dir).unwrap();
-    colour_pairs(&images, &colour_dir, 2);
     let config = Config::default();
     let layout = ReliefLayout::for_config(&config);
     let rig = CalibratedRig::load(&calibration).unwrap();
@@ -212,12 +217,9 @@ fn a_colour_camera_publishes_its_rectified_left_frames() {
 #[test]
 fn videtd_renders_the_colour_of_camera_frames_on_the_twin() {
     let dir = tempfile::tempdir().unwrap();
-    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+    let Some((_, calibration, colour_dir)) = colour_rig(dir.path(), 3) else {
         return;
     };
-    let colour_dir = dir.path().join("colour");
-    std::fs::create_dir(&colour_dir).unwrap();
-    colour_pairs(&images, &colour_dir, 3);
     let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
         .arg("--sim")
         .arg("--scene")
