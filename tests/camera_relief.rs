@@ -58,6 +58,26 @@ fn colour_pairs(images: &Path, dir: &Path, pairs: usize) {
     }
 }
 
+/// `videtd --sim --scene camera:DIR` for 4 s with `calibration` and `extra` arguments: its
+/// standard output and error, once it has succeeded.
+fn videtd_on_camera(images: &Path, calibration: &Path, extra: &[&str]) -> (String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        .arg("--sim")
+        .arg("--scene")
+        .arg(format!("camera:{}", images.display()))
+        .arg("--stereo-calibration")
+        .arg(calibration)
+        .args(["--duration", "4", "--no-socket"])
+        .args(extra)
+        .env("RUST_LOG", "info")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    (stdout, stderr)
+}
+
 fn camera(images: &Path) -> FileStereoSource {
     FileStereoSource::from_folder(images, Duration::from_millis(200))
         .unwrap()
@@ -220,19 +240,7 @@ fn videtd_renders_the_colour_of_camera_frames_on_the_twin() {
     let Some((_, calibration, colour_dir)) = colour_rig(dir.path(), 3) else {
         return;
     };
-    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
-        .arg("--sim")
-        .arg("--scene")
-        .arg(format!("camera:{}", colour_dir.display()))
-        .arg("--stereo-calibration")
-        .arg(&calibration)
-        .args(["--duration", "4", "--no-socket", "--no-telemetry"])
-        .env("RUST_LOG", "info")
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let (stdout, stderr) = videtd_on_camera(&colour_dir, &calibration, &["--no-telemetry"]);
     // `colour HLL rgb(...)`: the blue channel is 77 everywhere, a low-to-mid level.
     let rendered: Vec<&str> = stdout
         .lines()
@@ -254,20 +262,8 @@ fn videtd_renders_the_relief_of_camera_frames_on_the_twin() {
         return;
     };
     let logs = dir.path().join("logs");
-    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
-        .arg("--sim")
-        .arg("--scene")
-        .arg(format!("camera:{}", images.display()))
-        .arg("--stereo-calibration")
-        .arg(&calibration)
-        .args(["--duration", "4", "--no-socket", "--telemetry-dir"])
-        .arg(&logs)
-        .env("RUST_LOG", "info")
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let telemetry = ["--telemetry-dir", logs.to_str().unwrap()];
+    let (stdout, stderr) = videtd_on_camera(&images, &calibration, &telemetry);
     assert!(stderr.contains("relief from the cameras"), "{stderr}");
     // The status lines count the reliefs rebuilt from fresh frames.
     let last = stdout
