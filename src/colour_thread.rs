@@ -18,12 +18,13 @@ use tracing::{error, info, warn};
 use videt_colour::level::triple_letters;
 use videt_colour::vibration_loop::VibrationError;
 use videt_colour::{
-    ColourReader, Pattern, PatternConfig, PeriodJitter, QuantizerConfig, RecordingVibrotactors,
-    SamplerConfig, VibrationInputs, VibrationLoop,
+    ColourReader, ColourSpace, Pattern, PatternConfig, PeriodJitter, QuantizerConfig,
+    RecordingVibrotactors, SamplerConfig, VibrationInputs, VibrationLoop, WindowStatistic,
 };
 use videt_control::safety::SafetyState;
 use videt_control::SceneMap;
 use videt_hal::{Clock, RgbFrame, Vibrotactors};
+use videt_rt_config::{ColourConfig, ColourSpaceName, ColourStatistic};
 
 use crate::cycle::CycleRecord;
 use crate::rt::SystemClock;
@@ -196,11 +197,12 @@ pub struct ColourSource {
 
 /// The colour source of a camera scene: the colour under the finger from the rectified left
 /// camera frames the camera thread publishes on the returned writer, mapped to the workspace
-/// as the camera's relief is (`layout` over images of `image_size_px`), default sampling,
-/// quantization and pattern.
+/// as the camera's relief is (`layout` over images of `image_size_px`), sampled, quantized and
+/// rendered as `colour` says.
 pub fn camera_colour(
     layout: &crate::relief_scene::ReliefLayout,
     image_size_px: [u32; 2],
+    colour: &ColourConfig,
     outputs: ColourOutputs,
 ) -> Result<(ColourSource, SnapshotWriter<RgbFrame>), ColourThreadError> {
     // The scene depth range does not enter the workspace-to-image mapping.
@@ -211,29 +213,68 @@ pub fn camera_colour(
     let (writer, frames) = CameraColourFrames::channel();
     let source = ColourSource {
         frame: RgbFrame::default(),
-        settings: default_settings(map),
+        settings: ColourSettings::from_config(map, colour)?,
         outputs,
         camera_frames: Some(frames),
     };
     Ok((source, writer))
 }
 
-/// Default sampling, quantization and pattern over `map`.
-fn default_settings(map: SceneMap) -> ColourSettings {
-    ColourSettings {
-        map,
-        sampler: SamplerConfig::default(),
-        quantizer: QuantizerConfig::default(),
-        pattern: PatternConfig::default(),
-        ticks_per_period: 20,
+/// Vibration ticks per carrier period: 1.5 kHz at the paper's 75 Hz, and duties in steps of 5 %.
+pub const TICKS_PER_PERIOD: u32 = 20;
+
+/// The sampling window and the quantizer the `[colour]` configuration section describes.
+pub fn colour_levels(colour: &ColourConfig) -> (SamplerConfig, QuantizerConfig) {
+    let sampler = SamplerConfig {
+        window_px: colour.window_px,
+        statistic: match colour.statistic {
+            ColourStatistic::Median => WindowStatistic::Median,
+            ColourStatistic::Mean => WindowStatistic::Mean,
+        },
+    };
+    let space = match colour.space {
+        ColourSpaceName::Chromaticity => ColourSpace::Chromaticity {
+            black_level: colour.black_level as f32,
+            white_level: colour.white_level as f32,
+        },
+        ColourSpaceName::Rgb => ColourSpace::Rgb,
+    };
+    let quantizer = QuantizerConfig {
+        space,
+        low_mid: colour.low_mid as f32,
+        mid_high: colour.mid_high as f32,
+        hysteresis: colour.hysteresis as f32,
+    };
+    (sampler, quantizer)
+}
+
+impl ColourSettings {
+    /// The settings of the `[colour]` configuration section over `map`, checked again by the
+    /// colour crate (the error names the field).
+    pub fn from_config(map: SceneMap, colour: &ColourConfig) -> Result<Self, ColourThreadError> {
+        let (sampler, quantizer) = colour_levels(colour);
+        let settings = ColourSettings {
+            map,
+            sampler,
+            quantizer,
+            pattern: PatternConfig {
+                frequency_hz: colour.frequency_hz,
+                duty: colour.duty,
+            },
+            ticks_per_period: TICKS_PER_PERIOD,
+        };
+        settings.quantizer.validate().map_err(config_error)?;
+        Pattern::new(settings.pattern).map_err(config_error)?;
+        Ok(settings)
     }
 }
 
-/// The twin's colour source for `videtd --sim`: the demo image over the explored area, default
-/// sampling, quantization and pattern.
+/// The twin's colour source for `videtd --sim`: the demo image over the explored area, sampled,
+/// quantized and rendered as `colour` says.
 pub fn demo_colour(
     guides_m: &[[f64; 2]; 3],
     wall_z_m: f64,
+    colour: &ColourConfig,
 ) -> Result<ColourSource, ColourThreadError> {
     let frame = videt_colour::training::decode_rgb(
         DEMO_IMAGE_PNG.to_vec(),
@@ -244,7 +285,7 @@ pub fn demo_colour(
         demo_scene_map(guides_m, wall_z_m, [frame.width, frame.height]).map_err(config_error)?;
     Ok(ColourSource {
         frame,
-        settings: default_settings(map),
+        settings: ColourSettings::from_config(map, colour)?,
         outputs: ColourOutputs::Recording,
         camera_frames: None,
     })

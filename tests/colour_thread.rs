@@ -31,7 +31,7 @@ fn wait_for(handles: &ColourHandles, want: impl Fn(&ColourHandles) -> bool) {
 fn colour_under_the_thimble_drives_the_vibrotactors_and_safe_state_silences_them() {
     let config = Config::default();
     let wall_z_m = 0.33;
-    let source = demo_colour(&config.rig.guides_m, wall_z_m).unwrap();
+    let source = demo_colour(&config.rig.guides_m, wall_z_m, &config.colour).unwrap();
     let (settings, map) = (source.settings, source.settings.map);
     let (mut thimble_pub, thimble_reader) = thimble_channel();
     let (_frames, frame_reader) = snapshot_channel(source.frame.clone());
@@ -123,26 +123,40 @@ fn colour_under_the_thimble_drives_the_vibrotactors_and_safe_state_silences_them
     }
 }
 
+/// `videtd --sim` for 2.5 s with `colour_section` as the configuration's `[colour]` (none:
+/// the defaults); its status lines and its log.
+fn videtd_sim_with_colour(colour_section: Option<&str>) -> (Vec<String>, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_videtd"));
+    cmd.args([
+        "--sim",
+        "--duration",
+        "2.5",
+        "--no-socket",
+        "--no-telemetry",
+    ]);
+    if let Some(section) = colour_section {
+        let config = dir.path().join("videt.toml");
+        std::fs::write(&config, format!("[colour]\n{section}\n")).unwrap();
+        cmd.arg("--config").arg(config).env("RUST_LOG", "info");
+    }
+    let out = cmd.output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let lines = stdout
+        .lines()
+        .filter(|l| l.starts_with("t="))
+        .map(str::to_owned)
+        .collect();
+    (lines, stderr)
+}
+
 /// `videtd --sim` shows the colour under the finger in its status line and stops cleanly.
 #[test]
 fn videtd_sim_status_line_shows_the_colour() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_videtd"))
-        .args([
-            "--sim",
-            "--duration",
-            "2.5",
-            "--no-socket",
-            "--no-telemetry",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let lines: Vec<&str> = stdout.lines().filter(|l| l.starts_with("t=")).collect();
+    let (lines, stderr) = videtd_sim_with_colour(None);
+    let stdout = lines.join("\n");
     assert!(lines.len() >= 2, "{stdout}");
     // While the operator touches the wall the levels are shown as three letters.
     assert!(
@@ -153,11 +167,55 @@ fn videtd_sim_status_line_shows_the_colour() {
         }),
         "{stdout}"
     );
-    let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("colour thread stopped: vibrotactors off"),
         "{stderr}"
     );
+}
+
+/// The `[colour]` section of the configuration sets the thresholds `videtd` renders with, and
+/// turns the colour off.
+#[test]
+fn videtd_sim_renders_the_colour_as_the_configuration_says() {
+    // Plain RGB, Mid from 1 and High from 2, no dead band: every level follows from the
+    // colour shown beside it.
+    let (lines, _) = videtd_sim_with_colour(Some(
+        "space = \"rgb\"\nlow_mid = 1.0\nmid_high = 2.0\nhysteresis = 0.0",
+    ));
+    let mut checked = 0;
+    for line in &lines {
+        // `colour HLL rgb(230, 20, 20)`
+        let Some((letters, rgb)) = line
+            .split_once("colour ")
+            .and_then(|(_, c)| c.split_once(" rgb("))
+        else {
+            continue;
+        };
+        let values: Vec<u32> = rgb
+            .trim_end_matches(')')
+            .split(',')
+            .map(|v| v.trim().parse().unwrap())
+            .collect();
+        let expected: String = values
+            .iter()
+            .map(|&v| match v {
+                0 => 'L',
+                1 => 'M',
+                _ => 'H',
+            })
+            .collect();
+        assert_eq!(letters, expected, "{line}");
+        checked += 1;
+    }
+    assert!(checked > 0, "no colour rendered: {lines:?}");
+
+    let (lines, stderr) = videtd_sim_with_colour(Some("enabled = false"));
+    assert!(
+        stderr.contains("colour rendering off (colour.enabled = false)"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("colour thread"), "{stderr}");
+    assert!(lines.iter().all(|l| !l.contains("colour ")), "{lines:?}");
 }
 
 /// On the device the colour thread drives the GPIO vibrotactors named by the configuration; a
@@ -173,7 +231,7 @@ fn device_vibrotactors_are_named_when_missing_and_camera_frames_reach_the_thread
         chip: "/nonexistent/gpiochip-absent".into(),
         lines: config.sensors.vibrotactor_lines,
     };
-    let (source, _writer) = camera_colour(&layout, [640, 480], gpio).unwrap();
+    let (source, _writer) = camera_colour(&layout, [640, 480], &Default::default(), gpio).unwrap();
     let (_, thimble) = thimble_channel();
     let Err(e) = ColourRuntime::start(&source, thimble, None) else {
         panic!("opened vibrotactors on a missing chip");
@@ -186,7 +244,13 @@ fn device_vibrotactors_are_named_when_missing_and_camera_frames_reach_the_thread
     );
 
     // The camera's frames, over the relief's area: a red frame under the thimble is rendered.
-    let (source, mut writer) = camera_colour(&layout, [64, 48], ColourOutputs::Recording).unwrap();
+    let (source, mut writer) = camera_colour(
+        &layout,
+        [64, 48],
+        &Default::default(),
+        ColourOutputs::Recording,
+    )
+    .unwrap();
     let map = source.settings.map;
     let (mut thimble_pub, thimble) = thimble_channel();
     let runtime = ColourRuntime::start(&source, thimble, None).unwrap();

@@ -148,3 +148,86 @@ fn real_image_red_cone() {
         "{text}"
     );
 }
+
+/// The levels shown are those of the configuration's `[colour]` section; the flags override it,
+/// and a bad section is refused with the field named.
+#[test]
+fn the_configuration_sets_the_levels_shown() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = synthetic(dir.path());
+    let config = dir.path().join("videt.toml");
+    // Plain RGB, High from 200: the mid grey (128) is Mid and only 230+ channels are High.
+    std::fs::write(
+        &config,
+        "[colour]\nspace = \"rgb\"\nlow_mid = 100.0\nmid_high = 200.0\nwindow_px = 1\n",
+    )
+    .unwrap();
+    let levels_at = |x: u32, y: u32, extra: &[&str]| {
+        let out = videt()
+            .args(["colour", "--image"])
+            .arg(&img)
+            .arg("--config")
+            .arg(&config)
+            .args(["--at", &format!("{x},{y}"), "--json"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8(out.stdout).unwrap();
+        text.split_once("\"levels\": ")
+            .unwrap()
+            .1
+            .trim_end()
+            .to_owned()
+    };
+    assert_eq!(levels_at(2, 0, &[]), r#"["mid", "mid", "mid"]}"#);
+    // A red of 190 is Mid in RGB space; in chromaticity (the flag) it is nearly full brightness.
+    let red = dir.path().join("red-190.png");
+    write_png(
+        &RgbFrame {
+            width: 1,
+            height: 1,
+            data: vec![190, 10, 10],
+        },
+        &red,
+    )
+    .unwrap();
+    let red_levels = |extra: &[&str]| {
+        let out = videt()
+            .args(["colour", "--image"])
+            .arg(&red)
+            .arg("--config")
+            .arg(&config)
+            .args(["--at", "0,0", "--json"])
+            .args(extra)
+            .output()
+            .unwrap();
+        String::from_utf8(out.stdout).unwrap()
+    };
+    assert!(
+        red_levels(&[]).contains(r#"["mid", "low", "low"]"#),
+        "{}",
+        red_levels(&[])
+    );
+    let chroma = red_levels(&["--space", "chromaticity"]);
+    assert!(chroma.contains(r#"["high", "low", "low"]"#), "{chroma}");
+
+    std::fs::write(&config, "[colour]\nlow_mid = 300.0\n").unwrap();
+    let out = videt()
+        .args(["colour", "--image"])
+        .arg(&img)
+        .arg("--config")
+        .arg(&config)
+        .args(["--at", "0,0"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("colour.low_mid"),
+        "{stderr}"
+    );
+}

@@ -70,6 +70,75 @@ pub struct Config {
     pub autoinit: AutoInitConfig,
     /// Where the calibration and the motors' lock live.
     pub files: FilesConfig,
+    /// The colour under the finger, rendered on the three vibrotactors.
+    pub colour: ColourConfig,
+}
+
+/// How the colour window under the finger is combined into one colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColourStatistic {
+    /// The per-channel median: keeps the majority colour at an edge and ignores speckle.
+    Median,
+    /// The per-channel mean.
+    Mean,
+}
+
+/// The space the colour thresholds apply in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColourSpaceName {
+    /// Chromaticity times the brightness stretched from `black_level` to `white_level`: the
+    /// levels follow the hue and the lighting matters less.
+    Chromaticity,
+    /// The camera's RGB values as they are.
+    Rgb,
+}
+
+/// The colour under the finger: sampling, Low/Mid/High thresholds and the vibration pattern.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ColourConfig {
+    /// Render the colour on the vibrotactors at all.
+    pub enabled: bool,
+    /// Side of the square window sampled under the finger, pixels: odd, 1 to 31.
+    pub window_px: u32,
+    /// How the window is combined.
+    pub statistic: ColourStatistic,
+    /// The space the thresholds apply in.
+    pub space: ColourSpaceName,
+    /// Chromaticity space: brightest-channel value (0-255) at and below which all is black.
+    pub black_level: f64,
+    /// Chromaticity space: brightest-channel value (0-255) from which the brightness is full.
+    pub white_level: f64,
+    /// Channel value (0-255) from which a channel is Mid rather than Low.
+    pub low_mid: f64,
+    /// Channel value (0-255) from which a channel is High rather than Mid.
+    pub mid_high: f64,
+    /// Half-width of the dead band around each threshold, channel units.
+    pub hysteresis: f64,
+    /// Vibration carrier frequency, Hz (the paper's 75).
+    pub frequency_hz: f64,
+    /// Fraction of each carrier period a vibrotactor is on, for Low, Mid and High.
+    pub duty: [f64; 3],
+}
+
+impl Default for ColourConfig {
+    fn default() -> Self {
+        ColourConfig {
+            enabled: true,
+            window_px: 7,
+            statistic: ColourStatistic::Median,
+            space: ColourSpaceName::Chromaticity,
+            black_level: 32.0,
+            white_level: 192.0,
+            low_mid: 85.0,
+            mid_high: 170.0,
+            hysteresis: 8.0,
+            frequency_hz: 75.0,
+            duty: [0.0, 0.2, 0.5],
+        }
+    }
 }
 
 /// Wire homing and auto-initialization (`videt init`, `videt wire replace`).
@@ -565,6 +634,7 @@ impl Config {
             99.0,
         )?;
         self.validate_autoinit()?;
+        self.validate_colour()?;
         for (field, path) in [
             ("files.calibration", &self.files.calibration),
             ("files.motors_lock", &self.files.motors_lock),
@@ -771,6 +841,45 @@ impl Config {
         Ok(())
     }
 
+    fn validate_colour(&self) -> Result<(), ConfigError> {
+        let c = &self.colour;
+        if !(1..=31).contains(&c.window_px) || c.window_px % 2 == 0 {
+            return Err(ConfigError::Invalid {
+                field: "colour.window_px".into(),
+                value: c.window_px.to_string(),
+                allowed: "odd, in [1, 31]".into(),
+            });
+        }
+        if c.space == ColourSpaceName::Chromaticity {
+            in_range("colour.black_level", c.black_level, 0.0, 254.0)?;
+            in_range(
+                "colour.white_level",
+                c.white_level,
+                c.black_level + 1.0,
+                255.0,
+            )?;
+        }
+        in_range("colour.low_mid", c.low_mid, 1.0, 254.0)?;
+        in_range("colour.mid_high", c.mid_high, c.low_mid + 1.0, 255.0)?;
+        let band = (c.mid_high - c.low_mid) / 2.0;
+        if !(c.hysteresis >= 0.0 && c.hysteresis < band) {
+            return Err(ConfigError::Invalid {
+                field: "colour.hysteresis".into(),
+                value: c.hysteresis.to_string(),
+                allowed: format!(
+                    "at least 0 and below half the gap between colour.low_mid and colour.mid_high ({band})"
+                ),
+            });
+        }
+        in_range("colour.frequency_hz", c.frequency_hz, 1.0, 1000.0)?;
+        let mut lowest = 0.0;
+        for (i, &duty) in c.duty.iter().enumerate() {
+            in_range(&format!("colour.duty[{i}]"), duty, lowest, 1.0)?;
+            lowest = duty;
+        }
+        Ok(())
+    }
+
     fn validate_autoinit(&self) -> Result<(), ConfigError> {
         let a = &self.autoinit;
         let c = &self.control;
@@ -837,6 +946,11 @@ mod tests {
         let example = include_str!("../../config/videt.example.toml");
         let c = Config::from_toml_str(example, "videt.example.toml").unwrap();
         assert_eq!(c.control.rate_hz, 1000);
+        assert_eq!(
+            c.colour,
+            ColourConfig::default(),
+            "the example shows the defaults"
+        );
     }
 
     #[test]
@@ -856,6 +970,44 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("control.algorithm") && e.contains("X9"), "{e}");
+    }
+
+    #[test]
+    fn colour_settings_are_checked_field_by_field() {
+        let cases = [
+            ("window_px = 8", "colour.window_px", "odd"),
+            ("window_px = 33", "colour.window_px", "31"),
+            (
+                "low_mid = 150.0\nmid_high = 140.0",
+                "colour.mid_high",
+                "151",
+            ),
+            ("hysteresis = 50.0", "colour.hysteresis", "42.5"),
+            ("black_level = 200.0", "colour.white_level", "201"),
+            ("frequency_hz = 0.0", "colour.frequency_hz", "1000"),
+            ("duty = [0.0, 0.5, 0.2]", "colour.duty[2]", "[0.5, 1]"),
+        ];
+        for (body, field, allowed) in cases {
+            let e = Config::from_toml_str(&format!("[colour]\n{body}\n"), "t")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(field) && e.contains(allowed), "{body}: {e}");
+        }
+        // The levels of plain RGB ignore the chromaticity stretch.
+        let c = Config::from_toml_str(
+            "[colour]\nspace = \"rgb\"\nblack_level = 250.0\nwhite_level = 10.0\n",
+            "t",
+        )
+        .unwrap();
+        assert_eq!(c.colour.space, ColourSpaceName::Rgb);
+        let e = Config::from_toml_str("[colour]\nspace = \"hsv\"\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("hsv") && e.contains("chromaticity"), "{e}");
+        let e = Config::from_toml_str("[colour]\nstatistic = \"mode\"\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("mode") && e.contains("median"), "{e}");
     }
 
     #[test]

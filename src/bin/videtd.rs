@@ -443,14 +443,17 @@ where
     use videt::relief_scene::ReliefLayout;
     let layout = ReliefLayout::for_config(config);
     // The colour under the finger, from the same left frames, mapped as the relief is.
-    let (colour, colour_frames) =
-        match videt::colour_thread::camera_colour(&layout, rig.size_px, colour_outputs) {
-            Ok((source, writer)) => (Some(source), Some(writer)),
-            Err(e) => {
-                warn!("colour rendering disabled: {e}");
-                (None, None)
-            }
-        };
+    let colour = colour_enabled(config).then(|| {
+        videt::colour_thread::camera_colour(&layout, rig.size_px, &config.colour, colour_outputs)
+    });
+    let (colour, colour_frames) = match colour {
+        Some(Ok((source, writer))) => (Some(source), Some(writer)),
+        Some(Err(e)) => {
+            warn!("colour rendering disabled: {e}");
+            (None, None)
+        }
+        None => (None, None),
+    };
     let mut relief = CameraRelief::new(
         camera,
         name.clone(),
@@ -825,11 +828,25 @@ fn wall_demo(
     );
     let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
-    match videt::colour_thread::demo_colour(&config.rig.guides_m, scene.wall_z_m) {
-        Ok(source) => options.colour = Some(source),
-        Err(e) => tracing::warn!("colour rendering disabled: {e}"),
+    if colour_enabled(config) {
+        match videt::colour_thread::demo_colour(
+            &config.rig.guides_m,
+            scene.wall_z_m,
+            &config.colour,
+        ) {
+            Ok(source) => options.colour = Some(source),
+            Err(e) => tracing::warn!("colour rendering disabled: {e}"),
+        }
     }
     (scene, cycle)
+}
+
+/// Whether `[colour]` asks for the colour under the finger; says so when it does not.
+fn colour_enabled(config: &Config) -> bool {
+    if !config.colour.enabled {
+        info!("colour rendering off (colour.enabled = false)");
+    }
+    config.colour.enabled
 }
 
 /// The relief channel of the twin's demonstrations, with the proxy, blend and stiffness of

@@ -3,6 +3,11 @@
 //! - `videt colour --image IMG --at X,Y [--window N] [--json]`: the colour and the level triple
 //!   the wearer feels at image pixel (X, Y);
 //! - `videt colour --image IMG --out PNG`: the image rendered in the 27 level colours.
+//!
+//! The window, statistic, space and thresholds are the `[colour]` section of the wearer's
+//! configuration (`--config FILE`, else `/etc/videt/videt.toml` when it exists, else the
+//! defaults), so the levels shown are the ones `videtd` renders; `--window`, `--statistic` and
+//! `--space` override them.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -11,9 +16,11 @@ use clap::{ArgGroup, Args, ValueEnum};
 use videt_colour::training::{
     load_rgb, quantize_image, reading_at, reading_json, reading_text, write_png,
 };
-use videt_colour::{QuantizerConfig, SamplerConfig, WindowStatistic};
+use videt_rt_config::{ColourSpaceName, ColourStatistic, Config};
 
+use super::device::DEFAULT_CONFIG;
 use super::ToolResult;
+use crate::colour_thread::colour_levels;
 
 /// Arguments of `videt colour`.
 #[derive(Debug, Args)]
@@ -25,15 +32,19 @@ pub struct ColourArgs {
     /// Image pixel to read, as column,row (e.g. `140,175`).
     #[arg(long, value_name = "X,Y", value_parser = parse_point)]
     pub at: Option<(u32, u32)>,
-    /// Side of the square sampling window in pixels (odd, 1..=31).
-    #[arg(long, value_name = "N", default_value_t = 7)]
-    pub window: u32,
-    /// How the window is combined.
-    #[arg(long, value_enum, default_value_t = Statistic::Median)]
-    pub statistic: Statistic,
-    /// The space the Low/Mid/High thresholds apply in.
-    #[arg(long, value_enum, default_value_t = Space::Chromaticity)]
-    pub space: Space,
+    /// The configuration whose `[colour]` section sets the window, space and thresholds
+    /// (default: /etc/videt/videt.toml when it exists, else the built-in defaults).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Side of the square sampling window in pixels (odd, 1..=31), instead of `colour.window_px`.
+    #[arg(long, value_name = "N")]
+    pub window: Option<u32>,
+    /// How the window is combined, instead of `colour.statistic`.
+    #[arg(long, value_enum)]
+    pub statistic: Option<Statistic>,
+    /// The space the Low/Mid/High thresholds apply in, instead of `colour.space`.
+    #[arg(long, value_enum)]
+    pub space: Option<Space>,
     /// With --at: print `{"rgb": [r, g, b], "levels": [..]}` instead of text.
     #[arg(long, requires = "at")]
     pub json: bool,
@@ -71,18 +82,32 @@ fn parse_point(text: &str) -> Result<(u32, u32), String> {
 
 /// Run `videt colour`.
 pub fn run(args: &ColourArgs) -> ToolResult {
+    let mut colour = match &args.config {
+        Some(path) => Config::load(path)?,
+        None if std::path::Path::new(DEFAULT_CONFIG).exists() => {
+            Config::load(std::path::Path::new(DEFAULT_CONFIG))?
+        }
+        None => Config::default(),
+    }
+    .colour;
+    if let Some(window) = args.window {
+        colour.window_px = window;
+    }
+    if let Some(statistic) = args.statistic {
+        colour.statistic = match statistic {
+            Statistic::Mean => ColourStatistic::Mean,
+            Statistic::Median => ColourStatistic::Median,
+        };
+    }
+    if let Some(space) = args.space {
+        colour.space = match space {
+            Space::Chromaticity => ColourSpaceName::Chromaticity,
+            Space::Rgb => ColourSpaceName::Rgb,
+        };
+    }
+    let (sampler, quantizer) = colour_levels(&colour);
+    quantizer.validate()?;
     let frame = load_rgb(&args.image)?;
-    let sampler = SamplerConfig {
-        window_px: args.window,
-        statistic: match args.statistic {
-            Statistic::Mean => WindowStatistic::Mean,
-            Statistic::Median => WindowStatistic::Median,
-        },
-    };
-    let quantizer = match args.space {
-        Space::Chromaticity => QuantizerConfig::default(),
-        Space::Rgb => QuantizerConfig::plain_rgb(),
-    };
     if let Some((x, y)) = args.at {
         if x >= frame.width || y >= frame.height {
             return Err(format!(
