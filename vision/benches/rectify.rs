@@ -1,15 +1,16 @@
 //! Rectification of 640x480 grey frames with precomputed bilinear remap tables: one camera, the
 //! pair (the compact block table and, as the baseline, the plain per-pixel reference table,
-//! which give identical frames), and building the tables from a calibration.
+//! which give identical frames), a colour frame of one camera (the colour under the finger), and
+//! building the tables from a calibration.
 
 use std::hint::black_box;
 
 mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use videt_hal::{GrayFrame, StereoFrame};
+use videt_hal::{GrayFrame, RgbFrame, StereoFrame};
 use videt_vision::rectify::reference::ReferenceMap;
-use videt_vision::rectify::StereoRectifier;
+use videt_vision::rectify::{RgbPlanes, StereoRectifier};
 
 fn frame(seed: u32) -> GrayFrame {
     GrayFrame {
@@ -47,6 +48,23 @@ fn bench_rectify(c: &mut Criterion) {
         b.iter(|| {
             rectifier
                 .apply(black_box(&pair), &mut left, &mut right)
+                .expect("sizes match")
+        })
+    });
+    let colour = RgbFrame {
+        width: 640,
+        height: 480,
+        data: (0..3 * 640u32 * 480)
+            .map(|i| ((i * 11 + 5) % 251) as u8)
+            .collect(),
+    };
+    let mut colour_out = RgbFrame::default();
+    let mut planes = RgbPlanes::default();
+    c.bench_function("rectify_640x480_colour_one_camera", |b| {
+        b.iter(|| {
+            rectifier
+                .left
+                .apply_rgb(black_box(&colour), &mut colour_out, &mut planes)
                 .expect("sizes match")
         })
     });

@@ -1,4 +1,5 @@
-//! The inner loop of rectification: interpolating every block of a [`RemapTable`].
+//! The inner loops of rectification: interpolating every block of a [`RemapTable`], and
+//! splitting a colour frame into channel planes and merging them back.
 //!
 //! A shift block (see [`super::layout`]) is computed for all [`BLOCK_LEN`] lanes at once from
 //! three fixed-size source row windows: for each of the [`MAX_SHIFT`] possible column shifts
@@ -7,11 +8,11 @@
 //! Every operation is a plain array operation without branches, so the compiler vectorises the
 //! block (byte lanes for the selection, 32-bit lanes for the arithmetic).
 //!
-//! The function is compiled for several instruction sets (AVX-512BW, AVX2, SSE4.1, and the
+//! The functions are compiled for several instruction sets (AVX-512BW, AVX2, SSE4.1, and the
 //! target's baseline) and the best one the CPU supports is chosen at run time by the
 //! `multiversion` crate. That crate's dispatcher contains `unsafe` code of its own (calling a
-//! `#[target_feature]` function after checking the CPU), which is why this one function is
-//! exempt from the crate's `deny(unsafe_code)`; the function body itself is safe Rust.
+//! `#[target_feature]` function after checking the CPU), which is why these functions are
+//! exempt from the crate's `deny(unsafe_code)`; their bodies are safe Rust.
 
 use multiversion::multiversion;
 
@@ -154,5 +155,95 @@ fn shift_block(
             weights_x[i],
             weights_y[i],
         );
+    }
+}
+
+/// Pixels split or merged at a time by [`split_channels`] and [`merge_channels`].
+const CHANNEL_CHUNK: usize = 16;
+
+/// Splits interleaved RGB bytes into three planes of `interleaved.len() / 3` bytes each. The
+/// fixed-size inner loop lets the compiler use byte shuffles where the CPU has them.
+#[allow(unsafe_code)]
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512vl+avx2+fma",
+    "x86_64+avx2+fma",
+    "x86_64+ssse3"
+))]
+pub(super) fn split_channels(interleaved: &[u8], r: &mut [u8], g: &mut [u8], b: &mut [u8]) {
+    let mut pixels = interleaved.chunks_exact(3 * CHANNEL_CHUNK);
+    let mut planes = r
+        .chunks_exact_mut(CHANNEL_CHUNK)
+        .zip(g.chunks_exact_mut(CHANNEL_CHUNK))
+        .zip(b.chunks_exact_mut(CHANNEL_CHUNK));
+    for (px, ((r, g), b)) in (&mut pixels).zip(&mut planes) {
+        let px: &[u8; 3 * CHANNEL_CHUNK] = px.try_into().expect("a chunk of whole pixels");
+        for k in 0..CHANNEL_CHUNK {
+            r[k] = px[3 * k];
+            g[k] = px[3 * k + 1];
+            b[k] = px[3 * k + 2];
+        }
+    }
+    let done = interleaved.len() / 3 / CHANNEL_CHUNK * CHANNEL_CHUNK;
+    for (i, px) in pixels.remainder().chunks_exact(3).enumerate() {
+        (r[done + i], g[done + i], b[done + i]) = (px[0], px[1], px[2]);
+    }
+}
+
+/// Merges three planes into interleaved RGB bytes (the inverse of [`split_channels`]).
+#[allow(unsafe_code)]
+#[multiversion(targets(
+    "x86_64+avx512f+avx512bw+avx512vl+avx2+fma",
+    "x86_64+avx2+fma",
+    "x86_64+ssse3"
+))]
+pub(super) fn merge_channels(r: &[u8], g: &[u8], b: &[u8], interleaved: &mut [u8]) {
+    let mut pixels = interleaved.chunks_exact_mut(3 * CHANNEL_CHUNK);
+    let planes = r
+        .chunks_exact(CHANNEL_CHUNK)
+        .zip(g.chunks_exact(CHANNEL_CHUNK))
+        .zip(b.chunks_exact(CHANNEL_CHUNK));
+    for (px, ((r, g), b)) in (&mut pixels).zip(planes) {
+        let px: &mut [u8; 3 * CHANNEL_CHUNK] = px.try_into().expect("a chunk of whole pixels");
+        for k in 0..CHANNEL_CHUNK {
+            px[3 * k] = r[k];
+            px[3 * k + 1] = g[k];
+            px[3 * k + 2] = b[k];
+        }
+    }
+    let done = r.len() / CHANNEL_CHUNK * CHANNEL_CHUNK;
+    for (i, px) in pixels.into_remainder().chunks_exact_mut(3).enumerate() {
+        px.copy_from_slice(&[r[done + i], g[done + i], b[done + i]]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whole chunks and a remainder: the planes are the interleaved channels, and merging them
+    /// gives the interleaved bytes back.
+    #[test]
+    fn channels_split_and_merge_back_for_any_pixel_count() {
+        for n in [
+            0,
+            1,
+            CHANNEL_CHUNK - 1,
+            CHANNEL_CHUNK,
+            5 * CHANNEL_CHUNK + 7,
+        ] {
+            let interleaved: Vec<u8> = (0..3 * n).map(|i| (i * 7 % 251) as u8).collect();
+            let (mut r, mut g, mut b) = (vec![0; n], vec![0; n], vec![0; n]);
+            split_channels(&interleaved, &mut r, &mut g, &mut b);
+            for i in 0..n {
+                assert_eq!(
+                    [r[i], g[i], b[i]],
+                    interleaved[3 * i..3 * i + 3],
+                    "{n} pixels, pixel {i}"
+                );
+            }
+            let mut merged = vec![0; 3 * n];
+            merge_channels(&r, &g, &b, &mut merged);
+            assert_eq!(merged, interleaved, "{n} pixels");
+        }
     }
 }

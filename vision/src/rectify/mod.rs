@@ -98,8 +98,8 @@ impl RectifyMap {
 /// The grey planes a colour frame is rectified through (reused between frames).
 #[derive(Debug, Clone, Default)]
 pub struct RgbPlanes {
-    source: GrayFrame,
-    rectified: GrayFrame,
+    source: [GrayFrame; 3],
+    rectified: [GrayFrame; 3],
 }
 
 impl RectifyMap {
@@ -127,23 +127,23 @@ impl RectifyMap {
             dst.data.clear();
             dst.data.resize(3 * n, 0);
         }
-        let source = &mut planes.source;
-        if source.width != self.width || source.height != self.height || source.data.len() != n {
-            source.width = self.width;
-            source.height = self.height;
-            source.data.clear();
-            source.data.resize(n, 0);
-        }
-        for channel in 0..3 {
-            let plane_data = &mut planes.source.data;
-            for (plane, pixel) in plane_data.iter_mut().zip(src.data.chunks_exact(3)) {
-                *plane = pixel[channel];
-            }
-            self.apply(&planes.source, &mut planes.rectified)?;
-            for (pixel, &plane) in dst.data.chunks_exact_mut(3).zip(&planes.rectified.data) {
-                pixel[channel] = plane;
+        for source in &mut planes.source {
+            if source.width != self.width || source.height != self.height || source.data.len() != n
+            {
+                source.width = self.width;
+                source.height = self.height;
+                source.data.clear();
+                source.data.resize(n, 0);
             }
         }
+        // One pass apart, three remaps, one pass together.
+        let [r, g, b] = &mut planes.source;
+        kernel::split_channels(&src.data, &mut r.data, &mut g.data, &mut b.data);
+        for (source, rectified) in planes.source.iter().zip(&mut planes.rectified) {
+            self.apply(source, rectified)?;
+        }
+        let [r, g, b] = &planes.rectified;
+        kernel::merge_channels(&r.data, &g.data, &b.data, &mut dst.data);
         Ok(())
     }
 }
