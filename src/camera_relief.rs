@@ -211,11 +211,7 @@ pub fn spawn_camera_updates<C: StereoCamera + Send + 'static>(
     std::thread::Builder::new()
         .name("videt-vision".into())
         .spawn(move || {
-            if let Some(p) = fifo_priority {
-                if let Err(e) = crate::rt::set_fifo(p) {
-                    tracing::warn!("the vision thread stays SCHED_OTHER (SCHED_FIFO {p}: {e})");
-                }
-            }
+            crate::rt::enter_vision_priority(fifo_priority);
             let mut next = Instant::now() + period;
             while !stop.load(Ordering::Relaxed) {
                 let now = Instant::now();

@@ -101,6 +101,22 @@ pub fn prefault_stack(bytes: usize) {
     touch(bytes);
 }
 
+/// The SCHED_FIFO priority of the vision threads, `realtime.vision_priority` (`None` for 0:
+/// SCHED_OTHER).
+pub fn vision_fifo_priority(realtime: &videt_rt_config::RealtimeConfig) -> Option<u8> {
+    (realtime.vision_priority > 0).then_some(realtime.vision_priority)
+}
+
+/// Called first on a vision thread: SCHED_FIFO at `priority` when one is given. A refusal is
+/// a warning (the thread then stays SCHED_OTHER), not an error.
+pub fn enter_vision_priority(priority: Option<u8>) {
+    if let Some(p) = priority {
+        if let Err(e) = set_fifo(p) {
+            tracing::warn!("the vision thread stays SCHED_OTHER (SCHED_FIFO {p}: {e})");
+        }
+    }
+}
+
 /// Make the calling thread SCHED_FIFO at `priority` (1..=99).
 pub fn set_fifo(priority: u8) -> Result<(), String> {
     use thread_priority::unix::{

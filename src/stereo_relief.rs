@@ -727,9 +727,10 @@ impl LiveStats {
 
 /// Start the vision thread (`videt-vision`) of a stereo relief: at the live update rate it
 /// reads the newest thimble state, re-matches the region under the finger and publishes the
-/// rebuilt relief (every `full_refresh_s` a whole-image run instead); when the finger is not over the image it re-publishes the current relief
-/// every `keepalive_s` seconds (the relief is not stale: vision is running). Runs until the
-/// process ends.
+/// rebuilt relief (every `full_refresh_s` a whole-image run instead); when the finger is not
+/// over the image it re-publishes the current relief every `keepalive_s` seconds (the relief
+/// is not stale: vision is running). The thread runs SCHED_FIFO at `fifo_priority` when one is
+/// given (`realtime.vision_priority`), else SCHED_OTHER. Runs until the process ends.
 pub fn spawn_live_updates(
     mut relief: StereoRelief,
     initial: ReliefModel,
@@ -737,6 +738,7 @@ pub fn spawn_live_updates(
     mut thimble: SnapshotReader<ThimbleState>,
     stats: Arc<LiveStats>,
     keepalive_s: f64,
+    fifo_priority: Option<u8>,
 ) -> std::io::Result<std::thread::JoinHandle<()>> {
     let period = Duration::from_secs_f64(relief.live.update_period_s);
     let keepalive = Duration::from_secs_f64(keepalive_s.clamp(1e-3, 3600.0));
@@ -744,6 +746,7 @@ pub fn spawn_live_updates(
     std::thread::Builder::new()
         .name("videt-vision".into())
         .spawn(move || {
+            crate::rt::enter_vision_priority(fifo_priority);
             let mut current = initial;
             let mut next_tick = Instant::now() + period;
             let mut last_publish = Instant::now();

@@ -383,3 +383,62 @@ fn on_the_device_a_missing_part_is_named_with_its_configuration_field() {
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("needs --sim"), "{stderr}");
 }
+
+/// The scheduling policy and real-time priority of the thread of `pid` named `name`, read from
+/// `/proc` (policy 1 is SCHED_FIFO).
+fn thread_policy(pid: u32, name: &str) -> Option<(u32, u32)> {
+    for task in std::fs::read_dir(format!("/proc/{pid}/task")).ok()? {
+        let task = task.ok()?.path();
+        let comm = std::fs::read_to_string(task.join("comm")).unwrap_or_default();
+        if comm.trim_end() != name {
+            continue;
+        }
+        let stat = std::fs::read_to_string(task.join("stat")).ok()?;
+        // Fields after the command's closing parenthesis start at field 3 (the state);
+        // rt_priority is field 40 and policy field 41.
+        let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+        return Some((fields[41 - 3].parse().ok()?, fields[40 - 3].parse().ok()?));
+    }
+    None
+}
+
+/// The vision threads of the twin's relief scenes run at `realtime.vision_priority`, as the
+/// camera's does (or say why not, where the process may not use SCHED_FIFO).
+#[test]
+fn the_twin_scenes_vision_threads_take_the_configured_priority() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("videt.toml");
+    std::fs::write(&config, "[realtime]\nvision_priority = 7\n").unwrap();
+    for scene in ["box", "stereo"] {
+        let mut daemon = Daemon {
+            child: Command::new(env!("CARGO_BIN_EXE_videtd"))
+                .arg("--config")
+                .arg(&config)
+                .args(["--sim", "--scene", scene, "--duration", "20"])
+                .args(["--no-socket", "--no-telemetry"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap(),
+        };
+        let pid = daemon.child.id();
+        let deadline = Instant::now() + Duration::from_secs(15);
+        let mut seen = None;
+        while Instant::now() < deadline {
+            seen = thread_policy(pid, "videt-vision");
+            if seen == Some((1, 7)) {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let _ = daemon.child.kill();
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(daemon.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        if seen != Some((1, 7)) {
+            assert!(
+                seen.is_some() && stderr.contains("the vision thread stays SCHED_OTHER"),
+                "--scene {scene}: vision thread {seen:?}, {stderr}"
+            );
+        }
+    }
+}

@@ -487,7 +487,7 @@ where
         std::time::Duration::from_secs_f64(config.vision.rebuild_period_s),
         Arc::clone(&stats),
         stop,
-        (config.realtime.vision_priority > 0).then_some(config.realtime.vision_priority),
+        videt::rt::vision_fifo_priority(&config.realtime),
     )
     .map_err(|e| format!("cannot start the vision thread: {e}"))?;
     let extras = videt::service::ServiceExtras {
@@ -644,15 +644,19 @@ fn run_relief_demo(
         Ok(c) => c,
         Err(code) => return code,
     };
+    let priority = videt::rt::vision_fifo_priority(&config.realtime);
     let vision = std::thread::Builder::new()
         .name("videt-vision".into())
-        .spawn(move || loop {
-            std::thread::sleep(std::time::Duration::from_secs(1));
-            match box_relief(&layout, 0.0) {
-                Ok((model, _)) => {
-                    writer.publish(model);
+        .spawn(move || {
+            videt::rt::enter_vision_priority(priority);
+            loop {
+                std::thread::sleep(std::time::Duration::from_secs(1));
+                match box_relief(&layout, 0.0) {
+                    Ok((model, _)) => {
+                        writer.publish(model);
+                    }
+                    Err(e) => tracing::warn!("surface rebuild failed: {e}"),
                 }
-                Err(e) => tracing::warn!("surface rebuild failed: {e}"),
             }
         });
     if let Err(e) = vision {
@@ -747,6 +751,7 @@ fn run_stereo_relief_demo(
         thimble_reader,
         std::sync::Arc::clone(&stats),
         keepalive_s,
+        videt::rt::vision_fifo_priority(&config.realtime),
     ) {
         error!("cannot start the vision thread: {e}");
         return ExitCode::FAILURE;
