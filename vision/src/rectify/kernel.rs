@@ -8,8 +8,8 @@
 //! Every operation is a plain array operation without branches, so the compiler vectorises the
 //! block (byte lanes for the selection, 32-bit lanes for the arithmetic).
 //!
-//! The functions are compiled for several instruction sets (AVX-512BW, AVX2, SSE4.1, and the
-//! target's baseline) and the best one the CPU supports is chosen at run time by the
+//! The functions are compiled for several instruction sets (AVX-512BW, AVX2, SSE4.1 or SSSE3,
+//! and the target's baseline) and the best one the CPU supports is chosen at run time by the
 //! `multiversion` crate. That crate's dispatcher contains `unsafe` code of its own (calling a
 //! `#[target_feature]` function after checking the CPU), which is why these functions are
 //! exempt from the crate's `deny(unsafe_code)`; their bodies are safe Rust.
