@@ -19,20 +19,14 @@
 //! `cargo run --release -p videt-vision --example local_mode_paper_criterion [-- 32 64 96]`
 
 use std::time::Instant;
-use videt_vision::evaluation::{judge, DisparityMap, MatchVerdict};
+use videt_vision::evaluation::{
+    judge, load_middlebury_truth, DisparityMap, MatchVerdict, MIDDLEBURY_PAIRS,
+};
 use videt_vision::matching::SegmentMatch;
 use videt_vision::segments::Segment;
 use videt_vision::{
     GrayView, LocalRegion, PipelineOutput, PixelRect, StereoPipeline, VisionParams,
 };
-
-/// The pairs and the scale of their 8-bit ground truth.
-const PAIRS: [(&str, f32); 4] = [
-    ("tsukuba", 16.0),
-    ("venus", 8.0),
-    ("cones", 4.0),
-    ("teddy", 4.0),
-];
 
 /// A match with its two segments.
 struct Found<'a> {
@@ -171,19 +165,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{:<8} {:<28} {:>6} {:>9} {:>7} {:>6} {:>10} {:>10}",
         "pair", "mode", "global", "identical", "covered", "missed", "new errors", "median ms"
     );
-    for (name, scale) in PAIRS {
+    for (name, scale) in MIDDLEBURY_PAIRS {
         let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
             continue;
         };
         let left = image::open(dir.join("left.ppm"))?.to_luma8();
         let right = image::open(dir.join("right.ppm"))?.to_luma8();
-        let mut truth =
-            DisparityMap::from_scaled(&image::open(dir.join("disp_left.pgm"))?.to_luma8(), scale);
-        let right_truth = dir.join("disp_right.pgm");
-        if right_truth.exists() {
-            let r = DisparityMap::from_scaled(&image::open(right_truth)?.to_luma8(), scale);
-            truth.mask_occlusions(&r, 1.0);
-        }
+        let truth = load_middlebury_truth(&dir, scale)?;
         let (lv, rv) = (GrayView::from_image(&left)?, GrayView::from_image(&right)?);
         let mut pipeline = StereoPipeline::new();
         let global = pipeline

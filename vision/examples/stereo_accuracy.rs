@@ -6,16 +6,8 @@
 //!
 //! `cargo run --release -p videt-vision --example stereo_accuracy`
 
-use videt_vision::evaluation::{evaluate, DisparityMap};
+use videt_vision::evaluation::{evaluate, load_middlebury_truth, DisparityMap, MIDDLEBURY_PAIRS};
 use videt_vision::{run_pipeline, GrayView, VisionParams};
-
-/// The pairs and the scale of their 8-bit ground truth.
-const PAIRS: [(&str, f32); 4] = [
-    ("tsukuba", 16.0),
-    ("venus", 8.0),
-    ("cones", 4.0),
-    ("teddy", 4.0),
-];
 
 thread_local! {
     static RAW: std::cell::RefCell<Option<DisparityMap>> = const { std::cell::RefCell::new(None) };
@@ -41,20 +33,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "horiz-d>1px",
         "goal"
     );
-    for (name, scale) in PAIRS {
+    for (name, scale) in MIDDLEBURY_PAIRS {
         let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
             continue;
         };
         let left = image::open(dir.join("left.ppm"))?.to_luma8();
         let right = image::open(dir.join("right.ppm"))?.to_luma8();
-        let mut truth =
+        let raw =
             DisparityMap::from_scaled(&image::open(dir.join("disp_left.pgm"))?.to_luma8(), scale);
-        RAW.with(|r| *r.borrow_mut() = Some(truth.clone()));
-        let right_truth = dir.join("disp_right.pgm");
-        if right_truth.exists() {
-            let r = DisparityMap::from_scaled(&image::open(right_truth)?.to_luma8(), scale);
-            truth.mask_occlusions(&r, 1.0);
-        }
+        RAW.with(|r| *r.borrow_mut() = Some(raw));
+        let truth = load_middlebury_truth(&dir, scale)?;
         let out = run_pipeline(
             &GrayView::from_image(&left)?,
             &GrayView::from_image(&right)?,

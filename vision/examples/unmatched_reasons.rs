@@ -21,20 +21,14 @@
 use std::collections::BTreeMap;
 use videt_vision::canny::CannyWorkspace;
 use videt_vision::evaluation::{
-    judge, judge_correspondence, point_segment_distance, DisparityMap, MatchVerdict,
+    judge, judge_correspondence, load_middlebury_truth, point_segment_distance, DisparityMap,
+    MatchVerdict, MIDDLEBURY_PAIRS,
 };
 use videt_vision::matching::{
     ImagePatch, MatchWorkspace, PairDiagnosis, SegmentMatch, StereoImages,
 };
 use videt_vision::segments::Segment;
 use videt_vision::{run_pipeline, GrayView, VisionParams};
-
-const PAIRS: [(&str, f32); 4] = [
-    ("tsukuba", 16.0),
-    ("venus", 8.0),
-    ("cones", 4.0),
-    ("teddy", 4.0),
-];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -63,7 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             _ => return Err(format!("unknown parameter {key}").into()),
         }
     }
-    for (name, scale) in PAIRS {
+    for (name, scale) in MIDDLEBURY_PAIRS {
         if !wanted.is_empty() && !wanted.contains(&name) {
             continue;
         }
@@ -72,13 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let left_img = image::open(dir.join("left.ppm"))?.to_luma8();
         let right_img = image::open(dir.join("right.ppm"))?.to_luma8();
-        let mut truth =
-            DisparityMap::from_scaled(&image::open(dir.join("disp_left.pgm"))?.to_luma8(), scale);
-        let right_truth = dir.join("disp_right.pgm");
-        if right_truth.exists() {
-            let r = DisparityMap::from_scaled(&image::open(right_truth)?.to_luma8(), scale);
-            truth.mask_occlusions(&r, 1.0);
-        }
+        let truth = load_middlebury_truth(&dir, scale)?;
         let (lv, rv) = (
             GrayView::from_image(&left_img)?,
             GrayView::from_image(&right_img)?,

@@ -20,8 +20,32 @@
 //! endpoint disparity is judged separately by [`judge_match`] and reported as
 //! [`AccuracyReport::horizontal_disparity_wrong`].
 
+use std::path::Path;
+
 use crate::matching::SegmentMatch;
 use crate::segments::Segment;
+
+/// The Middlebury pairs of the shared test data (`stereo/NAME`) and the scale of their 8-bit
+/// ground truth.
+pub const MIDDLEBURY_PAIRS: [(&str, f32); 4] = [
+    ("tsukuba", 16.0),
+    ("venus", 8.0),
+    ("cones", 4.0),
+    ("teddy", 4.0),
+];
+
+/// The ground truth of a Middlebury pair directory: `disp_left.pgm` divided by `scale`, with
+/// the pixels occluded according to `disp_right.pgm` (when there is one) masked.
+pub fn load_middlebury_truth(dir: &Path, scale: f32) -> Result<DisparityMap, image::ImageError> {
+    let mut truth =
+        DisparityMap::from_scaled(&image::open(dir.join("disp_left.pgm"))?.to_luma8(), scale);
+    let right = dir.join("disp_right.pgm");
+    if right.exists() {
+        let r = DisparityMap::from_scaled(&image::open(right)?.to_luma8(), scale);
+        truth.mask_occlusions(&r, 1.0);
+    }
+    Ok(truth)
+}
 
 /// A dense disparity map; `NaN` marks unknown pixels.
 #[derive(Debug, Clone)]

@@ -6,7 +6,7 @@
 //! 1.84 %). The full table: `cargo run --release -p videt-vision --example
 //! stereo_accuracy`.
 
-use videt_vision::evaluation::{evaluate, DisparityMap};
+use videt_vision::evaluation::{evaluate, load_middlebury_truth};
 use videt_vision::{run_pipeline, GrayView, VisionParams};
 
 #[test]
@@ -24,17 +24,7 @@ fn every_middlebury_pair_is_matched_reliably() {
         };
         let left = image::open(dir.join("left.ppm")).unwrap().to_luma8();
         let right = image::open(dir.join("right.ppm")).unwrap().to_luma8();
-        let mut truth = DisparityMap::from_scaled(
-            &image::open(dir.join("disp_left.pgm")).unwrap().to_luma8(),
-            scale,
-        );
-        if dir.join("disp_right.pgm").exists() {
-            let r = DisparityMap::from_scaled(
-                &image::open(dir.join("disp_right.pgm")).unwrap().to_luma8(),
-                scale,
-            );
-            truth.mask_occlusions(&r, 1.0);
-        }
+        let truth = load_middlebury_truth(&dir, scale).unwrap();
         let out = run_pipeline(
             &GrayView::from_image(&left).unwrap(),
             &GrayView::from_image(&right).unwrap(),
