@@ -169,6 +169,43 @@ pub fn check_arguments(wire: usize, mass_kg: f64) -> Result<(), TensionCalibrati
     Ok(())
 }
 
+/// Asks the technician for `step`, then holds `wire` by `force` (released or not) until the
+/// technician says the step is done.
+#[allow(clippy::too_many_arguments)]
+fn perform_step<H: InitHardware, T: TensionTechnician<H>>(
+    hw: &mut H,
+    tech: &mut T,
+    runner: &mut Runner,
+    step: TensionStep,
+    wire: usize,
+    released: bool,
+    force: &mut dyn FnMut(f64, f64) -> f64,
+    stop: &AtomicBool,
+) -> Result<(), Failure> {
+    tech.perform(step, hw)?;
+    let mut done = |hw: &mut H, _: u32| tech.step_done(step, hw);
+    hold_wire(hw, runner, wire, released, force, stop, &mut done).map(|_| ())
+}
+
+/// Holds `wire` by `force` for `settle` periods, then returns its mean reading over `measure`
+/// periods.
+fn settled_reading<H: InitHardware>(
+    hw: &mut H,
+    runner: &mut Runner,
+    wire: usize,
+    released: bool,
+    force: &mut dyn FnMut(f64, f64) -> f64,
+    stop: &AtomicBool,
+    (settle, measure): (u32, u32),
+) -> Result<f64, Failure> {
+    hold_wire(hw, runner, wire, released, force, stop, &mut |_, n| {
+        n >= settle
+    })?;
+    hold_wire(hw, runner, wire, released, force, stop, &mut |_, n| {
+        n >= measure
+    })
+}
+
 /// Calibrate wire `wire`'s tension sensor with a weight of `mass_kg`. The hardware must be
 /// started; the other wires are held at the pay-out tension.
 pub fn calibrate_tension<H: InitHardware, T: TensionTechnician<H>>(
@@ -187,24 +224,22 @@ pub fn calibrate_tension<H: InitHardware, T: TensionTechnician<H>>(
     let (settle, measure) = (periods(0.5), periods(1.0));
 
     // Unloaded: the pulley released, the end hanging free; let it settle, then average.
-    let step = TensionStep::Unload { wire };
-    tech.perform(step, hw).map_err(dev)?;
     let mut unloaded = |_: f64, _: f64| 0.0;
-    let mut step_done = |hw: &mut H, _: u32| tech.step_done(step, hw);
-    hold_wire(hw, runner, wire, true, &mut unloaded, stop, &mut step_done).map_err(dev)?;
-    hold_wire(hw, runner, wire, true, &mut unloaded, stop, &mut |_, n| {
-        n >= settle
-    })
-    .map_err(dev)?;
-    let offset_n = hold_wire(hw, runner, wire, true, &mut unloaded, stop, &mut |_, n| {
-        n >= measure
-    })
+    let step = TensionStep::Unload { wire };
+    perform_step(hw, tech, runner, step, wire, true, &mut unloaded, stop).map_err(dev)?;
+    let offset_n = settled_reading(
+        hw,
+        runner,
+        wire,
+        true,
+        &mut unloaded,
+        stop,
+        (settle, measure),
+    )
     .map_err(dev)?;
 
     // Loaded: while the weight is being hung the wire is held at the pay-out tension; once it
     // pulls (the reading past half its weight) the motor balances it, damped against motion.
-    let step = TensionStep::HangWeight { wire, mass_kg };
-    tech.perform(step, hw).map_err(dev)?;
     let mut hanging = |reading: f64, wind_speed: f64| {
         if reading - offset_n > 0.5 * load_n {
             weight_hold(load_n, wind_speed)
@@ -212,30 +247,23 @@ pub fn calibrate_tension<H: InitHardware, T: TensionTechnician<H>>(
             pay_out
         }
     };
-    let mut step_done = |hw: &mut H, _: u32| tech.step_done(step, hw);
-    hold_wire(hw, runner, wire, false, &mut hanging, stop, &mut step_done).map_err(dev)?;
+    let step = TensionStep::HangWeight { wire, mass_kg };
+    perform_step(hw, tech, runner, step, wire, false, &mut hanging, stop).map_err(dev)?;
     let mut hold = |_: f64, wind_speed: f64| weight_hold(load_n, wind_speed);
-    hold_wire(hw, runner, wire, false, &mut hold, stop, &mut |_, n| {
-        n >= settle
-    })
-    .map_err(dev)?;
-    let loaded = hold_wire(hw, runner, wire, false, &mut hold, stop, &mut |_, n| {
-        n >= measure
-    })
-    .map_err(dev)?;
+    let loaded = settled_reading(hw, runner, wire, false, &mut hold, stop, (settle, measure))
+        .map_err(dev)?;
 
     // The weight off, the wire wound back at the pay-out tension.
     let step = TensionStep::Finish { wire };
-    tech.perform(step, hw).map_err(dev)?;
-    let mut step_done = |hw: &mut H, _: u32| tech.step_done(step, hw);
-    hold_wire(
+    perform_step(
         hw,
+        tech,
         runner,
+        step,
         wire,
         false,
         &mut |_, _| pay_out,
         stop,
-        &mut step_done,
     )
     .map_err(dev)?;
     let change_n = loaded - offset_n;
