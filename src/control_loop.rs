@@ -9,7 +9,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use videt_control::safety::{SafetyReason, SafetyState};
-use videt_hal::{Clock, EStop, Error, Lifecycle, TensionSensors, WireDrives};
+use videt_hal::{Clock, EStop, Lifecycle, TensionSensors, WireDrives};
 
 use crate::cycle::{ControlCycle, CycleRecord};
 use crate::histogram::Histogram;
@@ -121,28 +121,32 @@ pub struct LoopReport {
 
 /// The loop could not start.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot start the control loop: {stage} failed ({kind})")]
+#[error("cannot start the control loop: {stage} failed ({kind}): {detail}")]
 pub struct StartError {
     /// What failed: `configure`, `activate` or `enable`.
     pub stage: &'static str,
     /// The device error kind.
     pub kind: videt_hal::ErrorKind,
+    /// The device's own account of the failure (which drive, which object, how long it waited).
+    pub detail: String,
+}
+
+impl StartError {
+    fn new(stage: &'static str, e: &impl videt_hal::Error) -> StartError {
+        StartError {
+            stage,
+            kind: e.kind(),
+            detail: format!("{e:?}"),
+        }
+    }
 }
 
 /// Bring the hardware up: configure, activate, enable the drives.
 pub fn start_hardware<H: Lifecycle + WireDrives>(hw: &mut H) -> Result<(), StartError> {
-    hw.configure().map_err(|e| StartError {
-        stage: "configure",
-        kind: e.kind(),
-    })?;
-    hw.activate().map_err(|e| StartError {
-        stage: "activate",
-        kind: e.kind(),
-    })?;
-    hw.enable().map_err(|e| StartError {
-        stage: "enable",
-        kind: e.kind(),
-    })?;
+    hw.configure()
+        .map_err(|e| StartError::new("configure", &e))?;
+    hw.activate().map_err(|e| StartError::new("activate", &e))?;
+    hw.enable().map_err(|e| StartError::new("enable", &e))?;
     Ok(())
 }
 

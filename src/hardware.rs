@@ -1,6 +1,7 @@
 //! The device itself: its three CiA 402 drives on SocketCAN, its three strain-gauge converters
-//! and its e-stop, put together as the one hardware object the service runs on, on the system's
-//! monotonic clock.
+//! (ADS1220 or HX711 of their own, or the load-cell amplifiers wired into the drives' analog
+//! inputs) and its e-stop, put together as the one hardware object the service runs on, on the
+//! system's monotonic clock.
 //!
 //! [`DeviceHardware`] only delegates each capability to the part that has it; the parts are the
 //! `drivers` crate's, and [`open_device`] opens them from the configuration, e-stop first.
@@ -9,12 +10,12 @@ use core::fmt;
 use std::time::Duration;
 
 use videt_drivers::adc::calibration::TensionCalibration;
-use videt_drivers::cia402::DriveSetConfig;
+use videt_drivers::cia402::{AnalogInputObject, DriveSetConfig};
 use videt_hal::{
     Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState, MonoTime,
     TensionSensors, WireDrives, WIRES,
 };
-use videt_rt_config::Config;
+use videt_rt_config::{Config, TensionAdc};
 
 use crate::init::remote::ProcedureDevice;
 use crate::rt::SystemClock;
@@ -161,7 +162,8 @@ impl<D: WireDrives, T: TensionSensors, E: EStop> ProcedureDevice for DeviceHardw
 
 /// The drive-set settings of the device: node ids, rated torque and heartbeats from
 /// `[drives]`, the transmission and limits from `[transmission]` and `[control]`, one SYNC per
-/// control period.
+/// control period, and with `sensors.adc = "drive"` the analog input object
+/// (`sensors.drive_analog_index`/`drive_analog_subindex`) mapped into every drive's TPDO2.
 pub fn drive_set_config(config: &Config) -> DriveSetConfig {
     let d = &config.drives;
     let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
@@ -175,6 +177,12 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig {
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
     c.drive_heartbeat_ms = d.heartbeat_ms;
     c.drive_heartbeat_timeout = Duration::from_millis(u64::from(d.heartbeat_timeout_ms));
+    c.max_missed_cycles = d.max_missed_cycles;
+    let s = &config.sensors;
+    c.analog_input = (s.adc == TensionAdc::Drive).then_some(AnalogInputObject {
+        index: s.drive_analog_index,
+        subindex: s.drive_analog_subindex,
+    });
     c
 }
 
@@ -194,6 +202,7 @@ pub use linux::{open_device, LinuxDevice};
 mod linux {
     use std::time::Duration;
 
+    use videt_drivers::adc::drive_input::DriveInputAdc;
     use videt_drivers::adc::linux::{open_ads1220, open_hx711, LinuxAdc};
     use videt_drivers::adc::tension_set::{MonotonicClock, StrainGaugeSet};
     use videt_drivers::can::socketcan_port::SocketCanPort;
@@ -204,7 +213,8 @@ mod linux {
 
     use super::{drive_set_config, nominal_tension_scales, DeviceHardware, ESTOP_DEBOUNCE_SAMPLES};
 
-    /// The device on Linux: SocketCAN drives, spidev or GPIO converters, a GPIO e-stop.
+    /// The device on Linux: SocketCAN drives, spidev, GPIO or drive-input converters, a GPIO
+    /// e-stop.
     pub type LinuxDevice = DeviceHardware<
         Cia402DriveSet<SocketCanPort>,
         StrainGaugeSet<LinuxAdc, MonotonicClock>,
@@ -212,14 +222,41 @@ mod linux {
     >;
 
     /// Open the device's parts named by `config`: the e-stop first (so no drive is reached
-    /// without it), then the three converters, then the CAN interface. Nothing is powered: the
-    /// service configures and enables the drives. An error names the part, its device and the
-    /// configuration field to look at.
+    /// without it), then the three converters, then the CAN interface; with
+    /// `sensors.adc = "drive"` the CAN interface right after the e-stop, the three tension
+    /// channels being the drives' analog inputs. Nothing is powered: the service configures
+    /// and enables the drives. An error names the part, its device and the configuration field
+    /// to look at.
     pub fn open_device(config: &Config) -> Result<LinuxDevice, String> {
         let s = &config.sensors;
         let estop =
             videt_drivers::gpio::linux::estop(&s.gpio_chip, s.estop_line, ESTOP_DEBOUNCE_SAMPLES)
                 .map_err(|e| format!("{e} (sensors.gpio_chip, sensors.estop_line)"))?;
+        let open_drives = || {
+            let interface = &config.drives.can_interface;
+            let port = SocketCanPort::open(interface)
+                .map_err(|e| format!("CAN interface {interface}: {e} (drives.can_interface)"))?;
+            Cia402DriveSet::new(port, drive_set_config(config)).map_err(|e| {
+                if e.field.starts_with("analog_input") {
+                    format!("{e} (sensors.drive_analog_index, sensors.drive_analog_subindex)")
+                } else {
+                    e.to_string()
+                }
+            })
+        };
+        if s.adc == TensionAdc::Drive {
+            let drives = open_drives()?;
+            let inputs = drives.analog_inputs().ok_or_else(|| {
+                "sensors.adc = \"drive\": the drives have no analog input mapped".to_string()
+            })?;
+            let tensions = StrainGaugeSet::new(
+                DriveInputAdc::for_each_wire(&inputs).map(LinuxAdc::DriveInput),
+                nominal_tension_scales(config),
+                MonotonicClock::default(),
+                Duration::from_millis(u64::from(s.stale_after_ms)),
+            );
+            return Ok(DeviceHardware::new(drives, tensions, estop));
+        }
         let open_adc = |wire: usize| match s.adc {
             TensionAdc::Ads1220 => {
                 open_ads1220(wire, &s.spi_devices[wire], &s.gpio_chip, s.drdy_lines[wire])
@@ -232,6 +269,8 @@ mod linux {
                 s.hx711_data_lines[wire],
             )
             .map_err(|e| format!("{e} (sensors.hx711_clock_lines, sensors.hx711_data_lines)")),
+            // Opened with the drives above.
+            TensionAdc::Drive => Err("sensors.adc = \"drive\" has no converter of its own".into()),
         };
         let adcs = [open_adc(0)?, open_adc(1)?, open_adc(2)?];
         let tensions = StrainGaugeSet::new(
@@ -240,11 +279,7 @@ mod linux {
             MonotonicClock::default(),
             Duration::from_millis(u64::from(s.stale_after_ms)),
         );
-        let interface = &config.drives.can_interface;
-        let port = SocketCanPort::open(interface)
-            .map_err(|e| format!("CAN interface {interface}: {e} (drives.can_interface)"))?;
-        let drives =
-            Cia402DriveSet::new(port, drive_set_config(config)).map_err(|e| e.to_string())?;
+        let drives = open_drives()?;
         Ok(DeviceHardware::new(drives, tensions, estop))
     }
 }
@@ -407,6 +442,10 @@ mod tests {
         assert_eq!(c.control_period, Duration::from_micros(500));
         assert_eq!(c.t_max_n, config.control.t_max_n);
         c.validate().unwrap();
+        assert_eq!(
+            c.analog_input, None,
+            "no analog input without adc = \"drive\""
+        );
         let scales = nominal_tension_scales(&config);
         assert_eq!(
             scales[2].newtons_per_count,
@@ -414,16 +453,39 @@ mod tests {
         );
     }
 
+    #[test]
+    fn with_drive_inputs_the_drives_map_the_configured_analog_input() {
+        let mut config = Config::default();
+        config.sensors.adc = TensionAdc::Drive;
+        let c = drive_set_config(&config);
+        assert_eq!(c.analog_input, Some(AnalogInputObject::CIA401_FIRST));
+        config.sensors.drive_analog_index = 0x3160;
+        config.sensors.drive_analog_subindex = 2;
+        let c = drive_set_config(&config);
+        assert_eq!(
+            c.analog_input,
+            Some(AnalogInputObject {
+                index: 0x3160,
+                subindex: 2
+            })
+        );
+        c.validate().unwrap();
+    }
+
     #[cfg(target_os = "linux")]
     #[test]
     fn a_device_that_is_absent_is_named_with_its_configuration_field() {
         let mut config = Config::default();
         config.sensors.gpio_chip = "/dev/no-such-gpiochip".into();
-        let e = open_device(&config).unwrap_err();
-        assert!(
-            e.contains("/dev/no-such-gpiochip line 17 (e-stop)")
-                && e.contains("(sensors.gpio_chip, sensors.estop_line)"),
-            "{e}"
-        );
+        for adc in [TensionAdc::Ads1220, TensionAdc::Drive] {
+            // The e-stop comes first, whatever the tension sensors are.
+            config.sensors.adc = adc;
+            let e = open_device(&config).unwrap_err();
+            assert!(
+                e.contains("/dev/no-such-gpiochip line 17 (e-stop)")
+                    && e.contains("(sensors.gpio_chip, sensors.estop_line)"),
+                "{adc:?}: {e}"
+            );
+        }
     }
 }

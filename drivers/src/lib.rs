@@ -4,7 +4,8 @@
 //! - [`canopen`]: CiA 301 helpers on `canopen-rs` (COB-IDs, EMCY/SDO texts, candump and EDS
 //!   readers);
 //! - [`cia402`]: CiA 402 wire drives in cyclic synchronous torque mode (`WireDrives`);
-//! - [`adc`]: HX711 and ADS1220 strain-gauge ADCs, tension calibration (`TensionSensors`);
+//! - [`adc`]: HX711 and ADS1220 strain-gauge ADCs or the drives' analog inputs, tension
+//!   calibration (`TensionSensors`);
 //! - [`gpio`]: the e-stop input (`EStop`) and the vibrotactor outputs (`Vibrotactors`);
 //! - [`camera`]: image-file stereo source and, with the `v4l` feature, V4L2 stereo capture
 //!   (`StereoCamera`).

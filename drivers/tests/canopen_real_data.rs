@@ -5,8 +5,9 @@ use canopen_rs::sdo::decode_upload_expedited_response;
 use canopen_rs::DataType;
 use videt_drivers::canopen::eds::Eds;
 use videt_drivers::canopen::trace::{decode, parse_candump, Message};
-use videt_drivers::cia402::compat::missing_objects;
+use videt_drivers::cia402::compat::{missing_objects, missing_objects_with};
 use videt_drivers::cia402::pdo::Status;
+use videt_drivers::cia402::AnalogInputObject;
 use videt_drivers::cia402::PowerState;
 
 fn read(rel: &str) -> Option<String> {
@@ -76,6 +77,24 @@ fn the_epos4_has_every_object_of_the_driver_and_the_faulhaber_mcbl_lacks_torque_
 }
 
 #[test]
+fn the_epos4_maps_its_analog_input_voltage_but_has_no_cia401_input() {
+    let Some(epos) = eds("epos4_50_15_can_ec90flat_gp52c_mile800_node1.dcf") else {
+        return;
+    };
+    let epos_input = AnalogInputObject {
+        index: 0x3160,
+        subindex: 1,
+    };
+    assert_eq!(missing_objects_with(&epos, Some(epos_input)), vec![]);
+    let missing = missing_objects_with(&epos, Some(AnalogInputObject::default()));
+    assert_eq!(missing.len(), 1, "{missing:?}");
+    assert_eq!(
+        (missing[0].index, missing[0].subindex, missing[0].problem),
+        (0x6401, 1, "absent")
+    );
+}
+
+#[test]
 fn the_simulated_drive_dictionary_matches_a_real_drive() {
     let Some(epos) = eds("epos4_50_15_can_ec90flat_gp52c_mile800_node1.dcf") else {
         return;
@@ -95,9 +114,10 @@ fn the_simulated_drive_dictionary_matches_a_real_drive() {
     for (index, sub) in node.object_addresses() {
         let value = node.read_object(index, sub).unwrap();
         let Some(real) = epos.entry(index, sub) else {
-            // Objects a real EPOS4 lacks are allowed only for the optional torque limit.
+            // Objects a real EPOS4 lacks are allowed only for the optional torque limit and the
+            // CiA 401 analog input (the EPOS4 has its analog inputs at 0x3160).
             assert!(
-                index == 0x6072,
+                index == 0x6072 || index == 0x6401,
                 "{index:#06x}:{sub} not in the EPOS4 dictionary"
             );
             continue;

@@ -229,6 +229,10 @@ pub struct DrivesConfig {
     pub heartbeat_ms: u16,
     /// A drive silent for this long is a fault, milliseconds.
     pub heartbeat_timeout_ms: u16,
+    /// Consecutive periods a drive's process data may be missing before it is a fault (0: the
+    /// first missing period is). With 1 the drives power off within two periods of a drive
+    /// going silent; a bus or computer that delays answers now and then needs more.
+    pub max_missed_cycles: u32,
 }
 
 /// Which ADC reads the strain gauges.
@@ -239,6 +243,9 @@ pub enum TensionAdc {
     Hx711,
     /// ADS1220 on SPI.
     Ads1220,
+    /// The load-cell amplifier wired into each wire drive's analog input, read in TPDO2 at
+    /// every SYNC (object `drive_analog_index`/`drive_analog_subindex`).
+    Drive,
 }
 
 /// Strain-gauge tension sensors.
@@ -263,12 +270,21 @@ pub struct SensorsConfig {
     pub hx711_clock_lines: [u32; 3],
     /// HX711: the GPIO line of each converter's data output (`DOUT`).
     pub hx711_data_lines: [u32; 3],
+    /// Drive: the object index of each drive's 16-bit signed analog input (the same on every
+    /// drive), mapped into TPDO2 after the status. Default: CiA 401 "read analog input 16-bit"
+    /// 0x6401.
+    pub drive_analog_index: u16,
+    /// Drive: the subindex of the analog input object (default 1: the first input).
+    pub drive_analog_subindex: u8,
     /// Raw reading of each wire's converter at zero tension, counts (nominal: the tension
-    /// calibration written by `videt tension-calibrate` corrects what remains).
+    /// calibration written by `videt tension-calibrate` corrects what remains). A drive's
+    /// analog input is 16-bit: -32768..=32767.
     pub zero_counts: [i32; 3],
     /// Newtons per raw count of each wire's converter (nominal, from the load cell's rated
     /// output; negative for a bridge wired inverted). A 50 N, 2 mV/V cell gives 2.33e-5 on the
-    /// ADS1220 at gain 128 and 1.16e-5 on the HX711 at gain 128 with a 5 V supply.
+    /// ADS1220 at gain 128 and 1.16e-5 on the HX711 at gain 128 with a 5 V supply; through a
+    /// drive, the amplifier's newtons per volt times the volts per count of the drive's input
+    /// (e.g. 0.005 for 50 N over 10 V read in millivolts).
     pub newtons_per_count: [f64; 3],
 }
 
@@ -290,6 +306,14 @@ pub struct VisionConfig {
     /// Largest disparity searched in the rectified pair, pixels (sets the nearest depth seen:
     /// focal x baseline / disparity).
     pub max_disparity_px: f64,
+    /// Largest capture-time difference of a left and a right frame paired, milliseconds. Two
+    /// free-running cameras keep whatever phase they started with: this must exceed half their
+    /// frame period (16.7 ms at 30 fps) or they may never pair; hardware-synchronised cameras
+    /// can be held to 1-2 ms.
+    pub pair_tolerance_ms: f64,
+    /// Frame rate asked of the cameras, frames per second (a camera without that rate keeps
+    /// its nearest; the relief is rebuilt every `rebuild_period_s` from the newest pair).
+    pub frame_rate_hz: u32,
 }
 
 /// Per-cycle telemetry.
@@ -324,6 +348,7 @@ impl Default for DrivesConfig {
             rated_torque_nm: 0.05,
             heartbeat_ms: 10,
             heartbeat_timeout_ms: 50,
+            max_missed_cycles: 1,
         }
     }
 }
@@ -344,6 +369,8 @@ impl Default for SensorsConfig {
             drdy_lines: [5, 6, 13],
             hx711_clock_lines: [20, 21, 26],
             hx711_data_lines: [16, 19, 12],
+            drive_analog_index: 0x6401,
+            drive_analog_subindex: 1,
             zero_counts: [0; 3],
             newtons_per_count: [2.33e-5; 3],
         }
@@ -359,6 +386,8 @@ impl Default for VisionConfig {
             stereo_calibration: "/etc/videt/stereo.json".into(),
             rebuild_period_s: 0.2,
             max_disparity_px: 64.0,
+            pair_tolerance_ms: 20.0,
+            frame_rate_hz: 30,
         }
     }
 }
@@ -709,6 +738,12 @@ impl Config {
             10000.0,
         )?;
         in_range(
+            "drives.max_missed_cycles",
+            f64::from(d.max_missed_cycles),
+            0.0,
+            100.0,
+        )?;
+        in_range(
             "sensors.stale_after_ms",
             f64::from(self.sensors.stale_after_ms),
             1.0,
@@ -745,6 +780,18 @@ impl Config {
             self.vision.max_disparity_px,
             1.0,
             1000.0,
+        )?;
+        in_range(
+            "vision.pair_tolerance_ms",
+            self.vision.pair_tolerance_ms,
+            0.1,
+            100.0,
+        )?;
+        in_range(
+            "vision.frame_rate_hz",
+            f64::from(self.vision.frame_rate_hz),
+            1.0,
+            240.0,
         )?;
         in_range(
             "telemetry.ring_records",
@@ -800,6 +847,7 @@ impl Config {
                 named("sensors.hx711_clock_lines", &s.hx711_clock_lines);
                 named("sensors.hx711_data_lines", &s.hx711_data_lines);
             }
+            TensionAdc::Drive => {}
         }
         for (k, (field, line)) in lines.iter().enumerate() {
             if let Some((other, _)) = lines[..k].iter().find(|(_, l)| l == line) {
@@ -807,6 +855,25 @@ impl Config {
                     field: field.clone(),
                     value: line.to_string(),
                     allowed: format!("a GPIO line not used already (it is {other})"),
+                });
+            }
+        }
+        if s.adc == TensionAdc::Drive {
+            if !(0x2000..=0x9FFF).contains(&s.drive_analog_index) {
+                return Err(ConfigError::Invalid {
+                    field: "sensors.drive_analog_index".into(),
+                    value: format!("{:#06x}", s.drive_analog_index),
+                    allowed: "in [0x2000, 0x9fff] (a manufacturer or device-profile object)".into(),
+                });
+            }
+            let sub = s.drive_analog_subindex;
+            if sub == 0xFF || (s.drive_analog_index == 0x6401 && sub == 0) {
+                return Err(ConfigError::Invalid {
+                    field: "sensors.drive_analog_subindex".into(),
+                    value: sub.to_string(),
+                    allowed: "in [0, 254], and in [1, 254] for 0x6401 (its subindex 0 is the \
+                              number of inputs)"
+                        .into(),
                 });
             }
         }
@@ -821,20 +888,35 @@ impl Config {
                 }
             }
         }
+        // A drive's analog input is a 16-bit value in the drive's own unit (often mV): its
+        // counts are coarser than a 24-bit converter's.
+        let (counts, scales, allowed) = if s.adc == TensionAdc::Drive {
+            (
+                (-32_768.0, 32_767.0),
+                1e-6..=1.0,
+                "between 1e-6 and 1 in magnitude for adc = \"drive\" (negative for an inverted \
+                 amplifier)",
+            )
+        } else {
+            (
+                (-8_388_608.0, 8_388_607.0),
+                1e-9..=1e-2,
+                "between 1e-9 and 1e-2 in magnitude (negative for an inverted bridge)",
+            )
+        };
         for i in 0..3 {
             in_range(
                 &format!("sensors.zero_counts[{i}]"),
                 f64::from(s.zero_counts[i]),
-                -8_388_608.0,
-                8_388_607.0,
+                counts.0,
+                counts.1,
             )?;
             let scale = s.newtons_per_count[i];
-            if !(scale.is_finite() && (1e-9..=1e-2).contains(&scale.abs())) {
+            if !(scale.is_finite() && scales.contains(&scale.abs())) {
                 return Err(ConfigError::Invalid {
                     field: format!("sensors.newtons_per_count[{i}]"),
                     value: scale.to_string(),
-                    allowed: "between 1e-9 and 1e-2 in magnitude (negative for an inverted bridge)"
-                        .into(),
+                    allowed: allowed.into(),
                 });
             }
         }
@@ -951,6 +1033,11 @@ mod tests {
             ColourConfig::default(),
             "the example shows the defaults"
         );
+        assert_eq!(
+            c.sensors,
+            SensorsConfig::default(),
+            "the example shows the defaults"
+        );
     }
 
     #[test]
@@ -1053,6 +1140,10 @@ mod tests {
                 "[drives]\nheartbeat_ms = 10\nheartbeat_timeout_ms = 15\n",
                 "drives.heartbeat_timeout_ms",
             ),
+            (
+                "[drives]\nmax_missed_cycles = 101\n",
+                "drives.max_missed_cycles",
+            ),
             ("[sensors]\nstale_after_ms = 0\n", "sensors.stale_after_ms"),
             (
                 "[sensors]\ndrdy_lines = [5, 17, 13]\n",
@@ -1081,6 +1172,8 @@ mod tests {
             ("[telemetry]\nring_records = 3\n", "telemetry.ring_records"),
             ("[vision]\nrebuild_period_s = 0.0\n", "vision.rebuild_period_s"),
             ("[vision]\nmax_disparity_px = 0.5\n", "vision.max_disparity_px"),
+            ("[vision]\npair_tolerance_ms = 0\n", "vision.pair_tolerance_ms"),
+            ("[vision]\nframe_rate_hz = 0\n", "vision.frame_rate_hz"),
             ("[socket]\npath = \"\"\n", "socket.path"),
             (
                 "[control]\nslack_takeup_speed_m_s = 0.6\n",
@@ -1110,6 +1203,69 @@ mod tests {
         let inverted =
             Config::from_toml_str("[sensors]\nnewtons_per_count = [-2e-5, 2e-5, 2e-5]\n", "t");
         assert!(inverted.is_ok(), "an inverted bridge is allowed");
+    }
+
+    #[test]
+    fn the_drive_analog_input_is_checked_when_it_is_the_converter() {
+        let drive = "[sensors]\nadc = \"drive\"\nnewtons_per_count = [0.005, 0.005, -0.005]\n";
+        let c = Config::from_toml_str(drive, "t").unwrap();
+        assert_eq!(c.sensors.adc, TensionAdc::Drive);
+        assert_eq!(
+            (
+                c.sensors.drive_analog_index,
+                c.sensors.drive_analog_subindex
+            ),
+            (0x6401, 1)
+        );
+        // The GPIO lines and SPI devices of the other converters are not in use.
+        Config::from_toml_str(
+            &format!("{drive}drdy_lines = [17, 17, 17]\nspi_devices = [\"\", \"\", \"\"]\n"),
+            "t",
+        )
+        .unwrap();
+        let c = Config::from_toml_str(
+            &format!("{drive}drive_analog_index = 0x3160\ndrive_analog_subindex = 0\n"),
+            "t",
+        )
+        .unwrap();
+        assert_eq!(c.sensors.drive_analog_index, 0x3160);
+        for (extra, message) in [
+            (
+                "drive_analog_index = 0x1A01\n",
+                "sensors.drive_analog_index = 0x1a01: must be in [0x2000, 0x9fff]",
+            ),
+            (
+                "drive_analog_subindex = 0\n",
+                "sensors.drive_analog_subindex = 0: must be in [0, 254], and in [1, 254] for 0x6401",
+            ),
+            (
+                "drive_analog_index = 0x3160\ndrive_analog_subindex = 255\n",
+                "sensors.drive_analog_subindex = 255: must be in [0, 254]",
+            ),
+            (
+                "zero_counts = [0, 40000, 0]\n",
+                "sensors.zero_counts[1] = 40000: must be in [-32768, 32767]",
+            ),
+            (
+                "newtons_per_count = [0.005, 2.0, 0.005]\n",
+                "sensors.newtons_per_count[1] = 2: must be between 1e-6 and 1 in magnitude for adc = \"drive\"",
+            ),
+        ] {
+            // A later key would repeat one of `drive`: start from the converter alone.
+            let text = if extra.starts_with("newtons") {
+                format!("[sensors]\nadc = \"drive\"\n{extra}")
+            } else {
+                format!("{drive}{extra}")
+            };
+            let e = Config::from_toml_str(&text, "t").unwrap_err().to_string();
+            assert!(e.starts_with(message), "{extra:?}: {e}");
+        }
+        // Off "drive", the drive fields are not checked.
+        Config::from_toml_str("[sensors]\ndrive_analog_index = 0\n", "t").unwrap();
+        let e = Config::from_toml_str("[sensors]\nadc = \"spi\"\n", "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("drive"), "the choices are listed: {e}");
     }
 
     #[test]

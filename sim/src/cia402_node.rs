@@ -6,7 +6,11 @@
 //! drive adds: the power state machine driven by the controlword, cyclic synchronous torque
 //! mode (target torque in per mille of rated torque 0x6076, applied at SYNC), a heartbeat
 //! consumer with a communication-loss reaction (0x6007), and a motor given by a
-//! [`MotorPlant`] so the twin's physics can be connected.
+//! [`MotorPlant`] so the twin's physics can be connected. The plant also gives each drive's
+//! analog input ([`MotorPlant::analog_input`], e.g. a load-cell amplifier wired into the drive):
+//! the node serves it as CiA 401 "read analog input 16-bit" 0x6401 sub 1 and as the EPOS4's
+//! "analog input 1 voltage" 0x3160 sub 1, both mappable into a TPDO. Mapping an object the
+//! dictionary lacks is refused with SDO abort 0x0604_0041, as a real drive does.
 //!
 //! Faults to inject at run time ([`NodeFaults`]): never boots, heartbeat stops, stays silent on
 //! SYNC, an emergency with a latched fault; bus-level faults (drops, delay, bus-off) live in
@@ -28,6 +32,12 @@ pub trait MotorPlant: Send {
     fn apply_torque(&mut self, axis: usize, torque_nm: f64);
     /// Encoder position (counts, positive = wound in) and velocity (counts/s) of `axis`.
     fn encoder(&self, axis: usize) -> (i64, f64);
+    /// The drive's analog input on `axis` (raw 16-bit signed value, e.g. a load-cell amplifier
+    /// wired into the drive), sent in TPDO2 when the master maps it. Default: 0 (unwired).
+    fn analog_input(&self, axis: usize) -> i16 {
+        let _ = axis;
+        0
+    }
 }
 
 /// A shared plant: several node threads and the twin may hold it.
@@ -40,27 +50,39 @@ impl<P: MotorPlant> MotorPlant for Arc<Mutex<P>> {
     fn encoder(&self, axis: usize) -> (i64, f64) {
         self.lock().map(|p| p.encoder(axis)).unwrap_or((0, 0.0))
     }
+    fn analog_input(&self, axis: usize) -> i16 {
+        self.lock().map(|p| p.analog_input(axis)).unwrap_or(0)
+    }
 }
 
 /// A wait-free mailbox between simulated drives and a physics model that another thread
-/// steps (the twin): the drives write torques and read encoders; the model's owner reads the
-/// torques and publishes the encoders. Atomics only: neither side ever blocks.
+/// steps (the twin): the drives write torques and read encoders and analog inputs; the model's
+/// owner reads the torques and publishes the encoders and analog inputs. Atomics only: neither
+/// side ever blocks.
 #[derive(Debug)]
 pub struct SharedMotors {
     torque_bits: Vec<std::sync::atomic::AtomicU64>,
     counts: Vec<std::sync::atomic::AtomicI64>,
     speed_bits: Vec<std::sync::atomic::AtomicU64>,
+    analog: Vec<std::sync::atomic::AtomicI16>,
 }
 
 impl SharedMotors {
-    /// `axes` motors, zero torque, encoders at zero.
+    /// `axes` motors, zero torque, encoders and analog inputs at zero.
     pub fn new(axes: usize) -> SharedMotors {
-        use std::sync::atomic::{AtomicI64, AtomicU64};
+        use std::sync::atomic::{AtomicI16, AtomicI64, AtomicU64};
         SharedMotors {
             torque_bits: (0..axes).map(|_| AtomicU64::new(0)).collect(),
             counts: (0..axes).map(|_| AtomicI64::new(0)).collect(),
             speed_bits: (0..axes).map(|_| AtomicU64::new(0)).collect(),
+            analog: (0..axes).map(|_| AtomicI16::new(0)).collect(),
         }
+    }
+
+    /// Publish the analog input of the drive of `axis` (raw 16-bit value, e.g. the load-cell
+    /// amplifier's output as the drive converts it).
+    pub fn publish_analog_input(&self, axis: usize, value: i16) {
+        self.analog[axis].store(value, Ordering::Release);
     }
 
     /// The torque the drive of `axis` applies now, N·m.
@@ -85,6 +107,9 @@ impl MotorPlant for Arc<SharedMotors> {
             f64::from_bits(self.speed_bits[axis].load(Ordering::Acquire)),
         )
     }
+    fn analog_input(&self, axis: usize) -> i16 {
+        self.analog[axis].load(Ordering::Acquire)
+    }
 }
 
 /// A free motor per axis: rotor inertia and viscous friction, integrated on the wall clock
@@ -101,6 +126,7 @@ pub struct FreeMotorPlant {
     speed_rad_s: Vec<f64>,
     torque_nm: Vec<f64>,
     last: Vec<Option<Instant>>,
+    analog: Vec<i16>,
 }
 
 impl FreeMotorPlant {
@@ -114,7 +140,13 @@ impl FreeMotorPlant {
             speed_rad_s: vec![0.0; axes],
             torque_nm: vec![0.0; axes],
             last: vec![None; axes],
+            analog: vec![0; axes],
         }
+    }
+
+    /// Set the analog input the drive of `axis` reports from now on (raw 16-bit value).
+    pub fn set_analog_input(&mut self, axis: usize, value: i16) {
+        self.analog[axis] = value;
     }
 
     /// The torque last applied on `axis`.
@@ -147,6 +179,9 @@ impl MotorPlant for FreeMotorPlant {
             (self.angle_rad[axis] * k).round() as i64,
             self.speed_rad_s[axis] * k,
         )
+    }
+    fn analog_input(&self, axis: usize) -> i16 {
+        self.analog[axis]
     }
 }
 
@@ -330,7 +365,45 @@ fn build_od(spec: &SimDriveSpec) -> ObjectDictionary<OD_CAPACITY> {
     put(a(0x6076, 0), Entry::rw(Unsigned32(spec.rated_torque_mnm)));
     put(a(0x6077, 0), Entry::ro(Integer16(0)));
     put(a(0x6502, 0), Entry::constant(Unsigned32(0x0000_0380)));
+    // The analog input, at its CiA 401 place and at the EPOS4's (input 2 is unwired).
+    put(a(ANALOG_INPUT_CIA401, 0), Entry::constant(Unsigned8(1)));
+    put(a(ANALOG_INPUT_CIA401, 1), Entry::ro(Integer16(0)));
+    put(a(ANALOG_INPUT_EPOS4, 0), Entry::constant(Unsigned8(2)));
+    put(a(ANALOG_INPUT_EPOS4, 1), Entry::ro(Integer16(0)));
+    put(a(ANALOG_INPUT_EPOS4, 2), Entry::ro(Integer16(0)));
     od
+}
+
+/// CiA 401 "read analog input 16-bit" (sub 1: the analog input).
+const ANALOG_INPUT_CIA401: u16 = 0x6401;
+/// The EPOS4's "analog input properties" (sub 1: analog input 1 voltage).
+const ANALOG_INPUT_EPOS4: u16 = 0x3160;
+/// SDO abort "object cannot be mapped to the PDO".
+const ABORT_NOT_MAPPABLE: u32 = 0x0604_0041;
+
+/// The object a PDO mapping download names, when `data` is an expedited SDO download of a
+/// non-zero entry into a mapping parameter (0x1600..=0x17FF, 0x1A00..=0x1BFF, sub 1..=64):
+/// `(mapping address, mapped address, length in bits)`.
+fn mapping_download(data: &[u8]) -> Option<(Address, Address, u8)> {
+    let d: &[u8; 8] = data.try_into().ok()?;
+    // Initiate download (ccs 1), expedited with size indicated, 4 data bytes.
+    if d[0] != 0x23 {
+        return None;
+    }
+    let index = u16::from_le_bytes([d[1], d[2]]);
+    let sub = d[3];
+    let is_mapping = (0x1600..=0x17FF).contains(&index) || (0x1A00..=0x1BFF).contains(&index);
+    if !is_mapping || !(1..=64).contains(&sub) {
+        return None;
+    }
+    let entry = u32::from_le_bytes([d[4], d[5], d[6], d[7]]);
+    (entry != 0).then(|| {
+        (
+            Address::new(index, sub),
+            Address::new((entry >> 16) as u16, (entry >> 8) as u8),
+            entry as u8,
+        )
+    })
 }
 
 fn od_u16(node: &Node<OD_CAPACITY>, index: u16, sub: u8) -> u16 {
@@ -475,6 +548,30 @@ impl SimDriveNode {
             self.comm_lost = false;
             return;
         }
+        let sdo_active = matches!(
+            self.node.state(),
+            NmtState::PreOperational | NmtState::Operational
+        );
+        if sdo_active && cob == 0x600 + u16::from(self.spec.node_id) {
+            if let Some((at, mapped, bits)) = mapping_download(frame.data()) {
+                let fits = self
+                    .node
+                    .od()
+                    .entry(mapped)
+                    .is_some_and(|e| e.value.data_type().size() * 8 == usize::from(bits));
+                if !fits {
+                    let mut abort = [0x80, 0, 0, at.subindex, 0, 0, 0, 0];
+                    abort[1..3].copy_from_slice(&at.index.to_le_bytes());
+                    abort[4..].copy_from_slice(&ABORT_NOT_MAPPABLE.to_le_bytes());
+                    if let Some(fr) =
+                        SimFrame::standard(0x580 + u16::from(self.spec.node_id), &abort)
+                    {
+                        out(fr);
+                    }
+                    return;
+                }
+            }
+        }
         let before = self.node.state();
         let reply = self.node.on_frame(cob, frame.data());
         if let Some(r) = reply {
@@ -583,6 +680,10 @@ impl SimDriveNode {
             0
         };
         self.set(0x6077, Value::Integer16(t_permille));
+        let analog = Value::Integer16(plant.analog_input(self.spec.axis));
+        for index in [ANALOG_INPUT_CIA401, ANALOG_INPUT_EPOS4] {
+            let _ = self.node.od_mut().set(Address::new(index, 1), analog);
+        }
         self.publish_status();
         if self.faults.ignore_sync.load(Ordering::Relaxed) {
             return;
@@ -999,6 +1100,82 @@ mod tests {
             out,
             vec![SimFrame::standard(0x285, &[0x50, 0x02, 0, 0]).unwrap()]
         );
+    }
+
+    #[test]
+    fn the_extended_tpdo2_carries_the_plants_analog_input() {
+        let mut plant = FreeMotorPlant::new(1, 1e-5, 1e-5, 2000.0);
+        plant.set_analog_input(0, -1234);
+        let mut node = SimDriveNode::new(spec(5), Arc::new(NodeFaults::default()));
+        let mut out = Vec::new();
+        std::thread::sleep(Duration::from_millis(2));
+        node.poll(Instant::now(), &mut plant, &mut |f| out.push(f));
+        out.clear();
+        let sdo = |node: &mut SimDriveNode, plant: &mut FreeMotorPlant, w: [u8; 8]| {
+            let mut out = Vec::new();
+            node.on_frame(&SimFrame::standard(0x605, &w).unwrap(), plant, &mut |f| {
+                out.push(f)
+            });
+            out.pop().unwrap()
+        };
+        // An object the dictionary lacks, or a length that is not the object's, is refused.
+        let absent = sdo(
+            &mut node,
+            &mut plant,
+            [0x23, 0x01, 0x1A, 0x03, 0x10, 0x01, 0x02, 0x64],
+        );
+        assert_eq!(absent.raw_id(), 0x585);
+        assert_eq!(
+            absent.data(),
+            [0x80, 0x01, 0x1A, 0x03, 0x41, 0x00, 0x04, 0x06]
+        );
+        let wrong_length = sdo(
+            &mut node,
+            &mut plant,
+            [0x23, 0x01, 0x1A, 0x03, 0x20, 0x01, 0x01, 0x64],
+        );
+        assert_eq!(wrong_length.data()[0], 0x80);
+        // Map TPDO2 = statusword + error code + analog input 0x6401 sub 1.
+        let writes: [[u8; 8]; 7] = [
+            [0x2F, 0x01, 0x1A, 0x00, 0, 0, 0, 0],
+            [0x23, 0x01, 0x1A, 0x01, 0x10, 0x00, 0x41, 0x60],
+            [0x23, 0x01, 0x1A, 0x02, 0x10, 0x00, 0x3F, 0x60],
+            [0x23, 0x01, 0x1A, 0x03, 0x10, 0x01, 0x01, 0x64],
+            [0x2F, 0x01, 0x1A, 0x00, 3, 0, 0, 0],
+            [0x2F, 0x01, 0x18, 0x02, 1, 0, 0, 0],
+            [0x23, 0x01, 0x18, 0x01, 0x85, 0x02, 0, 0],
+        ];
+        for w in writes {
+            assert_eq!(sdo(&mut node, &mut plant, w).data()[0], 0x60, "{w:x?}");
+        }
+        node.on_frame(
+            &SimFrame::standard(0x000, &[0x01, 5]).unwrap(),
+            &mut plant,
+            &mut |f| out.push(f),
+        );
+        node.on_frame(
+            &SimFrame::standard(0x080, &[]).unwrap(),
+            &mut plant,
+            &mut |f| out.push(f),
+        );
+        let [lo, hi] = (-1234i16).to_le_bytes();
+        assert_eq!(
+            out,
+            vec![SimFrame::standard(0x285, &[0x50, 0x02, 0, 0, lo, hi]).unwrap()]
+        );
+        // The EPOS4's place of the same input serves the same value.
+        assert_eq!(node.read_object(0x3160, 1), Some(Value::Integer16(-1234)));
+    }
+
+    #[test]
+    fn shared_motors_carry_the_analog_inputs() {
+        let m = Arc::new(SharedMotors::new(3));
+        assert_eq!(m.analog_input(2), 0);
+        m.publish_analog_input(2, 321);
+        assert_eq!(MotorPlant::analog_input(&m, 2), 321);
+        let shared = Arc::new(Mutex::new(FreeMotorPlant::new(2, 1e-5, 1e-5, 2000.0)));
+        shared.lock().unwrap().set_analog_input(1, -7);
+        assert_eq!(shared.analog_input(1), -7);
     }
 
     #[test]

@@ -16,7 +16,9 @@
 //!
 //! - [`can_bus`]: a userspace CAN bus (in-process, or across processes over loopback UDP) with
 //!   fault injection;
-//! - [`cia402_node`]: a simulated CiA 402 drive node on that bus, its motor given by a plant.
+//! - [`cia402_node`]: a simulated CiA 402 drive node on that bus, its motor given by a plant;
+//! - [`twin_plant`]: the whole twin as those nodes' motors, on the wall clock, for a drive
+//!   process serving a real CAN interface.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -25,6 +27,7 @@ pub mod cia402_node;
 pub mod operator;
 pub mod plant;
 pub mod twin;
+pub mod twin_plant;
 
 pub use operator::{VirtualOperator, Waypoint};
 pub use plant::{Plant, PlantParams, WireModules, GRAVITY_M_S2};

@@ -44,6 +44,9 @@ enum Command {
     CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
     /// Stereo pipeline on a rectified pair: segments, matches, 3D segments, overlays.
     Vision(tool::vision::VisionArgs),
+    /// Serve the digital twin as a rig on a CAN interface: its CiA 402 drives, their motors the
+    /// twin's, for a videtd in device mode (bench without the rig, kernel-in-the-loop tests).
+    SimRig(tool::sim_rig::SimRigArgs),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         Command::BenchRt(a) => tool::bench_rt::run(a),
         Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
         Command::Vision(a) => tool::vision::run(a),
+        Command::SimRig(a) => tool::sim_rig::run(a),
     };
     match result {
         Ok(code) => code,

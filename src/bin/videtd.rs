@@ -386,9 +386,13 @@ fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
             right: right.into(),
             width: rig.size_px[0],
             height: rig.size_px[1],
-            pair_tolerance: std::time::Duration::from_millis(10),
+            pair_tolerance: std::time::Duration::from_secs_f64(
+                config.vision.pair_tolerance_ms / 1e3,
+            ),
             timeout: std::time::Duration::from_secs(1),
             buffers: 4,
+            frame_rate_hz: config.vision.frame_rate_hz,
+            prefer_colour: config.colour.enabled,
         })
         .map_err(|e| format!("cameras (vision.devices): {e}"))?;
         let vibrotactors = videt::colour_thread::ColourOutputs::Gpio {

@@ -11,6 +11,7 @@ pub mod init;
 pub mod log;
 pub mod motors;
 pub mod service;
+pub mod sim_rig;
 pub mod status;
 pub mod tension_calibrate;
 pub mod through_service;

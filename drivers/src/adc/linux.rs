@@ -1,5 +1,6 @@
 //! The strain-gauge ADCs on Linux: an ADS1220 on a spidev device with its data-ready line on a
-//! GPIO character device, or an HX711 on two GPIO lines.
+//! GPIO character device, an HX711 on two GPIO lines, or a wire drive's analog input received
+//! over CAN ([`DriveInputAdc`]).
 //!
 //! Two pieces are written here rather than taken from linux-embedded-hal, because its versions
 //! break the control loop's rules:
@@ -19,6 +20,7 @@ use linux_embedded_hal::spidev::{SpiModeFlags, Spidev, SpidevOptions, SpidevTran
 use linux_embedded_hal::CdevPin;
 
 use super::ads1220::{self, Ads1220, PgaGain};
+use super::drive_input::DriveInputAdc;
 use super::hx711::{self, Gain, Hx711};
 use super::RawAdc;
 use crate::gpio::linux::open_line;
@@ -125,12 +127,14 @@ impl DelayNs for SpinDelay {
     }
 }
 
-/// One wire's strain-gauge converter, of either kind.
+/// One wire's strain-gauge converter, of any kind.
 pub enum LinuxAdc {
     /// ADS1220 on spidev, data-ready on a GPIO line.
     Ads1220(Ads1220<RtSpidev, CdevPin>),
     /// HX711 on a clock and a data GPIO line.
     Hx711(Hx711<CdevPin, CdevPin, SpinDelay>),
+    /// The load-cell amplifier into the wire drive's analog input, received in TPDO2.
+    DriveInput(DriveInputAdc),
 }
 
 impl core::fmt::Debug for LinuxAdc {
@@ -138,6 +142,7 @@ impl core::fmt::Debug for LinuxAdc {
         f.write_str(match self {
             LinuxAdc::Ads1220(_) => "LinuxAdc::Ads1220",
             LinuxAdc::Hx711(_) => "LinuxAdc::Hx711",
+            LinuxAdc::DriveInput(_) => "LinuxAdc::DriveInput",
         })
     }
 }
@@ -167,6 +172,7 @@ impl RawAdc for LinuxAdc {
         match self {
             LinuxAdc::Ads1220(adc) => adc.read().map_err(|e| e.map(ads_error)),
             LinuxAdc::Hx711(adc) => adc.read().map_err(|e| e.map(|_| LinuxAdcError::Pin)),
+            LinuxAdc::DriveInput(adc) => adc.read_raw().map_err(|e| e.map(|never| match never {})),
         }
     }
 }
@@ -275,6 +281,16 @@ pub fn open_hx711(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_drive_input_reads_through_the_enum() {
+        let inputs = std::sync::Arc::new(crate::cia402::DriveAnalogInputs::new());
+        let mut adc = LinuxAdc::DriveInput(DriveInputAdc::new(inputs.clone(), 2).unwrap());
+        assert_eq!(format!("{adc:?}"), "LinuxAdc::DriveInput");
+        assert_eq!(adc.read_raw(), Err(nb::Error::WouldBlock));
+        inputs.publish(2, -40);
+        assert_eq!(adc.read_raw(), Ok(-40));
+    }
 
     #[test]
     fn transfer_delays_round_up_to_whole_microseconds_and_saturate() {

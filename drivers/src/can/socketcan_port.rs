@@ -65,9 +65,32 @@ impl Can for SocketCanPort {
     }
 }
 
+/// Wait until `fd` is readable or `timeout` has passed, to the nanosecond: `ppoll`, because
+/// `poll` counts whole milliseconds and a sub-millisecond wait (a PDO window at 1 kHz) would
+/// not wait at all. `Ok(false)` on timeout; a signal restarts the wait with what remains.
+pub fn wait_readable(fd: std::os::fd::BorrowedFd<'_>, timeout: Duration) -> std::io::Result<bool> {
+    use nix::poll::{ppoll, PollFd, PollFlags};
+    let deadline = std::time::Instant::now() + timeout;
+    loop {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        let mut fds = [PollFd::new(fd, PollFlags::POLLIN)];
+        match ppoll(&mut fds, Some(left.into()), None) {
+            Ok(n) => return Ok(n > 0),
+            Err(nix::errno::Errno::EINTR) => continue,
+            Err(e) => return Err(e.into()),
+        }
+    }
+}
+
 impl CanPort for SocketCanPort {
     fn receive_timeout(&mut self, timeout: Duration) -> Result<Option<CanFrame>, socketcan::Error> {
-        match self.socket.read_frame_timeout(timeout) {
+        use std::os::fd::AsFd;
+        match wait_readable(self.socket.as_fd(), timeout) {
+            Ok(true) => {}
+            Ok(false) => return Ok(None),
+            Err(e) => return Err(socketcan::Error::from(e)),
+        }
+        match self.socket.read_frame() {
             Ok(CanFrame::Error(frame)) => {
                 let e = socketcan::Error::from(frame.into_error());
                 self.note(&e);
@@ -96,12 +119,39 @@ mod tests {
     use super::*;
 
     #[test]
-    #[ignore = "needs a vcan0 interface (ip link add dev vcan0 type vcan && ip link set up vcan0)"]
+    #[ignore = "needs a vcan0 interface (ip link add dev vcan0 type vcan && ip link set up vcan0): runs in the kernel-in-the-loop guest"]
     fn opens_vcan_and_times_out_without_traffic() {
         let mut p = SocketCanPort::open("vcan0").unwrap();
         assert!(p
             .receive_timeout(Duration::from_millis(10))
             .unwrap()
             .is_none());
+    }
+
+    #[test]
+    #[ignore = "needs a vcan0 interface (ip link add dev vcan0 type vcan && ip link set up vcan0): runs in the kernel-in-the-loop guest"]
+    fn a_sub_millisecond_timeout_waits_for_its_whole_length() {
+        // A PDO window at 1 kHz is 0.6 ms: `poll` would round it down to no wait at all.
+        let mut p = SocketCanPort::open("vcan0").unwrap();
+        for us in [300u64, 600, 900] {
+            let t = std::time::Instant::now();
+            assert!(p
+                .receive_timeout(Duration::from_micros(us))
+                .unwrap()
+                .is_none());
+            assert!(t.elapsed() >= Duration::from_micros(us), "{us} µs");
+        }
+    }
+
+    #[test]
+    fn waiting_on_a_quiet_descriptor_takes_the_whole_sub_millisecond_timeout() {
+        use std::os::fd::AsFd;
+        let (a, _b) = std::os::unix::net::UnixStream::pair().unwrap();
+        let t = std::time::Instant::now();
+        assert!(!wait_readable(a.as_fd(), Duration::from_micros(600)).unwrap());
+        assert!(t.elapsed() >= Duration::from_micros(600));
+        let (c, mut d) = std::os::unix::net::UnixStream::pair().unwrap();
+        std::io::Write::write_all(&mut d, b"x").unwrap();
+        assert!(wait_readable(c.as_fd(), Duration::from_micros(600)).unwrap());
     }
 }

@@ -1,6 +1,6 @@
 //! Whether a drive, as its EDS/DCF describes it, has every object this driver uses.
 
-use super::pdo::{DriveSetup, SYNC_EVERY_CYCLE};
+use super::pdo::{AnalogInputObject, DriveSetup, SYNC_EVERY_CYCLE};
 use crate::canopen::eds::Eds;
 
 /// An object the driver needs that a data sheet lacks or does not allow.
@@ -21,6 +21,15 @@ const OPTIONAL: [u16; 1] = [0x6072];
 
 /// Every object of the driver's setup and process data that `eds` lacks or forbids.
 pub fn missing_objects(eds: &Eds) -> Vec<MissingObject> {
+    missing_objects_with(eds, None)
+}
+
+/// As [`missing_objects`], for a driver that also maps `analog_input` into TPDO2 (it must be
+/// present and PDO-mappable).
+pub fn missing_objects_with(
+    eds: &Eds,
+    analog_input: Option<AnalogInputObject>,
+) -> Vec<MissingObject> {
     let setup = DriveSetup {
         node_id: 1,
         host_node_id: 0x7F,
@@ -28,6 +37,7 @@ pub fn missing_objects(eds: &Eds) -> Vec<MissingObject> {
         host_silence_timeout_ms: 50,
         comm_loss_reaction: 2,
         max_torque_permille: 1000,
+        analog_input,
     };
     let _ = SYNC_EVERY_CYCLE;
     let mut out = Vec::new();
@@ -52,16 +62,17 @@ pub fn missing_objects(eds: &Eds) -> Vec<MissingObject> {
             Some(_) => {}
         }
     }
-    for index in PDO_OBJECTS {
-        match eds.entry(index, 0) {
+    let analog = analog_input.map(|a| (a.index, a.subindex));
+    for (index, subindex) in PDO_OBJECTS.iter().map(|i| (*i, 0)).chain(analog) {
+        match eds.entry(index, subindex) {
             None => out.push(MissingObject {
                 index,
-                subindex: 0,
+                subindex,
                 problem: "absent",
             }),
             Some(e) if !e.pdo_mappable => out.push(MissingObject {
                 index,
-                subindex: 0,
+                subindex,
                 problem: "not PDO-mappable",
             }),
             Some(_) => {}

@@ -5,6 +5,8 @@ use core::time::Duration;
 
 use videt_hal::{Transmission, WIRES};
 
+use super::pdo::AnalogInputObject;
+
 /// Settings of the drive set. Build with [`DriveSetConfig::new`] and adjust fields.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DriveSetConfig {
@@ -51,6 +53,11 @@ pub struct DriveSetConfig {
     pub counts_per_s_per_velocity_unit: f64,
     /// Compare the configured rated torque with the drive's 0x6076 during configuration.
     pub verify_rated_torque: bool,
+    /// Map this 16-bit signed object (the drive's analog input, e.g. a load-cell amplifier)
+    /// into TPDO2 and publish every drive's value through
+    /// [`Cia402DriveSet::analog_inputs`](super::Cia402DriveSet::analog_inputs). `None`: TPDO2
+    /// carries the status only.
+    pub analog_input: Option<AnalogInputObject>,
 }
 
 /// A configuration field outside its allowed range.
@@ -96,6 +103,7 @@ impl DriveSetConfig {
             counts_per_position_unit: 1.0,
             counts_per_s_per_velocity_unit: 1.0,
             verify_rated_torque: true,
+            analog_input: None,
         }
     }
 
@@ -219,6 +227,22 @@ impl DriveSetConfig {
                 return Err(err(field, v, "> 0"));
             }
         }
+        if let Some(a) = self.analog_input {
+            if !(0x2000..=0x9FFF).contains(&a.index) {
+                return Err(err(
+                    "analog_input.index",
+                    format!("{:#06x}", a.index),
+                    "0x2000..=0x9fff (a manufacturer or profile object)",
+                ));
+            }
+            if a.subindex == 0xFF || (a.index == 0x6401 && a.subindex == 0) {
+                return Err(err(
+                    "analog_input.subindex",
+                    a.subindex,
+                    "0..=254 (1..=254 for 0x6401, whose subindex 0 is the input count)",
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -279,5 +303,31 @@ mod tests {
         let mut c = cfg();
         c.comm_loss_reaction = 0;
         assert_eq!(c.validate().unwrap_err().field, "comm_loss_reaction");
+    }
+
+    #[test]
+    fn the_analog_input_object_is_checked() {
+        let mut c = cfg();
+        c.analog_input = Some(AnalogInputObject::default());
+        c.validate().unwrap();
+        c.analog_input = Some(AnalogInputObject {
+            index: 0x1A01,
+            subindex: 1,
+        });
+        let e = c.validate().unwrap_err();
+        assert_eq!(
+            (e.field, e.value.as_str()),
+            ("analog_input.index", "0x1a01")
+        );
+        c.analog_input = Some(AnalogInputObject {
+            index: 0x6401,
+            subindex: 0,
+        });
+        assert_eq!(c.validate().unwrap_err().field, "analog_input.subindex");
+        c.analog_input = Some(AnalogInputObject {
+            index: 0x3160,
+            subindex: 0,
+        });
+        c.validate().unwrap();
     }
 }

@@ -8,7 +8,12 @@
 //! drive (the safe state) and fails every later cycle until the set is deactivated and
 //! reconfigured, or re-activated. The cycle methods allocate nothing and block only in the
 //! bus receive, never past `pdo_timeout`.
+//!
+//! With [`DriveSetConfig::analog_input`] set, TPDO2 also carries each drive's analog input;
+//! every cycle the values that arrived with this cycle's TPDO2 are published to the shared
+//! [`DriveAnalogInputs`] ([`Cia402DriveSet::analog_inputs`]).
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use canopen_rs::nmt::NmtCommand;
@@ -17,9 +22,10 @@ use canopen_rs::{Address, DataType, EmergencyMessage, NodeId, SdoClient, Value};
 use embedded_can::{Frame, Id, StandardId};
 use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives, WIRES};
 
+use super::analog::DriveAnalogInputs;
 use super::config::{ConfigError, DriveSetConfig};
 use super::error::DriveError;
-use super::pdo::{Command, DriveSetup, Motion, Status};
+use super::pdo::{Command, DriveSetup, Motion, Status, StatusWithAnalog};
 use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
 use crate::can::CanPort;
 use crate::canopen::cob::{self, classify, CobKind};
@@ -49,6 +55,7 @@ struct NodeLink {
     emcy: Option<(u16, u8)>,
     motion: Motion,
     status: Status,
+    analog_input: i16,
     got_motion: bool,
     got_status: bool,
     missed: u32,
@@ -67,6 +74,7 @@ impl NodeLink {
             emcy: None,
             motion: Motion::default(),
             status: Status::default(),
+            analog_input: 0,
             got_motion: false,
             got_status: false,
             missed: 0,
@@ -91,12 +99,14 @@ pub struct Cia402DriveSet<P: CanPort> {
     host_heartbeat_due: Instant,
     operational_expected: bool,
     epoch: Instant,
+    analog: Option<Arc<DriveAnalogInputs>>,
 }
 
 impl<P: CanPort> Cia402DriveSet<P> {
     /// Take the port and a validated configuration. Nothing is sent yet (`Unconfigured`).
     pub fn new(port: P, cfg: DriveSetConfig) -> Result<Self, ConfigError> {
         cfg.validate()?;
+        let analog = cfg.analog_input.map(|_| Arc::new(DriveAnalogInputs::new()));
         let now = Instant::now();
         let nodes = [
             NodeLink::new(cfg.node_ids[0], now),
@@ -112,6 +122,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             host_heartbeat_due: now,
             operational_expected: false,
             epoch: now,
+            analog,
         })
     }
 
@@ -128,6 +139,13 @@ impl<P: CanPort> Cia402DriveSet<P> {
     /// The configuration.
     pub fn config(&self) -> &DriveSetConfig {
         &self.cfg
+    }
+
+    /// The drives' analog inputs, updated by every cycle, when
+    /// [`DriveSetConfig::analog_input`] is set (`None` otherwise). Each wire's sample counter
+    /// advances only for a TPDO2 that answered the current cycle's SYNC.
+    pub fn analog_inputs(&self) -> Option<Arc<DriveAnalogInputs>> {
+        self.analog.clone()
     }
 
     /// The error that put the set into its safe state, if any.
@@ -220,9 +238,17 @@ impl<P: CanPort> Cia402DriveSet<P> {
             }
             CobKind::Tpdo(1, n) => {
                 let Some(i) = self.node_index(n) else { return };
-                if let Some(s) = Status::decode(data) {
-                    self.nodes[i].status = s;
-                    self.nodes[i].got_status |= fresh;
+                // Only the configured layout is accepted.
+                let decoded = if self.cfg.analog_input.is_some() {
+                    StatusWithAnalog::decode(data).map(|s| (s.status, s.analog_input))
+                } else {
+                    Status::decode(data).map(|s| (s, 0))
+                };
+                if let Some((status, analog_input)) = decoded {
+                    let node = &mut self.nodes[i];
+                    node.status = status;
+                    node.analog_input = analog_input;
+                    node.got_status |= fresh;
                 }
             }
             _ => {}
@@ -264,6 +290,13 @@ impl<P: CanPort> Cia402DriveSet<P> {
             match self.receive(deadline - now)? {
                 Some(f) => self.absorb(&f, true, Instant::now()),
                 None => break,
+            }
+        }
+        if let Some(analog) = &self.analog {
+            for (wire, node) in self.nodes.iter().enumerate() {
+                if node.got_status {
+                    analog.publish(wire, node.analog_input);
+                }
             }
         }
         self.check_nodes(strict_faults, Instant::now())
@@ -522,6 +555,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
                 host_silence_timeout_ms: self.cfg.host_silence_timeout_ms,
                 comm_loss_reaction: self.cfg.comm_loss_reaction,
                 max_torque_permille: max_permille,
+                analog_input: self.cfg.analog_input,
             };
             for (addr, value) in setup.sdo_writes() {
                 match self.sdo_write(i, addr, value) {

@@ -1,7 +1,8 @@
 //! CiA 402 wire drives: the power state machine ([`state`]), the process data ([`pdo`]),
-//! configuration ([`config`]), errors ([`error`]) and the three-drive set implementing the
-//! HAL ([`drive_set`]).
+//! configuration ([`config`]), errors ([`error`]), the three-drive set implementing the
+//! HAL ([`drive_set`]) and the drives' analog inputs it receives ([`analog`]).
 
+pub mod analog;
 pub mod compat;
 pub mod config;
 pub mod drive_set;
@@ -14,7 +15,9 @@ mod scripted_tests;
 #[cfg(test)]
 mod sim_tests;
 
+pub use analog::{AnalogSample, DriveAnalogInputs};
 pub use config::{ConfigError, DriveSetConfig};
 pub use drive_set::{wire_length_m, Cia402DriveSet};
 pub use error::DriveError;
+pub use pdo::AnalogInputObject;
 pub use state::{PowerGoal, PowerSequencer, PowerState};

@@ -5,7 +5,9 @@
 //!   (i16, per mille of rated torque).
 //! - TPDO1 (drive → host, `0x180 + node`): position actual 0x6064 (i32), velocity actual
 //!   0x606C (i32).
-//! - TPDO2 (drive → host, `0x280 + node`): statusword 0x6041 (u16), error code 0x603F (u16).
+//! - TPDO2 (drive → host, `0x280 + node`): statusword 0x6041 (u16), error code 0x603F (u16),
+//!   and optionally one 16-bit signed analog input (e.g. a load-cell amplifier wired into the
+//!   drive; [`AnalogInputObject`], default CiA 401 0x6401 sub 1): 4 or 6 bytes.
 //!
 //! All are synchronous (transmission type 1): TPDOs answer every SYNC, RPDOs take effect at the
 //! next SYNC.
@@ -26,6 +28,34 @@ pub mod mapping {
     pub const STATUSWORD: u32 = 0x6041_0010;
     /// Error code, 16 bits.
     pub const ERROR_CODE: u32 = 0x603F_0010;
+}
+
+/// The 16-bit signed object a drive maps into TPDO2 after its status: its analog input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct AnalogInputObject {
+    /// Object index (0x2000..=0x9FFF: a manufacturer or profile object).
+    pub index: u16,
+    /// Subindex.
+    pub subindex: u8,
+}
+
+impl AnalogInputObject {
+    /// CiA 401 "read analog input 16-bit", first input: 0x6401 sub 1.
+    pub const CIA401_FIRST: AnalogInputObject = AnalogInputObject {
+        index: 0x6401,
+        subindex: 1,
+    };
+
+    /// The PDO mapping entry (`index << 16 | subindex << 8 | 16 bits`).
+    pub const fn mapping_entry(self) -> u32 {
+        ((self.index as u32) << 16) | ((self.subindex as u32) << 8) | 0x10
+    }
+}
+
+impl Default for AnalogInputObject {
+    fn default() -> Self {
+        AnalogInputObject::CIA401_FIRST
+    }
 }
 
 /// Host → drive command (RPDO1).
@@ -110,6 +140,34 @@ impl Status {
     }
 }
 
+/// Drive → host status with the drive's analog input (TPDO2 extended by an
+/// [`AnalogInputObject`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StatusWithAnalog {
+    /// Statusword and error code.
+    pub status: Status,
+    /// The analog input, raw 16-bit signed value as the drive reports it.
+    pub analog_input: i16,
+}
+
+impl StatusWithAnalog {
+    /// The 6 data bytes of the extended TPDO2.
+    pub fn encode(&self) -> [u8; 6] {
+        let s = self.status.encode();
+        let a = self.analog_input.to_le_bytes();
+        [s[0], s[1], s[2], s[3], a[0], a[1]]
+    }
+
+    /// Decode extended TPDO2 data; `None` unless exactly 6 bytes.
+    pub fn decode(data: &[u8]) -> Option<StatusWithAnalog> {
+        let d: [u8; 6] = data.try_into().ok()?;
+        Some(StatusWithAnalog {
+            status: Status::decode(&d[..4])?,
+            analog_input: i16::from_le_bytes([d[4], d[5]]),
+        })
+    }
+}
+
 /// Synchronous transmission type: every SYNC.
 pub const SYNC_EVERY_CYCLE: u8 = 1;
 /// COB-ID bit 31: PDO disabled.
@@ -131,12 +189,15 @@ pub struct DriveSetup {
     pub comm_loss_reaction: i16,
     /// Drive-side maximum torque (0x6072), per mille of rated torque.
     pub max_torque_permille: u16,
+    /// The analog input mapped into TPDO2 after the status, if any.
+    pub analog_input: Option<AnalogInputObject>,
 }
 
 impl DriveSetup {
     /// The ordered SDO writes: heartbeat producer and consumer, communication-loss reaction,
     /// cyclic synchronous torque mode, maximum torque, and the three PDOs (each disabled,
-    /// remapped, then re-enabled as CiA 301 requires).
+    /// remapped, then re-enabled as CiA 301 requires); TPDO2 maps the analog input only when
+    /// one is configured.
     pub fn sdo_writes(&self) -> Vec<(Address, Value)> {
         let n = u32::from(self.node_id);
         let a = Address::new;
@@ -174,12 +235,14 @@ impl DriveSetup {
             0x180 + n,
             &[mapping::POSITION_ACTUAL, mapping::VELOCITY_ACTUAL],
         );
-        pdo(
-            0x1801,
-            0x1A01,
-            0x280 + n,
-            &[mapping::STATUSWORD, mapping::ERROR_CODE],
-        );
+        let tpdo2 = [
+            mapping::STATUSWORD,
+            mapping::ERROR_CODE,
+            self.analog_input
+                .map_or(0, AnalogInputObject::mapping_entry),
+        ];
+        let tpdo2_len = if self.analog_input.is_some() { 3 } else { 2 };
+        pdo(0x1801, 0x1A01, 0x280 + n, &tpdo2[..tpdo2_len]);
         w
     }
 }
@@ -213,6 +276,7 @@ mod tests {
             host_silence_timeout_ms: 50,
             comm_loss_reaction: 2,
             max_torque_permille: 800,
+            analog_input: None,
         };
         let w = s.sdo_writes();
         assert_eq!(w[0], (Address::new(0x1017, 0), Value::Unsigned16(10)));
@@ -225,18 +289,83 @@ mod tests {
         assert_eq!(rpdo[0].1, Value::Unsigned32(0x8000_0202));
         assert_eq!(rpdo.last().unwrap().1, Value::Unsigned32(0x202));
         assert!(w.contains(&(Address::new(0x1A01, 2), Value::Unsigned32(0x603F_0010))));
+        assert!(!w.iter().any(|(a, _)| *a == Address::new(0x1A01, 3)));
+        assert!(w.contains(&(Address::new(0x1A01, 0), Value::Unsigned8(2))));
+    }
+
+    #[test]
+    fn the_analog_input_is_mapped_third_in_tpdo2_only_when_configured() {
+        let plain = DriveSetup {
+            node_id: 3,
+            host_node_id: 0x7F,
+            drive_heartbeat_ms: 10,
+            host_silence_timeout_ms: 50,
+            comm_loss_reaction: 2,
+            max_torque_permille: 800,
+            analog_input: None,
+        };
+        let with = DriveSetup {
+            analog_input: Some(AnalogInputObject::default()),
+            ..plain
+        };
+        let tpdo2 = |s: &DriveSetup| -> Vec<(Address, Value)> {
+            s.sdo_writes()
+                .into_iter()
+                .filter(|(a, _)| a.index == 0x1A01 || a.index == 0x1801)
+                .collect()
+        };
+        let a = Address::new;
+        assert_eq!(
+            tpdo2(&with),
+            vec![
+                (a(0x1801, 1), Value::Unsigned32(0x8000_0283)),
+                (a(0x1A01, 0), Value::Unsigned8(0)),
+                (a(0x1A01, 1), Value::Unsigned32(0x6041_0010)),
+                (a(0x1A01, 2), Value::Unsigned32(0x603F_0010)),
+                (a(0x1A01, 3), Value::Unsigned32(0x6401_0110)),
+                (a(0x1A01, 0), Value::Unsigned8(3)),
+                (a(0x1801, 2), Value::Unsigned8(SYNC_EVERY_CYCLE)),
+                (a(0x1801, 1), Value::Unsigned32(0x283)),
+            ]
+        );
+        // Everything else is the same with or without the analog input.
+        let rest = |s: &DriveSetup| -> Vec<(Address, Value)> {
+            s.sdo_writes()
+                .into_iter()
+                .filter(|(a, _)| a.index != 0x1A01)
+                .collect()
+        };
+        assert_eq!(rest(&with), rest(&plain));
+        let vendor = AnalogInputObject {
+            index: 0x3160,
+            subindex: 2,
+        };
+        assert_eq!(vendor.mapping_entry(), 0x3160_0210);
+    }
+
+    #[test]
+    fn the_extended_status_decodes_exactly_six_bytes() {
+        let s = StatusWithAnalog::decode(&[0x37, 0x02, 0, 0, 0x18, 0xFC]).unwrap();
+        assert_eq!(s.status.statusword, 0x0237);
+        assert_eq!(s.analog_input, -1000);
+        assert_eq!(s.encode(), [0x37, 0x02, 0, 0, 0x18, 0xFC]);
+        assert_eq!(StatusWithAnalog::decode(&[0x37, 0x02, 0, 0]), None);
+        assert_eq!(StatusWithAnalog::decode(&[0; 7]), None);
+        assert_eq!(Status::decode(&[0x37, 0x02, 0, 0, 0x18, 0xFC]), None);
     }
 
     proptest! {
         #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(402), ..ProptestConfig::default() })]
         #[test]
-        fn pdo_codecs_round_trip(cw in any::<u16>(), t in any::<i16>(), p in any::<i32>(), v in any::<i32>(), sw in any::<u16>(), ec in any::<u16>()) {
+        fn pdo_codecs_round_trip(cw in any::<u16>(), t in any::<i16>(), p in any::<i32>(), v in any::<i32>(), sw in any::<u16>(), ec in any::<u16>(), ai in any::<i16>()) {
             let c = Command { controlword: cw, target_torque_permille: t };
             prop_assert_eq!(Command::decode(&c.encode()), Some(c));
             let m = Motion { position: p, velocity: v };
             prop_assert_eq!(Motion::decode(&m.encode()), Some(m));
             let s = Status { statusword: sw, error_code: ec };
             prop_assert_eq!(Status::decode(&s.encode()), Some(s));
+            let x = StatusWithAnalog { status: s, analog_input: ai };
+            prop_assert_eq!(StatusWithAnalog::decode(&x.encode()), Some(x));
         }
     }
 }

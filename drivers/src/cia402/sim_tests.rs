@@ -484,3 +484,143 @@ fn back_to_back_cycles_against_inline_nodes_stay_healthy() {
     assert!(n > 100, "{n} cycles");
     assert!(out.iter().all(|s| s.state == DriveState::Enabled));
 }
+
+fn with_analog_input(mut c: DriveSetConfig) -> DriveSetConfig {
+    c.analog_input = Some(super::AnalogInputObject::default());
+    c
+}
+
+#[test]
+fn the_drives_analog_inputs_arrive_with_every_cycle_as_tensions() {
+    use crate::adc::calibration::TensionCalibration;
+    use crate::adc::drive_input::DriveInputAdc;
+    use crate::adc::tension_set::{MonotonicClock, StrainGaugeSet};
+    use videt_hal::TensionSensors;
+
+    let mut r = rig_with(with_analog_input(tolerant()), 1e-4);
+    {
+        let mut p = r.plant.lock().unwrap();
+        for (axis, v) in [1100, 2100, -900].into_iter().enumerate() {
+            p.set_analog_input(axis, v);
+        }
+    }
+    let inputs = r.set.analog_inputs().expect("analog input configured");
+    let cal = TensionCalibration {
+        offset_counts: 100.0,
+        newtons_per_count: 0.01,
+    };
+    let mut tensions = StrainGaugeSet::new(
+        DriveInputAdc::for_each_wire(&inputs),
+        [cal; WIRES],
+        MonotonicClock::default(),
+        5 * PERIOD,
+    );
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    let mut n = [0.0; WIRES];
+    let before = inputs.latest(0).count;
+    for _ in 0..20 {
+        cycle(&mut r.set, [0.0; WIRES], &mut out).unwrap();
+        tensions.read_tensions(&mut n).unwrap();
+    }
+    // One sample per answered SYNC (a loaded test machine may make a few answers late).
+    let samples = inputs.latest(0).count - before;
+    assert!(
+        (15..=20).contains(&samples),
+        "{samples} samples in 20 cycles"
+    );
+    assert_eq!(n, [10.0, 20.0, -10.0]);
+    // A new value is sampled at the next SYNC and read in the cycle its TPDO2 answers.
+    r.plant.lock().unwrap().set_analog_input(1, 600);
+    let mut cycles = 0;
+    while n[1] != 5.0 && cycles < 5 {
+        cycle(&mut r.set, [0.0; WIRES], &mut out).unwrap();
+        tensions.read_tensions(&mut n).unwrap();
+        cycles += 1;
+    }
+    assert_eq!(n, [10.0, 5.0, -10.0]);
+    assert!(cycles <= 2, "took {cycles} cycles");
+    // Without the option the drive set hands out no handle.
+    assert!(Cia402DriveSet::new(r.set.release(), config())
+        .unwrap()
+        .analog_inputs()
+        .is_none());
+}
+
+#[test]
+fn a_drive_whose_tpdo2_stops_leaves_a_stale_tension_sensor() {
+    use crate::adc::calibration::TensionCalibration;
+    use crate::adc::drive_input::DriveInputAdc;
+    use crate::adc::tension_set::{MonotonicClock, StrainGaugeSet, TensionFault};
+    use videt_hal::TensionSensors;
+
+    let mut c = with_analog_input(tolerant());
+    // Keep the drive set cycling so the sensor's own staleness is what reports the loss.
+    c.max_missed_cycles = u32::MAX;
+    let mut r = rig_with(c, 1e-4);
+    r.plant.lock().unwrap().set_analog_input(1, 4000);
+    let inputs = r.set.analog_inputs().unwrap();
+    let cal = TensionCalibration {
+        offset_counts: 0.0,
+        newtons_per_count: 0.005,
+    };
+    let stale_after = 3 * PERIOD;
+    let mut tensions = StrainGaugeSet::new(
+        DriveInputAdc::for_each_wire(&inputs),
+        [cal; WIRES],
+        MonotonicClock::default(),
+        stale_after,
+    );
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    let mut n = [0.0; WIRES];
+    for _ in 0..10 {
+        cycle(&mut r.set, [0.0; WIRES], &mut out).unwrap();
+        tensions.read_tensions(&mut n).unwrap();
+    }
+    assert_eq!(n[1], 20.0);
+    r.bank.faults(1).set_ignore_sync(true);
+    let stopped = Instant::now();
+    let mut fault = None;
+    for _ in 0..40 {
+        cycle(&mut r.set, [0.0; WIRES], &mut out).unwrap();
+        if let Err(e) = tensions.read_tensions(&mut n) {
+            fault = Some((e, stopped.elapsed()));
+            break;
+        }
+    }
+    let (e, after) = fault.expect("the sensor of the silent drive went stale");
+    assert_eq!(e.wire, 1, "{e}");
+    assert!(
+        matches!(e.fault, TensionFault::Stale { age_ms } if age_ms >= 30),
+        "{e}"
+    );
+    eprintln!("stale reported {after:?} after the drive stopped answering SYNC: {e}");
+    assert!(
+        after >= stale_after && after <= stale_after + 5 * PERIOD,
+        "{after:?}"
+    );
+}
+
+#[test]
+fn an_analog_input_the_drive_cannot_map_is_named_at_configuration() {
+    let mut c = config();
+    c.analog_input = Some(super::AnalogInputObject {
+        index: 0x6401,
+        subindex: 2,
+    });
+    let mut r = rig_with(c, 1e-4);
+    let e = r.set.configure().unwrap_err();
+    assert_eq!(
+        e,
+        DriveError::SdoAbort {
+            node: 1,
+            index: 0x1A01,
+            subindex: 3,
+            code: 0x0604_0041
+        }
+    );
+    assert_eq!(r.set.lifecycle_state(), LifecycleState::Unconfigured);
+}

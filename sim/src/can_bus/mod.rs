@@ -7,6 +7,8 @@
 //!   the frame for that receiver and counts an overrun, as a CAN controller FIFO would).
 //! - [`udp`]: endpoints in separate processes, linked by a tiny hub over UDP on the loopback
 //!   interface ([`udp::UdpHub`], [`udp::UdpEndpoint`]).
+//! - [`socketcan`] (Linux): the nodes on a kernel CAN interface (`vcan0`, `can0`), so the
+//!   driver under test goes through the kernel's CAN stack.
 //!
 //! Both implement `embedded_can::blocking::Can`, `embedded_can::nb::Can`, and a receive with a
 //! timeout ([`SimFrame`]-returning `receive_timeout`).
@@ -58,6 +60,8 @@ macro_rules! impl_embedded_can {
 mod faults;
 mod frame;
 mod in_process;
+#[cfg(target_os = "linux")]
+pub mod socketcan;
 pub mod udp;
 
 pub use faults::BusFaults;

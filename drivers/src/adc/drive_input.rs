@@ -1,0 +1,159 @@
+//! A tension sensor read through a wire drive's analog input: the load cell's amplifier is
+//! wired into the CiA 402 drive, which sends the converted value with its status in TPDO2 at
+//! every SYNC (synchronous with the encoders, no extra bus frames). The drive set publishes the
+//! values ([`DriveAnalogInputs`]); [`DriveInputAdc`] reads one wire's as a [`RawAdc`], so
+//! [`StrainGaugeSet`](super::tension_set::StrainGaugeSet) adds calibration and staleness as
+//! for the other converters. Pure: no I/O of its own.
+
+use std::sync::Arc;
+
+use videt_hal::WIRES;
+
+use super::RawAdc;
+use crate::cia402::DriveAnalogInputs;
+
+/// The code a reading at either 16-bit rail is reported as: the 24-bit full-scale code the
+/// tension set takes for a saturated converter (amplifier at its limit or cable broken).
+const RAIL_POS: i32 = 0x7F_FFFF;
+const RAIL_NEG: i32 = -0x80_0000;
+
+/// One wire's analog input, as published by the drive set.
+#[derive(Debug, Clone)]
+pub struct DriveInputAdc {
+    inputs: Arc<DriveAnalogInputs>,
+    wire: usize,
+    seen: u32,
+}
+
+/// A wire index outside `0..WIRES`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("drive analog input: wire {wire} does not exist (allowed: 0..={})", WIRES - 1)]
+pub struct NoSuchWire {
+    /// The wire asked for.
+    pub wire: usize,
+}
+
+impl DriveInputAdc {
+    /// Read wire `wire`'s drive analog input from `inputs` (from
+    /// [`Cia402DriveSet::analog_inputs`](crate::cia402::Cia402DriveSet::analog_inputs)).
+    /// Samples published before this call count as new once.
+    pub fn new(inputs: Arc<DriveAnalogInputs>, wire: usize) -> Result<DriveInputAdc, NoSuchWire> {
+        if wire >= WIRES {
+            return Err(NoSuchWire { wire });
+        }
+        Ok(DriveInputAdc {
+            inputs,
+            wire,
+            seen: 0,
+        })
+    }
+
+    /// The three wires' inputs, in wire order.
+    pub fn for_each_wire(inputs: &Arc<DriveAnalogInputs>) -> [DriveInputAdc; WIRES] {
+        core::array::from_fn(|wire| DriveInputAdc {
+            inputs: Arc::clone(inputs),
+            wire,
+            seen: 0,
+        })
+    }
+
+    /// The wire read.
+    pub fn wire(&self) -> usize {
+        self.wire
+    }
+}
+
+impl RawAdc for DriveInputAdc {
+    type Error = core::convert::Infallible;
+
+    /// The newest value if one arrived since the last read (`WouldBlock` otherwise). A value at
+    /// `i16::MAX` or `i16::MIN` is reported as the full-scale code (a saturated sensor). **RT**:
+    /// one atomic load.
+    fn read_raw(&mut self) -> nb::Result<i32, Self::Error> {
+        let sample = self.inputs.latest(self.wire);
+        if sample.count == self.seen {
+            return Err(nb::Error::WouldBlock);
+        }
+        self.seen = sample.count;
+        Ok(match sample.value {
+            i16::MAX => RAIL_POS,
+            i16::MIN => RAIL_NEG,
+            v => i32::from(v),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::calibration::TensionCalibration;
+    use super::super::tension_set::{NanoClock, StrainGaugeSet, TensionFault};
+    use super::*;
+    use core::cell::Cell;
+    use std::rc::Rc;
+    use videt_hal::TensionSensors;
+
+    #[test]
+    fn each_new_sample_is_read_once() {
+        let inputs = Arc::new(DriveAnalogInputs::new());
+        let mut adc = DriveInputAdc::new(inputs.clone(), 1).unwrap();
+        assert_eq!(adc.read_raw(), Err(nb::Error::WouldBlock));
+        inputs.publish(1, 500);
+        inputs.publish(0, 9);
+        assert_eq!(adc.read_raw(), Ok(500));
+        assert_eq!(adc.read_raw(), Err(nb::Error::WouldBlock));
+        // The same value again is still a new sample.
+        inputs.publish(1, 500);
+        assert_eq!(adc.read_raw(), Ok(500));
+        inputs.publish(1, i16::MAX);
+        assert_eq!(adc.read_raw(), Ok(RAIL_POS));
+        inputs.publish(1, i16::MIN);
+        assert_eq!(adc.read_raw(), Ok(RAIL_NEG));
+        assert_eq!(
+            DriveInputAdc::new(inputs, 3).unwrap_err().to_string(),
+            "drive analog input: wire 3 does not exist (allowed: 0..=2)"
+        );
+    }
+
+    #[derive(Clone)]
+    struct FakeClock(Rc<Cell<u64>>);
+    impl NanoClock for FakeClock {
+        fn now_ns(&self) -> u64 {
+            self.0.get()
+        }
+    }
+
+    #[test]
+    fn the_tension_set_calibrates_and_ages_drive_inputs() {
+        let inputs = Arc::new(DriveAnalogInputs::new());
+        let t = Rc::new(Cell::new(0));
+        let cal = TensionCalibration {
+            offset_counts: 100.0,
+            newtons_per_count: 0.01,
+        };
+        let mut set = StrainGaugeSet::new(
+            DriveInputAdc::for_each_wire(&inputs),
+            [cal; WIRES],
+            FakeClock(t.clone()),
+            core::time::Duration::from_millis(20),
+        );
+        let mut out = [0.0; WIRES];
+        assert_eq!(
+            set.read_tensions(&mut out).unwrap_err().fault,
+            TensionFault::Stale { age_ms: u64::MAX }
+        );
+        for (wire, v) in [1100, 2100, 100].into_iter().enumerate() {
+            inputs.publish(wire, v);
+        }
+        set.read_tensions(&mut out).unwrap();
+        assert_eq!(out, [10.0, 20.0, 0.0]);
+        // Wires 0 and 1 keep arriving, wire 2's drive went quiet.
+        t.set(25_000_000);
+        inputs.publish(0, 1100);
+        inputs.publish(1, 2100);
+        let e = set.read_tensions(&mut out).unwrap_err();
+        assert_eq!((e.wire, e.fault), (2, TensionFault::Stale { age_ms: 25 }));
+        inputs.publish(2, i16::MAX);
+        let e = set.read_tensions(&mut out).unwrap_err();
+        assert_eq!((e.wire, e.fault), (2, TensionFault::Saturated));
+    }
+}

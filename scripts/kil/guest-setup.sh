@@ -1,0 +1,52 @@
+#!/bin/bash
+# Inside the guest (a chroot into the host's root, under the booted PREEMPT_RT kernel): load the
+# device drivers the suite needs, then run scripts/kil/suite.sh and leave its exit code in
+# $KIL_OUT/exit-code. `--setup-only` stops after the drivers (for `kernel-in-the-loop.sh --shell`).
+#
+# Environment (from the initramfs): KIL_REPO, KIL_OUT, KIL_MODROOT (the unpacked kernel package,
+# with lib/modules/$(uname -r) and the gpio-sim module), KIL_ACCEL.
+set -uo pipefail
+info=$KIL_OUT/guest-info.txt
+: >"$info"
+fail() {
+  echo "guest set-up failed: $*" | tee -a "$info"
+  echo 1 >"$KIL_OUT/exit-code"
+  exit 1
+}
+mp() { modprobe -d "$KIL_MODROOT" "$@" || fail "modprobe $*"; }
+
+# SocketCAN: a virtual CAN interface (iproute2's ip: busybox's cannot make one).
+mp can-raw
+mp vcan
+ip link add dev vcan0 type vcan && ip link set up vcan0 || fail "vcan0"
+
+# GPIO: gpio-sim chips are made through configfs by the tests themselves (gpiosim crate).
+mp configfs
+mountpoint -q /sys/kernel/config || mount -t configfs none /sys/kernel/config
+mp gpio-sim-ko
+
+# V4L2: two vivid instances with one video capture node each, as a stereo pair.
+mp vivid n_devs=2 node_types=0x1,0x1
+cameras=()
+for dev in /sys/class/video4linux/video*; do
+  case $(cat "$dev/name") in
+    *vid-cap*) cameras+=("/dev/$(basename "$dev")") ;;
+  esac
+done
+[ ${#cameras[@]} -ge 2 ] || fail "vivid gave ${#cameras[@]} capture devices"
+export KIL_CAMERAS="${cameras[0]},${cameras[1]}"
+
+{
+  echo "kernel: $(uname -r) ($(uname -v))"
+  echo "PREEMPT_RT: /sys/kernel/realtime = $(cat /sys/kernel/realtime 2>/dev/null || echo absent)"
+  echo "accelerator: $KIL_ACCEL; CPUs: $(nproc); memory: $(awk '/MemTotal/ {print $2 / 1024 " MiB"}' /proc/meminfo)"
+  echo "devices: vcan0; gpio-sim (configfs); cameras $KIL_CAMERAS"
+} >>"$info"
+
+[ "${1:-}" = --setup-only ] && exit 0
+
+bash "$KIL_REPO/scripts/kil/suite.sh"
+rc=$?
+dmesg >"$KIL_OUT/dmesg.txt" 2>&1
+echo "$rc" >"$KIL_OUT/exit-code"
+exit "$rc"

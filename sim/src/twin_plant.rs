@@ -1,0 +1,186 @@
+//! The whole twin as the motors of simulated drive nodes, on the wall clock: the plant a
+//! separate drive process (`videt sim-rig`) serves on a CAN interface, so a service in device
+//! mode drives the twin's wires, thimble and virtual operator through the kernel's CAN stack.
+//!
+//! The physics catches up with the wall clock whenever a drive applies its torque (at each
+//! SYNC), as a real rig moves between two bus exchanges. Each drive's analog input carries its
+//! wire's strain-gauge reading (the twin's sensor model: offset, gain error, noise), scaled as
+//! the load-cell amplifier of the configuration would scale it.
+
+use std::time::Instant;
+
+use videt_hal::{DriveSample, Lifecycle, MonoTime, TensionSensors, WireDrives, WIRES};
+
+use crate::cia402_node::MotorPlant;
+use crate::Twin;
+
+/// How a tension reaches a drive's 16-bit analog input: `counts = zero + tension / scale`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AnalogScale {
+    /// Counts at zero tension.
+    pub zero_counts: i32,
+    /// Newtons per count.
+    pub newtons_per_count: f64,
+}
+
+impl AnalogScale {
+    /// The analog input value for `tension_n`, saturated to the 16-bit range.
+    pub fn counts(&self, tension_n: f64) -> i16 {
+        let c = f64::from(self.zero_counts) + tension_n / self.newtons_per_count;
+        if c.is_nan() {
+            return 0;
+        }
+        c.round().clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16
+    }
+}
+
+/// A [`Twin`] stepped on the wall clock behind simulated drives.
+#[derive(Debug)]
+pub struct RealTimeTwinPlant {
+    twin: Twin,
+    origin: Instant,
+    torque_nm: [f64; WIRES],
+    encoders: [DriveSample; WIRES],
+    analog: [i16; WIRES],
+    scale: [AnalogScale; WIRES],
+    sensor_failed: bool,
+}
+
+impl RealTimeTwinPlant {
+    /// Take `twin` (its drives are enabled: the simulated nodes decide which torque is applied),
+    /// its time following the wall clock from now on.
+    pub fn new(mut twin: Twin, scale: [AnalogScale; WIRES]) -> RealTimeTwinPlant {
+        twin.set_clock_mode(crate::ClockMode::External);
+        // The twin's own lifecycle stands for the motors' power stages, always on here.
+        let _ = twin.configure();
+        let _ = twin.activate();
+        let _ = twin.enable();
+        let mut plant = RealTimeTwinPlant {
+            twin,
+            origin: Instant::now(),
+            torque_nm: [0.0; WIRES],
+            encoders: [DriveSample::default(); WIRES],
+            analog: [0; WIRES],
+            scale,
+            sensor_failed: false,
+        };
+        plant.sample();
+        plant
+    }
+
+    /// The twin.
+    pub fn twin(&self) -> &Twin {
+        &self.twin
+    }
+
+    /// The twin, mutably (to inject faults).
+    pub fn twin_mut(&mut self) -> &mut Twin {
+        &mut self.twin
+    }
+
+    /// Whether the last sensor reading failed (a disconnected strain gauge: the analog input
+    /// then reads its zero).
+    pub fn sensor_failed(&self) -> bool {
+        self.sensor_failed
+    }
+
+    /// Bring the physics up to the wall clock and read the encoders and strain gauges.
+    fn sample(&mut self) {
+        let elapsed = self.origin.elapsed();
+        // A process descheduled for long does not make the physics run a long burst of steps
+        // at once: at most 50 ms are caught up per call.
+        let now = MonoTime(elapsed.as_nanos() as u64);
+        let floor = MonoTime(now.0.saturating_sub(50_000_000));
+        if self.twin.sim_time() < floor {
+            self.origin += std::time::Duration::from_nanos(floor.0 - self.twin.sim_time().0);
+        }
+        let now = MonoTime(self.origin.elapsed().as_nanos() as u64);
+        self.twin.advance_to(now);
+        let _ = self.twin.read_drives(&mut self.encoders);
+        let mut tension = [0.0; WIRES];
+        self.sensor_failed = self.twin.read_tensions(&mut tension).is_err();
+        for i in 0..WIRES {
+            self.analog[i] = if self.sensor_failed {
+                self.scale[i].counts(0.0)
+            } else {
+                self.scale[i].counts(tension[i])
+            };
+        }
+    }
+}
+
+impl MotorPlant for RealTimeTwinPlant {
+    fn apply_torque(&mut self, axis: usize, torque_nm: f64) {
+        if axis >= WIRES {
+            return;
+        }
+        self.sample();
+        self.torque_nm[axis] = torque_nm;
+        let _ = self.twin.write_torques(&self.torque_nm);
+    }
+
+    fn encoder(&self, axis: usize) -> (i64, f64) {
+        self.encoders
+            .get(axis)
+            .map(|s| (s.position_counts, s.velocity_counts_per_s))
+            .unwrap_or((0, 0.0))
+    }
+
+    fn analog_input(&self, axis: usize) -> i16 {
+        self.analog.get(axis).copied().unwrap_or(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{PlantParams, SensorModel, Vec3, VirtualOperator};
+
+    fn twin() -> Twin {
+        let params = PlantParams::paper_default();
+        let g = params.guides_m;
+        let start = (g[0] + g[1] + g[2]) / 3.0 + Vec3::new(0.0, 0.0, 0.3);
+        Twin::new(
+            params,
+            start,
+            VirtualOperator::holding(start),
+            SensorModel::ideal(),
+        )
+    }
+
+    #[test]
+    fn analog_counts_saturate_and_round() {
+        let s = AnalogScale {
+            zero_counts: 100,
+            newtons_per_count: 0.01,
+        };
+        assert_eq!(s.counts(0.0), 100);
+        assert_eq!(s.counts(1.0), 200);
+        assert_eq!(s.counts(1e6), i16::MAX);
+        assert_eq!(s.counts(-1e6), i16::MIN);
+        assert_eq!(s.counts(f64::NAN), 0);
+    }
+
+    #[test]
+    fn winding_torque_raises_the_analog_tension_and_winds_the_encoder() {
+        let scale = AnalogScale {
+            zero_counts: 0,
+            newtons_per_count: 0.001,
+        };
+        let mut p = RealTimeTwinPlant::new(twin(), [scale; WIRES]);
+        let (start_counts, _) = p.encoder(0);
+        let torque = 0.004; // about 5 N on a 20 mm pulley behind a 1:25 gear
+        let until = Instant::now() + std::time::Duration::from_millis(150);
+        while Instant::now() < until {
+            for axis in 0..WIRES {
+                p.apply_torque(axis, torque);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        let tension_n = f64::from(p.analog_input(0)) * scale.newtons_per_count;
+        assert!(tension_n > 1.0, "tension {tension_n} N");
+        assert!(p.twin().sim_time().0 > 100_000_000);
+        assert_ne!(p.encoder(0).0, start_counts);
+        assert!(!p.sensor_failed());
+    }
+}

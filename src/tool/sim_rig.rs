@@ -1,0 +1,179 @@
+//! `videt sim-rig`: the digital twin served as a rig on a CAN interface. Its three CiA 402
+//! drives answer on `--can` with the node ids, rated torque and heartbeat of the configuration,
+//! their motors the twin's (wires, thimble, a virtual operator touching the check wall and
+//! sliding along it), each drive's analog input the strain-gauge reading of its wire. A
+//! `videtd` in device mode on the same interface then drives the twin through the kernel's CAN
+//! stack exactly as it drives the rig: a bench for the backpack computer without the rig, and
+//! the stand-in the kernel-in-the-loop suite runs the service against.
+//!
+//! Signals inject the faults a real drive reports: SIGUSR1 latches an over-current fault in
+//! wire 0's drive (it sends an EMCY and goes to its fault state), SIGUSR2 removes the cause
+//! (a fault reset from the host then clears it).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use clap::Args;
+use videt_control::autoinit::BaseTriangle;
+use videt_hal::WIRES;
+use videt_rt_config::Config;
+use videt_sim::cia402_node::{MotorPlant, SharedMotors, SimDriveBank, SimDriveSpec};
+use videt_sim::twin_plant::{AnalogScale, RealTimeTwinPlant};
+
+use super::ToolResult;
+use crate::{rt, setup};
+
+/// The EMCY error code of the injected drive fault: over-current (CiA 301 0x2310).
+const OVER_CURRENT: u16 = 0x2310;
+
+/// Serve the digital twin's drives on a CAN interface.
+#[derive(Debug, Args)]
+pub struct SimRigArgs {
+    /// The service's configuration: the rig's guides and transmission, the drives' node ids,
+    /// rated torque and heartbeat, the strain gauges' scale.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// CAN interface to serve (default: the configuration's `drives.can_interface`).
+    #[arg(long)]
+    pub can: Option<String>,
+    /// Write the twin's true calibration (its guides, encoder zeros at free length zero) to
+    /// this file, as `videt init` would measure it, once the drives listen.
+    #[arg(long)]
+    pub calibration_out: Option<PathBuf>,
+    /// SCHED_FIFO priority of the drives' thread (0: normal scheduling).
+    #[arg(long, default_value_t = 0)]
+    pub priority: u8,
+    /// Stop after this many seconds (default: until SIGTERM or Ctrl-C).
+    #[arg(long)]
+    pub seconds: Option<f64>,
+}
+
+/// The twin's true calibration record for `config`'s rig.
+pub fn true_calibration(
+    config: &Config,
+) -> Result<videt_rt_config::calibration::Calibration, String> {
+    let rig = setup::rig(config).map_err(|e| format!("rig.guides_m: {e}"))?;
+    let g = rig.guides_m();
+    let d = |a: usize, b: usize| (g[a] - g[b]).norm();
+    let measurement = crate::init::session::Measurement {
+        triangle: BaseTriangle {
+            sides_m: [d(0, 1), d(0, 2), d(1, 2)],
+            residuals_m: [0.0; 6],
+            rig,
+        },
+        zero_counts: [0; WIRES],
+        metres_per_count: setup::transmission(config).metres_per_count(),
+    };
+    Ok(
+        crate::init::session::outcome(config, "sim-rig (the twin's true geometry)", &measurement)
+            .calibration,
+    )
+}
+
+/// Run `videt sim-rig`.
+pub fn run(args: &SimRigArgs) -> ToolResult {
+    let config = Config::load(&args.config)?;
+    let interface = args
+        .can
+        .clone()
+        .unwrap_or_else(|| config.drives.can_interface.clone());
+    let port = videt_sim::can_bus::socketcan::SocketCanEndpoint::open(&interface)
+        .map_err(|e| format!("CAN interface {interface}: {e} (--can, drives.can_interface)"))?;
+    let scene = setup::demo_scene(&config, 1);
+    let s = &config.sensors;
+    let scales: [AnalogScale; WIRES] = core::array::from_fn(|i| AnalogScale {
+        zero_counts: s.zero_counts[i],
+        newtons_per_count: s.newtons_per_count[i],
+    });
+    // The physics runs on a thread of its own at normal priority and hands encoders, analog
+    // inputs and torques to the drives through wait-free mailboxes: the drives answer every
+    // SYNC at once whatever the physics costs (on a slow machine the twin then moves in slow
+    // motion rather than the bus falling silent).
+    let mut plant = RealTimeTwinPlant::new(scene.twin, scales);
+    let motors = Arc::new(SharedMotors::new(WIRES));
+    publish(&plant, &motors);
+    let specs: Vec<SimDriveSpec> = (0..WIRES)
+        .map(|axis| SimDriveSpec {
+            node_id: config.drives.node_ids[axis],
+            axis,
+            rated_torque_mnm: (config.drives.rated_torque_nm * 1000.0).round() as u32,
+            boot_delay: Duration::from_millis(20),
+        })
+        .collect();
+    let priority = args.priority;
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))?;
+    }
+    let raise = Arc::new(AtomicBool::new(false));
+    let clear = Arc::new(AtomicBool::new(false));
+    signal_hook::flag::register(signal_hook::consts::SIGUSR1, Arc::clone(&raise))?;
+    signal_hook::flag::register(signal_hook::consts::SIGUSR2, Arc::clone(&clear))?;
+    let bank = SimDriveBank::spawn_with(port, &specs, Arc::clone(&motors), move || {
+        if priority > 0 {
+            if let Err(e) = rt::set_fifo(priority) {
+                eprintln!("videt sim-rig: the drives stay SCHED_OTHER: {e}");
+            }
+        }
+    });
+    let physics_stop = Arc::clone(&stop);
+    let physics_motors = Arc::clone(&motors);
+    let physics = std::thread::Builder::new()
+        .name("sim-rig-physics".into())
+        .spawn(move || {
+            while !physics_stop.load(Ordering::Relaxed) {
+                for axis in 0..WIRES {
+                    plant.apply_torque(axis, physics_motors.torque_nm(axis));
+                }
+                publish(&plant, &physics_motors);
+                std::thread::sleep(Duration::from_micros(200));
+            }
+        })?;
+    // Written once the drives listen: a service started when the file appears finds them.
+    if let Some(path) = &args.calibration_out {
+        true_calibration(&config)?.save(path)?;
+        eprintln!(
+            "videt sim-rig: wrote the twin's calibration to {}",
+            path.display()
+        );
+    }
+    eprintln!(
+        "videt sim-rig: drives {:?} on {interface} (rated torque {} N·m), the twin's wires and operator behind them",
+        config.drives.node_ids, config.drives.rated_torque_nm
+    );
+    let started = std::time::Instant::now();
+    while !stop.load(Ordering::Relaxed) {
+        if args
+            .seconds
+            .is_some_and(|s| started.elapsed().as_secs_f64() >= s)
+        {
+            break;
+        }
+        if raise.swap(false, Ordering::Relaxed) {
+            eprintln!(
+                "videt sim-rig: wire 0's drive faults (over-current, EMCY 0x{OVER_CURRENT:04X})"
+            );
+            bank.faults(0).raise_fault(OVER_CURRENT);
+        }
+        if clear.swap(false, Ordering::Relaxed) {
+            eprintln!("videt sim-rig: wire 0's drive fault cause removed");
+            bank.faults(0).clear_fault();
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    stop.store(true, Ordering::Relaxed);
+    let _ = physics.join();
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The twin's encoders and strain-gauge readings, as the drives report them.
+fn publish(plant: &RealTimeTwinPlant, motors: &SharedMotors) {
+    for axis in 0..WIRES {
+        let (counts, counts_per_s) = plant.encoder(axis);
+        motors.publish_encoder(axis, counts, counts_per_s);
+        motors.publish_analog_input(axis, plant.analog_input(axis));
+    }
+}
