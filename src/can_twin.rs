@@ -16,7 +16,9 @@ use videt_hal::{
     Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState, MonoTime,
     TensionSensors, WireDrives, WIRES,
 };
-use videt_sim::can_bus::{BusError, BusFaults, InProcessBus, InProcessEndpoint, SimFrame};
+use videt_sim::can_bus::{
+    BusError, BusFaults, BusStats, InProcessBus, InProcessEndpoint, SimFrame,
+};
 use videt_sim::cia402_node::{NodeView, SharedMotors, SimDriveBank, SimDriveSpec, SteppedDriveBus};
 use videt_sim::{Twin, TwinError};
 
@@ -172,6 +174,7 @@ pub struct CanTwin<T: TwinDevice> {
     motors: Arc<SharedMotors>,
     bank: Option<SimDriveBank>,
     bus_faults: Arc<BusFaults>,
+    bus_stats: Option<Arc<BusStats>>,
     encoders: [DriveSample; WIRES],
 }
 
@@ -207,6 +210,7 @@ impl CanTwin<Twin> {
             motors,
             bank: None,
             bus_faults: Arc::new(BusFaults::default()),
+            bus_stats: None,
             encoders: [DriveSample::default(); WIRES],
         };
         can_twin.publish_encoders();
@@ -215,16 +219,20 @@ impl CanTwin<Twin> {
 }
 
 impl CanTwin<RealTimeTwin> {
-    /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver. The nodes
-    /// run on their own thread, at SCHED_FIFO `drive_priority` when given (they stand for
-    /// hardware that answers SYNC whatever the host's load; use the control thread's priority).
+    /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver, on a bus
+    /// of `bitrate` bit/s (frames take their bit time, queue while the bus is busy and win it
+    /// by identifier). The nodes run on their own thread, at SCHED_FIFO `drive_priority` when
+    /// given (they stand for hardware that answers SYNC whatever the host's load; use the
+    /// control thread's priority).
     pub fn new(
         twin: Twin,
         drive_config: DriveSetConfig,
+        bitrate: u32,
         drive_priority: Option<u8>,
     ) -> Result<CanTwin<RealTimeTwin>, String> {
         let bus_faults = Arc::new(BusFaults::default());
-        let mut eps = InProcessBus::with_endpoints(2, 256, bus_faults.clone());
+        let (mut eps, bus_stats) = InProcessBus::timed(2, 256, bus_faults.clone(), bitrate)
+            .map_err(|e| format!("cannot start the simulated bus: {e}"))?;
         let node_side = eps.pop().ok_or("bus without endpoints")?;
         let host_side = eps.pop().ok_or("bus without endpoints")?;
         let motors = Arc::new(SharedMotors::new(WIRES));
@@ -245,6 +253,7 @@ impl CanTwin<RealTimeTwin> {
             motors,
             bank: Some(bank),
             bus_faults,
+            bus_stats: Some(bus_stats),
             encoders: [DriveSample::default(); WIRES],
         };
         can_twin.publish_encoders();
@@ -256,6 +265,12 @@ impl<T: TwinDevice> CanTwin<T> {
     /// The bus's fault injector (drops, delay, bus-off).
     pub fn bus_faults(&self) -> &Arc<BusFaults> {
         &self.bus_faults
+    }
+
+    /// What the simulated bus measured (load, waiting, overflows); `None` for the stepped
+    /// twin, whose drives answer inline without a bus.
+    pub fn bus_stats(&self) -> Option<Arc<BusStats>> {
+        self.bus_stats.clone()
     }
 
     /// The state of every simulated drive.

@@ -163,7 +163,7 @@ impl<D: WireDrives, T: TensionSensors, E: EStop> ProcedureDevice for DeviceHardw
 /// The drive-set settings of the device: node ids, rated torque and heartbeats from
 /// `[drives]`, the transmission and limits from `[transmission]` and `[control]`, one SYNC per
 /// control period, and with `sensors.adc = "drive"` the analog input object
-/// (`sensors.drive_analog_index`/`drive_analog_subindex`) mapped into every drive's TPDO2.
+/// (`sensors.drive_analog_index`/`drive_analog_subindex`) mapped into every drive's TPDO1.
 pub fn drive_set_config(config: &Config) -> DriveSetConfig {
     let d = &config.drives;
     let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));

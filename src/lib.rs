@@ -5,6 +5,7 @@
 //! `videt-sim`; this crate wires them together for the `videtd` service and the `videt` tool.
 #![warn(missing_docs)]
 
+pub mod bus_budget;
 pub mod camera_relief;
 pub mod can_twin;
 pub mod colour_thread;

@@ -442,3 +442,61 @@ fn the_twin_scenes_vision_threads_take_the_configured_priority() {
         }
     }
 }
+
+/// A control rate the configured CAN bus cannot carry is refused before anything starts, by
+/// the service (on the device and on the CAN twin) and by `videt config check`, with the
+/// fields and the numbers named; the HAL twin, which has no bus, warns and runs.
+#[test]
+fn a_rate_the_bus_cannot_carry_is_refused_with_the_fields_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display();
+    let config = dir.path().join("videt.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[control]\nrate_hz = 4000\n\
+             [files]\ncalibration = \"{d}/calibration.toml\"\nmotors_lock = \"{d}/motors.lock\"\n\
+             [socket]\npath = \"{d}/videt.sock\"\n[telemetry]\ndirectory = \"{d}/logs\"\n"
+        ),
+    )
+    .unwrap();
+    let named = |text: &str| {
+        text.contains("control.rate_hz = 4000")
+            && text.contains("drives.bitrate = 1000000")
+            && text.contains("drives.max_bus_load = 0.8")
+    };
+    for mode in [&["--sim", "can"][..], &[][..]] {
+        let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+            .arg("--config")
+            .arg(&config)
+            .args(mode)
+            .args(["--duration", "1", "--no-socket", "--no-telemetry"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{mode:?}: {stderr}");
+        assert!(named(&stderr), "{mode:?}: {stderr}");
+        assert!(!stderr.contains("control loop running"), "{stderr}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_videt"))
+        .args(["config", "check"])
+        .arg(&config)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(named(&stderr), "{stderr}");
+    // The default rate passes, and the check prints the load it computed.
+    std::fs::write(&config, "[control]\nrate_hz = 1000\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_videt"))
+        .args(["config", "check"])
+        .arg(&config)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("CAN bus at 1000000 bit/s, 1000 Hz") && stdout.contains("worst case"),
+        "{stdout}"
+    );
+}

@@ -233,7 +233,18 @@ pub struct DrivesConfig {
     /// first missing period is). With 1 the drives power off within two periods of a drive
     /// going silent; a bus or computer that delays answers now and then needs more.
     pub max_missed_cycles: u32,
+    /// Bit rate of the CAN bus, bit/s: one of CiA 301's 10000, 20000, 50000, 125000, 250000,
+    /// 500000, 800000, 1000000.
+    pub bitrate: u32,
+    /// The largest share of the bus the drives' traffic may take, counted with every possible
+    /// stuff bit (0.1..=0.95): a configuration whose control rate needs more is refused.
+    pub max_bus_load: f64,
 }
+
+/// CiA 301's CAN bit rates, bit/s.
+pub const CAN_BITRATES: [u32; 8] = [
+    10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 1_000_000,
+];
 
 /// Which ADC reads the strain gauges.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -243,7 +254,7 @@ pub enum TensionAdc {
     Hx711,
     /// ADS1220 on SPI.
     Ads1220,
-    /// The load-cell amplifier wired into each wire drive's analog input, read in TPDO2 at
+    /// The load-cell amplifier wired into each wire drive's analog input, read in TPDO1 at
     /// every SYNC (object `drive_analog_index`/`drive_analog_subindex`).
     Drive,
 }
@@ -271,7 +282,8 @@ pub struct SensorsConfig {
     /// HX711: the GPIO line of each converter's data output (`DOUT`).
     pub hx711_data_lines: [u32; 3],
     /// Drive: the object index of each drive's 16-bit signed analog input (the same on every
-    /// drive), mapped into TPDO2 after the status. Default: CiA 401 "read analog input 16-bit"
+    /// drive), mapped into TPDO1 after the position and the statusword (the velocity is then
+    /// derived from the positions). Default: CiA 401 "read analog input 16-bit"
     /// 0x6401.
     pub drive_analog_index: u16,
     /// Drive: the subindex of the analog input object (default 1: the first input).
@@ -349,6 +361,8 @@ impl Default for DrivesConfig {
             heartbeat_ms: 10,
             heartbeat_timeout_ms: 50,
             max_missed_cycles: 1,
+            bitrate: 1_000_000,
+            max_bus_load: 0.8,
         }
     }
 }
@@ -743,6 +757,14 @@ impl Config {
             0.0,
             100.0,
         )?;
+        if !CAN_BITRATES.contains(&d.bitrate) {
+            return Err(ConfigError::Invalid {
+                field: "drives.bitrate".into(),
+                value: d.bitrate.to_string(),
+                allowed: format!("one of {CAN_BITRATES:?} (bit/s)"),
+            });
+        }
+        in_range("drives.max_bus_load", d.max_bus_load, 0.1, 0.95)?;
         in_range(
             "sensors.stale_after_ms",
             f64::from(self.sensors.stale_after_ms),
@@ -1143,6 +1165,12 @@ mod tests {
             (
                 "[drives]\nmax_missed_cycles = 101\n",
                 "drives.max_missed_cycles",
+            ),
+            ("[drives]\nbitrate = 2000000\n", "drives.bitrate"),
+            ("[drives]\nbitrate = 1000\n", "drives.bitrate"),
+            (
+                "[drives]\nmax_bus_load = 1.0\n",
+                "drives.max_bus_load",
             ),
             ("[sensors]\nstale_after_ms = 0\n", "sensors.stale_after_ms"),
             (

@@ -341,9 +341,18 @@ fn build_od(spec: &SimDriveSpec) -> ObjectDictionary<OD_CAPACITY> {
         (0x1800, 0x1A00, 0x8000_0180 + n),
         (0x1801, 0x1A01, 0x8000_0280 + n),
     ] {
-        put(a(comm, 0), Entry::constant(Unsigned8(2)));
+        let is_tpdo = comm >= 0x1800;
+        put(
+            a(comm, 0),
+            Entry::constant(Unsigned8(if is_tpdo { 3 } else { 2 })),
+        );
         put(a(comm, 1), Entry::rw(Unsigned32(cob)));
         put(a(comm, 2), Entry::rw(Unsigned8(0xFF)));
+        if is_tpdo {
+            // Inhibit time (100 µs units) of event-driven TPDOs. Like the EPOS4, no event
+            // timer (sub 5): an event-driven TPDO is sent when its data changes.
+            put(a(comm, 3), Entry::rw(Unsigned16(0)));
+        }
         put(a(map, 0), Entry::rw(Unsigned8(0)));
         for s in 1..=4 {
             put(a(map, s), Entry::rw(Unsigned32(0)));
@@ -434,6 +443,17 @@ pub struct SimDriveNode {
     comm_lost: bool,
     applied_torque_nm: f64,
     error_code: u16,
+    event_tpdos: [EventTpdo; EVENT_TPDO_SLOTS],
+}
+
+/// TPDOs (0x1800 + n, n below this) a node may send event-driven.
+const EVENT_TPDO_SLOTS: usize = 4;
+
+/// What an event-driven TPDO last sent, and when.
+#[derive(Debug, Clone, Copy, Default)]
+struct EventTpdo {
+    last: Option<([u8; 8], usize)>,
+    sent_at: Option<Instant>,
 }
 
 impl SimDriveNode {
@@ -453,6 +473,7 @@ impl SimDriveNode {
             comm_lost: false,
             applied_torque_nm: 0.0,
             error_code: 0,
+            event_tpdos: [EventTpdo::default(); EVENT_TPDO_SLOTS],
         }
     }
 
@@ -621,6 +642,7 @@ impl SimDriveNode {
     }
 
     fn reset_communication(&mut self) {
+        self.event_tpdos = [EventTpdo::default(); EVENT_TPDO_SLOTS];
         let keep_fault = self.power == DrivePower::Fault;
         let node_id = self.node.node_id();
         self.node = Node::new(node_id, build_od(&self.spec));
@@ -693,6 +715,56 @@ impl SimDriveNode {
                 out(fr);
             }
         }
+        self.send_event_tpdos(Instant::now(), out);
+    }
+
+    /// Event-driven TPDOs (transmission type 254/255): sent when their data changed, and
+    /// when their event timer (sub 5, ms; absent or 0 = none) ran out since they were last
+    /// sent.
+    fn send_event_tpdos(&mut self, now: Instant, out: &mut impl FnMut(SimFrame)) {
+        if self.node.state() != NmtState::Operational
+            || self.faults.ignore_sync.load(Ordering::Relaxed)
+        {
+            return;
+        }
+        // The node numbers its configured TPDOs in order, skipping disabled ones.
+        let mut slot = 0;
+        for n in 0..EVENT_TPDO_SLOTS {
+            let comm = 0x1800 + n as u16;
+            let cob = match self.node.od().read(Address::new(comm, 1)) {
+                Ok(Value::Unsigned32(v)) if v & 0x8000_0000 == 0 => v,
+                _ => continue,
+            };
+            let this_slot = slot;
+            slot += 1;
+            let event_driven = matches!(
+                self.node.od().read(Address::new(comm, 2)),
+                Ok(Value::Unsigned8(254 | 255))
+            );
+            if !event_driven {
+                continue;
+            }
+            let Some(t) = self.node.tpdo(this_slot) else {
+                continue;
+            };
+            if u32::from(t.cob_id) != cob & 0x7FF {
+                continue;
+            }
+            let timer = Duration::from_millis(u64::from(od_u16(&self.node, comm, 5)));
+            let mut data = [0u8; 8];
+            let len = t.data().len().min(8);
+            data[..len].copy_from_slice(&t.data()[..len]);
+            let state = &mut self.event_tpdos[n];
+            let changed = state.last != Some((data, len));
+            let due = !timer.is_zero() && state.sent_at.is_none_or(|at| now >= at + timer);
+            if changed || due {
+                if let Some(fr) = SimFrame::standard(t.cob_id, t.data()) {
+                    out(fr);
+                }
+                state.last = Some((data, len));
+                state.sent_at = Some(now);
+            }
+        }
     }
 
     /// Time-driven work: boot-up, heartbeat production, heartbeat consumer, injected faults.
@@ -763,6 +835,7 @@ impl SimDriveNode {
             }
             self.next_heartbeat = now + Duration::from_millis(u64::from(period_ms));
         }
+        self.send_event_tpdos(now, out);
         self.next_heartbeat.min(now + Duration::from_millis(5))
     }
 }
@@ -1100,6 +1173,61 @@ mod tests {
             out,
             vec![SimFrame::standard(0x285, &[0x50, 0x02, 0, 0]).unwrap()]
         );
+    }
+
+    #[test]
+    fn an_event_driven_tpdo2_is_sent_when_the_status_changes_only() {
+        let mut plant = FreeMotorPlant::new(1, 1e-5, 1e-5, 2000.0);
+        let mut node = SimDriveNode::new(spec(5), Arc::new(NodeFaults::default()));
+        let mut out = Vec::new();
+        std::thread::sleep(Duration::from_millis(2));
+        node.poll(Instant::now(), &mut plant, &mut |f| out.push(f));
+        // Map TPDO2 = statusword + error code, event-driven (255), then start.
+        let writes: [[u8; 8]; 6] = [
+            [0x2F, 0x01, 0x1A, 0x00, 0, 0, 0, 0],
+            [0x23, 0x01, 0x1A, 0x01, 0x10, 0x00, 0x41, 0x60],
+            [0x23, 0x01, 0x1A, 0x02, 0x10, 0x00, 0x3F, 0x60],
+            [0x2F, 0x01, 0x1A, 0x00, 2, 0, 0, 0],
+            [0x2F, 0x01, 0x18, 0x02, 255, 0, 0, 0],
+            [0x23, 0x01, 0x18, 0x01, 0x85, 0x02, 0, 0],
+        ];
+        let mut send = |node: &mut SimDriveNode, cob: u16, data: &[u8], out: &mut Vec<SimFrame>| {
+            out.clear();
+            node.on_frame(
+                &SimFrame::standard(cob, data).unwrap(),
+                &mut plant,
+                &mut |f| out.push(f),
+            );
+        };
+        for w in writes {
+            send(&mut node, 0x605, &w, &mut out);
+            assert_eq!(out[0].data()[0], 0x60, "download acknowledged");
+        }
+        // The event timer the EPOS4 lacks is absent here too: its download is refused.
+        send(
+            &mut node,
+            0x605,
+            &[0x2B, 0x01, 0x18, 0x05, 10, 0, 0, 0],
+            &mut out,
+        );
+        assert_eq!(out[0].data()[0], 0x80, "abort");
+        send(&mut node, 0x000, &[0x01, 5], &mut out);
+        let status = |sw: u16| SimFrame::standard(0x285, &[sw as u8, (sw >> 8) as u8, 0, 0]);
+        // First SYNC: the status is new; second: unchanged, nothing sent.
+        send(&mut node, 0x080, &[], &mut out);
+        assert_eq!(out, vec![status(0x0250).unwrap()]);
+        send(&mut node, 0x080, &[], &mut out);
+        assert!(out.is_empty(), "{out:?}");
+        // "Shutdown" (written over SDO: RPDO1 is not mapped here): the state changes at the
+        // next SYNC and the status goes out with it.
+        send(
+            &mut node,
+            0x605,
+            &[0x2B, 0x40, 0x60, 0x00, 0x06, 0, 0, 0],
+            &mut out,
+        );
+        send(&mut node, 0x080, &[], &mut out);
+        assert_eq!(out, vec![status(0x0231).unwrap()]);
     }
 
     #[test]

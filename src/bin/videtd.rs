@@ -187,6 +187,18 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    // A rate the configured bus cannot carry is refused where a bus carries it: on the device
+    // and on the CAN twin. The HAL twin has no bus; it says so and runs.
+    match (videt::bus_budget::check(&config), args.sim) {
+        (Ok(_), _) => info!("{}", videt::bus_budget::describe(&config)),
+        (Err(e), Some(SimMode::Hal)) => {
+            warn!("{e} (the HAL twin has no CAN bus: running anyway)")
+        }
+        (Err(e), _) => {
+            error!("{e}");
+            return ExitCode::from(2);
+        }
+    }
     if let Some(text) = &args.sim_guides {
         match videt::init::twin::parse_guides(text) {
             Ok(g) => config.rig.guides_m = core::array::from_fn(|i| [g[i].x, g[i].y]),
@@ -296,6 +308,7 @@ fn main() -> ExitCode {
             let hw = match CanTwin::new(
                 scene.twin,
                 can_twin::drive_config(&config),
+                config.drives.bitrate,
                 Some(config.realtime.control_priority),
             ) {
                 Ok(hw) => hw,
@@ -304,7 +317,20 @@ fn main() -> ExitCode {
                     return ExitCode::FAILURE;
                 }
             };
-            run_service(hw, FixedSurface(scene.wall), cycle, &options)
+            let bus = hw.bus_stats();
+            let code = run_service(hw, FixedSurface(scene.wall), cycle, &options);
+            if let Some(s) = bus.map(|b| b.snapshot()) {
+                info!(
+                    bitrate = s.bitrate,
+                    frames = s.frames,
+                    load_percent = format!("{:.1}", 100.0 * s.load),
+                    mean_wait_us = format!("{:.0}", s.mean_wait_us),
+                    max_wait_us = format!("{:.0}", s.max_wait_us),
+                    overflows = s.overflows,
+                    "simulated CAN bus"
+                );
+            }
+            code
         }
         None => run_on_device(&config, &args, &mut options),
     }

@@ -1,4 +1,5 @@
-//! `videt config check FILE`: validate a configuration and print the resolved settings.
+//! `videt config check FILE`: validate a configuration (ranges, and what the configured CAN
+//! bus can carry) and print the bus load and the resolved settings.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -23,8 +24,13 @@ pub fn run(command: &ConfigCommand) -> ToolResult {
     match command {
         ConfigCommand::Check { file } => {
             let config = Config::load(file)?;
+            crate::bus_budget::check(&config)?;
             let resolved = toml::to_string_pretty(&config)?;
-            println!("# {}: valid\n{resolved}", file.display());
+            println!(
+                "# {}: valid\n# {}\n{resolved}",
+                file.display(),
+                crate::bus_budget::describe(&config)
+            );
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -16,15 +16,17 @@ pub struct MissingObject {
 
 /// The objects read over PDO (must be mappable), besides the SDO-written setup objects.
 const PDO_OBJECTS: [u16; 6] = [0x6040, 0x6071, 0x6041, 0x6064, 0x606C, 0x603F];
-/// Objects whose absence the driver tolerates (the host-side limit still applies).
-const OPTIONAL: [u16; 1] = [0x6072];
+/// Objects (all subindices, or one) whose absence the driver tolerates: the drive-side torque
+/// limit (the host-side limit still applies) and the status event timer (the status is then
+/// sent on change only).
+const OPTIONAL: [(u16, Option<u8>); 2] = [(0x6072, None), (0x1801, Some(5))];
 
 /// Every object of the driver's setup and process data that `eds` lacks or forbids.
 pub fn missing_objects(eds: &Eds) -> Vec<MissingObject> {
     missing_objects_with(eds, None)
 }
 
-/// As [`missing_objects`], for a driver that also maps `analog_input` into TPDO2 (it must be
+/// As [`missing_objects`], for a driver that also maps `analog_input` into TPDO1 (it must be
 /// present and PDO-mappable).
 pub fn missing_objects_with(
     eds: &Eds,
@@ -38,12 +40,16 @@ pub fn missing_objects_with(
         comm_loss_reaction: 2,
         max_torque_permille: 1000,
         analog_input,
+        status_event_timer_ms: 10,
     };
     let _ = SYNC_EVERY_CYCLE;
     let mut out = Vec::new();
     let mut seen = std::collections::BTreeSet::new();
     for (addr, _) in setup.sdo_writes() {
-        if OPTIONAL.contains(&addr.index) || !seen.insert((addr.index, addr.subindex)) {
+        let optional = OPTIONAL
+            .iter()
+            .any(|&(i, sub)| i == addr.index && sub.is_none_or(|s| s == addr.subindex));
+        if optional || !seen.insert((addr.index, addr.subindex)) {
             continue;
         }
         match eds.entry(addr.index, addr.subindex) {

@@ -54,10 +54,14 @@ pub struct DriveSetConfig {
     /// Compare the configured rated torque with the drive's 0x6076 during configuration.
     pub verify_rated_torque: bool,
     /// Map this 16-bit signed object (the drive's analog input, e.g. a load-cell amplifier)
-    /// into TPDO2 and publish every drive's value through
-    /// [`Cia402DriveSet::analog_inputs`](super::Cia402DriveSet::analog_inputs). `None`: TPDO2
-    /// carries the status only.
+    /// into TPDO1 (in the velocity's place: the velocity is then derived from the positions)
+    /// and publish every drive's value through
+    /// [`Cia402DriveSet::analog_inputs`](super::Cia402DriveSet::analog_inputs). `None`: TPDO1
+    /// carries the velocity.
     pub analog_input: Option<AnalogInputObject>,
+    /// TPDO2 (the status and error code) is event-driven: sent on every status change and, on
+    /// a drive with an event timer (0x1801 sub 5), at least this often, ms.
+    pub status_event_timer_ms: u16,
 }
 
 /// A configuration field outside its allowed range.
@@ -104,7 +108,23 @@ impl DriveSetConfig {
             counts_per_s_per_velocity_unit: 1.0,
             verify_rated_torque: true,
             analog_input: None,
+            status_event_timer_ms: 50,
         }
+    }
+
+    /// The traffic this configuration puts on the bus: the data lengths of the frames sent
+    /// every control period (the SYNC, then every drive's synchronous PDOs), and
+    /// `(data length, interval in s)` of the frames sent on timers (heartbeats of the drives
+    /// and the host, and the event-driven status, counted as if refreshed on its timer).
+    pub fn bus_traffic(&self) -> (Vec<u8>, Vec<(u8, f64)>) {
+        let mut cyclic = vec![0u8];
+        let mut timed = vec![(1u8, f64::from(self.host_heartbeat_ms) / 1000.0)];
+        for _ in 0..WIRES {
+            cyclic.extend_from_slice(&super::pdo::CYCLIC_DATA_LENGTHS);
+            timed.push((1, f64::from(self.drive_heartbeat_ms) / 1000.0));
+            timed.push((4, f64::from(self.status_event_timer_ms) / 1000.0));
+        }
+        (cyclic, timed)
     }
 
     /// Check every field.
@@ -207,6 +227,13 @@ impl DriveSetConfig {
                 "host_silence_timeout_ms",
                 self.host_silence_timeout_ms,
                 "> host_heartbeat_ms >= 1",
+            ));
+        }
+        if !(1..=10_000).contains(&self.status_event_timer_ms) {
+            return Err(err(
+                "status_event_timer_ms",
+                self.status_event_timer_ms,
+                "1..=10000",
             ));
         }
         if !(1..=3).contains(&self.comm_loss_reaction) {

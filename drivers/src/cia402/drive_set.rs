@@ -9,9 +9,10 @@
 //! reconfigured, or re-activated. The cycle methods allocate nothing and block only in the
 //! bus receive, never past `pdo_timeout`.
 //!
-//! With [`DriveSetConfig::analog_input`] set, TPDO2 also carries each drive's analog input;
-//! every cycle the values that arrived with this cycle's TPDO2 are published to the shared
-//! [`DriveAnalogInputs`] ([`Cia402DriveSet::analog_inputs`]).
+//! With [`DriveSetConfig::analog_input`] set, TPDO1 carries each drive's analog input (and its
+//! statusword) in the velocity's place, and the velocity is derived from the positions of
+//! successive SYNCs; every cycle the values that arrived with this cycle's TPDO1 are published
+//! to the shared [`DriveAnalogInputs`] ([`Cia402DriveSet::analog_inputs`]).
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -25,7 +26,7 @@ use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives
 use super::analog::DriveAnalogInputs;
 use super::config::{ConfigError, DriveSetConfig};
 use super::error::DriveError;
-use super::pdo::{Command, DriveSetup, Motion, Status, StatusWithAnalog};
+use super::pdo::{Command, DriveSetup, Motion, MotionWithAnalog, Status};
 use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
 use crate::can::CanPort;
 use crate::canopen::cob::{self, classify, CobKind};
@@ -58,9 +59,14 @@ struct NodeLink {
     analog_input: i16,
     got_motion: bool,
     got_status: bool,
+    status_heard: Option<Instant>,
     missed: u32,
     position_counts: i64,
     last_raw_position: Option<i32>,
+    /// Without a velocity in TPDO1: the position (drive units, unwrapped) at a SYNC and that
+    /// SYNC's number, and the velocity derived from the last two (drive units per second).
+    velocity_base: Option<(i64, u64)>,
+    derived_velocity: f64,
 }
 
 impl NodeLink {
@@ -77,14 +83,50 @@ impl NodeLink {
             analog_input: 0,
             got_motion: false,
             got_status: false,
+            status_heard: None,
             missed: 0,
             position_counts: 0,
             last_raw_position: None,
+            velocity_base: None,
+            derived_velocity: 0.0,
         }
+    }
+
+    /// Unwrap a 32-bit position into the running count.
+    fn track_position(&mut self, raw: i32) {
+        let delta = match self.last_raw_position {
+            Some(prev) => i64::from(raw.wrapping_sub(prev)),
+            None => i64::from(raw),
+        };
+        self.position_counts += delta;
+        self.last_raw_position = Some(raw);
+    }
+
+    /// Derive the velocity from the position sampled at SYNC number `sync` and the one before.
+    fn derive_velocity(&mut self, sync: u64, period_s: f64) {
+        if let Some((base, base_sync)) = self.velocity_base {
+            if sync > base_sync {
+                self.derived_velocity =
+                    (self.position_counts - base) as f64 / ((sync - base_sync) as f64 * period_s);
+            }
+        }
+        self.velocity_base = Some((self.position_counts, sync));
     }
 
     fn power_state(&self) -> PowerState {
         PowerState::from_statusword(self.status.statusword)
+    }
+
+    /// Whether this cycle's process data is in: the motion of this cycle, and the status of
+    /// this cycle when it is synchronous (`status_every_sync`), or ever heard when it is
+    /// event-driven (its age is checked against the heartbeat timeout).
+    fn has_cycle_data(&self, status_every_sync: bool) -> bool {
+        self.got_motion
+            && if status_every_sync {
+                self.got_status
+            } else {
+                self.status_heard.is_some()
+            }
     }
 }
 
@@ -98,6 +140,7 @@ pub struct Cia402DriveSet<P: CanPort> {
     latched: Option<DriveError>,
     host_heartbeat_due: Instant,
     operational_expected: bool,
+    syncs_sent: u64,
     epoch: Instant,
     analog: Option<Arc<DriveAnalogInputs>>,
 }
@@ -121,6 +164,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             latched: None,
             host_heartbeat_due: now,
             operational_expected: false,
+            syncs_sent: 0,
             epoch: now,
             analog,
         })
@@ -143,7 +187,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
 
     /// The drives' analog inputs, updated by every cycle, when
     /// [`DriveSetConfig::analog_input`] is set (`None` otherwise). Each wire's sample counter
-    /// advances only for a TPDO2 that answered the current cycle's SYNC.
+    /// advances only for a TPDO1 that answered the current cycle's SYNC.
     pub fn analog_inputs(&self) -> Option<Arc<DriveAnalogInputs>> {
         self.analog.clone()
     }
@@ -224,31 +268,34 @@ impl<P: CanPort> Cia402DriveSet<P> {
             }
             CobKind::Tpdo(0, n) => {
                 let Some(i) = self.node_index(n) else { return };
-                if let Some(m) = Motion::decode(data) {
-                    let node = &mut self.nodes[i];
-                    let delta = match node.last_raw_position {
-                        Some(prev) => i64::from(m.position.wrapping_sub(prev)),
-                        None => i64::from(m.position),
-                    };
-                    node.position_counts += delta;
-                    node.last_raw_position = Some(m.position);
+                // A late frame answered the SYNC before this cycle's.
+                let sync = self.syncs_sent - u64::from(!fresh);
+                let period_s = self.cfg.control_period.as_secs_f64();
+                let node = &mut self.nodes[i];
+                if self.cfg.analog_input.is_some() {
+                    // Only the configured layout is accepted.
+                    if let Some(m) = MotionWithAnalog::decode(data) {
+                        node.track_position(m.position);
+                        node.derive_velocity(sync, period_s);
+                        node.status.statusword = m.statusword;
+                        node.analog_input = m.analog_input;
+                        node.got_motion |= fresh;
+                        node.got_status |= fresh;
+                        node.status_heard = Some(now);
+                    }
+                } else if let Some(m) = Motion::decode(data) {
+                    node.track_position(m.position);
                     node.motion = m;
                     node.got_motion |= fresh;
                 }
             }
             CobKind::Tpdo(1, n) => {
                 let Some(i) = self.node_index(n) else { return };
-                // Only the configured layout is accepted.
-                let decoded = if self.cfg.analog_input.is_some() {
-                    StatusWithAnalog::decode(data).map(|s| (s.status, s.analog_input))
-                } else {
-                    Status::decode(data).map(|s| (s, 0))
-                };
-                if let Some((status, analog_input)) = decoded {
+                if let Some(status) = Status::decode(data) {
                     let node = &mut self.nodes[i];
                     node.status = status;
-                    node.analog_input = analog_input;
                     node.got_status |= fresh;
+                    node.status_heard = Some(now);
                 }
             }
             _ => {}
@@ -271,6 +318,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             n.got_status = false;
         }
         let start = Instant::now();
+        self.syncs_sent += 1;
         self.send(cob::SYNC, &[])?;
         if start >= self.host_heartbeat_due {
             let host = cob::HEARTBEAT_BASE + u16::from(self.cfg.host_node_id);
@@ -279,8 +327,13 @@ impl<P: CanPort> Cia402DriveSet<P> {
                 start + Duration::from_millis(u64::from(self.cfg.host_heartbeat_ms));
         }
         let deadline = start + self.cfg.pdo_timeout;
+        let status_every_sync = self.cfg.analog_input.is_some();
         for _ in 0..MAX_FRAMES_PER_CYCLE {
-            if self.nodes.iter().all(|n| n.got_motion && n.got_status) {
+            if self
+                .nodes
+                .iter()
+                .all(|n| n.has_cycle_data(status_every_sync))
+            {
                 break;
             }
             let now = Instant::now();
@@ -305,6 +358,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
     fn check_nodes(&mut self, strict_faults: bool, now: Instant) -> Result<(), DriveError> {
         let hb_timeout = self.cfg.drive_heartbeat_timeout;
         let max_missed = self.cfg.max_missed_cycles;
+        let status_every_sync = self.cfg.analog_input.is_some();
         for node in &mut self.nodes {
             if node.rebooted {
                 return Err(DriveError::NotOperational {
@@ -334,7 +388,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
                     nmt_state: node.nmt_state,
                 });
             }
-            if node.got_motion && node.got_status {
+            if node.has_cycle_data(status_every_sync) {
                 node.missed = 0;
             } else {
                 node.missed += 1;
@@ -382,8 +436,11 @@ impl<P: CanPort> Cia402DriveSet<P> {
         DriveSample {
             position_counts: (n.position_counts as f64 * self.cfg.counts_per_position_unit).round()
                 as i64,
-            velocity_counts_per_s: f64::from(n.motion.velocity)
-                * self.cfg.counts_per_s_per_velocity_unit,
+            velocity_counts_per_s: if self.cfg.analog_input.is_some() {
+                n.derived_velocity * self.cfg.counts_per_position_unit
+            } else {
+                f64::from(n.motion.velocity) * self.cfg.counts_per_s_per_velocity_unit
+            },
             state: n.power_state().to_hal(),
             error_code: n.status.error_code,
         }
@@ -556,6 +613,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
                 comm_loss_reaction: self.cfg.comm_loss_reaction,
                 max_torque_permille: max_permille,
                 analog_input: self.cfg.analog_input,
+                status_event_timer_ms: self.cfg.status_event_timer_ms,
             };
             for (addr, value) in setup.sdo_writes() {
                 match self.sdo_write(i, addr, value) {
@@ -563,6 +621,14 @@ impl<P: CanPort> Cia402DriveSet<P> {
                     // the host-side clamp still applies.
                     Err(DriveError::SdoAbort {
                         index: 0x6072,
+                        code: ABORT_NO_OBJECT,
+                        ..
+                    }) => {}
+                    // So is the event timer of the event-driven status (the EPOS4 has none:
+                    // it sends the status on change only).
+                    Err(DriveError::SdoAbort {
+                        index: 0x1801,
+                        subindex: 5,
                         code: ABORT_NO_OBJECT,
                         ..
                     }) => {}
@@ -576,6 +642,9 @@ impl<P: CanPort> Cia402DriveSet<P> {
             self.nmt(NmtCommand::StartRemoteNode, self.nodes[i].id)?;
         }
         // Cycle until every drive is operational and answers SYNC.
+        for n in &mut self.nodes {
+            n.status_heard = None;
+        }
         let start = Instant::now();
         let mut last_err;
         loop {
@@ -584,7 +653,14 @@ impl<P: CanPort> Cia402DriveSet<P> {
                 n.missed = 0;
             }
             match self.exchange(false) {
-                Ok(()) if self.nodes.iter().all(|n| n.got_motion && n.got_status) => break,
+                Ok(())
+                    if self
+                        .nodes
+                        .iter()
+                        .all(|n| n.has_cycle_data(self.cfg.analog_input.is_some())) =>
+                {
+                    break
+                }
                 Ok(()) => last_err = None,
                 Err(e) => last_err = Some(e),
             }
@@ -593,7 +669,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
                     node: self
                         .nodes
                         .iter()
-                        .find(|n| !n.got_status)
+                        .find(|n| !n.has_cycle_data(self.cfg.analog_input.is_some()))
                         .map_or(0, |n| n.id),
                     missed_cycles: 0,
                 }));

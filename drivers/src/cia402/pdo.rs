@@ -3,14 +3,21 @@
 //!
 //! - RPDO1 (host → drive, `0x200 + node`): controlword 0x6040 (u16), target torque 0x6071
 //!   (i16, per mille of rated torque).
-//! - TPDO1 (drive → host, `0x180 + node`): position actual 0x6064 (i32), velocity actual
-//!   0x606C (i32).
-//! - TPDO2 (drive → host, `0x280 + node`): statusword 0x6041 (u16), error code 0x603F (u16),
-//!   and optionally one 16-bit signed analog input (e.g. a load-cell amplifier wired into the
-//!   drive; [`AnalogInputObject`], default CiA 401 0x6401 sub 1): 4 or 6 bytes.
+//! - TPDO1 (drive → host, `0x180 + node`), 8 bytes, one of two layouts:
+//!   - position actual 0x6064 (i32), velocity actual 0x606C (i32) ([`Motion`]);
+//!   - with the drive's analog input (e.g. a load-cell amplifier wired into the drive;
+//!     [`AnalogInputObject`], default CiA 401 0x6401 sub 1): position actual (i32), statusword
+//!     0x6041 (u16), the analog input (i16) ([`MotionWithAnalog`]). The host then derives the
+//!     velocity from the positions sampled at successive SYNCs.
+//! - TPDO2 (drive → host, `0x280 + node`): statusword 0x6041 (u16), error code 0x603F (u16).
 //!
-//! All are synchronous (transmission type 1): TPDOs answer every SYNC, RPDOs take effect at the
-//! next SYNC.
+//! RPDO1 and TPDO1 are synchronous (transmission type 1): TPDO1 answers every SYNC, RPDO1 takes
+//! effect at the next SYNC. TPDO2 is event-driven (type 255): sent when the status changes and,
+//! on a drive with an event timer, at least every `status_event_timer_ms`. One 4-byte and one
+//! 8-byte frame per drive and period ([`CYCLIC_DATA_LENGTHS`]) keep a classical CAN bus at
+//! 1 Mbit/s within reach of a 1 kHz period for three drives
+//! ([`DriveSetConfig::bus_traffic`](super::DriveSetConfig::bus_traffic)); a second synchronous
+//! TPDO per drive would not fit.
 
 use canopen_rs::{Address, Value};
 
@@ -140,36 +147,48 @@ impl Status {
     }
 }
 
-/// Drive → host status with the drive's analog input (TPDO2 extended by an
-/// [`AnalogInputObject`]).
+/// Drive → host motion feedback with the status and the analog input (TPDO1 when the drive's
+/// analog input is mapped).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct StatusWithAnalog {
-    /// Statusword and error code.
-    pub status: Status,
+pub struct MotionWithAnalog {
+    /// Position actual value (0x6064), drive position units.
+    pub position: i32,
+    /// Statusword (0x6041).
+    pub statusword: u16,
     /// The analog input, raw 16-bit signed value as the drive reports it.
     pub analog_input: i16,
 }
 
-impl StatusWithAnalog {
-    /// The 6 data bytes of the extended TPDO2.
-    pub fn encode(&self) -> [u8; 6] {
-        let s = self.status.encode();
-        let a = self.analog_input.to_le_bytes();
-        [s[0], s[1], s[2], s[3], a[0], a[1]]
+impl MotionWithAnalog {
+    /// The 8 data bytes of this TPDO1.
+    pub fn encode(&self) -> [u8; 8] {
+        let mut out = [0u8; 8];
+        out[..4].copy_from_slice(&self.position.to_le_bytes());
+        out[4..6].copy_from_slice(&self.statusword.to_le_bytes());
+        out[6..].copy_from_slice(&self.analog_input.to_le_bytes());
+        out
     }
 
-    /// Decode extended TPDO2 data; `None` unless exactly 6 bytes.
-    pub fn decode(data: &[u8]) -> Option<StatusWithAnalog> {
-        let d: [u8; 6] = data.try_into().ok()?;
-        Some(StatusWithAnalog {
-            status: Status::decode(&d[..4])?,
-            analog_input: i16::from_le_bytes([d[4], d[5]]),
+    /// Decode this TPDO1's data; `None` unless exactly 8 bytes.
+    pub fn decode(data: &[u8]) -> Option<MotionWithAnalog> {
+        let d: [u8; 8] = data.try_into().ok()?;
+        Some(MotionWithAnalog {
+            position: i32::from_le_bytes([d[0], d[1], d[2], d[3]]),
+            statusword: u16::from_le_bytes([d[4], d[5]]),
+            analog_input: i16::from_le_bytes([d[6], d[7]]),
         })
     }
 }
 
 /// Synchronous transmission type: every SYNC.
 pub const SYNC_EVERY_CYCLE: u8 = 1;
+/// Event-driven transmission type (device-profile specific: on change, and on the event timer).
+pub const EVENT_DRIVEN: u8 = 255;
+
+/// Data lengths of the frames the host and one drive exchange every control period, after the
+/// SYNC (0 bytes) the host sends once for all drives: RPDO1 and TPDO1.
+pub const CYCLIC_DATA_LENGTHS: [u8; 2] = [4, 8];
+
 /// COB-ID bit 31: PDO disabled.
 const PDO_INVALID: u32 = 0x8000_0000;
 
@@ -189,15 +208,19 @@ pub struct DriveSetup {
     pub comm_loss_reaction: i16,
     /// Drive-side maximum torque (0x6072), per mille of rated torque.
     pub max_torque_permille: u16,
-    /// The analog input mapped into TPDO2 after the status, if any.
+    /// The analog input mapped into TPDO1 (with the position and the statusword, instead of
+    /// the velocity), if any.
     pub analog_input: Option<AnalogInputObject>,
+    /// Event timer of the event-driven TPDO2, ms: the status is sent at least this often (on a
+    /// drive that has one).
+    pub status_event_timer_ms: u16,
 }
 
 impl DriveSetup {
     /// The ordered SDO writes: heartbeat producer and consumer, communication-loss reaction,
     /// cyclic synchronous torque mode, maximum torque, and the three PDOs (each disabled,
-    /// remapped, then re-enabled as CiA 301 requires); TPDO2 maps the analog input only when
-    /// one is configured.
+    /// remapped, then re-enabled as CiA 301 requires); TPDO1 maps the analog input when one
+    /// is configured.
     pub fn sdo_writes(&self) -> Vec<(Address, Value)> {
         let n = u32::from(self.node_id);
         let a = Address::new;
@@ -213,14 +236,20 @@ impl DriveSetup {
             (a(0x6060, 0), Value::Integer8(10)),
             (a(0x6072, 0), Value::Unsigned16(self.max_torque_permille)),
         ];
-        let mut pdo = |comm: u16, map: u16, cob: u32, entries: &[u32]| {
+        let mut pdo = |comm: u16, map: u16, cob: u32, entries: &[u32], event_timer: Option<u16>| {
             w.push((a(comm, 1), Value::Unsigned32(PDO_INVALID | cob)));
             w.push((a(map, 0), Value::Unsigned8(0)));
             for (i, e) in entries.iter().enumerate() {
                 w.push((a(map, i as u8 + 1), Value::Unsigned32(*e)));
             }
             w.push((a(map, 0), Value::Unsigned8(entries.len() as u8)));
-            w.push((a(comm, 2), Value::Unsigned8(SYNC_EVERY_CYCLE)));
+            match event_timer {
+                None => w.push((a(comm, 2), Value::Unsigned8(SYNC_EVERY_CYCLE))),
+                Some(ms) => {
+                    w.push((a(comm, 2), Value::Unsigned8(EVENT_DRIVEN)));
+                    w.push((a(comm, 5), Value::Unsigned16(ms)));
+                }
+            }
             w.push((a(comm, 1), Value::Unsigned32(cob)));
         };
         pdo(
@@ -228,21 +257,35 @@ impl DriveSetup {
             0x1600,
             0x200 + n,
             &[mapping::CONTROLWORD, mapping::TARGET_TORQUE],
+            None,
         );
+        match self.analog_input {
+            None => pdo(
+                0x1800,
+                0x1A00,
+                0x180 + n,
+                &[mapping::POSITION_ACTUAL, mapping::VELOCITY_ACTUAL],
+                None,
+            ),
+            Some(analog) => pdo(
+                0x1800,
+                0x1A00,
+                0x180 + n,
+                &[
+                    mapping::POSITION_ACTUAL,
+                    mapping::STATUSWORD,
+                    analog.mapping_entry(),
+                ],
+                None,
+            ),
+        }
         pdo(
-            0x1800,
-            0x1A00,
-            0x180 + n,
-            &[mapping::POSITION_ACTUAL, mapping::VELOCITY_ACTUAL],
+            0x1801,
+            0x1A01,
+            0x280 + n,
+            &[mapping::STATUSWORD, mapping::ERROR_CODE],
+            Some(self.status_event_timer_ms.max(1)),
         );
-        let tpdo2 = [
-            mapping::STATUSWORD,
-            mapping::ERROR_CODE,
-            self.analog_input
-                .map_or(0, AnalogInputObject::mapping_entry),
-        ];
-        let tpdo2_len = if self.analog_input.is_some() { 3 } else { 2 };
-        pdo(0x1801, 0x1A01, 0x280 + n, &tpdo2[..tpdo2_len]);
         w
     }
 }
@@ -277,6 +320,7 @@ mod tests {
             comm_loss_reaction: 2,
             max_torque_permille: 800,
             analog_input: None,
+            status_event_timer_ms: 10,
         };
         let w = s.sdo_writes();
         assert_eq!(w[0], (Address::new(0x1017, 0), Value::Unsigned16(10)));
@@ -294,7 +338,7 @@ mod tests {
     }
 
     #[test]
-    fn the_analog_input_is_mapped_third_in_tpdo2_only_when_configured() {
+    fn the_analog_input_takes_the_velocitys_place_in_tpdo1_only_when_configured() {
         let plain = DriveSetup {
             node_id: 3,
             host_node_id: 0x7F,
@@ -303,36 +347,51 @@ mod tests {
             comm_loss_reaction: 2,
             max_torque_permille: 800,
             analog_input: None,
+            status_event_timer_ms: 10,
         };
         let with = DriveSetup {
             analog_input: Some(AnalogInputObject::default()),
             ..plain
         };
-        let tpdo2 = |s: &DriveSetup| -> Vec<(Address, Value)> {
+        let of = |s: &DriveSetup, index: u16| -> Vec<(Address, Value)> {
             s.sdo_writes()
                 .into_iter()
-                .filter(|(a, _)| a.index == 0x1A01 || a.index == 0x1801)
+                .filter(|(a, _)| a.index == index || a.index == index + 0x200)
                 .collect()
         };
         let a = Address::new;
         assert_eq!(
-            tpdo2(&with),
+            of(&with, 0x1800),
             vec![
-                (a(0x1801, 1), Value::Unsigned32(0x8000_0283)),
-                (a(0x1A01, 0), Value::Unsigned8(0)),
-                (a(0x1A01, 1), Value::Unsigned32(0x6041_0010)),
-                (a(0x1A01, 2), Value::Unsigned32(0x603F_0010)),
-                (a(0x1A01, 3), Value::Unsigned32(0x6401_0110)),
-                (a(0x1A01, 0), Value::Unsigned8(3)),
-                (a(0x1801, 2), Value::Unsigned8(SYNC_EVERY_CYCLE)),
-                (a(0x1801, 1), Value::Unsigned32(0x283)),
+                (a(0x1800, 1), Value::Unsigned32(0x8000_0183)),
+                (a(0x1A00, 0), Value::Unsigned8(0)),
+                (a(0x1A00, 1), Value::Unsigned32(0x6064_0020)),
+                (a(0x1A00, 2), Value::Unsigned32(0x6041_0010)),
+                (a(0x1A00, 3), Value::Unsigned32(0x6401_0110)),
+                (a(0x1A00, 0), Value::Unsigned8(3)),
+                (a(0x1800, 2), Value::Unsigned8(SYNC_EVERY_CYCLE)),
+                (a(0x1800, 1), Value::Unsigned32(0x183)),
             ]
         );
+        assert!(of(&plain, 0x1800).contains(&(a(0x1A00, 2), Value::Unsigned32(0x606C_0020))));
+        // TPDO2 is the event-driven status in both.
+        let tpdo2 = vec![
+            (a(0x1801, 1), Value::Unsigned32(0x8000_0283)),
+            (a(0x1A01, 0), Value::Unsigned8(0)),
+            (a(0x1A01, 1), Value::Unsigned32(0x6041_0010)),
+            (a(0x1A01, 2), Value::Unsigned32(0x603F_0010)),
+            (a(0x1A01, 0), Value::Unsigned8(2)),
+            (a(0x1801, 2), Value::Unsigned8(EVENT_DRIVEN)),
+            (a(0x1801, 5), Value::Unsigned16(10)),
+            (a(0x1801, 1), Value::Unsigned32(0x283)),
+        ];
+        assert_eq!(of(&with, 0x1801), tpdo2);
+        assert_eq!(of(&plain, 0x1801), tpdo2);
         // Everything else is the same with or without the analog input.
         let rest = |s: &DriveSetup| -> Vec<(Address, Value)> {
             s.sdo_writes()
                 .into_iter()
-                .filter(|(a, _)| a.index != 0x1A01)
+                .filter(|(a, _)| a.index != 0x1A00)
                 .collect()
         };
         assert_eq!(rest(&with), rest(&plain));
@@ -344,14 +403,14 @@ mod tests {
     }
 
     #[test]
-    fn the_extended_status_decodes_exactly_six_bytes() {
-        let s = StatusWithAnalog::decode(&[0x37, 0x02, 0, 0, 0x18, 0xFC]).unwrap();
-        assert_eq!(s.status.statusword, 0x0237);
-        assert_eq!(s.analog_input, -1000);
-        assert_eq!(s.encode(), [0x37, 0x02, 0, 0, 0x18, 0xFC]);
-        assert_eq!(StatusWithAnalog::decode(&[0x37, 0x02, 0, 0]), None);
-        assert_eq!(StatusWithAnalog::decode(&[0; 7]), None);
-        assert_eq!(Status::decode(&[0x37, 0x02, 0, 0, 0x18, 0xFC]), None);
+    fn the_motion_with_analog_decodes_exactly_eight_bytes() {
+        let m = MotionWithAnalog::decode(&[0xFF, 0x11, 0, 0, 0x37, 0x02, 0x18, 0xFC]).unwrap();
+        assert_eq!(
+            (m.position, m.statusword, m.analog_input),
+            (0x11FF, 0x0237, -1000)
+        );
+        assert_eq!(m.encode(), [0xFF, 0x11, 0, 0, 0x37, 0x02, 0x18, 0xFC]);
+        assert_eq!(MotionWithAnalog::decode(&[0; 6]), None);
     }
 
     proptest! {
@@ -364,8 +423,8 @@ mod tests {
             prop_assert_eq!(Motion::decode(&m.encode()), Some(m));
             let s = Status { statusword: sw, error_code: ec };
             prop_assert_eq!(Status::decode(&s.encode()), Some(s));
-            let x = StatusWithAnalog { status: s, analog_input: ai };
-            prop_assert_eq!(StatusWithAnalog::decode(&x.encode()), Some(x));
+            let x = MotionWithAnalog { position: p, statusword: sw, analog_input: ai };
+            prop_assert_eq!(MotionWithAnalog::decode(&x.encode()), Some(x));
         }
     }
 }

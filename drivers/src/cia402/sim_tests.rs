@@ -6,7 +6,9 @@ use std::time::{Duration, Instant};
 
 use videt_hal::{DriveSample, DriveState, Lifecycle, LifecycleState, WireDrives, WIRES};
 use videt_sim::can_bus::udp::{UdpEndpoint, UdpHub};
-use videt_sim::can_bus::{BusError, BusFaults, InProcessBus, InProcessEndpoint, SimFrame};
+use videt_sim::can_bus::{
+    BusError, BusFaults, BusStats, InProcessBus, InProcessEndpoint, SimFrame,
+};
 use videt_sim::cia402_node::{DrivePower, FreeMotorPlant, SimDriveBank, SimDriveSpec};
 
 use super::{Cia402DriveSet, DriveError, DriveSetConfig};
@@ -66,12 +68,24 @@ struct Rig {
     bank: SimDriveBank,
     bus: Arc<BusFaults>,
     plant: Plant,
+    stats: Option<Arc<BusStats>>,
 }
 
 fn rig_with(cfg: DriveSetConfig, damping: f64) -> Rig {
+    rig_on(cfg, damping, None)
+}
+
+/// A rig on an ideal bus (`bitrate` `None`) or on a timed bus of `bitrate` bit/s.
+fn rig_on(cfg: DriveSetConfig, damping: f64, bitrate: Option<u32>) -> Rig {
     let serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let bus = Arc::new(BusFaults::new(11));
-    let mut eps = InProcessBus::with_endpoints(2, 256, bus.clone());
+    let (mut eps, stats) = match bitrate {
+        None => (InProcessBus::with_endpoints(2, 256, bus.clone()), None),
+        Some(b) => {
+            let (eps, stats) = InProcessBus::timed(2, 256, bus.clone(), b).unwrap();
+            (eps, Some(stats))
+        }
+    };
     let drives = eps.pop().unwrap();
     let host = eps.pop().unwrap();
     let plant = Arc::new(Mutex::new(FreeMotorPlant::new(
@@ -85,6 +99,7 @@ fn rig_with(cfg: DriveSetConfig, damping: f64) -> Rig {
         bank,
         bus,
         plant,
+        stats,
     }
 }
 
@@ -409,8 +424,22 @@ fn the_wire_speed_limit_cuts_torque_that_would_run_faster() {
 
 #[test]
 fn the_driver_runs_over_the_cross_process_bus() {
+    run_over_hub(&UdpHub::spawn("127.0.0.1:0").unwrap());
+}
+
+#[test]
+fn the_driver_runs_over_a_timed_cross_process_bus() {
+    let hub = UdpHub::spawn_timed("127.0.0.1:0", 250_000).unwrap();
+    run_over_hub(&hub);
+    let s = hub.stats().unwrap().snapshot();
+    // Boot-up, the SDO setup and 20 periods of SYNC, RPDOs and TPDOs went over the wire.
+    assert!(s.frames > 3 * 20 * 3, "{s:?}");
+    assert!(s.load > 0.0 && s.load < 1.0, "{s:?}");
+    assert_eq!(s.overflows, 0);
+}
+
+fn run_over_hub(hub: &UdpHub) {
     let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
-    let hub = UdpHub::spawn("127.0.0.1:0").unwrap();
     let host = UdpEndpoint::connect(hub.addr(), Arc::new(BusFaults::new(1))).unwrap();
     let drives = UdpEndpoint::connect(hub.addr(), Arc::new(BusFaults::new(2))).unwrap();
     std::thread::sleep(Duration::from_millis(50)); // both registered before the nodes boot
@@ -531,7 +560,7 @@ fn the_drives_analog_inputs_arrive_with_every_cycle_as_tensions() {
         "{samples} samples in 20 cycles"
     );
     assert_eq!(n, [10.0, 20.0, -10.0]);
-    // A new value is sampled at the next SYNC and read in the cycle its TPDO2 answers.
+    // A new value is sampled at the next SYNC and read in the cycle its TPDO1 answers.
     r.plant.lock().unwrap().set_analog_input(1, 600);
     let mut cycles = 0;
     while n[1] != 5.0 && cycles < 5 {
@@ -617,10 +646,106 @@ fn an_analog_input_the_drive_cannot_map_is_named_at_configuration() {
         e,
         DriveError::SdoAbort {
             node: 1,
-            index: 0x1A01,
+            index: 0x1A00,
             subindex: 3,
             code: 0x0604_0041
         }
     );
     assert_eq!(r.set.lifecycle_state(), LifecycleState::Unconfigured);
+}
+
+#[test]
+fn a_bus_fast_enough_for_the_period_carries_every_cycle() {
+    // 250 kbit/s: a period's process data takes at most 3 ms of the 10 ms period.
+    let mut r = rig_on(config(), 1e-4, Some(250_000));
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    cycle(&mut r.set, [0.005; WIRES], &mut out).unwrap();
+    let before = r.stats.as_ref().unwrap().snapshot();
+    for _ in 0..100 {
+        cycle(&mut r.set, [0.005; WIRES], &mut out).unwrap();
+    }
+    let s = r.stats.as_ref().unwrap().snapshot();
+    // The measured load (exact frame lengths) lies between the configured traffic's nominal
+    // and worst-case loads (a little above the nominal: stuff bits).
+    let (cyclic, timed) = config().bus_traffic();
+    let declared =
+        videt_can_timing::BusLoad::of(1.0 / PERIOD.as_secs_f64(), &cyclic, &timed, 250_000);
+    let load = s.load_since(&before);
+    assert!(
+        load >= 0.95 * declared.nominal() && load <= 1.02 * declared.worst_case(),
+        "load {load:.3} outside [{:.3}, {:.3}]",
+        declared.nominal(),
+        declared.worst_case()
+    );
+    assert!(s.max_wait_us < PERIOD.as_secs_f64() * 1e6, "{s:?}");
+    assert_eq!(s.overflows, 0);
+}
+
+#[test]
+fn an_overloaded_bus_delivers_late_process_data_and_the_set_stops_the_drives() {
+    // 50 kbit/s: a period's process data needs 12-15 ms of bus for a 10 ms period.
+    let mut cfg = tolerant();
+    cfg.boot_timeout = Duration::from_secs(2);
+    let mut r = rig_on(cfg, 1e-4, Some(50_000));
+    let outcome = r
+        .set
+        .configure()
+        .and_then(|()| r.set.activate())
+        .and_then(|()| {
+            let mut out = [DriveSample::default(); WIRES];
+            for _ in 0..200 {
+                cycle(&mut r.set, [0.005; WIRES], &mut out)?;
+            }
+            Ok(())
+        });
+    let e = outcome.expect_err("an overloaded bus ran 200 periods without a fault");
+    assert!(
+        matches!(
+            e,
+            DriveError::PdoTimeout { .. }
+                | DriveError::HeartbeatLost { .. }
+                | DriveError::Bus(_)
+                | DriveError::NotOperational { .. }
+        ),
+        "{e:?}"
+    );
+    let s = r.stats.as_ref().unwrap().snapshot();
+    assert!(
+        s.max_wait_us > PERIOD.as_secs_f64() * 1e6,
+        "frames waited at most {:.0} µs",
+        s.max_wait_us
+    );
+    assert!(s.load > 0.9, "{s:?}");
+    assert!(
+        wait_for(|| all_drives_off(&r.bank), Duration::from_secs(2)),
+        "drives still powered: {:?}",
+        r.bank.views()
+    );
+}
+
+#[test]
+fn with_the_analog_inputs_the_velocity_is_derived_from_the_positions() {
+    // The analog input takes the velocity's place in TPDO1: the set derives the velocity from
+    // the positions of successive SYNCs. A motor driven at constant torque against viscous
+    // damping runs up to torque / damping (50 rad/s = 15 915 counts/s here).
+    let mut r = rig_with(with_analog_input(tolerant()), 1e-4);
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    for _ in 0..80 {
+        cycle(&mut r.set, [0.005, 0.0, -0.005], &mut out).unwrap();
+    }
+    let truth = 0.005 / 1e-4 / std::f64::consts::TAU * 2000.0;
+    let v: Vec<f64> = out.iter().map(|s| s.velocity_counts_per_s).collect();
+    // The period between two SYNCs varies with the host's wake-ups; the derivation divides
+    // by the nominal period: allow a quarter.
+    assert!((v[0] - truth).abs() < 0.25 * truth, "{v:?} against {truth}");
+    assert!(v[1].abs() < 0.05 * truth, "{v:?}");
+    assert!(
+        (v[2] + truth).abs() < 0.25 * truth,
+        "{v:?} against {}",
+        -truth
+    );
 }

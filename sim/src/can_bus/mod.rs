@@ -4,7 +4,9 @@
 //! Two transports share one frame type ([`SimFrame`]) and one fault model ([`BusFaults`]):
 //! - [`InProcessBus`]: several endpoints in one process. Every frame an endpoint transmits is
 //!   delivered to every *other* endpoint through a bounded, preallocated queue (a full queue drops
-//!   the frame for that receiver and counts an overrun, as a CAN controller FIFO would).
+//!   the frame for that receiver and counts an overrun, as a CAN controller FIFO would). Ideal
+//!   (at once) or timed ([`InProcessBus::timed`]): a bit rate, arbitration by identifier and
+//!   frames queued while the bus is busy ([`wire`]), with the load measured ([`BusStats`]).
 //! - [`udp`]: endpoints in separate processes, linked by a tiny hub over UDP on the loopback
 //!   interface ([`udp::UdpHub`], [`udp::UdpEndpoint`]).
 //! - [`socketcan`] (Linux): the nodes on a kernel CAN interface (`vcan0`, `can0`), so the
@@ -63,10 +65,12 @@ mod in_process;
 #[cfg(target_os = "linux")]
 pub mod socketcan;
 pub mod udp;
+pub mod wire;
 
 pub use faults::BusFaults;
 pub use frame::SimFrame;
-pub use in_process::{InProcessBus, InProcessEndpoint};
+pub use in_process::{InProcessBus, InProcessEndpoint, TIMED_BUS_QUEUE};
+pub use wire::{BusStats, BusStatsSnapshot};
 
 /// An error of the userspace CAN bus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,6 +79,8 @@ pub enum BusError {
     BusOff,
     /// Every other endpoint is gone.
     Disconnected,
+    /// The bus is too busy: the transmit queue is full and the frame was not sent.
+    TransmitQueueFull,
     /// A socket error of the cross-process transport (its `std::io::ErrorKind`).
     Io(std::io::ErrorKind),
 }
@@ -84,6 +90,9 @@ impl core::fmt::Display for BusError {
         match self {
             BusError::BusOff => f.write_str("CAN bus off"),
             BusError::Disconnected => f.write_str("CAN bus disconnected (no other endpoint)"),
+            BusError::TransmitQueueFull => {
+                f.write_str("CAN transmit queue full (the bus cannot carry the traffic)")
+            }
             BusError::Io(kind) => write!(f, "CAN bus socket error: {kind}"),
         }
     }

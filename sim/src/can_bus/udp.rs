@@ -4,6 +4,10 @@
 //!
 //! Datagrams: a frame is 16 bytes ([`SimFrame::to_wire`]); a 1-byte `0xFF` is an endpoint's
 //! registration ("hello"). The hub learns endpoints by their source address.
+//!
+//! A hub with a bit rate ([`UdpHub::spawn_timed`]) is the bus's wire: it queues the frames it
+//! receives, lets the lowest identifier win each arbitration and forwards a frame when its last
+//! bit has been sent ([`super::wire`]).
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -11,7 +15,8 @@ use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use super::{BusError, BusFaults, SimFrame};
+use super::wire::{Arbiter, BusStats, QueuedFrame, Transmission};
+use super::{BusError, BusFaults, SimFrame, TIMED_BUS_QUEUE};
 
 /// The registration datagram an endpoint sends to the hub.
 const HELLO: [u8; 1] = [0xFF];
@@ -24,23 +29,37 @@ pub struct UdpHub {
     addr: SocketAddr,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
+    stats: Option<Arc<BusStats>>,
 }
 
 impl UdpHub {
-    /// Bind the hub (e.g. `"127.0.0.1:0"` for any free port) and start forwarding.
+    /// Bind the hub (e.g. `"127.0.0.1:0"` for any free port) and start forwarding at once
+    /// (an ideal bus).
     pub fn spawn(bind: &str) -> std::io::Result<UdpHub> {
+        UdpHub::spawn_with(bind, None)
+    }
+
+    /// Bind the hub and run it as a bus of `bitrate` bit/s: frames take their bit time, queue
+    /// while the bus is busy and win it by identifier.
+    pub fn spawn_timed(bind: &str, bitrate: u32) -> std::io::Result<UdpHub> {
+        UdpHub::spawn_with(bind, Some(bitrate))
+    }
+
+    fn spawn_with(bind: &str, bitrate: Option<u32>) -> std::io::Result<UdpHub> {
         let socket = UdpSocket::bind(bind)?;
-        socket.set_read_timeout(Some(Duration::from_millis(50)))?;
         let addr = socket.local_addr()?;
         let stop = Arc::new(AtomicBool::new(false));
         let stop_flag = stop.clone();
+        let stats = bitrate.map(|b| Arc::new(BusStats::new(b, Instant::now())));
+        let hub_stats = stats.clone();
         let thread = std::thread::Builder::new()
             .name("can-hub".into())
-            .spawn(move || run_hub(&socket, &stop_flag))?;
+            .spawn(move || run_hub(&socket, &stop_flag, hub_stats.as_deref(), |_| {}))?;
         Ok(UdpHub {
             addr,
             stop,
             thread: Some(thread),
+            stats,
         })
     }
 
@@ -49,10 +68,29 @@ impl UdpHub {
         self.addr
     }
 
-    /// Serve on the calling thread until the process ends (for the hub binary).
-    pub fn serve_forever(bind: &str) -> std::io::Result<()> {
+    /// What a timed hub's bus measured; `None` for an ideal hub.
+    pub fn stats(&self) -> Option<&Arc<BusStats>> {
+        self.stats.as_ref()
+    }
+
+    /// Serve on the calling thread until the process ends (for the hub binary), as an ideal
+    /// bus (`bitrate` `None`) or a timed one; `report` is handed the bus's figures every
+    /// `report_every`.
+    pub fn serve_forever(
+        bind: &str,
+        bitrate: Option<u32>,
+        report_every: Duration,
+        mut report: impl FnMut(&BusStats),
+    ) -> std::io::Result<()> {
         let socket = UdpSocket::bind(bind)?;
-        run_hub(&socket, &AtomicBool::new(false));
+        let stats = bitrate.map(|b| BusStats::new(b, Instant::now()));
+        let mut next_report = Instant::now() + report_every;
+        run_hub(&socket, &AtomicBool::new(false), stats.as_ref(), |s| {
+            if Instant::now() >= next_report {
+                report(s);
+                next_report += report_every;
+            }
+        });
         Ok(())
     }
 }
@@ -66,29 +104,79 @@ impl Drop for UdpHub {
     }
 }
 
-fn run_hub(socket: &UdpSocket, stop: &AtomicBool) {
+/// Longest the hub blocks in a receive (how soon it notices `stop`).
+const HUB_POLL: Duration = Duration::from_millis(50);
+
+/// The hub's loop: register endpoints, forward frames (at once, or through the arbiter when
+/// `stats` gives the bus a bit rate); `tick` is called with the statistics on every pass.
+fn run_hub(
+    socket: &UdpSocket,
+    stop: &AtomicBool,
+    stats: Option<&BusStats>,
+    mut tick: impl FnMut(&BusStats),
+) {
     let mut clients: Vec<SocketAddr> = Vec::with_capacity(MAX_HUB_ENDPOINTS);
+    let mut arbiter = stats.map(|s| Arbiter::new(s.bitrate(), TIMED_BUS_QUEUE));
+    let mut in_flight: Option<Transmission> = None;
     let mut buf = [0u8; 64];
+    let forward = |clients: &[SocketAddr], from: usize, frame: &SimFrame| {
+        let wire = frame.to_wire();
+        for (i, c) in clients.iter().enumerate() {
+            if i != from {
+                let _ = socket.send_to(&wire, c);
+            }
+        }
+    };
     while !stop.load(Ordering::Relaxed) {
+        let mut wait = HUB_POLL;
+        if let (Some(a), Some(st)) = (arbiter.as_mut(), stats) {
+            tick(st);
+            let now = st.now_ns();
+            match in_flight {
+                Some(t) if now >= t.end_ns => {
+                    forward(&clients, t.queued.from, &t.queued.frame);
+                    in_flight = None;
+                    continue;
+                }
+                Some(t) => wait = Duration::from_nanos(t.end_ns - now),
+                None => {
+                    if let Some(t) = a.next(now) {
+                        st.record(&t);
+                        in_flight = Some(t);
+                        continue;
+                    }
+                    if let Some(at) = a.next_decision_ns() {
+                        wait = Duration::from_nanos(at.saturating_sub(now));
+                    }
+                }
+            }
+        }
+        let _ = socket.set_read_timeout(Some(wait.clamp(Duration::from_micros(1), HUB_POLL)));
         let (n, from) = match socket.recv_from(&mut buf) {
             Ok(x) => x,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) =>
-            {
-                continue
-            }
             Err(_) => continue,
         };
         if !clients.contains(&from) && clients.len() < MAX_HUB_ENDPOINTS {
             clients.push(from);
         }
-        if n == 16 && SimFrame::from_wire(&buf[..16]).is_some() {
-            for c in clients.iter().filter(|c| **c != from) {
-                let _ = socket.send_to(&buf[..16], c);
+        let Some(sender) = clients.iter().position(|c| *c == from) else {
+            continue;
+        };
+        let Some(frame) = (n == 16).then(|| SimFrame::from_wire(&buf[..16])).flatten() else {
+            continue;
+        };
+        match (arbiter.as_mut(), stats) {
+            (Some(a), Some(st)) => {
+                let queued = QueuedFrame {
+                    frame,
+                    from: sender,
+                    queued_ns: st.now_ns(),
+                };
+                if a.offer(queued).is_err() {
+                    st.record_overflow();
+                }
             }
+            _ => forward(&clients, sender, &frame),
         }
     }
 }
