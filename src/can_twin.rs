@@ -392,6 +392,12 @@ impl<T: TwinDevice> TensionSensors for CanTwin<T> {
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), CanTwinError> {
         self.twin.read_tensions(out_n).map_err(twin_err)
     }
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], CanTwinError> {
+        self.twin.read_fresh_tensions(out_n).map_err(twin_err)
+    }
 }
 
 impl<T: TwinDevice> EStop for CanTwin<T> {

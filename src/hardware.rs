@@ -137,6 +137,14 @@ impl<D: ErrorType, T: TensionSensors, E: ErrorType> TensionSensors for DeviceHar
             .read_tensions(out_n)
             .map_err(DeviceError::Tensions)
     }
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], Self::Error> {
+        self.tensions
+            .read_fresh_tensions(out_n)
+            .map_err(DeviceError::Tensions)
+    }
 }
 
 impl<D: ErrorType, T: ErrorType, E: EStop> EStop for DeviceHardware<D, T, E> {
@@ -186,6 +194,22 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig {
     c
 }
 
+/// The ADS1220 registers for `[sensors]`: PGA gain 128, the configured mode and data rate.
+pub fn ads1220_config(s: &videt_rt_config::SensorsConfig) -> videt_drivers::adc::ads1220::Config {
+    use videt_drivers::adc::ads1220::{Config as Regs, PgaGain};
+    use videt_rt_config::{Ads1220Mode, ADS1220_NORMAL_SPS, ADS1220_TURBO_SPS};
+    let (turbo, rates) = match s.ads1220_mode {
+        Ads1220Mode::Normal => (false, ADS1220_NORMAL_SPS),
+        Ads1220Mode::Turbo => (true, ADS1220_TURBO_SPS),
+    };
+    // The configuration was validated: the rate is one of the mode's.
+    let code = rates
+        .iter()
+        .position(|&r| r == s.sample_rate_sps)
+        .unwrap_or(6) as u8;
+    Regs::bridge_at(PgaGain::X128, turbo, code).unwrap_or(Regs::bridge_for_control(PgaGain::X128))
+}
+
 /// The nominal raw-count-to-newton scale of each wire's converter, from `[sensors]`.
 pub fn nominal_tension_scales(config: &Config) -> [TensionCalibration; WIRES] {
     let s = &config.sensors;
@@ -211,7 +235,10 @@ mod linux {
     use videt_drivers::gpio::linux::CdevPin;
     use videt_rt_config::{Config, TensionAdc};
 
-    use super::{drive_set_config, nominal_tension_scales, DeviceHardware, ESTOP_DEBOUNCE_SAMPLES};
+    use super::{
+        ads1220_config, drive_set_config, nominal_tension_scales, DeviceHardware,
+        ESTOP_DEBOUNCE_SAMPLES,
+    };
 
     /// The device on Linux: SocketCAN drives, spidev, GPIO or drive-input converters, a GPIO
     /// e-stop.
@@ -258,10 +285,14 @@ mod linux {
             return Ok(DeviceHardware::new(drives, tensions, estop));
         }
         let open_adc = |wire: usize| match s.adc {
-            TensionAdc::Ads1220 => {
-                open_ads1220(wire, &s.spi_devices[wire], &s.gpio_chip, s.drdy_lines[wire])
-                    .map_err(|e| format!("{e} (sensors.spi_devices, sensors.drdy_lines)"))
-            }
+            TensionAdc::Ads1220 => open_ads1220(
+                wire,
+                &s.spi_devices[wire],
+                &s.gpio_chip,
+                s.drdy_lines[wire],
+                ads1220_config(s),
+            )
+            .map_err(|e| format!("{e} (sensors.spi_devices, sensors.drdy_lines)")),
             TensionAdc::Hx711 => open_hx711(
                 wire,
                 &s.gpio_chip,
@@ -451,6 +482,21 @@ mod tests {
             scales[2].newtons_per_count,
             config.sensors.newtons_per_count[2]
         );
+    }
+
+    #[test]
+    fn the_ads1220_runs_at_the_configured_mode_and_rate() {
+        use videt_drivers::adc::ads1220::{Config as Regs, PgaGain};
+        let mut config = Config::default();
+        assert_eq!(
+            ads1220_config(&config.sensors),
+            Regs::bridge_for_control(PgaGain::X128)
+        );
+        config.sensors.ads1220_mode = videt_rt_config::Ads1220Mode::Normal;
+        config.sensors.sample_rate_sps = 330;
+        config.validate().unwrap();
+        let r = ads1220_config(&config.sensors);
+        assert_eq!((r.reg1 >> 5, (r.reg1 >> 3) & 0b11), (4, 0));
     }
 
     #[test]

@@ -25,5 +25,6 @@ pub mod socket;
 pub mod status;
 pub mod stereo_relief;
 pub mod telemetry;
+pub mod tension_budget;
 pub mod tool;
 pub mod twin_rt;

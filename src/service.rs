@@ -247,7 +247,12 @@ where
         duration_ns: options.duration_s.map(|d| (d * 1e9) as u64),
         max_consecutive_overruns: config.realtime.max_consecutive_overruns,
     };
-    let (publisher, mut reader) = status_channel();
+    let (mut publisher, mut reader) = status_channel();
+    if let Ok(crate::tension_budget::TensionLoopPlan::Degraded { scale, .. }) =
+        crate::tension_budget::plan(config)
+    {
+        publisher.set_tension_loop_degraded(Some(scale));
+    }
     let priority = config.realtime.control_priority;
     let (thimble_publisher, thimble_reader) = crate::snapshot::thimble_channel();
     let colour = options.colour.as_ref().and_then(|source| {

@@ -38,6 +38,9 @@ pub fn control_step(config: &Config, rig: Rig3) -> ControlStep {
     let feedforward = tr.torque_for_tension(1.0);
     // The configuration was validated: the name is known.
     let algorithm = Algorithm::from_name(&c.algorithm).unwrap_or_default();
+    // A sensor too slow for the configured gains runs them reduced when the configuration
+    // allows it (a configuration that does not is refused before this).
+    let gain_scale = crate::tension_budget::plan(config).map_or(1.0, |p| p.gain_scale());
     ControlStep::new(
         rig,
         ControlParams {
@@ -50,8 +53,8 @@ pub fn control_step(config: &Config, rig: Rig3) -> ControlStep {
             },
             pi: TensionPiGains {
                 feedforward_nm_per_n: feedforward,
-                kp_nm_per_n: c.tension_kp_nm_per_n,
-                ki_nm_per_n_s: c.tension_ki_nm_per_n_s,
+                kp_nm_per_n: gain_scale * c.tension_kp_nm_per_n,
+                ki_nm_per_n_s: gain_scale * c.tension_ki_nm_per_n_s,
                 torque_limit_nm: 1.25 * tr.torque_for_tension(c.t_max_n),
                 speed_gain_nm_s_per_m: c.speed_gain_nm_s_per_m,
                 slack_tension_n: 0.5 * c.t_min_n,
@@ -113,6 +116,7 @@ pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
         VirtualOperator::touch_and_slide(start, wall_z_m, 0.02, 0.08, 6.0).repeating(6.0);
     let sensors = SensorModel {
         seed: sensor_seed,
+        converter: Some(crate::tension_budget::converter_model(config)),
         ..SensorModel::default()
     };
     let twin = Twin::new(params, start, operator, sensors);

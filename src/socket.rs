@@ -224,6 +224,9 @@ pub struct StatusReport {
     /// A procedure running on the service's hardware (`init`, `wire-replace`), if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub procedure: Option<String>,
+    /// The fraction of the configured PI gains the tension loop runs with, when degraded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tension_loop_gain_scale: Option<f64>,
 }
 
 /// A reply.
@@ -278,6 +281,7 @@ impl StatusReport {
             surface_stale: r.surface_stale,
             telemetry_dropped,
             procedure: None,
+            tension_loop_gain_scale: s.tension_loop_degraded,
         }
     }
 }

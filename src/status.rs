@@ -13,6 +13,9 @@ pub struct StatusSnapshot {
     pub record: CycleRecord,
     /// The last complete one-second window.
     pub window: WindowStats,
+    /// The fraction of the configured PI gains the tension loop runs with when it is degraded
+    /// (a sensor too slow for them); `None` at the configured gains.
+    pub tension_loop_degraded: Option<f64>,
 }
 
 impl StatusSnapshot {
@@ -45,8 +48,12 @@ impl StatusSnapshot {
         } else {
             "rate (first one-second window still open)".to_string()
         };
+        let degraded = match self.tension_loop_degraded {
+            Some(scale) => format!("  tension loop degraded (PI gains x{scale:.3})"),
+            None => String::new(),
+        };
         format!(
-            "t={:7.2}s {timing}  x=({:+.4}, {:+.4}, {:+.4}) m  T=({:5.2}, {:5.2}, {:5.2}) N  contact {:5.2} N  {}",
+            "t={:7.2}s {timing}  x=({:+.4}, {:+.4}, {:+.4}) m  T=({:5.2}, {:5.2}, {:5.2}) N  contact {:5.2} N  {}{degraded}",
             r.time.as_secs_f64(),
             p[0],
             p[1],
@@ -63,6 +70,14 @@ impl StatusSnapshot {
 /// Publishes every period into a triple buffer (wait-free, no allocation).
 pub struct StatusPublisher {
     input: triple_buffer::Input<StatusSnapshot>,
+    tension_loop_degraded: Option<f64>,
+}
+
+impl StatusPublisher {
+    /// Say in every snapshot that the tension loop runs at `scale` of its configured gains.
+    pub fn set_tension_loop_degraded(&mut self, scale: Option<f64>) {
+        self.tension_loop_degraded = scale;
+    }
 }
 
 /// Reads the latest published status.
@@ -73,7 +88,13 @@ pub struct StatusReader {
 /// A connected publisher/reader pair.
 pub fn status_channel() -> (StatusPublisher, StatusReader) {
     let (input, output) = triple_buffer::triple_buffer(&StatusSnapshot::default());
-    (StatusPublisher { input }, StatusReader { output })
+    (
+        StatusPublisher {
+            input,
+            tension_loop_degraded: None,
+        },
+        StatusReader { output },
+    )
 }
 
 impl CycleObserver for StatusPublisher {
@@ -81,6 +102,7 @@ impl CycleObserver for StatusPublisher {
         self.input.write(StatusSnapshot {
             record: *record,
             window: *window,
+            tension_loop_degraded: self.tension_loop_degraded,
         });
     }
 }
@@ -112,5 +134,25 @@ mod tests {
             line.contains("rate   999.5 Hz  worst cycle   42.8 µs"),
             "{line}"
         );
+    }
+
+    #[test]
+    fn a_degraded_tension_loop_is_in_every_snapshot_and_line() {
+        let (mut publisher, mut reader) = status_channel();
+        publisher.observe(&CycleRecord::default(), &WindowStats::default());
+        assert_eq!(reader.latest().tension_loop_degraded, None);
+        assert!(!reader.latest().line().contains("degraded"));
+        publisher.set_tension_loop_degraded(Some(0.656));
+        publisher.observe(&CycleRecord::default(), &WindowStats::default());
+        let s = reader.latest();
+        assert_eq!(s.tension_loop_degraded, Some(0.656));
+        assert!(
+            s.line()
+                .ends_with("tension loop degraded (PI gains x0.656)"),
+            "{}",
+            s.line()
+        );
+        let report = crate::socket::StatusReport::from_snapshot(&s, 0);
+        assert_eq!(report.tension_loop_gain_scale, Some(0.656));
     }
 }

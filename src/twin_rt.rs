@@ -82,6 +82,12 @@ impl TensionSensors for RealTimeTwin {
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), TwinError> {
         self.twin.read_tensions(out_n)
     }
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], TwinError> {
+        self.twin.read_fresh_tensions(out_n)
+    }
 }
 
 impl EStop for RealTimeTwin {

@@ -500,3 +500,65 @@ fn a_rate_the_bus_cannot_carry_is_refused_with_the_fields_named() {
         "{stdout}"
     );
 }
+
+/// A tension sensor too slow for the configured PI gains is refused by the service (on the
+/// twin too: its strain gauges have the configured converter's timing); with the degraded
+/// mode asked for, the service runs the lower gains and says so.
+#[test]
+fn a_tension_sensor_too_slow_for_the_gains_is_refused_or_runs_degraded_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display();
+    let config = dir.path().join("videt.toml");
+    let write = |degraded: bool| {
+        std::fs::write(
+            &config,
+            format!(
+                "[control]\nallow_degraded_tension_loop = {degraded}\n\
+                 [sensors]\nadc = \"hx711\"\nsample_rate_sps = 80\nstale_after_ms = 100\n\
+                 hx711_clock_lines = [5, 6, 13]\nhx711_data_lines = [16, 20, 21]\n\
+                 [files]\ncalibration = \"{d}/calibration.toml\"\nmotors_lock = \"{d}/motors.lock\"\n\
+                 [socket]\npath = \"{d}/videt.sock\"\n[telemetry]\ndirectory = \"{d}/logs\"\n"
+            ),
+        )
+        .unwrap();
+    };
+    let run = || {
+        Command::new(env!("CARGO_BIN_EXE_videtd"))
+            .arg("--config")
+            .arg(&config)
+            .args([
+                "--sim",
+                "--duration",
+                "1.5",
+                "--no-socket",
+                "--no-telemetry",
+            ])
+            .env("RUST_LOG", "info")
+            .output()
+            .unwrap()
+    };
+    write(false);
+    let out = run();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("control.tension_ki_nm_per_n_s = 0.04")
+            && stderr.contains("HX711 at 80 samples/s")
+            && stderr.contains("control.allow_degraded_tension_loop = true"),
+        "{stderr}"
+    );
+    write(true);
+    let out = run();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("PI tension loop DEGRADED to 0."),
+        "the start-up log says it: {stderr}"
+    );
+    assert!(
+        stdout.contains("tension loop degraded (PI gains x0.")
+            || stderr.contains("tension loop degraded (PI gains x0."),
+        "the status line says it: {stdout}{stderr}"
+    );
+}

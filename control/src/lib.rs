@@ -39,6 +39,7 @@ pub mod safety;
 pub mod scene_map;
 pub mod step;
 pub mod surface;
+pub mod tension_loop;
 pub mod tension_pi;
 pub mod wire_map;
 

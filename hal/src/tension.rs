@@ -8,4 +8,14 @@ pub trait TensionSensors: ErrorType {
     /// sample and never waits for a conversion; an error when a sample is stale past the
     /// sensor's own timeout.
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error>;
+
+    /// As [`read_tensions`](Self::read_tensions), and which wires' samples are new since the
+    /// previous read: a converter slower than the control rate repeats its last conversion in
+    /// between. **RT**. The default, for sensors that cannot tell, calls every sample new.
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], Self::Error> {
+        self.read_tensions(out_n).map(|()| [true; WIRES])
+    }
 }

@@ -259,12 +259,35 @@ pub enum TensionAdc {
     Drive,
 }
 
+/// The ADS1220's operating mode (its data rates depend on it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Ads1220Mode {
+    /// Normal mode: 20, 45, 90, 175, 330, 600, 1000 samples/s.
+    Normal,
+    /// Turbo mode (modulator clock doubled): 40, 90, 180, 350, 660, 1200, 2000 samples/s.
+    Turbo,
+}
+
+/// The ADS1220's data rates in normal mode, samples/s (register 1 DR code = index).
+pub const ADS1220_NORMAL_SPS: [u32; 7] = [20, 45, 90, 175, 330, 600, 1000];
+/// The ADS1220's data rates in turbo mode, samples/s (register 1 DR code = index).
+pub const ADS1220_TURBO_SPS: [u32; 7] = [40, 90, 180, 350, 660, 1200, 2000];
+/// The HX711's data rates, samples/s (its RATE pin).
+pub const HX711_SPS: [u32; 2] = [10, 80];
+
 /// Strain-gauge tension sensors.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensorsConfig {
     /// ADC type.
     pub adc: TensionAdc,
+    /// Conversions per second of each converter: the HX711's 10 or 80 as its RATE pin is
+    /// wired; the ADS1220's data rate in `ads1220_mode`. Unused with `adc = "drive"` (the
+    /// drives sample their input at every SYNC).
+    pub sample_rate_sps: u32,
+    /// ADS1220: normal or turbo mode.
+    pub ads1220_mode: Ads1220Mode,
     /// A tension sample older than this is stale, milliseconds.
     pub stale_after_ms: u16,
     /// GPIO chip device of the e-stop and vibrotactor lines.
@@ -371,6 +394,8 @@ impl Default for SensorsConfig {
     fn default() -> Self {
         SensorsConfig {
             adc: TensionAdc::Ads1220,
+            sample_rate_sps: 2000,
+            ads1220_mode: Ads1220Mode::Turbo,
             stale_after_ms: 20,
             gpio_chip: "/dev/gpiochip0".into(),
             estop_line: 17,
@@ -476,6 +501,10 @@ pub struct ControlConfig {
     pub tension_kp_nm_per_n: f64,
     /// Tension loop integral gain, N·m per N·s.
     pub tension_ki_nm_per_n_s: f64,
+    /// Run the tension loop with reduced gains when the tension sensor is too slow for the
+    /// configured ones (`videt config check` says by how much, and the service logs it and
+    /// shows it in its status). `false`: such a configuration is refused.
+    pub allow_degraded_tension_loop: bool,
     /// Time over which tensions ramp down to `t_min` on shutdown, seconds.
     pub ramp_down_s: f64,
     /// Winding speed at which a slack wire is taken up, m/s (slow enough that it does not snap
@@ -538,6 +567,7 @@ impl Default for ControlConfig {
             max_wire_speed_m_s: 0.8,
             tension_kp_nm_per_n: 0.0004,
             tension_ki_nm_per_n_s: 0.04,
+            allow_degraded_tension_loop: false,
             ramp_down_s: 0.5,
             slack_takeup_speed_m_s: 0.15,
             speed_gain_nm_s_per_m: 0.002,
@@ -863,6 +893,21 @@ impl Config {
             }
         };
         named("sensors.vibrotactor_lines", &s.vibrotactor_lines);
+        let rates: &[u32] = match (s.adc, s.ads1220_mode) {
+            (TensionAdc::Hx711, _) => &HX711_SPS,
+            (TensionAdc::Ads1220, Ads1220Mode::Normal) => &ADS1220_NORMAL_SPS,
+            (TensionAdc::Ads1220, Ads1220Mode::Turbo) => &ADS1220_TURBO_SPS,
+            (TensionAdc::Drive, _) => &[],
+        };
+        if !rates.is_empty() && !rates.contains(&s.sample_rate_sps) {
+            return Err(ConfigError::Invalid {
+                field: "sensors.sample_rate_sps".into(),
+                value: s.sample_rate_sps.to_string(),
+                allowed: format!(
+                    "one of {rates:?} for this converter (sensors.adc, sensors.ads1220_mode)"
+                ),
+            });
+        }
         match s.adc {
             TensionAdc::Ads1220 => named("sensors.drdy_lines", &s.drdy_lines),
             TensionAdc::Hx711 => {
@@ -1167,6 +1212,14 @@ mod tests {
                 "drives.max_missed_cycles",
             ),
             ("[drives]\nbitrate = 2000000\n", "drives.bitrate"),
+            (
+                "[sensors]\nadc = \"hx711\"\nhx711_clock_lines = [5, 6, 13]\nhx711_data_lines = [16, 20, 21]\n",
+                "sensors.sample_rate_sps",
+            ),
+            (
+                "[sensors]\nads1220_mode = \"normal\"\n",
+                "sensors.sample_rate_sps",
+            ),
             ("[drives]\nbitrate = 1000\n", "drives.bitrate"),
             (
                 "[drives]\nmax_bus_load = 1.0\n",
@@ -1178,7 +1231,7 @@ mod tests {
                 "sensors.drdy_lines[1]",
             ),
             (
-                "[sensors]\nadc = \"hx711\"\nhx711_data_lines = [16, 20, 12]\n",
+                "[sensors]\nadc = \"hx711\"\nsample_rate_sps = 80\nhx711_data_lines = [16, 20, 12]\n",
                 "sensors.hx711_data_lines[1]",
             ),
             (

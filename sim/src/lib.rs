@@ -10,7 +10,9 @@
 //!   spring-damper hand, so it pushes into surfaces and slides along them as a person would;
 //! - [`twin`]: the plant behind the HAL — drives with quadrature encoders, strain-gauge tension
 //!   sensors with offset, gain error and seeded noise, an e-stop, recording vibrotactors, and a
-//!   clock that is either simulated (faster than real time, deterministic) or real time.
+//!   clock that is either simulated (faster than real time, deterministic) or real time;
+//! - [`converter`]: the strain-gauge converters' timing (data rate, digital filter,
+//!   quantization, held samples) the twin's sensors go through when configured.
 //!
 //! Protocol-level twins of devices, so the real drive driver runs end to end without hardware:
 //!
@@ -24,11 +26,13 @@
 
 pub mod can_bus;
 pub mod cia402_node;
+pub mod converter;
 pub mod operator;
 pub mod plant;
 pub mod twin;
 pub mod twin_plant;
 
+pub use converter::ConverterModel;
 pub use operator::{VirtualOperator, Waypoint};
 pub use plant::{Plant, PlantParams, WireModules, GRAVITY_M_S2};
 pub use twin::{ClockMode, SensorModel, Twin, TwinError, TwinFault};

@@ -7,6 +7,7 @@ use videt_hal::{
     MonoTime, TensionSensors, WireDrives, WIRES,
 };
 
+use crate::converter::{ConverterModel, ConverterTwin};
 use crate::operator::VirtualOperator;
 use crate::plant::{Plant, PlantParams};
 use crate::Vec3;
@@ -48,6 +49,9 @@ pub struct SensorModel {
     pub noise_std_n: f64,
     /// Seed of the noise generator (runs are reproducible).
     pub seed: u64,
+    /// The converters' timing (data rate, filter, quantization); `None`: every read returns
+    /// the tension of that instant.
+    pub converter: Option<ConverterModel>,
 }
 
 impl Default for SensorModel {
@@ -57,6 +61,7 @@ impl Default for SensorModel {
             gain_error: [0.01, -0.015, 0.005],
             noise_std_n: 0.02,
             seed: 1,
+            converter: None,
         }
     }
 }
@@ -69,6 +74,7 @@ impl SensorModel {
             gain_error: [0.0; WIRES],
             noise_std_n: 0.0,
             seed: 0,
+            converter: None,
         }
     }
 }
@@ -110,6 +116,7 @@ pub struct Twin {
     plant: Plant,
     operator: VirtualOperator,
     sensors: SensorModel,
+    converters: Option<Box<[ConverterTwin; WIRES]>>,
     rng: ChaCha8Rng,
     lifecycle: LifecycleState,
     drives_enabled: bool,
@@ -128,6 +135,13 @@ pub struct Twin {
     scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
 }
 
+/// One converter per wire, each free-running at its own phase.
+fn converters_for(m: ConverterModel) -> Box<[ConverterTwin; WIRES]> {
+    Box::new(core::array::from_fn(|i| {
+        ConverterTwin::new(m, m.period_s() * (0.17 + 0.31 * i as f64))
+    }))
+}
+
 impl Twin {
     /// A twin with the thimble at `start_m` (wires just taut), an operator, and sensor errors.
     pub fn new(
@@ -142,10 +156,13 @@ impl Twin {
             "integration step must be in (0, 100 µs]"
         );
         let rng = ChaCha8Rng::seed_from_u64(sensors.seed);
+        // Free-running converters: each wire's at its own phase.
+        let converters = sensors.converter.map(converters_for);
         Twin {
             plant: Plant::new(params, start_m),
             operator,
             sensors,
+            converters,
             rng,
             lifecycle: LifecycleState::Unconfigured,
             drives_enabled: false,
@@ -193,6 +210,13 @@ impl Twin {
     pub fn operator(&self) -> &VirtualOperator {
         &self.operator
     }
+    /// Give the strain gauges another converter timing (`None`: every read returns the tension
+    /// of that instant).
+    pub fn set_sensor_converter(&mut self, converter: Option<ConverterModel>) {
+        self.sensors.converter = converter;
+        self.converters = converter.map(converters_for);
+    }
+
     /// Replace the virtual operator's script.
     pub fn set_operator(&mut self, operator: VirtualOperator) {
         self.operator = operator;
@@ -395,6 +419,13 @@ impl WireDrives for Twin {
 
 impl TensionSensors for Twin {
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), TwinError> {
+        self.read_fresh_tensions(out_n).map(|_| ())
+    }
+
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], TwinError> {
         if let Some(w) = self.failed_sensor {
             return Err(TwinError {
                 kind: ErrorKind::Disconnected,
@@ -406,7 +437,16 @@ impl TensionSensors for Twin {
             let noise = self.sensors.noise_std_n * self.gaussian();
             *out = truth[i] * (1.0 + self.sensors.gain_error[i]) + self.sensors.offset_n[i] + noise;
         }
-        Ok(())
+        let Some(converters) = self.converters.as_mut() else {
+            return Ok([true; WIRES]);
+        };
+        let t = self.plant.time_s();
+        let mut fresh = [false; WIRES];
+        for i in 0..WIRES {
+            converters[i].observe(t, out_n[i]);
+            (out_n[i], fresh[i]) = converters[i].read();
+        }
+        Ok(fresh)
     }
 }
 

@@ -199,6 +199,20 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     }
+    // A tension sensor too slow for the configured PI gains is refused (on the twin too: its
+    // sensors have the configured converter's timing) unless the degraded mode is asked for.
+    match videt::tension_budget::plan(&config) {
+        Ok(videt::tension_budget::TensionLoopPlan::Full(_)) => {
+            info!("{}", videt::tension_budget::describe(&config))
+        }
+        Ok(videt::tension_budget::TensionLoopPlan::Degraded { .. }) => {
+            warn!("{}", videt::tension_budget::describe(&config))
+        }
+        Err(e) => {
+            error!("{e}");
+            return ExitCode::from(2);
+        }
+    }
     if let Some(text) = &args.sim_guides {
         match videt::init::twin::parse_guides(text) {
             Ok(g) => config.rig.guides_m = core::array::from_fn(|i| [g[i].x, g[i].y]),

@@ -35,11 +35,17 @@ impl<H: ErrorType> ErrorType for CorrectedTensions<H> {
 
 impl<H: TensionSensors> TensionSensors for CorrectedTensions<H> {
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
-        self.inner.read_tensions(out_n)?;
+        self.read_fresh_tensions(out_n).map(|_| ())
+    }
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], Self::Error> {
+        let fresh = self.inner.read_fresh_tensions(out_n)?;
         for (i, t) in out_n.iter_mut().enumerate() {
             *t = self.correction.correct(i, *t);
         }
-        Ok(())
+        Ok(fresh)
     }
 }
 

@@ -192,7 +192,13 @@ impl<H: ProcedureDevice, O: CycleObserver + ?Sized> WireDrives for Observed<'_, 
 
 impl<H: ProcedureDevice, O: CycleObserver + ?Sized> TensionSensors for Observed<'_, H, O> {
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
-        let r = self.hw.read_tensions(out_n);
+        self.read_fresh_tensions(out_n).map(|_| ())
+    }
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], Self::Error> {
+        let r = self.hw.read_fresh_tensions(out_n);
         self.record.tension_measured_n = *out_n;
         r
     }

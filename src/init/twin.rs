@@ -92,6 +92,7 @@ impl TwinSetup {
             seed,
             sensors: SensorModel {
                 seed,
+                converter: Some(crate::tension_budget::converter_model(config)),
                 ..SensorModel::default()
             },
             new_wire_length_m: 1.5,

@@ -1,5 +1,6 @@
-//! `videt config check FILE`: validate a configuration (ranges, and what the configured CAN
-//! bus can carry) and print the bus load and the resolved settings.
+//! `videt config check FILE`: validate a configuration (ranges, what the configured CAN bus
+//! can carry, whether the tension loop is stable on the configured sensor) and print the bus
+//! load, the sensor's timing and the loop's margins, and the resolved settings.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -25,11 +26,13 @@ pub fn run(command: &ConfigCommand) -> ToolResult {
         ConfigCommand::Check { file } => {
             let config = Config::load(file)?;
             crate::bus_budget::check(&config)?;
+            crate::tension_budget::plan(&config)?;
             let resolved = toml::to_string_pretty(&config)?;
             println!(
-                "# {}: valid\n# {}\n{resolved}",
+                "# {}: valid\n# {}\n# {}\n{resolved}",
                 file.display(),
-                crate::bus_budget::describe(&config)
+                crate::bus_budget::describe(&config),
+                crate::tension_budget::describe(&config)
             );
             Ok(ExitCode::SUCCESS)
         }

@@ -89,6 +89,24 @@ impl Config {
         }
     }
 
+    /// The bridge of [`Config::bridge_for_control`] at another data rate: `data_rate_code` is
+    /// register 1's DR field (0..=6: 20, 45, 90, 175, 330, 600, 1000 samples/s in normal mode,
+    /// twice that, except 90 for code 1, in turbo mode). `None` for a code above 6.
+    pub const fn bridge_at(gain: PgaGain, turbo: bool, data_rate_code: u8) -> Option<Config> {
+        if data_rate_code > 6 {
+            return None;
+        }
+        let mode = if turbo { 0b10 } else { 0b00 };
+        Some(Config {
+            reg0: (gain as u8) << 1,
+            // DR, MODE, CM 1 (continuous), TS 0, BCS 0.
+            reg1: (data_rate_code << 5) | (mode << 3) | 0b100,
+            // VREF 01 (REFP0/REFN0), 50/60 00 (off), PSW 0, IDAC 000.
+            reg2: 0b0100_0000,
+            reg3: 0x00,
+        })
+    }
+
     /// Continuous conversion mode is on.
     pub const fn is_continuous(&self) -> bool {
         self.reg1 & 0x04 != 0
@@ -240,6 +258,15 @@ mod tests {
 
     #[test]
     fn control_config_converts_at_2000_per_second_without_the_mains_filter() {
+        assert_eq!(
+            Config::bridge_at(PgaGain::X128, true, 6),
+            Some(Config::bridge_for_control(PgaGain::X128))
+        );
+        let normal_330 = Config::bridge_at(PgaGain::X128, false, 4).unwrap();
+        assert_eq!(normal_330.reg1 >> 5, 0b100);
+        assert_eq!((normal_330.reg1 >> 3) & 0b11, 0b00);
+        assert!(normal_330.is_continuous());
+        assert_eq!(Config::bridge_at(PgaGain::X128, false, 7), None);
         let c = Config::bridge_for_control(PgaGain::X128);
         assert_eq!([c.reg0, c.reg1, c.reg2, c.reg3], [0x0E, 0xD4, 0x40, 0x00]);
         assert_eq!(c.reg1 >> 5, 0b110, "data rate 2000 SPS in turbo mode");

@@ -19,7 +19,7 @@ use embedded_hal::spi::{self, Operation, SpiDevice};
 use linux_embedded_hal::spidev::{SpiModeFlags, Spidev, SpidevOptions, SpidevTransfer};
 use linux_embedded_hal::CdevPin;
 
-use super::ads1220::{self, Ads1220, PgaGain};
+use super::ads1220::{self, Ads1220};
 use super::drive_input::DriveInputAdc;
 use super::hx711::{self, Gain, Hx711};
 use super::RawAdc;
@@ -206,14 +206,15 @@ const DATA_ROLES: [&str; 3] = [
 ];
 
 /// Open wire `wire`'s ADS1220 on `spi_path` with its data-ready input on `drdy_line` of
-/// `gpio_chip`; reset it, configure it for the control loop
-/// ([`ads1220::Config::bridge_for_control`], PGA gain 128), verify the registers and start
-/// conversions. **non-RT**.
+/// `gpio_chip`; reset it, configure it for the control loop at `config`
+/// ([`ads1220::Config::bridge_at`], PGA gain 128), verify the registers and start conversions.
+/// **non-RT**.
 pub fn open_ads1220(
     wire: usize,
     spi_path: &str,
     gpio_chip: &str,
     drdy_line: u32,
+    config: ads1220::Config,
 ) -> Result<LinuxAdc, AdcOpenError> {
     let spi = RtSpidev::open(spi_path, SpiModeFlags::SPI_MODE_1, ADS1220_SPI_HZ).map_err(|e| {
         AdcOpenError {
@@ -229,12 +230,7 @@ pub fn open_ads1220(
             reason: e.to_string(),
         }
     })?;
-    let adc = Ads1220::new(
-        spi,
-        drdy,
-        ads1220::Config::bridge_for_control(PgaGain::X128),
-    )
-    .map_err(|e| AdcOpenError {
+    let adc = Ads1220::new(spi, drdy, config).map_err(|e| AdcOpenError {
         wire,
         device: spi_path.to_string(),
         reason: match e {
@@ -310,7 +306,8 @@ mod tests {
 
     #[test]
     fn a_missing_spi_device_names_the_wire_and_the_device() {
-        let Err(e) = open_ads1220(2, "/dev/no-such-spidev9.9", "/dev/gpiochip0", 5) else {
+        let regs = ads1220::Config::bridge_for_control(ads1220::PgaGain::X128);
+        let Err(e) = open_ads1220(2, "/dev/no-such-spidev9.9", "/dev/gpiochip0", 5, regs) else {
             panic!("opened a missing SPI device");
         };
         let text = e.to_string();

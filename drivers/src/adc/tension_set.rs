@@ -138,7 +138,16 @@ impl<A: RawAdc, C: NanoClock> videt_hal::ErrorType for StrainGaugeSet<A, C> {
 
 impl<A: RawAdc, C: NanoClock> TensionSensors for StrainGaugeSet<A, C> {
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), TensionError> {
+        self.read_fresh_tensions(out_n).map(|_| ())
+    }
+
+    /// A wire's sample is fresh when its converter delivered a conversion in this read.
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], TensionError> {
         let now = self.clock.now_ns();
+        let mut fresh = [false; WIRES];
         for wire in 0..WIRES {
             match self.adcs[wire].read_raw() {
                 Ok(raw) if raw == FULL_SCALE_POS || raw == FULL_SCALE_NEG => {
@@ -150,6 +159,7 @@ impl<A: RawAdc, C: NanoClock> TensionSensors for StrainGaugeSet<A, C> {
                 Ok(raw) => {
                     self.last_n[wire] = self.calibration[wire].tension_n(raw);
                     self.last_at_ns[wire] = Some(now);
+                    fresh[wire] = true;
                 }
                 Err(nb::Error::WouldBlock) => {}
                 Err(nb::Error::Other(_)) => {
@@ -174,7 +184,7 @@ impl<A: RawAdc, C: NanoClock> TensionSensors for StrainGaugeSet<A, C> {
             }
             out_n[wire] = self.last_n[wire];
         }
-        Ok(())
+        Ok(fresh)
     }
 }
 

@@ -25,6 +25,10 @@ pub struct DriveSetConfig {
     /// A wire wound in faster than this multiple of the speed limit trips the set into its safe
     /// state (unwinding, driven by the operator, never trips).
     pub overspeed_trip_factor: f64,
+    /// Consecutive cycles a wire must wind faster than the trip speed before the set trips
+    /// (1..=100): a single sample above it is more often a late SYNC answer than a runaway,
+    /// and the torque is cut meanwhile.
+    pub overspeed_trip_cycles: u32,
     /// Control period (one SYNC per period).
     pub control_period: Duration,
     /// How long after SYNC the TPDOs may take to arrive.
@@ -93,6 +97,7 @@ impl DriveSetConfig {
             t_max_n,
             max_wire_speed_m_per_s: 0.8,
             overspeed_trip_factor: 1.5,
+            overspeed_trip_cycles: 3,
             control_period,
             pdo_timeout: control_period.mul_f64(0.6),
             max_missed_cycles: 1,
@@ -193,6 +198,13 @@ impl DriveSetConfig {
                 "overspeed_trip_factor",
                 self.overspeed_trip_factor,
                 ">= 1",
+            ));
+        }
+        if !(1..=100).contains(&self.overspeed_trip_cycles) {
+            return Err(err(
+                "overspeed_trip_cycles",
+                self.overspeed_trip_cycles,
+                "1..=100",
             ));
         }
         if self.control_period < Duration::from_micros(100)

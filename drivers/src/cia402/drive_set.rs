@@ -61,11 +61,13 @@ struct NodeLink {
     got_status: bool,
     status_heard: Option<Instant>,
     missed: u32,
+    /// Consecutive cycles this wire has wound faster than the trip speed.
+    overspeed_cycles: u32,
     position_counts: i64,
     last_raw_position: Option<i32>,
-    /// Without a velocity in TPDO1: the position (drive units, unwrapped) at a SYNC and that
-    /// SYNC's number, and the velocity derived from the last two (drive units per second).
-    velocity_base: Option<(i64, u64)>,
+    /// Without a velocity in TPDO1: the position (drive units, unwrapped) at a SYNC and when
+    /// that SYNC was sent, and the velocity derived from the last two (drive units per second).
+    velocity_base: Option<(i64, Instant)>,
     derived_velocity: f64,
 }
 
@@ -85,6 +87,7 @@ impl NodeLink {
             got_status: false,
             status_heard: None,
             missed: 0,
+            overspeed_cycles: 0,
             position_counts: 0,
             last_raw_position: None,
             velocity_base: None,
@@ -102,15 +105,16 @@ impl NodeLink {
         self.last_raw_position = Some(raw);
     }
 
-    /// Derive the velocity from the position sampled at SYNC number `sync` and the one before.
-    fn derive_velocity(&mut self, sync: u64, period_s: f64) {
-        if let Some((base, base_sync)) = self.velocity_base {
-            if sync > base_sync {
-                self.derived_velocity =
-                    (self.position_counts - base) as f64 / ((sync - base_sync) as f64 * period_s);
+    /// Derive the velocity from the position sampled at the SYNC sent at `sync_at` and the
+    /// one before (over the time between the two SYNCs, whatever the host's wake-ups).
+    fn derive_velocity(&mut self, sync_at: Instant) {
+        if let Some((base, base_at)) = self.velocity_base {
+            let dt = sync_at.saturating_duration_since(base_at).as_secs_f64();
+            if dt > 0.0 {
+                self.derived_velocity = (self.position_counts - base) as f64 / dt;
             }
         }
-        self.velocity_base = Some((self.position_counts, sync));
+        self.velocity_base = Some((self.position_counts, sync_at));
     }
 
     fn power_state(&self) -> PowerState {
@@ -140,7 +144,9 @@ pub struct Cia402DriveSet<P: CanPort> {
     latched: Option<DriveError>,
     host_heartbeat_due: Instant,
     operational_expected: bool,
-    syncs_sent: u64,
+    /// When the latest SYNC was sent: the one a TPDO1 answers (a late one is absorbed before
+    /// the next SYNC goes out).
+    sync_sent_at: Instant,
     epoch: Instant,
     analog: Option<Arc<DriveAnalogInputs>>,
 }
@@ -164,7 +170,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             latched: None,
             host_heartbeat_due: now,
             operational_expected: false,
-            syncs_sent: 0,
+            sync_sent_at: now,
             epoch: now,
             analog,
         })
@@ -178,6 +184,12 @@ impl<P: CanPort> Cia402DriveSet<P> {
     /// The port (for inspection; the set keeps using it).
     pub fn port(&self) -> &P {
         &self.port
+    }
+
+    /// The port, mutably (tests script the drives through it).
+    #[cfg(test)]
+    pub(crate) fn port_mut(&mut self) -> &mut P {
+        &mut self.port
     }
 
     /// The configuration.
@@ -268,15 +280,13 @@ impl<P: CanPort> Cia402DriveSet<P> {
             }
             CobKind::Tpdo(0, n) => {
                 let Some(i) = self.node_index(n) else { return };
-                // A late frame answered the SYNC before this cycle's.
-                let sync = self.syncs_sent - u64::from(!fresh);
-                let period_s = self.cfg.control_period.as_secs_f64();
+                let sync_at = self.sync_sent_at;
                 let node = &mut self.nodes[i];
                 if self.cfg.analog_input.is_some() {
                     // Only the configured layout is accepted.
                     if let Some(m) = MotionWithAnalog::decode(data) {
                         node.track_position(m.position);
-                        node.derive_velocity(sync, period_s);
+                        node.derive_velocity(sync_at);
                         node.status.statusword = m.statusword;
                         node.analog_input = m.analog_input;
                         node.got_motion |= fresh;
@@ -318,7 +328,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             n.got_status = false;
         }
         let start = Instant::now();
-        self.syncs_sent += 1;
+        self.sync_sent_at = start;
         self.send(cob::SYNC, &[])?;
         if start >= self.host_heartbeat_due {
             let host = cob::HEARTBEAT_BASE + u16::from(self.cfg.host_node_id);
@@ -448,8 +458,8 @@ impl<P: CanPort> Cia402DriveSet<P> {
 
     /// The torque actually sent for wire `i`: clamped to ±torque(t_max), cut when the wire
     /// already runs faster than the speed limit in the torque's direction; a winding speed
-    /// above the trip speed is an error. **RT**.
-    fn limited_torque(&self, i: usize, torque_nm: f64) -> Result<f64, DriveError> {
+    /// above the trip speed for `overspeed_trip_cycles` cycles in a row is an error. **RT**.
+    fn limited_torque(&mut self, i: usize, torque_nm: f64) -> Result<f64, DriveError> {
         if !torque_nm.is_finite() {
             return Err(DriveError::InvalidTorque { wire: i });
         }
@@ -463,11 +473,17 @@ impl<P: CanPort> Cia402DriveSet<P> {
         // Only winding is driven by the motor: a wire wound in faster than the trip speed
         // despite the cut torque is a drive or encoder fault. Fast unwinding is the operator
         // pulling the thimble away, which the motor merely resists.
+        let node = &mut self.nodes[i];
         if speed > max * self.cfg.overspeed_trip_factor {
-            return Err(DriveError::OverSpeed {
-                wire: i,
-                speed_mm_per_s: (speed * 1000.0) as i32,
-            });
+            node.overspeed_cycles += 1;
+            if node.overspeed_cycles >= self.cfg.overspeed_trip_cycles {
+                return Err(DriveError::OverSpeed {
+                    wire: i,
+                    speed_mm_per_s: (speed * 1000.0) as i32,
+                });
+            }
+        } else {
+            node.overspeed_cycles = 0;
         }
         if speed.abs() > max && t * speed > 0.0 {
             return Ok(0.0);
@@ -651,6 +667,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             let cycle_start = Instant::now();
             for n in &mut self.nodes {
                 n.missed = 0;
+                n.overspeed_cycles = 0;
             }
             match self.exchange(false) {
                 Ok(())

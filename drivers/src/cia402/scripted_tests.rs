@@ -233,12 +233,25 @@ fn fast_unwinding_is_resisted_but_fast_winding_trips() {
         Command::decode(&last.1).unwrap().target_torque_permille,
         100
     );
-    // Winding at 2 m/s (above 1.5 x 0.8 m/s) is a runaway: trip, safe state.
+    // Winding at 2 m/s (above 1.5 x 0.8 m/s) for three cycles in a row is a runaway: the
+    // winding torque is cut at once, and the third cycle trips into the safe state.
     let mut d = drives(&[]);
     d.velocity = two_m_per_s;
     let mut set = Cia402DriveSet::new(d, config()).unwrap();
     set.configure().unwrap();
     set.activate().unwrap();
+    for _ in 0..2 {
+        set.read_drives(&mut out).unwrap();
+        set.write_torques(&[0.01; WIRES]).unwrap();
+        let last = set.port().sent.iter().rev().find(|(c, _)| *c == 0x201);
+        assert_eq!(
+            Command::decode(&last.unwrap().1)
+                .unwrap()
+                .target_torque_permille,
+            0,
+            "torque cut while the wire runs too fast"
+        );
+    }
     set.read_drives(&mut out).unwrap();
     let e = set.write_torques(&[0.01; WIRES]).unwrap_err();
     assert!(
@@ -258,4 +271,21 @@ fn fast_unwinding_is_resisted_but_fast_winding_trips() {
         Command::default(),
         "disable voltage, zero torque"
     );
+}
+
+#[test]
+fn a_single_fast_sample_between_normal_ones_does_not_trip() {
+    let t = videt_hal::Transmission::PAPER;
+    let two_m_per_s = (2.0 / t.metres_per_count()) as i32;
+    let mut set = Cia402DriveSet::new(drives(&[]), config()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    // Two glitches, each followed by a normal sample: never three in a row.
+    for velocity in [two_m_per_s, two_m_per_s, 0, two_m_per_s, two_m_per_s, 0] {
+        set.port_mut().velocity = velocity;
+        set.read_drives(&mut out).unwrap();
+        set.write_torques(&[0.01; WIRES]).unwrap();
+    }
+    assert_eq!(set.lifecycle_state(), videt_hal::LifecycleState::Active);
 }
