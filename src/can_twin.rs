@@ -6,6 +6,10 @@
 //! from the previous RPDO and report the twin's encoders), then hands the nodes' torques to the
 //! twin's motors; `sleep_until` advances the twin's physics and publishes its encoders to the
 //! nodes. The hand-over is wait-free ([`SharedMotors`]).
+//!
+//! The simulated drives are CiA 402 drives with the configured motor: their rated torque
+//! (0x6076, mN·m) is the configured drive's ([`setup::twin_rated_torque_mnm`]), so the torque
+//! reaches the twin's motors in the configured drive's per-mille steps.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -28,8 +32,6 @@ use videt_rt_config::Config;
 
 /// Node ids of the simulated drives (wire 0, 1, 2).
 pub const NODE_IDS: [u8; WIRES] = [1, 2, 3];
-/// Rated torque of the simulated motors (0x6076), mN·m.
-pub const RATED_TORQUE_MNM: u32 = 25;
 
 /// The driver's CAN port onto the simulated drives.
 #[derive(Debug)]
@@ -146,13 +148,15 @@ fn twin_err(e: videt_sim::TwinError) -> CanTwinError {
     CanTwinError::Twin(videt_hal::Error::kind(&e))
 }
 
-/// The drive-set configuration for the simulated drives, from the daemon's configuration.
+/// The drive-set configuration for the simulated drives, from the daemon's configuration: the
+/// configured drive's rated torque to the nearest mN·m ([`setup::twin_rated_torque_mnm`]),
+/// which the simulated drives report in 0x6076 (mN·m, CiA 402).
 pub fn drive_config(config: &Config) -> DriveSetConfig {
     let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
     let mut c = DriveSetConfig::new(
         NODE_IDS,
         period,
-        f64::from(RATED_TORQUE_MNM) / 1000.0,
+        f64::from(setup::twin_rated_torque_mnm(config)) / 1000.0,
         config.control.t_max_n,
     );
     c.transmission = setup::transmission(config);
@@ -184,12 +188,16 @@ impl<T: TwinDevice> core::fmt::Debug for CanTwin<T> {
     }
 }
 
-fn node_specs() -> Vec<SimDriveSpec> {
+/// The simulated drives, their rated torque (0x6076, mN·m) the drive set's.
+fn node_specs(drive_config: &DriveSetConfig) -> Vec<SimDriveSpec> {
+    let rated_torque_mnm = (drive_config.rated_torque_nm * 1000.0)
+        .round()
+        .clamp(1.0, f64::from(u32::MAX)) as u32;
     (0..WIRES)
         .map(|i| SimDriveSpec {
             node_id: NODE_IDS[i],
             axis: i,
-            rated_torque_mnm: RATED_TORQUE_MNM,
+            rated_torque_mnm,
             boot_delay: Duration::from_millis(20),
         })
         .collect()
@@ -197,11 +205,13 @@ fn node_specs() -> Vec<SimDriveSpec> {
 
 impl CanTwin<Twin> {
     /// The twin on its simulated clock, its drives answering inline: deterministic and faster
-    /// than real time (whole-stack tests).
+    /// than real time (whole-stack tests). The drives' rated torque is `drive_config`'s; they
+    /// apply torque in its per-mille steps (the twin's own step model is switched off).
     pub fn stepped(mut twin: Twin, drive_config: DriveSetConfig) -> Result<CanTwin<Twin>, String> {
         twin.set_clock_mode(videt_sim::ClockMode::Simulated);
+        twin.set_torque_step_nm(None);
         let motors = Arc::new(SharedMotors::new(WIRES));
-        let bus = SteppedDriveBus::new(&node_specs(), motors.clone());
+        let bus = SteppedDriveBus::new(&node_specs(&drive_config), motors.clone());
         let drives = Cia402DriveSet::new(SimCanPort::Stepped(Box::new(bus)), drive_config)
             .map_err(|e| e.to_string())?;
         let mut can_twin = CanTwin {
@@ -223,9 +233,10 @@ impl CanTwin<RealTimeTwin> {
     /// of `bitrate` bit/s (frames take their bit time, queue while the bus is busy and win it
     /// by identifier). The nodes run on their own thread, at SCHED_FIFO `drive_priority` when
     /// given (they stand for hardware that answers SYNC whatever the host's load; use the
-    /// control thread's priority).
+    /// control thread's priority). The drives' rated torque is `drive_config`'s; they apply
+    /// torque in its per-mille steps (the twin's own step model is switched off).
     pub fn new(
-        twin: Twin,
+        mut twin: Twin,
         drive_config: DriveSetConfig,
         bitrate: u32,
         drive_priority: Option<u8>,
@@ -233,10 +244,12 @@ impl CanTwin<RealTimeTwin> {
         let bus_faults = Arc::new(BusFaults::default());
         let (mut eps, bus_stats) = InProcessBus::timed(2, 256, bus_faults.clone(), bitrate)
             .map_err(|e| format!("cannot start the simulated bus: {e}"))?;
+        twin.set_torque_step_nm(None);
         let node_side = eps.pop().ok_or("bus without endpoints")?;
         let host_side = eps.pop().ok_or("bus without endpoints")?;
         let motors = Arc::new(SharedMotors::new(WIRES));
-        let bank = SimDriveBank::spawn_with(node_side, &node_specs(), motors.clone(), move || {
+        let specs = node_specs(&drive_config);
+        let bank = SimDriveBank::spawn_with(node_side, &specs, motors.clone(), move || {
             if let Some(p) = drive_priority {
                 if let Err(e) = crate::rt::set_fifo(p) {
                     tracing::warn!(

@@ -172,6 +172,8 @@ impl<D: WireDrives, T: TensionSensors, E: EStop> ProcedureDevice for DeviceHardw
 /// `[drives]`, the transmission and limits from `[transmission]` and `[control]`, one SYNC per
 /// control period, and with `sensors.adc = "drive"` the analog input object
 /// (`sensors.drive_analog_index`/`drive_analog_subindex`) mapped into every drive's TPDO1.
+/// With `drives.device_description`, the unit the drives give their rated torque in (µN·m on
+/// maxon drives) and their position and velocity units come from the file.
 pub fn drive_set_config(config: &Config) -> DriveSetConfig {
     let d = &config.drives;
     let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
@@ -186,6 +188,16 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig {
     c.drive_heartbeat_ms = d.heartbeat_ms;
     c.drive_heartbeat_timeout = Duration::from_millis(u64::from(d.heartbeat_timeout_ms));
     c.max_missed_cycles = d.max_missed_cycles;
+    if let Some(desc) = &d.description {
+        c.rated_torque_unit = desc.torque_unit();
+        let counts_per_rev = f64::from(config.transmission.counts_per_motor_rev);
+        if let Some(p) = desc.counts_per_position_unit(counts_per_rev) {
+            c.counts_per_position_unit = p;
+        }
+        if let Some(v) = desc.counts_per_s_per_velocity_unit(counts_per_rev) {
+            c.counts_per_s_per_velocity_unit = v;
+        }
+    }
     let s = &config.sensors;
     c.analog_input = (s.adc == TensionAdc::Drive).then_some(AnalogInputObject {
         index: s.drive_analog_index,
@@ -482,6 +494,39 @@ mod tests {
             scales[2].newtons_per_count,
             config.sensors.newtons_per_count[2]
         );
+    }
+
+    #[test]
+    fn a_maxon_device_description_sets_the_drives_units() {
+        let Some(dir) = videt_testdata::data_dir("canopen/eds") else {
+            return;
+        };
+        let config = Config::from_toml_str_at(
+            "[drives]\ndevice_description = \"epos4_50_15_can_ec90flat_gp52c_mile800_node1.dcf\"\n\
+             [control]\nt_min_n = 0.7\n[autoinit]\npay_out_tension_n = 0.8\n",
+            "t",
+            Some(&dir),
+        )
+        .unwrap();
+        let c = drive_set_config(&config);
+        assert_eq!(c.rated_torque_nm, 0.512871);
+        assert_eq!(
+            c.rated_torque_unit,
+            videt_drivers::cia402::TorqueUnit::MicroNewtonMetre
+        );
+        assert_eq!(c.rated_torque_unit.raw(c.rated_torque_nm), 512_871);
+        assert_eq!(c.transmission.counts_per_motor_rev, 3200);
+        assert_eq!(c.transmission.gear_ratio, 26.0);
+        assert_eq!(c.counts_per_position_unit, 1.0);
+        assert!((c.counts_per_s_per_velocity_unit - 3200.0 / 60.0).abs() < 1e-9);
+        c.validate().unwrap();
+        // Without a device description: CiA 402's units, counts and counts/s.
+        let c = drive_set_config(&Config::default());
+        assert_eq!(
+            c.rated_torque_unit,
+            videt_drivers::cia402::TorqueUnit::MilliNewtonMetre
+        );
+        assert_eq!(c.counts_per_s_per_velocity_unit, 1.0);
     }
 
     #[test]

@@ -23,6 +23,21 @@ pub fn transmission(config: &Config) -> Transmission {
     }
 }
 
+/// The rated torque (0x6076) of the twins' simulated drives, mN·m: the configured drive's
+/// (`drives.rated_torque_nm`, from `drives.device_description` when the file gives it) to the
+/// nearest mN·m, the unit of the twins' CiA 402 drives, and at least 1.
+pub fn twin_rated_torque_mnm(config: &Config) -> u32 {
+    (config.drives.rated_torque_nm * 1000.0)
+        .round()
+        .clamp(1.0, f64::from(u32::MAX)) as u32
+}
+
+/// One step of the twins' target torque (one per mille of [`twin_rated_torque_mnm`]), N·m:
+/// the HAL twin's motors apply torque in these steps, as the CAN twin's drives do.
+pub fn twin_torque_step_nm(config: &Config) -> f64 {
+    f64::from(twin_rated_torque_mnm(config)) * 1e-6
+}
+
 /// The rig geometry of the configuration.
 pub fn rig(config: &Config) -> Result<Rig3, RigError> {
     let g = &config.rig.guides_m;
@@ -103,7 +118,8 @@ pub struct DemoScene {
 }
 
 /// Build the demonstration scene for the configured rig (the twin's guides are the configured
-/// ones: on the twin the configuration is the truth).
+/// ones: on the twin the configuration is the truth; its motors apply torque in the configured
+/// drive's steps, [`twin_torque_step_nm`]).
 pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
     let g = &config.rig.guides_m;
     let mut params = PlantParams::paper_default();
@@ -119,7 +135,8 @@ pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
         converter: Some(crate::tension_budget::converter_model(config)),
         ..SensorModel::default()
     };
-    let twin = Twin::new(params, start, operator, sensors);
+    let mut twin = Twin::new(params, start, operator, sensors);
+    twin.set_torque_step_nm(Some(twin_torque_step_nm(config)));
     DemoScene {
         twin,
         wall: check_wall(),

@@ -81,8 +81,20 @@ fn torque_swing_nm(records: &[CycleRecord], from_s: f64, to_s: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn hx711_80(allow_degraded: bool) -> Config {
+/// The defaults with a lightly damped wall. The check judges the tension loop alone (its
+/// margins on a static plant), whatever the wall: a wall's damping also damps an oscillating
+/// tension loop through the thimble (with the default 5 N·s/m the configured gains on an 80 SPS
+/// HX711 stay calm in this press), so the verdict is checked where the wall helps least among
+/// the walls a configuration may ask for (2 N·s/m: its Z-width still holds 800 N/m on ideal
+/// parts, `docs/haptic-bench.md`).
+fn lightly_damped() -> Config {
     let mut c = Config::default();
+    c.control.damping_n_s_per_m = 2.0;
+    c
+}
+
+fn hx711_80(allow_degraded: bool) -> Config {
+    let mut c = lightly_damped();
     c.sensors.adc = TensionAdc::Hx711;
     c.sensors.sample_rate_sps = 80;
     c.sensors.stale_after_ms = 100;
@@ -97,7 +109,7 @@ fn hx711_80(allow_degraded: bool) -> Config {
 fn the_check_verdicts_hold_on_the_twins_plant() {
     // Steady contact from 1.5 s; judge 2-4 s.
     let (from, to, run_s) = (2.0, 4.0, 4.2);
-    let fast = Config::default();
+    let fast = lightly_damped();
     assert!(matches!(plan(&fast), Ok(TensionLoopPlan::Full(_))));
     let fast_swing = torque_swing_nm(&press_and_hold(&fast, run_s), from, to);
 

@@ -112,12 +112,18 @@ impl TensionPi {
             let ff = g.feedforward_nm_per_n * setpoint_n[i];
             let slack = measured_n[i].is_finite() && measured_n[i] < g.slack_tension_n;
             let out = if slack {
-                // Take up the slack at a bounded speed; the integral holds. A slack wire carries
+                // Take up the slack at a bounded speed. A slack wire carries
                 // no load: the set-point's feed-forward would only drive the free pulley past
                 // the take-up speed (by feed-forward / speed gain, metres per second at high
                 // set-points) and snap the wire taut. Only the slack threshold's share is fed
                 // forward, so the speed loop sets the winding speed.
                 let hold = g.feedforward_nm_per_n * setpoint_n[i].min(g.slack_tension_n).max(0.0);
+                // The integral restarts from zero: what it learnt on the loaded wire does not
+                // hold for a slack one, and the negative integral the snap of the last take-up
+                // left (the tension measured late, above the set-point) would unwind the wire
+                // the moment it pulls again, slackening it once more: a ratchet that sustains
+                // slack-snap cycles on a converter with a filter delay.
+                self.integral_nm[i] = 0.0;
                 hold + g.speed_gain_nm_s_per_m * (g.takeup_speed_m_s - speed)
             } else {
                 let error = if measured_n[i].is_finite() {
@@ -262,5 +268,31 @@ mod tests {
         pi.reset();
         pi.update_with_speed(&[2.0; WIRES], &[1.0; WIRES], &[1.0; WIRES], 1e-3, &mut fast);
         assert!((slow[0] - fast[0] - g.speed_gain_nm_s_per_m * 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_slack_wire_forgets_the_integral_so_a_late_spike_cannot_ratchet_it() {
+        let g = gains();
+        let mut pi = TensionPi::new(g);
+        let mut out = [0.0; WIRES];
+        // The take-up snapped the wire taut: the converter reports a spike above the set-point
+        // for a few periods, which winds the integral negative...
+        for _ in 0..20 {
+            pi.update(&[0.4; WIRES], &[3.0; WIRES], 1e-3, &mut out);
+        }
+        assert!(pi.integral_nm[0] < 0.0);
+        // ...the wire goes slack, and is taken up...
+        pi.update(&[0.4; WIRES], &[0.0; WIRES], 1e-3, &mut out);
+        // ...and pulls again: the torque is the feed-forward and the error's, nothing left from
+        // the spike that would unwind it at once.
+        pi.update(&[0.4; WIRES], &[0.2; WIRES], 1e-3, &mut out);
+        let expected =
+            g.feedforward_nm_per_n * 0.4 + g.kp_nm_per_n * 0.2 + g.ki_nm_per_n_s * 0.2 * 1e-3;
+        assert!(
+            (out[0] - expected).abs() < 1e-12,
+            "{} vs {expected}",
+            out[0]
+        );
+        assert!(out[0] > 0.0);
     }
 }

@@ -3,7 +3,9 @@
 //! One TOML file (`/etc/videt/videt.toml` on the device; `config/videt.example.toml` in the
 //! repository) with sections for the rig geometry, the transmission, control gains and limits, and
 //! real-time settings. Unknown keys are rejected; every value is validated on load with an error
-//! that names the field, its value and the allowed range.
+//! that names the field, its value and the allowed range. The drives' device description
+//! (`drives.device_description`, an EDS or DCF) is read on load and gives the drives' units
+//! ([`drive_units`]).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -12,6 +14,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 pub mod calibration;
+pub mod drive_units;
+
+pub use drive_units::DeviceDescription;
 
 /// A configuration error: what is wrong, in which field.
 #[derive(Debug, thiserror::Error)]
@@ -30,6 +35,15 @@ pub enum ConfigError {
         /// The file.
         path: String,
         /// The parser's message (names the key and line).
+        message: String,
+    },
+    /// `drives.device_description` cannot be read, is not an EDS or DCF, or holds a value
+    /// that cannot be a drive's.
+    #[error("drives.device_description = {path:?}: {message}")]
+    DeviceDescription {
+        /// The file, as opened.
+        path: String,
+        /// What is wrong with it.
         message: String,
     },
     /// A value is outside its allowed range.
@@ -224,7 +238,21 @@ pub struct DrivesConfig {
     /// CANopen node ids of the drives of wires 0, 1, 2 (1..=127).
     pub node_ids: [u8; 3],
     /// Motor rated torque (CiA 402 object 0x6076), N·m: target torque is in per-mille of it.
+    /// With `device_description` giving it, the file's value is used and this, when set, must
+    /// agree with it within 1 %.
     pub rated_torque_nm: f64,
+    /// The drives' CANopen device description: the EDS, or better the DCF their commissioning
+    /// tool exported (it holds the configured values). When given, the rated torque (0x6076),
+    /// the encoder resolution, the gear and the drives' position and velocity units come from
+    /// it (`drives.rated_torque_nm`, `transmission.counts_per_motor_rev` and
+    /// `transmission.gear_ratio` set here too must agree within 1 %). A relative path is
+    /// relative to the configuration file's directory (to the working directory for a
+    /// configuration not read from a file).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_description: Option<String>,
+    /// What `device_description` gave, read on load (not a key of the file).
+    #[serde(skip)]
+    pub description: Option<DeviceDescription>,
     /// Heartbeat period the drives produce, milliseconds.
     pub heartbeat_ms: u16,
     /// A drive silent for this long is a fault, milliseconds.
@@ -381,6 +409,8 @@ impl Default for DrivesConfig {
             can_interface: "can0".into(),
             node_ids: [1, 2, 3],
             rated_torque_nm: 0.05,
+            device_description: None,
+            description: None,
             heartbeat_ms: 10,
             heartbeat_timeout_ms: 50,
             max_missed_cycles: 1,
@@ -558,7 +588,7 @@ impl Default for ControlConfig {
         ControlConfig {
             rate_hz: 1000,
             stiffness_n_per_m: 800.0,
-            damping_n_s_per_m: 2.0,
+            damping_n_s_per_m: 5.0,
             algorithm: "P2".to_string(),
             field_n: 0.0,
             free_space_field_n: 0.5,
@@ -602,23 +632,42 @@ fn in_range(field: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError
 }
 
 impl Config {
-    /// Parse and validate TOML text; `origin` names the source in errors.
+    /// Parse and validate TOML text; `origin` names the source in errors. A relative
+    /// `drives.device_description` is read from the working directory.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Config, ConfigError> {
-        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        Config::from_toml_str_at(text, origin, None)
+    }
+
+    /// Parse and validate TOML text; `origin` names the source in errors. A relative
+    /// `drives.device_description` is read from `base_dir` when given (the configuration
+    /// file's directory), else from the working directory.
+    pub fn from_toml_str_at(
+        text: &str,
+        origin: &str,
+        base_dir: Option<&Path>,
+    ) -> Result<Config, ConfigError> {
+        let mut config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
             path: origin.to_string(),
             message: e.to_string(),
         })?;
+        let explicit = drive_units::ExplicitUnits::of(text);
+        drive_units::apply(&mut config, base_dir, explicit)?;
         config.validate()?;
         Ok(config)
     }
 
-    /// Read, parse and validate a file.
+    /// Read, parse and validate a file (and the device description it names, relative to its
+    /// directory).
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
             path: path.display().to_string(),
             source,
         })?;
-        Config::from_toml_str(&text, &path.display().to_string())
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        Config::from_toml_str_at(&text, &path.display().to_string(), Some(dir))
     }
 
     /// Check every value against its allowed range.
@@ -795,6 +844,7 @@ impl Config {
             });
         }
         in_range("drives.max_bus_load", d.max_bus_load, 0.1, 0.95)?;
+        self.validate_drive_units()?;
         in_range(
             "sensors.stale_after_ms",
             f64::from(self.sensors.stale_after_ms),

@@ -35,7 +35,7 @@ pub mod twin_plant;
 pub use converter::ConverterModel;
 pub use operator::{VirtualOperator, Waypoint};
 pub use plant::{Plant, PlantParams, WireModules, GRAVITY_M_S2};
-pub use twin::{ClockMode, SensorModel, Twin, TwinError, TwinFault};
+pub use twin::{quantize_torque, ClockMode, SensorModel, Twin, TwinError, TwinFault};
 
 /// 3-vector of `f64`.
 pub type Vec3 = nalgebra::Vector3<f64>;

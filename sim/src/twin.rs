@@ -121,6 +121,8 @@ pub struct Twin {
     lifecycle: LifecycleState,
     drives_enabled: bool,
     torque_command_nm: [f64; WIRES],
+    /// One step of the drives' target torque, N·m (`None`: torque as commanded).
+    torque_step_nm: Option<f64>,
     /// Largest torque the simulated motors deliver, N·m.
     motor_torque_limit_nm: f64,
     estop_held: bool,
@@ -133,6 +135,17 @@ pub struct Twin {
     /// Encoder count at free length zero (an incremental encoder starts anywhere at power-up).
     encoder_offset_counts: [i64; WIRES],
     scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
+}
+
+/// The torque a drive whose target torque comes in steps of `step_nm` (one per mille of its
+/// rated torque) applies for a command of `torque_nm`: the nearest whole step, at most 32767
+/// steps either way (the INTEGER16 of 0x6071). **RT-safe**.
+pub fn quantize_torque(torque_nm: f64, step_nm: f64) -> f64 {
+    let steps = (torque_nm / step_nm).round();
+    if steps.is_nan() {
+        return 0.0;
+    }
+    steps.clamp(f64::from(i16::MIN), f64::from(i16::MAX)) * step_nm
 }
 
 /// One converter per wire, each free-running at its own phase.
@@ -167,6 +180,7 @@ impl Twin {
             lifecycle: LifecycleState::Unconfigured,
             drives_enabled: false,
             torque_command_nm: [0.0; WIRES],
+            torque_step_nm: None,
             motor_torque_limit_nm: 0.03,
             estop_held: false,
             estop_latched: false,
@@ -215,6 +229,20 @@ impl Twin {
     pub fn set_sensor_converter(&mut self, converter: Option<ConverterModel>) {
         self.sensors.converter = converter;
         self.converters = converter.map(converters_for);
+    }
+
+    /// Model the drives' torque resolution: a CiA 402 drive takes its target torque (0x6071)
+    /// in whole per mille of its rated torque (0x6076), so its motor applies the commanded
+    /// torque rounded to the nearest `step_nm` (the rated torque / 1000) and saturated at
+    /// ±32767 steps, as [`quantize_torque`] computes. The CAN twin's simulated drives do the
+    /// same with the per mille the driver sends them. `None` (the default), or a step that is
+    /// not a positive number: the torque as commanded.
+    pub fn set_torque_step_nm(&mut self, step_nm: Option<f64>) {
+        self.torque_step_nm = step_nm.filter(|s| s.is_finite() && *s > 0.0);
+    }
+    /// One step of the drives' target torque, N·m, when modelled.
+    pub fn torque_step_nm(&self) -> Option<f64> {
+        self.torque_step_nm
     }
 
     /// Replace the virtual operator's script.
@@ -412,7 +440,10 @@ impl WireDrives for Twin {
                 wire: None,
             });
         }
-        self.torque_command_nm = *torque_nm;
+        self.torque_command_nm = match self.torque_step_nm {
+            Some(step) => torque_nm.map(|t| quantize_torque(t, step)),
+            None => *torque_nm,
+        };
         Ok(())
     }
 }
@@ -489,6 +520,28 @@ mod tests {
             VirtualOperator::holding(start),
             SensorModel::default(),
         )
+    }
+
+    #[test]
+    fn torque_is_applied_in_whole_steps_of_the_drives_resolution() {
+        let mut t = twin();
+        t.configure().unwrap();
+        t.activate().unwrap();
+        t.enable().unwrap();
+        t.write_torques(&[0.01234, -0.01266, 0.0]).unwrap();
+        assert_eq!(t.applied_torque_nm(), [0.01234, -0.01266, 0.0]);
+        // A 1 N·m motor: steps of 1 mN·m.
+        t.set_torque_step_nm(Some(0.001));
+        t.write_torques(&[0.01234, -0.01266, 0.0004]).unwrap();
+        let applied = t.applied_torque_nm();
+        for (a, want) in applied.iter().zip([0.012, -0.013, 0.0]) {
+            assert!((a - want).abs() < 1e-15, "{applied:?}");
+        }
+        assert_eq!(quantize_torque(1e9, 0.001), 32.767);
+        assert_eq!(quantize_torque(-1e9, 0.001), -32.768);
+        assert_eq!(quantize_torque(f64::NAN, 0.001), 0.0);
+        t.set_torque_step_nm(Some(0.0));
+        assert_eq!(t.torque_step_nm(), None, "not a step");
     }
 
     #[test]

@@ -40,6 +40,9 @@ enum Command {
     Service(tool::service::ServiceArgs),
     /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
     BenchRt(tool::bench_rt::BenchRtArgs),
+    /// Haptic fidelity on the timing-faithful twin: rendered stiffness (P1, P2, regions A/B/C),
+    /// Z-width against damping per tension sensor and rate, pop-through; tables, JSON, plots.
+    BenchHaptic(tool::bench_haptic::BenchHapticArgs),
     /// Calibrate the stereo camera pair from chessboard image pairs and write the calibration.
     CalibrateStereo(tool::calibrate_stereo::CalibrateStereoArgs),
     /// Stereo pipeline on a rectified pair: segments, matches, 3D segments, overlays.
@@ -62,6 +65,7 @@ fn main() -> ExitCode {
         Command::Log(a) => tool::log::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),
+        Command::BenchHaptic(a) => tool::bench_haptic::run(a),
         Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
         Command::Vision(a) => tool::vision::run(a),
         Command::SimRig(a) => tool::sim_rig::run(a),

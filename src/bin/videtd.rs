@@ -187,6 +187,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    info!("{}", config.describe_drive_units());
     // A rate the configured bus cannot carry is refused where a bus carries it: on the device
     // and on the CAN twin. The HAL twin has no bus; it says so and runs.
     match (videt::bus_budget::check(&config), args.sim) {

@@ -148,6 +148,7 @@ pub fn rest_twin(config: &Config, setup: &TwinSetup) -> Twin {
         VirtualOperator::absent(0.2),
         setup.sensors.clone(),
     );
+    twin.set_torque_step_nm(Some(setup::twin_torque_step_nm(config)));
     let plant = twin.plant_mut();
     plant.set_modules(WireModules::paper());
     plant.rest_detached();

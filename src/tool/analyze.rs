@@ -489,28 +489,13 @@ fn isotropic_grid<const N: usize, D: WireDevice<N>>(
 }
 
 mod plots {
-    //! PNG plots with plotters, text in DejaVu Sans (from the `dejavu` crate; Bitstream Vera /
-    //! DejaVu font licence, free to embed and redistribute).
+    //! PNG plots with plotters (text in the font of [`crate::plotting`]).
 
     use super::*;
+    use crate::plotting::register_font;
     use plotters::prelude::*;
-    use plotters::style::FontStyle;
-    use std::sync::Once;
 
     type PlotError = Box<dyn std::error::Error + Send + Sync>;
-
-    fn register_font() {
-        static ONCE: Once = Once::new();
-        ONCE.call_once(|| {
-            // The bytes are a valid TrueType font shipped by the crate; a failure here would
-            // only lose the text of the plots.
-            let _ = plotters::style::register_font(
-                "sans-serif",
-                FontStyle::Normal,
-                dejavu::sans::regular(),
-            );
-        });
-    }
 
     fn e<E: std::fmt::Display>(path: &Path) -> impl FnOnce(E) -> PlotError + '_ {
         move |e| format!("writing {}: {e}", path.display()).into()

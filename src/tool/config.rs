@@ -1,5 +1,6 @@
-//! `videt config check FILE`: validate a configuration (ranges, what the configured CAN bus
-//! can carry, whether the tension loop is stable on the configured sensor) and print the bus
+//! `videt config check FILE`: validate a configuration (ranges, the drives' units against the
+//! device description it names, what the configured CAN bus can carry, whether the tension
+//! loop is stable on the configured sensor) and print the drives' torque resolution, the bus
 //! load, the sensor's timing and the loop's margins, and the resolved settings.
 
 use std::path::PathBuf;
@@ -29,10 +30,11 @@ pub fn run(command: &ConfigCommand) -> ToolResult {
             crate::tension_budget::plan(&config)?;
             let resolved = toml::to_string_pretty(&config)?;
             println!(
-                "# {}: valid\n# {}\n# {}\n{resolved}",
+                "# {}: valid\n# {}\n# {}\n# {}\n{resolved}",
                 file.display(),
                 crate::bus_budget::describe(&config),
-                crate::tension_budget::describe(&config)
+                crate::tension_budget::describe(&config),
+                config.describe_drive_units(),
             );
             Ok(ExitCode::SUCCESS)
         }

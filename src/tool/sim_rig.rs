@@ -99,7 +99,7 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         .map(|axis| SimDriveSpec {
             node_id: config.drives.node_ids[axis],
             axis,
-            rated_torque_mnm: (config.drives.rated_torque_nm * 1000.0).round() as u32,
+            rated_torque_mnm: setup::twin_rated_torque_mnm(&config),
             boot_delay: Duration::from_millis(20),
         })
         .collect();
@@ -141,9 +141,19 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         );
     }
     eprintln!(
-        "videt sim-rig: drives {:?} on {interface} (rated torque {} N·m), the twin's wires and operator behind them",
-        config.drives.node_ids, config.drives.rated_torque_nm
+        "videt sim-rig: drives {:?} on {interface} (rated torque {} mN·m), the twin's wires and operator behind them",
+        config.drives.node_ids,
+        setup::twin_rated_torque_mnm(&config)
     );
+    let differences = units_unlike_the_simulated_drives(&config);
+    if !differences.is_empty() {
+        eprintln!(
+            "videt sim-rig: warning: the simulated drives speak CiA 402's units (0x6076 in mN·m, \
+             positions in increments, velocities in increments/s), but drives.device_description \
+             gives {}: a videtd with this configuration will refuse or misread them",
+            differences.join(", ")
+        );
+    }
     let started = std::time::Instant::now();
     while !stop.load(Ordering::Relaxed) {
         if args
@@ -167,6 +177,32 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     stop.store(true, Ordering::Relaxed);
     let _ = physics.join();
     Ok(ExitCode::SUCCESS)
+}
+
+/// The units of the drives `config`'s device description describes that the simulated drives
+/// (CiA 402's units) do not share.
+fn units_unlike_the_simulated_drives(config: &Config) -> Vec<String> {
+    let Some(desc) = &config.drives.description else {
+        return Vec::new();
+    };
+    let mut differences = Vec::new();
+    let unit = desc.torque_unit();
+    if unit != videt_drivers::cia402::TorqueUnit::MilliNewtonMetre {
+        differences.push(format!("0x6076 in {}", unit.symbol()));
+    }
+    let r = &desc.resolution;
+    let counts_per_rev = f64::from(config.transmission.counts_per_motor_rev);
+    if let Some(p) = &r.position_unit {
+        if desc.counts_per_position_unit(counts_per_rev) != Some(1.0) {
+            differences.push(format!("positions in {}", p.value));
+        }
+    }
+    if let Some(v) = &r.velocity_unit {
+        if desc.counts_per_s_per_velocity_unit(counts_per_rev) != Some(1.0) {
+            differences.push(format!("velocities in {}", v.value));
+        }
+    }
+    differences
 }
 
 /// The twin's encoders and strain-gauge readings, as the drives report them.

@@ -62,6 +62,9 @@ pub struct Eds {
     pub product_name: Option<String>,
     /// `[DeviceInfo] VendorName`, when given.
     pub vendor_name: Option<String>,
+    /// `[DeviceInfo] VendorNumber` (the CiA-assigned vendor id, as in 0x1018 sub 1), when
+    /// given and a number.
+    pub vendor_number: Option<u32>,
 }
 
 /// Parse a numeric EDS value: decimal (optionally negative), `0x` hex, octal with a leading
@@ -185,6 +188,11 @@ impl Eds {
                 Target::DeviceInfo => match key.to_ascii_lowercase().as_str() {
                     "productname" => eds.product_name = Some(value.to_string()),
                     "vendorname" => eds.vendor_name = Some(value.to_string()),
+                    "vendornumber" => {
+                        eds.vendor_number = parse_value(value, 0)
+                            .ok()
+                            .and_then(|v| u32::try_from(v).ok())
+                    }
                     _ => {}
                 },
                 Target::Entry(k) => {
@@ -217,14 +225,19 @@ impl Eds {
     }
 
     /// The configured value of an entry as a number for node `node_id`: the DCF's
-    /// `ParameterValue` when present, else the `DefaultValue`. `Ok(None)` when the entry or its
-    /// value is absent.
+    /// `ParameterValue` when present and not empty, else the `DefaultValue`. `Ok(None)` when the
+    /// entry or both values are absent or empty.
     pub fn value(&self, index: u16, subindex: u8, node_id: u8) -> Result<Option<i128>, EdsError> {
         let Some(e) = self.entry(index, subindex) else {
             return Ok(None);
         };
-        match e.parameter_value.as_deref().or(e.default_value.as_deref()) {
-            None | Some("") => Ok(None),
+        let text = [e.parameter_value.as_deref(), e.default_value.as_deref()]
+            .into_iter()
+            .flatten()
+            .map(str::trim)
+            .find(|v| !v.is_empty());
+        match text {
+            None => Ok(None),
             Some(v) => parse_value(v, node_id).map(Some),
         }
     }
@@ -259,6 +272,16 @@ mod tests {
         assert_eq!(eds.value(0x1800, 1, 4).unwrap(), Some(0x181));
         assert_eq!(eds.value(0x1017, 0, 4).unwrap(), Some(0));
         assert_eq!(eds.value(0x1234, 0, 4).unwrap(), None);
+    }
+
+    #[test]
+    fn a_dcf_parameter_value_wins_over_the_default_unless_empty() {
+        let text = "[DeviceInfo]\nVendorNumber=0x000000FB\n[6076]\nDefaultValue=0\nParameterValue=512871\n[6072]\nDefaultValue=1000\nParameterValue=\n[6073]\nParameterValue=\n";
+        let eds = Eds::parse(text).unwrap();
+        assert_eq!(eds.vendor_number, Some(0xFB));
+        assert_eq!(eds.value(0x6076, 0, 1).unwrap(), Some(512_871));
+        assert_eq!(eds.value(0x6072, 0, 1).unwrap(), Some(1000));
+        assert_eq!(eds.value(0x6073, 0, 1).unwrap(), None);
     }
 
     #[test]

@@ -6,6 +6,7 @@ use core::time::Duration;
 use videt_hal::{Transmission, WIRES};
 
 use super::pdo::AnalogInputObject;
+use super::resolution::TorqueUnit;
 
 /// Settings of the drive set. Build with [`DriveSetConfig::new`] and adjust fields.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,6 +19,9 @@ pub struct DriveSetConfig {
     pub transmission: Transmission,
     /// Motor rated torque (the drives' 0x6076), N·m; target torque is per mille of it.
     pub rated_torque_nm: f64,
+    /// The unit the drives give 0x6076 in (mN·m by CiA 402, µN·m on maxon drives): how the
+    /// rated torque is compared with theirs.
+    pub rated_torque_unit: TorqueUnit,
     /// Maximum wire tension, N; torque commands are clamped to the torque holding it.
     pub t_max_n: f64,
     /// Wire speed limit, m/s: above it, torque that would drive the wire faster is cut.
@@ -94,6 +98,7 @@ impl DriveSetConfig {
             host_node_id: 0x7F,
             transmission: Transmission::PAPER,
             rated_torque_nm,
+            rated_torque_unit: TorqueUnit::MilliNewtonMetre,
             t_max_n,
             max_wire_speed_m_per_s: 0.8,
             overspeed_trip_factor: 1.5,

@@ -590,7 +590,8 @@ impl<P: CanPort> Cia402DriveSet<P> {
                 self.absorb(&f, false, Instant::now());
             }
         }
-        let rated_mnm = (self.cfg.rated_torque_nm * 1000.0).round() as u32;
+        let unit = self.cfg.rated_torque_unit;
+        let rated = unit.raw(self.cfg.rated_torque_nm);
         let max_permille = self
             .cfg
             .torque_to_permille(self.cfg.max_torque_nm())
@@ -599,12 +600,13 @@ impl<P: CanPort> Cia402DriveSet<P> {
         for i in 0..WIRES {
             if self.cfg.verify_rated_torque {
                 match self.sdo_read(i, Address::new(0x6076, 0), DataType::Unsigned32) {
-                    Ok(Value::Unsigned32(v)) if v == rated_mnm => {}
+                    Ok(Value::Unsigned32(v)) if v == rated => {}
                     Ok(Value::Unsigned32(v)) => {
                         return Err(DriveError::RatedTorqueMismatch {
                             node: self.nodes[i].id,
-                            drive_mnm: v,
-                            configured_mnm: rated_mnm,
+                            drive_value: v,
+                            configured_value: rated,
+                            unit,
                         })
                     }
                     Ok(_) => {

@@ -3,6 +3,7 @@
 
 use videt_hal::{ErrorKind, LifecycleState};
 
+use super::resolution::TorqueUnit;
 use super::state::{PowerError, PowerGoal, PowerState};
 use crate::canopen::codes::{emcy_description, sdo_abort_description};
 
@@ -51,10 +52,12 @@ pub enum DriveError {
     RatedTorqueMismatch {
         /// Node id.
         node: u8,
-        /// The drive's value, mN·m.
-        drive_mnm: u32,
-        /// The configured value, mN·m.
-        configured_mnm: u32,
+        /// The drive's value, in `unit`.
+        drive_value: u32,
+        /// The configured value, in `unit`.
+        configured_value: u32,
+        /// The unit of 0x6076 on this drive.
+        unit: TorqueUnit,
     },
     /// A drive did not reach the power state in time.
     PowerTimeout {
@@ -204,11 +207,13 @@ impl core::fmt::Display for DriveError {
             }
             DriveError::RatedTorqueMismatch {
                 node,
-                drive_mnm,
-                configured_mnm,
+                drive_value,
+                configured_value,
+                unit,
             } => write!(
                 f,
-                "drive {node}: motor rated torque (0x6076) is {drive_mnm} mN·m but the configuration says {configured_mnm} mN·m"
+                "drive {node}: motor rated torque (0x6076) is {drive_value} {u} but the configuration says {configured_value} {u}",
+                u = unit.symbol()
             ),
             DriveError::PowerTimeout {
                 node,

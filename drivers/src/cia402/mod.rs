@@ -1,6 +1,7 @@
 //! CiA 402 wire drives: the power state machine ([`state`]), the process data ([`pdo`]),
 //! configuration ([`config`]), errors ([`error`]), the three-drive set implementing the
-//! HAL ([`drive_set`]) and the drives' analog inputs it receives ([`analog`]).
+//! HAL ([`drive_set`]), the drives' analog inputs it receives ([`analog`]) and the drive's
+//! units read from its device description ([`resolution`]).
 
 pub mod analog;
 pub mod compat;
@@ -8,6 +9,7 @@ pub mod config;
 pub mod drive_set;
 pub mod error;
 pub mod pdo;
+pub mod resolution;
 pub mod state;
 
 #[cfg(test)]
@@ -20,4 +22,5 @@ pub use config::{ConfigError, DriveSetConfig};
 pub use drive_set::{wire_length_m, Cia402DriveSet};
 pub use error::DriveError;
 pub use pdo::AnalogInputObject;
+pub use resolution::{DriveResolution, Origin, Sourced, TorqueUnit};
 pub use state::{PowerGoal, PowerSequencer, PowerState};

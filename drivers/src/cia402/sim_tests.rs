@@ -375,9 +375,24 @@ fn a_wrong_rated_torque_is_refused_at_configuration() {
         e,
         DriveError::RatedTorqueMismatch {
             node: 1,
-            drive_mnm: 100,
-            configured_mnm: 200
+            drive_value: 100,
+            configured_value: 200,
+            unit: crate::cia402::TorqueUnit::MilliNewtonMetre,
         }
+    );
+}
+
+#[test]
+fn the_rated_torque_is_compared_in_the_drives_unit() {
+    // Configured for a maxon drive (0x6076 in µN·m): the simulated drive's 100 (mN·m, CiA
+    // 402) is 100 µN·m to it, and the message says so.
+    let mut cfg = config();
+    cfg.rated_torque_unit = crate::cia402::TorqueUnit::MicroNewtonMetre;
+    let mut r = rig_with(cfg, 1e-4);
+    let e = r.set.configure().unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "drive 1: motor rated torque (0x6076) is 100 µN·m but the configuration says 100000 µN·m"
     );
 }
 
