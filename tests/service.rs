@@ -331,6 +331,25 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
             contact > 500,
             "--sim {sim}: in contact for {contact} periods only"
         );
+        // The session's figures: every one drawn, and each more than a blank canvas.
+        let plots = dir.path().join("plots");
+        let out = Command::new(env!("CARGO_BIN_EXE_videt"))
+            .arg("log")
+            .arg(only_log(dir.path()))
+            .arg("--plot")
+            .arg(&plots)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        for name in ["path.png", "tensions.png", "forces.png", "timing.png"] {
+            let img = image::open(plots.join(name)).unwrap().to_rgb8();
+            let background = *img.get_pixel(0, 0);
+            let drawn = img.pixels().filter(|p| **p != background).count();
+            assert!(
+                drawn > img.pixels().len() / 50,
+                "--sim {sim}: {name} has {drawn} drawn pixels"
+            );
+        }
     }
 }
 

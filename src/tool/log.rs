@@ -24,6 +24,14 @@ pub struct LogArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Draw the session's figures into this directory (path.png, tensions.png, forces.png,
+    /// timing.png).
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
+    /// The configuration the session ran with, for the tension limits on the plots (default:
+    /// the built-in defaults).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
 }
 
 /// The summary of a log.
@@ -161,6 +169,19 @@ pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::R
 /// Run `videt log`.
 pub fn run(args: &LogArgs) -> ToolResult {
     let (s, log) = summarise(args)?;
+    if let Some(dir) = &args.plot {
+        let config = match &args.config {
+            Some(path) => videt_rt_config::Config::load(path)?,
+            None => videt_rt_config::Config::default(),
+        };
+        let limits = super::log_plots::TensionLimits {
+            t_min_n: config.control.t_min_n,
+            t_max_n: config.control.t_max_n,
+        };
+        for path in super::log_plots::write_all(dir, &log, limits)? {
+            eprintln!("wrote {}", path.display());
+        }
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
     } else {

@@ -10,6 +10,7 @@ pub mod config;
 pub mod device;
 pub mod init;
 pub mod log;
+pub mod log_plots;
 pub mod motors;
 pub mod service;
 pub mod sim_rig;
