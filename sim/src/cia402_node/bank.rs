@@ -1,0 +1,240 @@
+//! Where the simulated drives live: a port on the userspace bus ([`SimPort`]), the drives
+//! answering inline on a simulated clock ([`SteppedDriveBus`]), or on their own thread
+//! ([`SimDriveBank`]).
+
+use super::*;
+
+/// A station of the userspace bus the simulated drives can sit on.
+pub trait SimPort: Send {
+    /// Send a frame.
+    fn send_frame(&mut self, frame: &SimFrame) -> Result<(), BusError>;
+    /// Receive with a timeout.
+    fn receive_frame(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError>;
+}
+
+impl SimPort for InProcessEndpoint {
+    fn send_frame(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+        self.send(frame)
+    }
+    fn receive_frame(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        self.receive_timeout(timeout)
+    }
+}
+
+impl SimPort for crate::can_bus::udp::UdpEndpoint {
+    fn send_frame(&mut self, frame: &SimFrame) -> Result<(), BusError> {
+        self.send(frame)
+    }
+    fn receive_frame(&mut self, timeout: Duration) -> Result<Option<SimFrame>, BusError> {
+        self.receive_timeout(timeout)
+    }
+}
+
+/// Simulated drives answering inline, without a thread: frames sent to the bus reach the nodes
+/// at once and their answers wait in a preallocated queue. Deterministic, for tests on the
+/// twin's simulated clock (the threaded [`SimDriveBank`] is the real-time variant).
+pub struct SteppedDriveBus<M: MotorPlant> {
+    nodes: Vec<SimDriveNode>,
+    faults: Vec<Arc<NodeFaults>>,
+    plant: M,
+    rx: std::collections::VecDeque<SimFrame>,
+}
+
+impl<M: MotorPlant> core::fmt::Debug for SteppedDriveBus<M> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SteppedDriveBus")
+            .field("nodes", &self.nodes.len())
+            .finish()
+    }
+}
+
+impl<M: MotorPlant> SteppedDriveBus<M> {
+    /// The drives `specs`, their motors in `plant`.
+    pub fn new(specs: &[SimDriveSpec], plant: M) -> Self {
+        let faults: Vec<Arc<NodeFaults>> = specs
+            .iter()
+            .map(|_| Arc::new(NodeFaults::default()))
+            .collect();
+        let nodes = specs
+            .iter()
+            .zip(&faults)
+            .map(|(s, f)| SimDriveNode::new(*s, f.clone()))
+            .collect();
+        SteppedDriveBus {
+            nodes,
+            faults,
+            plant,
+            rx: std::collections::VecDeque::with_capacity(256),
+        }
+    }
+
+    /// Fault injector of node `i`.
+    pub fn faults(&self, i: usize) -> &Arc<NodeFaults> {
+        &self.faults[i]
+    }
+
+    /// The nodes.
+    pub fn nodes(&self) -> &[SimDriveNode] {
+        &self.nodes
+    }
+
+    /// Deliver a frame to every node; their answers are queued.
+    pub fn send(&mut self, frame: &SimFrame) {
+        let rx = &mut self.rx;
+        for n in self.nodes.iter_mut() {
+            n.on_frame(frame, &mut self.plant, &mut |f| {
+                if rx.len() < rx.capacity() {
+                    rx.push_back(f)
+                }
+            });
+        }
+    }
+
+    /// The next queued answer, after letting the nodes do their time-driven work (boot-up,
+    /// heartbeats). Never waits.
+    pub fn receive(&mut self) -> Option<SimFrame> {
+        let now = Instant::now();
+        let rx = &mut self.rx;
+        for n in self.nodes.iter_mut() {
+            n.poll(now, &mut self.plant, &mut |f| {
+                if rx.len() < rx.capacity() {
+                    rx.push_back(f)
+                }
+            });
+        }
+        self.rx.pop_front()
+    }
+}
+
+/// Observable state of a bank's nodes, refreshed by the bank thread.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeView {
+    /// CiA 402 power state.
+    pub power: DrivePower,
+    /// NMT state.
+    pub nmt: NmtState,
+    /// Torque applied to the motor, N·m.
+    pub applied_torque_nm: f64,
+}
+
+/// Several simulated drives sharing one bus station and one plant, run on a thread.
+pub struct SimDriveBank {
+    stop: Arc<AtomicBool>,
+    views: Arc<Mutex<Vec<NodeView>>>,
+    faults: Vec<Arc<NodeFaults>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl core::fmt::Debug for SimDriveBank {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SimDriveBank")
+            .field("nodes", &self.faults.len())
+            .finish()
+    }
+}
+
+impl SimDriveBank {
+    /// Start the drives `specs` on `port`, their motors in `plant`.
+    pub fn spawn<P: SimPort + 'static, M: MotorPlant + 'static>(
+        port: P,
+        specs: &[SimDriveSpec],
+        plant: M,
+    ) -> SimDriveBank {
+        Self::spawn_with(port, specs, plant, || {})
+    }
+
+    /// As [`SimDriveBank::spawn`], running `on_start` first on the new thread (e.g. to raise
+    /// its scheduling priority).
+    pub fn spawn_with<P: SimPort + 'static, M: MotorPlant + 'static>(
+        mut port: P,
+        specs: &[SimDriveSpec],
+        mut plant: M,
+        on_start: impl FnOnce() + Send + 'static,
+    ) -> SimDriveBank {
+        let faults: Vec<Arc<NodeFaults>> = specs
+            .iter()
+            .map(|_| Arc::new(NodeFaults::default()))
+            .collect();
+        let mut nodes: Vec<SimDriveNode> = specs
+            .iter()
+            .zip(&faults)
+            .map(|(s, f)| SimDriveNode::new(*s, f.clone()))
+            .collect();
+        let stop = Arc::new(AtomicBool::new(false));
+        let views = Arc::new(Mutex::new(
+            nodes
+                .iter()
+                .map(|n| NodeView {
+                    power: n.power(),
+                    nmt: n.nmt_state(),
+                    applied_torque_nm: 0.0,
+                })
+                .collect::<Vec<_>>(),
+        ));
+        let (stop_t, views_t) = (stop.clone(), views.clone());
+        let thread = std::thread::Builder::new()
+            .name("sim-drives".into())
+            .spawn(move || {
+                on_start();
+                let mut outbox: Vec<SimFrame> = Vec::with_capacity(64);
+                while !stop_t.load(Ordering::Relaxed) {
+                    let now = Instant::now();
+                    let mut next = now + Duration::from_millis(5);
+                    for n in nodes.iter_mut() {
+                        next = next.min(n.poll(now, &mut plant, &mut |f| outbox.push(f)));
+                    }
+                    for f in outbox.drain(..) {
+                        let _ = port.send_frame(&f);
+                    }
+                    let wait = next.saturating_duration_since(Instant::now());
+                    match port.receive_frame(wait) {
+                        Ok(Some(frame)) => {
+                            for n in nodes.iter_mut() {
+                                n.on_frame(&frame, &mut plant, &mut |f| outbox.push(f));
+                            }
+                            for f in outbox.drain(..) {
+                                let _ = port.send_frame(&f);
+                            }
+                        }
+                        Ok(None) => {}
+                        Err(_) => std::thread::sleep(Duration::from_millis(1)),
+                    }
+                    if let Ok(mut v) = views_t.lock() {
+                        for (view, n) in v.iter_mut().zip(&nodes) {
+                            *view = NodeView {
+                                power: n.power(),
+                                nmt: n.nmt_state(),
+                                applied_torque_nm: n.applied_torque_nm(),
+                            };
+                        }
+                    }
+                }
+            })
+            .expect("spawning the simulated drive thread");
+        SimDriveBank {
+            stop,
+            views,
+            faults,
+            thread: Some(thread),
+        }
+    }
+
+    /// Fault injectors, one per node (same order as the specs).
+    pub fn faults(&self, node: usize) -> &Arc<NodeFaults> {
+        &self.faults[node]
+    }
+
+    /// The latest view of every node.
+    pub fn views(&self) -> Vec<NodeView> {
+        self.views.lock().map(|v| v.clone()).unwrap_or_default()
+    }
+}
+
+impl Drop for SimDriveBank {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
