@@ -190,9 +190,7 @@ impl<T: TwinDevice> core::fmt::Debug for CanTwin<T> {
 
 /// The simulated drives, their rated torque (0x6076, mN·m) the drive set's.
 fn node_specs(drive_config: &DriveSetConfig) -> Vec<SimDriveSpec> {
-    let rated_torque_mnm = (drive_config.rated_torque_nm * 1000.0)
-        .round()
-        .clamp(1.0, f64::from(u32::MAX)) as u32;
+    let rated_torque_mnm = setup::whole_mnm(drive_config.rated_torque_nm);
     (0..WIRES)
         .map(|i| SimDriveSpec {
             node_id: NODE_IDS[i],

@@ -27,9 +27,12 @@ pub fn transmission(config: &Config) -> Transmission {
 /// (`drives.rated_torque_nm`, from `drives.device_description` when the file gives it) to the
 /// nearest mN·m, the unit of the twins' CiA 402 drives, and at least 1.
 pub fn twin_rated_torque_mnm(config: &Config) -> u32 {
-    (config.drives.rated_torque_nm * 1000.0)
-        .round()
-        .clamp(1.0, f64::from(u32::MAX)) as u32
+    whole_mnm(config.drives.rated_torque_nm)
+}
+
+/// A rated torque in N·m to the nearest mN·m (the unit of the twins' CiA 402 drives), at least 1.
+pub fn whole_mnm(torque_nm: f64) -> u32 {
+    (torque_nm * 1000.0).round().clamp(1.0, f64::from(u32::MAX)) as u32
 }
 
 /// One step of the twins' target torque (one per mille of [`twin_rated_torque_mnm`]), N·m:

@@ -241,7 +241,7 @@ fn safety_name(s: SafetyState) -> String {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SensorSetup {
     /// `sensors.adc`.
-    pub adc: &'static str,
+    pub adc: TensionAdc,
     /// `sensors.sample_rate_sps` (0 for the drive's input).
     pub sample_rate_sps: u32,
     /// ADS1220 turbo mode.
@@ -252,22 +252,22 @@ impl SensorSetup {
     /// The supported sensors at their fastest settings.
     pub const SUPPORTED: [SensorSetup; 4] = [
         SensorSetup {
-            adc: "ads1220",
+            adc: TensionAdc::Ads1220,
             sample_rate_sps: 2000,
             turbo: true,
         },
         SensorSetup {
-            adc: "ads1220",
+            adc: TensionAdc::Ads1220,
             sample_rate_sps: 330,
             turbo: false,
         },
         SensorSetup {
-            adc: "hx711",
+            adc: TensionAdc::Hx711,
             sample_rate_sps: 80,
             turbo: false,
         },
         SensorSetup {
-            adc: "drive",
+            adc: TensionAdc::Drive,
             sample_rate_sps: 0,
             turbo: false,
         },
@@ -277,11 +277,7 @@ impl SensorSetup {
     pub fn of(config: &Config) -> SensorSetup {
         let s = &config.sensors;
         SensorSetup {
-            adc: match s.adc {
-                TensionAdc::Hx711 => "hx711",
-                TensionAdc::Ads1220 => "ads1220",
-                TensionAdc::Drive => "drive",
-            },
+            adc: s.adc,
             sample_rate_sps: if s.adc == TensionAdc::Drive {
                 0
             } else {
@@ -295,11 +291,7 @@ impl SensorSetup {
     /// bound at least two conversion periods).
     pub fn apply(&self, config: &mut Config) {
         let s = &mut config.sensors;
-        s.adc = match self.adc {
-            "hx711" => TensionAdc::Hx711,
-            "drive" => TensionAdc::Drive,
-            _ => TensionAdc::Ads1220,
-        };
+        s.adc = self.adc;
         if self.sample_rate_sps > 0 {
             s.sample_rate_sps = self.sample_rate_sps;
             let two_periods_ms = (2000 / self.sample_rate_sps + 1) as u16;
@@ -316,9 +308,12 @@ impl SensorSetup {
     /// A name for tables and plots.
     pub fn label(&self) -> String {
         match self.adc {
-            "drive" => "drive input".into(),
-            "ads1220" if self.turbo => format!("ADS1220 {} SPS turbo", self.sample_rate_sps),
-            adc => format!("{} {} SPS", adc.to_uppercase(), self.sample_rate_sps),
+            TensionAdc::Drive => "drive input".into(),
+            TensionAdc::Ads1220 if self.turbo => {
+                format!("ADS1220 {} SPS turbo", self.sample_rate_sps)
+            }
+            TensionAdc::Ads1220 => format!("ADS1220 {} SPS", self.sample_rate_sps),
+            TensionAdc::Hx711 => format!("HX711 {} SPS", self.sample_rate_sps),
         }
     }
 }

@@ -7,13 +7,7 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 use super::{BenchReport, Region};
-use crate::plotting::register_font;
-
-type PlotError = Box<dyn std::error::Error + Send + Sync>;
-
-fn e<E: std::fmt::Display>(path: &Path) -> impl FnOnce(E) -> PlotError + '_ {
-    move |e| format!("writing {}: {e}", path.display()).into()
-}
+use crate::plotting::{draw_legend, line_mark, register_font, write_error as e, PlotError};
 
 const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
@@ -123,14 +117,7 @@ fn stiffness(path: &Path, report: &BenchReport, setup: &str) -> Result<(), PlotE
             BLACK.stroke_width(1),
         ))
         .map_err(e(path))?;
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(e(path))?;
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight, path)?;
     root.present().map_err(e(path))?;
     Ok(())
 }
@@ -179,19 +166,12 @@ fn zwidth(path: &Path, report: &BenchReport) -> Result<(), PlotError> {
             .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
             .map_err(e(path))?
             .label(name)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], colour.stroke_width(2)));
+            .legend(line_mark(colour.stroke_width(2)));
         chart
             .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))
             .map_err(e(path))?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .position(SeriesLabelPosition::LowerRight)
-        .draw()
-        .map_err(e(path))?;
+    draw_legend(&mut chart, SeriesLabelPosition::LowerRight, path)?;
     root.present().map_err(e(path))?;
     Ok(())
 }
@@ -233,7 +213,7 @@ fn pop_through(path: &Path, report: &BenchReport, setup: &str) -> Result<(), Plo
         .draw_series(LineSeries::new(pts, PALETTE[0].stroke_width(2)))
         .map_err(e(path))?
         .label("penetration")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], PALETTE[0].stroke_width(2)));
+        .legend(line_mark(PALETTE[0].stroke_width(2)));
     chart
         .draw_series(
             p.pushes
@@ -251,7 +231,7 @@ fn pop_through(path: &Path, report: &BenchReport, setup: &str) -> Result<(), Plo
         ))
         .map_err(e(path))?
         .label(format!("relief feature {:.0} mm", p.feature_depth_mm))
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], PALETTE[7].stroke_width(1)));
+        .legend(line_mark(PALETTE[7].stroke_width(1)));
     chart
         .draw_series(LineSeries::new(
             [(p.wearer_push_n, 0.0), (p.wearer_push_n, y_max)],
@@ -259,15 +239,8 @@ fn pop_through(path: &Path, report: &BenchReport, setup: &str) -> Result<(), Plo
         ))
         .map_err(e(path))?
         .label(format!("the wearer's push, {:.1} N", p.wearer_push_n))
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], PALETTE[2].stroke_width(1)));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(e(path))?;
+        .legend(line_mark(PALETTE[2].stroke_width(1)));
+    draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, path)?;
     root.present().map_err(e(path))?;
     Ok(())
 }

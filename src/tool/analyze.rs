@@ -492,14 +492,8 @@ mod plots {
     //! PNG plots with plotters (text in the font of [`crate::plotting`]).
 
     use super::*;
-    use crate::plotting::register_font;
+    use crate::plotting::{register_font, write_error as e, PlotError};
     use plotters::prelude::*;
-
-    type PlotError = Box<dyn std::error::Error + Send + Sync>;
-
-    fn e<E: std::fmt::Display>(path: &Path) -> impl FnOnce(E) -> PlotError + '_ {
-        move |e| format!("writing {}: {e}", path.display()).into()
-    }
 
     /// Write every plot for the request into `dir`; returns the files written.
     pub fn write_all(

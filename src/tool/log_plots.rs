@@ -10,14 +10,8 @@ use videt_control::measures::v_index;
 use videt_control::safety::SafetyState;
 
 use crate::cycle::CycleRecord;
-use crate::plotting::register_font;
+use crate::plotting::{draw_legend, line_mark, register_font, write_error as e, PlotError};
 use crate::telemetry::Log;
-
-type PlotError = Box<dyn std::error::Error + Send + Sync>;
-
-fn e<E: std::fmt::Display>(path: &Path) -> impl FnOnce(E) -> PlotError + '_ {
-    move |e| format!("writing {}: {e}", path.display()).into()
-}
 
 const WIRE_COLOURS: [RGBColor; 3] = [
     RGBColor(31, 119, 180),
@@ -129,7 +123,7 @@ fn path_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
         ))
         .map_err(e(path))?
         .label("thimble path")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK.stroke_width(1)));
+        .legend(line_mark(BLACK.stroke_width(1)));
     chart
         .draw_series(
             records
@@ -172,7 +166,7 @@ fn path_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
         )
         .map_err(e(path))?
         .label(format!("desired force f_e (1 N = {scale_mm_per_n:.1} mm)"))
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], ORANGE.stroke_width(2)));
+        .legend(line_mark(ORANGE.stroke_width(2)));
     chart
         .draw_series(
             arrows(|r| r.rendered_force_n)
@@ -181,26 +175,47 @@ fn path_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
         )
         .map_err(e(path))?
         .label("rendered force f")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], WIRE_COLOURS[0].stroke_width(1)));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(e(path))?;
+        .legend(line_mark(WIRE_COLOURS[0].stroke_width(1)));
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight, path)?;
     root.present().map_err(e(path))?;
     Ok(())
 }
 
+type TimeChart<'a> = ChartContext<
+    'a,
+    BitMapBackend<'a>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// A panel with time (s) from the session's start on x, `y` on y, captioned and with its grid.
+fn time_chart<'a>(
+    area: &DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>,
+    caption: impl AsRef<str>,
+    t_end: f64,
+    y: core::ops::Range<f64>,
+    y_desc: &str,
+    path: &Path,
+) -> Result<TimeChart<'a>, PlotError> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(35)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..t_end.max(1e-3), y)
+        .map_err(e(path))?;
+    chart
+        .configure_mesh()
+        .x_desc("time, s")
+        .y_desc(y_desc)
+        .label_style(("sans-serif", 12))
+        .draw()
+        .map_err(e(path))?;
+    Ok(chart)
+}
+
 /// Vertical lines at the safety events, labelled with the new state.
-fn draw_events<DB: DrawingBackend>(
-    chart: &mut ChartContext<
-        '_,
-        DB,
-        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
-    >,
+fn draw_events(
+    chart: &mut TimeChart<'_>,
     events: &[(f64, SafetyState)],
     (y_lo, y_hi): (f64, f64),
 ) -> Result<(), String> {
@@ -245,20 +260,14 @@ fn tensions_plot(
                 .flat_map(|r| [r.tension_measured_n[w], r.tension_setpoint_n[w]]),
         );
         let y_hi = hi.max(limits.t_min_n * 2.0).min(limits.t_max_n * 1.1);
-        let mut chart = ChartBuilder::on(panel)
-            .caption(format!("wire {w}: tension"), ("sans-serif", 16))
-            .margin(8)
-            .x_label_area_size(35)
-            .y_label_area_size(55)
-            .build_cartesian_2d(0.0..t_end.max(1e-3), -0.1..y_hi)
-            .map_err(e(path))?;
-        chart
-            .configure_mesh()
-            .x_desc("time, s")
-            .y_desc("N")
-            .label_style(("sans-serif", 12))
-            .draw()
-            .map_err(e(path))?;
+        let mut chart = time_chart(
+            panel,
+            format!("wire {w}: tension"),
+            t_end,
+            -0.1..y_hi,
+            "N",
+            path,
+        )?;
         chart
             .draw_series(LineSeries::new(
                 records
@@ -268,7 +277,7 @@ fn tensions_plot(
             ))
             .map_err(e(path))?
             .label("set-point")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], ORANGE.stroke_width(2)));
+            .legend(line_mark(ORANGE.stroke_width(2)));
         chart
             .draw_series(LineSeries::new(
                 records
@@ -278,9 +287,7 @@ fn tensions_plot(
             ))
             .map_err(e(path))?
             .label("measured")
-            .legend(move |(x, y)| {
-                PathElement::new([(x, y), (x + 20, y)], WIRE_COLOURS[w].stroke_width(2))
-            });
+            .legend(line_mark(WIRE_COLOURS[w].stroke_width(2)));
         for (value, name) in [(limits.t_min_n, "t_min"), (limits.t_max_n, "t_max")] {
             if value <= y_hi {
                 chart
@@ -290,18 +297,11 @@ fn tensions_plot(
                     ))
                     .map_err(e(path))?
                     .label(format!("{name} = {value} N"))
-                    .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], GREY.stroke_width(1)));
+                    .legend(line_mark(GREY.stroke_width(1)));
             }
         }
         draw_events(&mut chart, events, (-0.1, y_hi)).map_err(e(path))?;
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 12))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(e(path))?;
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight, path)?;
     }
     root.present().map_err(e(path))?;
     Ok(())
@@ -326,23 +326,14 @@ fn forces_plot(
             .iter()
             .flat_map(|r| [norm(r.desired_force_n), norm(r.rendered_force_n)]),
     );
-    let mut chart = ChartBuilder::on(&top)
-        .caption(
-            "Desired force |f_e| and rendered force |f|",
-            ("sans-serif", 16),
-        )
-        .margin(8)
-        .x_label_area_size(35)
-        .y_label_area_size(55)
-        .build_cartesian_2d(0.0..t_end.max(1e-3), 0.0..f_hi.max(0.1))
-        .map_err(e(path))?;
-    chart
-        .configure_mesh()
-        .x_desc("time, s")
-        .y_desc("N")
-        .label_style(("sans-serif", 12))
-        .draw()
-        .map_err(e(path))?;
+    let mut chart = time_chart(
+        &top,
+        "Desired force |f_e| and rendered force |f|",
+        t_end,
+        0.0..f_hi.max(0.1),
+        "N",
+        path,
+    )?;
     chart
         .draw_series(LineSeries::new(
             records
@@ -352,7 +343,7 @@ fn forces_plot(
         ))
         .map_err(e(path))?
         .label("|f_e| desired")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], ORANGE.stroke_width(2)));
+        .legend(line_mark(ORANGE.stroke_width(2)));
     chart
         .draw_series(LineSeries::new(
             records
@@ -362,33 +353,17 @@ fn forces_plot(
         ))
         .map_err(e(path))?
         .label("|f| rendered by the set-points")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], WIRE_COLOURS[0].stroke_width(2)));
+        .legend(line_mark(WIRE_COLOURS[0].stroke_width(2)));
     draw_events(&mut chart, events, (0.0, f_hi.max(0.1))).map_err(e(path))?;
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 12))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(e(path))?;
-    let mut chart = ChartBuilder::on(&bottom)
-        .caption(
-            "Index V (eq. 8) in contact: rendered along desired / |desired|",
-            ("sans-serif", 16),
-        )
-        .margin(8)
-        .x_label_area_size(35)
-        .y_label_area_size(55)
-        .build_cartesian_2d(0.0..t_end.max(1e-3), -0.1..1.3)
-        .map_err(e(path))?;
-    chart
-        .configure_mesh()
-        .x_desc("time, s")
-        .y_desc("V")
-        .label_style(("sans-serif", 12))
-        .draw()
-        .map_err(e(path))?;
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight, path)?;
+    let mut chart = time_chart(
+        &bottom,
+        "Index V (eq. 8) in contact: rendered along desired / |desired|",
+        t_end,
+        -0.1..1.3,
+        "V",
+        path,
+    )?;
     chart
         .draw_series(
             records
