@@ -54,6 +54,121 @@ pub struct CycleRecord {
     pub surface_stale: bool,
     /// Wire released for replacement (`-1` when none).
     pub released_wire: i8,
+    /// What the cycle read from the devices and was told this period (what a replay feeds
+    /// back in).
+    pub inputs: CycleInputs,
+}
+
+/// How the e-stop read in a period.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EStopReading {
+    /// Not pressed.
+    #[default]
+    Released,
+    /// Pressed (latched).
+    Pressed,
+    /// The input could not be read (taken as pressed).
+    Failed,
+}
+
+/// What became of the period's torque command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TorqueWrite {
+    /// Not written (drives powered off).
+    #[default]
+    NotWritten,
+    /// Written.
+    Written,
+    /// The write failed.
+    Failed,
+}
+
+/// An operation on the cycle from outside its period (a supervisor command, a stop, a trip),
+/// recorded so that a replay applies it at the same point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CycleOp {
+    /// No operation (an empty slot).
+    #[default]
+    None,
+    /// [`ControlCycle::release_wire`].
+    ReleaseWire(Option<u8>),
+    /// [`ControlCycle::reset_faults`].
+    ResetFaults,
+    /// [`ControlCycle::restart`].
+    Restart,
+    /// [`ControlCycle::request_stop`].
+    RequestStop,
+    /// [`ControlCycle::trip`].
+    Trip(SafetyState),
+}
+
+/// Operations on the cycle since its previous period, in order (at most
+/// [`CycleOps::CAPACITY`]; more are counted as an overflow, which makes the period
+/// unreplayable).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CycleOps {
+    ops: [CycleOp; CycleOps::CAPACITY],
+    len: u8,
+    overflowed: bool,
+}
+
+impl CycleOps {
+    /// Operations kept per period.
+    pub const CAPACITY: usize = 8;
+
+    /// Append an operation (counted as an overflow when full).
+    pub fn push(&mut self, op: CycleOp) {
+        match self.ops.get_mut(usize::from(self.len)) {
+            Some(slot) => {
+                *slot = op;
+                self.len += 1;
+            }
+            None => self.overflowed = true,
+        }
+    }
+
+    /// The operations, in order.
+    pub fn as_slice(&self) -> &[CycleOp] {
+        &self.ops[..usize::from(self.len)]
+    }
+
+    /// Whether more operations came than were kept.
+    pub fn overflowed(&self) -> bool {
+        self.overflowed
+    }
+
+    /// Mark as overflowed (a decoded record that said so).
+    pub fn set_overflowed(&mut self) {
+        self.overflowed = true;
+    }
+}
+
+/// What one period of [`ControlCycle::run`] read from the devices and was told: with the
+/// configuration, the calibration and the surfaces of the session, everything its outputs
+/// depend on.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CycleInputs {
+    /// The record comes from [`ControlCycle::run`] (`false`: a procedure's period, which a
+    /// replay skips).
+    pub from_cycle: bool,
+    /// The loop asked for the deadline-overrun trip this period.
+    pub deadline_overrun: bool,
+    /// The drives were read without error.
+    pub drives_read_ok: bool,
+    /// The drive samples as read (whatever the read left in them on an error).
+    pub drives: [DriveSample; WIRES],
+    /// The tensions were read without error.
+    pub tensions_read_ok: bool,
+    /// The tensions as read, newtons (whatever the read left in them on an error).
+    pub tensions_read_n: [f64; WIRES],
+    /// The e-stop reading.
+    pub estop: EStopReading,
+    /// The torque command's fate.
+    pub torque_write: TorqueWrite,
+    /// The surface came from a live source.
+    pub surface_live: bool,
+    /// Operations on the cycle since the previous period, applied before this one.
+    pub ops: CycleOps,
 }
 
 impl CycleRecord {
@@ -157,6 +272,7 @@ pub struct ControlCycle {
     surface_changed_at_s: f64,
     surface_scale: f64,
     released_wire: Option<usize>,
+    pending_ops: CycleOps,
 }
 
 impl ControlCycle {
@@ -176,12 +292,25 @@ impl ControlCycle {
             surface_changed_at_s: 0.0,
             surface_scale: 1.0,
             released_wire: None,
+            pending_ops: CycleOps::default(),
         }
+    }
+
+    /// The rig geometry the cycle computes with.
+    pub fn rig(&self) -> &videt_control::Rig3 {
+        self.step.rig()
+    }
+
+    /// Whether the cycle renders forces at all (the rig was calibrated).
+    pub fn calibrated(&self) -> bool {
+        self.settings.calibrated
     }
 
     /// Release wire `wire` for replacement: no force rendering, that wire unpowered (it can be
     /// pulled out by hand), the others held at minimum tension. `None` resumes.
     pub fn release_wire(&mut self, wire: Option<usize>) {
+        self.pending_ops
+            .push(CycleOp::ReleaseWire(wire.map(|w| w.min(255) as u8)));
         self.released_wire = wire.filter(|&w| w < WIRES);
     }
 
@@ -193,6 +322,7 @@ impl ControlCycle {
     /// Clear latched faults (operator action). The drives stay off after a power-off fault
     /// until the service is restarted.
     pub fn reset_faults(&mut self) {
+        self.pending_ops.push(CycleOp::ResetFaults);
         if !self.powered_off {
             self.safety.reset();
         }
@@ -201,6 +331,7 @@ impl ControlCycle {
     /// Start rendering again after a hand-over (a procedure ran on the hardware): forces ramp
     /// back in from minimum tension, the tension controllers start afresh; latched faults stay.
     pub fn restart(&mut self) {
+        self.pending_ops.push(CycleOp::Restart);
         self.ramp = Ramp::Up;
         self.force_scale = 0.0;
         self.released_wire = None;
@@ -229,6 +360,7 @@ impl ControlCycle {
 
     /// Begin the shutdown ramp: forces fade to zero (every wire to `t_min`) over the ramp time.
     pub fn request_stop(&mut self) {
+        self.pending_ops.push(CycleOp::RequestStop);
         if self.ramp != Ramp::Finished {
             self.ramp = Ramp::Down;
         }
@@ -241,6 +373,7 @@ impl ControlCycle {
 
     /// Force the safe state from outside (stale surface, overruns, an operator's stop).
     pub fn trip(&mut self, state: SafetyState) {
+        self.pending_ops.push(CycleOp::Trip(state));
         self.safety.trip(state);
     }
 
@@ -262,6 +395,13 @@ impl ControlCycle {
         S: Surface + ?Sized,
     {
         let dt = self.settings.period_s;
+        let mut inputs = CycleInputs {
+            from_cycle: true,
+            deadline_overrun,
+            surface_live: view.live,
+            ops: core::mem::take(&mut self.pending_ops),
+            ..CycleInputs::default()
+        };
         let mut input = SafetyInput {
             dt_s: dt,
             deadline_overrun,
@@ -270,7 +410,9 @@ impl ControlCycle {
             setpoint_tension_n: self.output.distribution.tensions_n,
             ..SafetyInput::default()
         };
-        if hw.read_drives(&mut self.samples).is_err() {
+        inputs.drives_read_ok = hw.read_drives(&mut self.samples).is_ok();
+        inputs.drives = self.samples;
+        if !inputs.drives_read_ok {
             input.drive_fault = Some(None);
         }
         for (i, s) in self.samples.iter().enumerate() {
@@ -279,12 +421,20 @@ impl ControlCycle {
             }
         }
         let mut measured = [0.0; WIRES];
-        if hw.read_tensions(&mut measured).is_err() {
+        inputs.tensions_read_ok = hw.read_tensions(&mut measured).is_ok();
+        inputs.tensions_read_n = measured;
+        if !inputs.tensions_read_ok {
             input.sensor_fault = Some(None);
             measured = self.output.distribution.tensions_n;
         }
         input.measured_tension_n = measured;
-        input.estop_pressed = hw.is_pressed().unwrap_or(true);
+        let estop = hw.is_pressed();
+        inputs.estop = match estop {
+            Ok(false) => EStopReading::Released,
+            Ok(true) => EStopReading::Pressed,
+            Err(_) => EStopReading::Failed,
+        };
+        input.estop_pressed = estop.unwrap_or(true);
 
         let tr = &self.settings.transmission;
         let mpc = tr.metres_per_count();
@@ -360,10 +510,13 @@ impl ControlCycle {
             }
             self.output.torque_nm = [0.0; WIRES];
         } else if hw.write_torques(&self.output.torque_nm).is_err() {
+            inputs.torque_write = TorqueWrite::Failed;
             self.safety
                 .trip(SafetyState::PowerOff(SafetyReason::DriveFault {
                     wire: None,
                 }));
+        } else {
+            inputs.torque_write = TorqueWrite::Written;
         }
 
         let o = &self.output;
@@ -387,6 +540,7 @@ impl ControlCycle {
             surface_version: self.surface_version,
             surface_stale: stale,
             released_wire: self.released_wire.map_or(-1, |w| w as i8),
+            inputs,
         };
         self.cycle += 1;
     }

@@ -19,6 +19,7 @@ pub mod plotting;
 pub mod procedure_stream;
 pub mod relief_feed;
 pub mod relief_scene;
+pub mod replay;
 pub mod rt;
 pub mod service;
 pub mod setup;

@@ -7,6 +7,7 @@
 //! (it fades the forces out when the version stops changing).
 
 use std::cell::Cell;
+use std::sync::Arc;
 
 use videt_control::blend::{BlendParams, SwapRenderer, SwapRendererError};
 use videt_control::proxy::{ProxyContact, ProxyParams};
@@ -14,9 +15,11 @@ use videt_control::{Contact, Surface, Vec3};
 use videt_vision::surface::ReliefModel;
 
 use crate::snapshot::{snapshot_channel, SnapshotReader, SnapshotWriter, SurfaceFeed, SurfaceView};
+use crate::telemetry::{FeedRecording, RecordedSurface, SurfaceTap};
 
 /// The control thread's end: the newest relief, rendered through the proxy.
 pub struct ReliefFeed {
+    tap: Arc<SurfaceTap>,
     reader: SnapshotReader<ReliefModel>,
     renderer: Cell<SwapRenderer>,
     rendered_version: Cell<u64>,
@@ -34,10 +37,17 @@ pub fn relief_channel(
     period_s: f64,
 ) -> Result<(SnapshotWriter<ReliefModel>, ReliefFeed), SwapRendererError> {
     let renderer = SwapRenderer::new(proxy, blend, stiffness_n_per_m)?;
-    let (writer, reader) = snapshot_channel(initial);
+    let (mut writer, reader) = snapshot_channel(initial);
+    // Every published relief goes to the session log too (cloned on the vision thread).
+    let tap = Arc::new(SurfaceTap::default());
+    let writer_tap = Arc::clone(&tap);
+    writer.set_tap(Box::new(move |version, model: &ReliefModel| {
+        writer_tap.published(version, RecordedSurface::Relief(model.clone()))
+    }));
     Ok((
         writer,
         ReliefFeed {
+            tap,
             reader,
             renderer: Cell::new(renderer),
             rendered_version: Cell::new(0),
@@ -82,4 +92,26 @@ impl SurfaceFeed for ReliefFeed {
             live: true,
         }
     }
+    fn recording(&self) -> FeedRecording {
+        FeedRecording {
+            initial: Some(RecordedSurface::Relief(self.reader.peek().value.clone())),
+            tap: Some(Arc::clone(&self.tap)),
+        }
+    }
+}
+
+/// The relief channel with the proxy, the blend and the stiffness of `config`: how the service
+/// renders every relief (and how a replay renders the recorded ones again).
+pub fn relief_channel_for(
+    config: &videt_rt_config::Config,
+    initial: ReliefModel,
+) -> Result<(SnapshotWriter<ReliefModel>, ReliefFeed), SwapRendererError> {
+    use crate::relief_scene::{blend_params, proxy_params};
+    relief_channel(
+        initial,
+        proxy_params(),
+        blend_params(config),
+        config.control.stiffness_n_per_m,
+        1.0 / f64::from(config.control.rate_hz),
+    )
 }

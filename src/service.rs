@@ -25,7 +25,7 @@ use crate::rt;
 use crate::snapshot::SurfaceFeed;
 use crate::socket::{self, ServerSettings, ServerShared, StatusReport};
 use crate::status::{status_channel, StatusPublisher, StatusSnapshot};
-use crate::telemetry::{self, LogHeader, TelemetryProducer};
+use crate::telemetry::{self, CalibrationInForce, LogHeader, TelemetryProducer};
 
 /// Exit code after a panic in any thread.
 pub const EXIT_PANIC: u8 = 70;
@@ -48,6 +48,8 @@ pub struct ServiceOptions {
     /// The calibration file auto-initialization through the control socket writes (`None`: the
     /// service runs no procedures).
     pub calibration_path: Option<PathBuf>,
+    /// What runs (the scene, the device or the twin), for the session log.
+    pub what: String,
 }
 
 impl ServiceOptions {
@@ -67,6 +69,7 @@ impl ServiceOptions {
             status_lines: true,
             colour: None,
             calibration_path: Some(PathBuf::from(&config_calibration)),
+            what: String::new(),
         }
     }
 }
@@ -181,11 +184,15 @@ where
             .unwrap_or(0);
         let path = dir.join(format!("videt-{}.vlog", start_unix_ns / 1_000_000_000));
         let started = std::fs::create_dir_all(dir).and_then(|()| {
-            telemetry::start(
+            telemetry::start_session(
                 &path,
                 LogHeader {
                     rate_hz: config.control.rate_hz,
                     start_unix_ns,
+                },
+                telemetry::SessionRecording {
+                    session: Some(telemetry::SessionInfo::new(&options.what, config.clone())),
+                    surfaces: feed.recording(),
                 },
                 config.telemetry.ring_records as usize,
             )
@@ -272,6 +279,10 @@ where
                 warn!("{w}");
             }
             start_hardware(&mut hw).map_err(|e| e.to_string())?;
+            let mut telemetry_producer = telemetry_producer;
+            if let Some(t) = telemetry_producer.as_mut() {
+                t.calibration(cycle.cycle_count(), &CalibrationInForce::of(&cycle));
+            }
             let mut observers = Observers {
                 status: publisher,
                 telemetry: telemetry_producer,
@@ -328,10 +339,16 @@ where
                                 r.wire_zero,
                                 true,
                             );
+                            cycle.set_cycle_count(next_cycle);
+                            if let Some(t) = observers.telemetry.as_mut() {
+                                t.calibration(next_cycle, &CalibrationInForce::of(&cycle));
+                            }
                         }
-                        None => cycle.restart(),
+                        None => {
+                            cycle.restart();
+                            cycle.set_cycle_count(next_cycle);
+                        }
                     }
-                    cycle.set_cycle_count(next_cycle);
                 }
             }));
             match outcome {

@@ -7,10 +7,15 @@
 
 use videt_control::Surface;
 
+/// Sees every snapshot as it is published (on the writer's thread): the session log records
+/// surfaces through one.
+pub type PublishTap<T> = Box<dyn FnMut(u64, &T) + Send>;
+
 /// Writes snapshots: rebuild the back buffer in place, then publish it.
 pub struct SnapshotWriter<T: Send> {
     input: triple_buffer::Input<Versioned<T>>,
     version: u64,
+    tap: Option<PublishTap<T>>,
 }
 
 /// Reads the newest published snapshot.
@@ -34,7 +39,11 @@ pub fn snapshot_channel<T: Clone + Send>(initial: T) -> (SnapshotWriter<T>, Snap
         value: initial,
     });
     (
-        SnapshotWriter { input, version: 0 },
+        SnapshotWriter {
+            input,
+            version: 0,
+            tap: None,
+        },
         SnapshotReader { output },
     )
 }
@@ -47,8 +56,24 @@ impl<T: Send> SnapshotWriter<T> {
         let back = self.input.input_buffer_mut();
         fill(&mut back.value);
         back.version = self.version;
+        if let Some(tap) = self.tap.as_mut() {
+            tap(self.version, &back.value);
+        }
         self.input.publish();
         self.version
+    }
+
+    /// Show every snapshot published from now on to `tap`, with its version, before the
+    /// reader can see it.
+    pub fn set_tap(&mut self, tap: PublishTap<T>) {
+        self.tap = Some(tap);
+    }
+
+    /// Publish `value` under `version` (greater than the last one): a replay re-publishes
+    /// recorded snapshots under the versions they had.
+    pub fn publish_as(&mut self, version: u64, value: T) -> u64 {
+        self.version = version.max(self.version + 1) - 1;
+        self.publish(value)
     }
 
     /// Replace the back buffer with `value` and publish (drops the old buffer's value here, on
@@ -90,19 +115,30 @@ pub trait SurfaceFeed {
     type Surface: Surface + ?Sized;
     /// The surface to render now.
     fn current(&mut self) -> SurfaceView<'_, Self::Surface>;
+    /// How the session log records this feed's surfaces (not called on the control thread).
+    /// The default records nothing: a session on such a feed cannot be replayed.
+    fn recording(&self) -> crate::telemetry::FeedRecording {
+        crate::telemetry::FeedRecording::default()
+    }
 }
 
 /// A fixed surface (a virtual wall, a stored model): never stale.
 #[derive(Debug, Clone)]
 pub struct FixedSurface<S>(pub S);
 
-impl<S: Surface> SurfaceFeed for FixedSurface<S> {
+impl<S: Surface + crate::telemetry::session::RecordSurface> SurfaceFeed for FixedSurface<S> {
     type Surface = S;
     fn current(&mut self) -> SurfaceView<'_, S> {
         SurfaceView {
             surface: &self.0,
             version: 0,
             live: false,
+        }
+    }
+    fn recording(&self) -> crate::telemetry::FeedRecording {
+        crate::telemetry::FeedRecording {
+            initial: self.0.recorded(),
+            tap: None,
         }
     }
 }

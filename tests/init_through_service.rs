@@ -73,7 +73,9 @@ fn videtd_auto_initializes_its_own_twin_for_videt_init_through_the_socket() {
     let previous = std::fs::read(&calibration).unwrap();
 
     // The service on a twin of that frame, not calibrated: no force rendered.
-    let mut daemon = Daemon::start_uncalibrated_twin(cfg, GUIDES, p(&calibration), 120, &socket);
+    let logs = dir.path().join("logs");
+    let mut daemon =
+        Daemon::start_uncalibrated_twin(cfg, GUIDES, p(&calibration), 120, &socket, Some(&logs));
     daemon.wait_for(10.0, "videtd runs uncalibrated", |s| {
         s.cycles > 200 && s.safety == "not-calibrated"
     });
@@ -208,6 +210,23 @@ fn videtd_auto_initializes_its_own_twin_for_videt_init_through_the_socket() {
     assert!(r.ok);
     let status = daemon.wait();
     assert!(status.success(), "videtd stopped cleanly: {status:?}");
+
+    // The session replays bit for bit across the re-initialization (the new calibration is in
+    // the log), the failed and the abandoned procedures (skipped, rendering restarted).
+    let log = std::fs::read_dir(&logs)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|x| x == "vlog"))
+        .expect("a session log");
+    let out = videt(&["replay", p(&log)]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("identical"), "{text}");
+    assert!(text.contains("procedure periods"), "{text}");
+    let log = videt::telemetry::read_log(&log).unwrap();
+    assert_eq!(log.calibrations.len(), 2, "at start, and the new one");
+    assert!(!log.calibrations[0].calibration.calibrated);
+    assert!(log.calibrations[1].calibration.calibrated);
 }
 
 /// Send one line, read one reply line.

@@ -299,7 +299,7 @@ fn wait_for(
     }
 }
 
-/// The one session log in `dir/logs`.
+/// The one session log in `dir/logs`, checked to replay bit for bit.
 fn session_log(dir: &Path) -> videt::telemetry::Log {
     let logs: Vec<_> = std::fs::read_dir(dir.join("logs"))
         .unwrap()
@@ -307,7 +307,17 @@ fn session_log(dir: &Path) -> videt::telemetry::Log {
         .filter(|p| p.extension().is_some_and(|e| e == "vlog"))
         .collect();
     assert_eq!(logs.len(), 1, "{logs:?}");
-    read_log(&logs[0]).unwrap()
+    let log = read_log(&logs[0]).unwrap();
+    // What the drives, sensors and e-stop delivered through the kernel replays bit for bit.
+    let r = videt::replay::replay(&log, &Default::default()).unwrap();
+    assert!(
+        r.identical() && !r.replayed.is_empty(),
+        "replay of {}: {:?} (stopped early: {:?})",
+        logs[0].display(),
+        r.first_divergence,
+        r.stopped_early
+    );
+    log
 }
 
 /// Periods of the log that started after `t_ns` and still rendered forces before the drives

@@ -350,6 +350,15 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
                 "--sim {sim}: {name} has {drawn} drawn pixels"
             );
         }
+        // The session replays through the same control cycle, bit for bit.
+        let out = Command::new(env!("CARGO_BIN_EXE_videt"))
+            .arg("replay")
+            .arg(only_log(dir.path()))
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "--sim {sim}: {out:?}");
+        assert!(text.contains("identical"), "--sim {sim}: {text}");
     }
 }
 

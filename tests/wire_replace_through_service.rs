@@ -32,7 +32,8 @@ fn videt_wire_replace_runs_in_the_service_and_a_short_yarn_changes_nothing() {
     config.autoinit.wind_speed_m_s = 0.3;
     std::fs::write(&config_path, toml::to_string(&config).unwrap()).unwrap();
     let cfg = p(&config_path);
-    let mut daemon = Daemon::start_uncalibrated_twin(cfg, GUIDES, p(&calibration), 90, &socket);
+    let mut daemon =
+        Daemon::start_uncalibrated_twin(cfg, GUIDES, p(&calibration), 90, &socket, None);
     daemon.wait_for(10.0, "videtd runs", |s| s.cycles > 200);
 
     // Replace wire 1 (a new yarn of 0.95 m, enough for this frame): the service does it all on

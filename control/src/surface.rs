@@ -42,6 +42,11 @@ impl Plane {
         })
     }
 
+    /// The point the plane was given through, metres.
+    pub fn point_m(&self) -> Vec3 {
+        self.point_m
+    }
+
     /// Outward unit normal.
     pub fn normal(&self) -> Vec3 {
         self.normal

@@ -36,6 +36,9 @@ enum Command {
     Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
     Log(tool::log::LogArgs),
+    /// Replay a session log through the same control cycle code: bit-exact comparison of every
+    /// output, or what other settings (--config, --algorithm) would have commanded.
+    Replay(tool::replay::ReplayArgs),
     /// Talk to the running videtd: status, stop, release a wire, resume, reset faults.
     Service(tool::service::ServiceArgs),
     /// Measure the control loop's wake-up latency on this machine (compare with cyclictest).
@@ -63,6 +66,7 @@ fn main() -> ExitCode {
         Command::Analyze(a) => tool::analyze::run(a),
         Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
+        Command::Replay(a) => tool::replay::run(a),
         Command::Service(a) => tool::service::run(a),
         Command::BenchRt(a) => tool::bench_rt::run(a),
         Command::BenchHaptic(a) => tool::bench_haptic::run(a),

@@ -377,6 +377,10 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
     }
     let cycle = setup::control_cycle(config, state.rig, state.wire_zero, state.calibrated);
     options.colour = None;
+    options.what = format!(
+        "device: drives on {}, tension sensors {:?}",
+        config.drives.can_interface, config.sensors.adc
+    );
     let hw = match videt::hardware::open_device(config) {
         Ok(hw) => hw,
         Err(e) => {
@@ -602,6 +606,10 @@ fn run_camera_relief_demo(
     let (operator, _) = sweep_operator(&layout, &camera_feed.first, start, &SweepPath::default());
     scene.twin.set_operator(operator);
     info!("digital twin: a virtual operator sweeping across the relief of a camera's pairs");
+    options.what = format!(
+        "digital twin: a virtual operator sweeping across the relief of the camera pairs in {}",
+        dir.display()
+    );
     options.colour = camera_feed.colour;
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     videt::service::run_service_with(
@@ -713,7 +721,11 @@ fn run_relief_demo(
     let start = scene.twin.plant().position_m();
     scene.twin.set_operator(box_operator(&layout, start, 6.0));
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
-    run_service(RealTimeTwin::new(scene.twin), feed, cycle, options)
+    let mut options = options.clone();
+    options.what =
+        "digital twin: a bas-relief box, a virtual operator sliding over it and off its edge"
+            .into();
+    run_service(RealTimeTwin::new(scene.twin), feed, cycle, &options)
 }
 
 /// The twin with the bas-relief of a real stereo pair: the pipeline and the surface builder at
@@ -806,7 +818,11 @@ fn run_stereo_relief_demo(
         thimble: Some(thimble_publisher),
         status_suffix: Some(Box::new(move || stats.status_text())),
     };
-    videt::service::run_service_with(RealTimeTwin::new(scene.twin), feed, cycle, options, extras)
+    let mut options = options.clone();
+    options.what = format!(
+        "digital twin: a virtual operator sweeping across the bas-relief of the stereo pair {name}"
+    );
+    videt::service::run_service_with(RealTimeTwin::new(scene.twin), feed, cycle, &options, extras)
 }
 
 /// The twin's calibration as `--sim-calibration` chooses. Returns the rig, the encoder zeros and
@@ -876,6 +892,7 @@ fn wall_demo(
         wall_z_m = scene.wall_z_m,
         "{what}"
     );
+    options.what = what.to_string();
     let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     if colour_enabled(config) {
@@ -911,17 +928,7 @@ fn demo_relief_channel(
     ),
     ExitCode,
 > {
-    use videt::relief_feed::relief_channel;
-    use videt::relief_scene::{blend_params, proxy_params};
-    let period_s = 1.0 / f64::from(config.control.rate_hz);
-    relief_channel(
-        model,
-        proxy_params(),
-        blend_params(config),
-        config.control.stiffness_n_per_m,
-        period_s,
-    )
-    .map_err(|e| {
+    videt::relief_feed::relief_channel_for(config, model).map_err(|e| {
         error!("{e}");
         ExitCode::from(2)
     })

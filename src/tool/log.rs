@@ -28,8 +28,8 @@ pub struct LogArgs {
     /// timing.png).
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
-    /// The configuration the session ran with, for the tension limits on the plots (default:
-    /// the built-in defaults).
+    /// The configuration for the tension limits on the plots (default: the one the session
+    /// recorded; for an old log without one, the built-in defaults).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
 }
@@ -170,9 +170,10 @@ pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::R
 pub fn run(args: &LogArgs) -> ToolResult {
     let (s, log) = summarise(args)?;
     if let Some(dir) = &args.plot {
-        let config = match &args.config {
-            Some(path) => videt_rt_config::Config::load(path)?,
-            None => videt_rt_config::Config::default(),
+        let config = match (&args.config, &log.session) {
+            (Some(path), _) => videt_rt_config::Config::load(path)?,
+            (None, Some(Ok(session))) => session.config.clone(),
+            (None, _) => videt_rt_config::Config::default(),
         };
         let limits = super::log_plots::TensionLimits {
             t_min_n: config.control.t_min_n,
@@ -192,15 +193,37 @@ pub fn run(args: &LogArgs) -> ToolResult {
             s.rate_hz,
             s.duration_s
         );
-        println!(
-            "  dropped records: {}{}",
-            s.dropped,
-            if s.truncated_bytes > 0 {
-                " (last record cut off)"
-            } else {
-                ""
-            }
-        );
+        println!("  dropped records: {}", s.dropped);
+        if let Some(note) = log.damage_note() {
+            println!("  {note}");
+        }
+        match &log.session {
+            Some(Ok(session)) => println!(
+                "  session: {} (videtd {}, algorithm {})",
+                session.what, session.videt_version, session.config.control.algorithm
+            ),
+            Some(Err(e)) => println!("  session: {e}"),
+            None => println!("  session: not recorded (format version {})", log.version),
+        }
+        if !log.surfaces.is_empty() {
+            let lost = log
+                .surfaces
+                .values()
+                .filter(|s| matches!(s, crate::telemetry::SurfaceEntry::Lost))
+                .count();
+            let rendered: std::collections::BTreeSet<u64> =
+                log.records.iter().map(|r| r.surface_version).collect();
+            println!(
+                "  surfaces: {} versions recorded{}, {} rendered by the periods",
+                log.surfaces.len() - lost,
+                if lost > 0 {
+                    format!(" ({lost} lost)")
+                } else {
+                    String::new()
+                },
+                rendered.len()
+            );
+        }
         let p = |v: [f64; 4]| {
             format!(
                 "p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1} µs",

@@ -11,7 +11,7 @@ use videt_control::safety::SafetyState;
 
 use crate::cycle::CycleRecord;
 use crate::plotting::{draw_legend, line_mark, register_font, write_error as e, PlotError};
-use crate::telemetry::Log;
+use crate::telemetry::{Log, RecordedSurface, SurfaceEntry};
 
 const WIRE_COLOURS: [RGBColor; 3] = [
     RGBColor(31, 119, 180),
@@ -20,6 +20,7 @@ const WIRE_COLOURS: [RGBColor; 3] = [
 ];
 const GREY: RGBColor = RGBColor(127, 127, 127);
 const ORANGE: RGBColor = RGBColor(255, 127, 14);
+const BROWN: RGBColor = RGBColor(140, 86, 75);
 
 /// The tension limits drawn on the tension plots, newtons.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,7 +55,7 @@ pub fn write_all(dir: &Path, log: &Log, limits: TensionLimits) -> Result<Vec<Pat
     let events = safety_events(&log.records, t0);
     let mut written = Vec::new();
     let path = dir.join("path.png");
-    path_plot(&path, &log.records)?;
+    path_plot(&path, &log.records, session_surface(log))?;
     written.push(path);
     let path = dir.join("tensions.png");
     tensions_plot(&path, &log.records, t0, limits, &events)?;
@@ -66,6 +67,39 @@ pub fn write_all(dir: &Path, log: &Log, limits: TensionLimits) -> Result<Vec<Pat
     timing_plot(&path, &log.records)?;
     written.push(path);
     Ok(written)
+}
+
+/// The surface most of the session's periods rendered (with its version), when the log
+/// recorded it.
+fn session_surface(log: &Log) -> Option<(u64, &RecordedSurface)> {
+    let mut counts = std::collections::BTreeMap::<u64, usize>::new();
+    for r in &log.records {
+        *counts.entry(r.surface_version).or_default() += 1;
+    }
+    let (&version, _) = counts.iter().max_by_key(|(v, n)| (**n, **v))?;
+    match log.surfaces.get(&version)? {
+        SurfaceEntry::Recorded(s) => Some((version, s.as_ref())),
+        SurfaceEntry::Lost => None,
+    }
+}
+
+/// The surface's section by the plane `y = y_m`, as (x, z) in metres, at `xs`.
+fn surface_section(surface: &RecordedSurface, y_m: f64, xs: &[f64]) -> Vec<(f64, f64)> {
+    match surface {
+        RecordedSurface::Plane(p) => {
+            let (n, q) = (p.normal(), p.point_m());
+            if n.z.abs() < 1e-9 {
+                return Vec::new();
+            }
+            xs.iter()
+                .map(|&x| (x, q.z - (n.x * (x - q.x) + n.y * (y_m - q.y)) / n.z))
+                .collect()
+        }
+        RecordedSurface::Relief(m) => xs
+            .iter()
+            .filter_map(|&x| m.height_at(x, y_m).map(|h| (x, h.z_m)))
+            .collect(),
+    }
 }
 
 /// Range of `values` with a margin (never empty).
@@ -84,8 +118,13 @@ fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
 
 /// The path in the x-z plane (the profile's plane: the operator slides along x, presses along
 /// z), with the desired force f_e (orange) and the rendered force f (blue) every 50 ms in
-/// contact, and the contact points (where the finger met the surface) in grey.
-fn path_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
+/// contact, the contact points (where the finger met the surface) in grey, and the surface's
+/// section by the plane of the path (at its median y) when the log recorded the surface.
+fn path_plot(
+    path: &Path,
+    records: &[CycleRecord],
+    surface: Option<(u64, &RecordedSurface)>,
+) -> Result<(), PlotError> {
     let root = BitMapBackend::new(path, (900, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(e(path))?;
     let mm = |v: f64| v * 1e3;
@@ -124,6 +163,30 @@ fn path_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
         .map_err(e(path))?
         .label("thimble path")
         .legend(line_mark(BLACK.stroke_width(1)));
+    if let Some((version, surface)) = surface {
+        let mut ys: Vec<f64> = records.iter().map(|r| r.position_m[1]).collect();
+        ys.sort_by(f64::total_cmp);
+        let y_m = ys[ys.len() / 2];
+        let xs: Vec<f64> = (0..=400)
+            .map(|i| (xc - half + 2.0 * half * f64::from(i) / 400.0) * 1e-3)
+            .collect();
+        let section = surface_section(surface, y_m, &xs);
+        let z_window = (zc - half * 0.78)..(zc + half * 0.78);
+        chart
+            .draw_series(LineSeries::new(
+                section
+                    .iter()
+                    .map(|&(x, z)| (mm(x), mm(z)))
+                    .filter(|(_, z)| z_window.contains(z)),
+                BROWN.stroke_width(2),
+            ))
+            .map_err(e(path))?
+            .label(format!(
+                "surface at y = {:.0} mm (version {version})",
+                mm(y_m)
+            ))
+            .legend(line_mark(BROWN.stroke_width(2)));
+    }
     chart
         .draw_series(
             records
@@ -459,6 +522,74 @@ fn timing_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
     Ok(())
 }
 
+/// `replay.png`: per wire, the recorded tension set-point against the replayed one, and the
+/// recorded |f| against the replayed one, with the first divergence marked.
+pub fn replay_plot(
+    path: &Path,
+    recorded: &[CycleRecord],
+    replayed: &[CycleRecord],
+    first_divergence_s: Option<f64>,
+) -> Result<(), PlotError> {
+    if recorded.is_empty() || recorded.len() != replayed.len() {
+        return Err("nothing replayed to plot".into());
+    }
+    register_font();
+    let root = BitMapBackend::new(path, (1000, 1100)).into_drawing_area();
+    root.fill(&WHITE).map_err(e(path))?;
+    let panels = root.split_evenly((4, 1));
+    let t0 = recorded[0].time.as_secs_f64();
+    let t_end = recorded[recorded.len() - 1].time.as_secs_f64() - t0;
+    let t = |r: &CycleRecord| r.time.as_secs_f64() - t0;
+    type Pick = Box<dyn Fn(&CycleRecord) -> f64>;
+    let series: Vec<(String, &str, Pick)> = (0..3)
+        .map(|w| {
+            (
+                format!("wire {w}: tension set-point, recorded and replayed"),
+                "N",
+                Box::new(move |r: &CycleRecord| r.tension_setpoint_n[w]) as Pick,
+            )
+        })
+        .chain(std::iter::once((
+            "|f|, the force the set-points render: recorded and replayed".to_string(),
+            "N",
+            Box::new(|r: &CycleRecord| norm(r.rendered_force_n)) as Pick,
+        )))
+        .collect();
+    for (panel, (caption, unit, pick)) in panels.iter().zip(&series) {
+        let (lo, hi) = span(recorded.iter().chain(replayed).map(pick));
+        let mut chart = time_chart(panel, caption, t_end, lo..hi, unit, path)?;
+        chart
+            .draw_series(LineSeries::new(
+                recorded.iter().map(|r| (t(r), pick(r))),
+                GREY.stroke_width(3),
+            ))
+            .map_err(e(path))?
+            .label("recorded")
+            .legend(line_mark(GREY.stroke_width(3)));
+        chart
+            .draw_series(LineSeries::new(
+                replayed.iter().map(|r| (t(r), pick(r))),
+                ORANGE.stroke_width(1),
+            ))
+            .map_err(e(path))?
+            .label("replayed")
+            .legend(line_mark(ORANGE.stroke_width(1)));
+        if let Some(td) = first_divergence_s {
+            chart
+                .draw_series(LineSeries::new(
+                    [(td - t0, lo), (td - t0, hi)],
+                    RGBColor(148, 103, 189).stroke_width(1),
+                ))
+                .map_err(e(path))?
+                .label("first divergence")
+                .legend(line_mark(RGBColor(148, 103, 189).stroke_width(1)));
+        }
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight, path)?;
+    }
+    root.present().map_err(e(path))?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -467,14 +598,13 @@ mod tests {
     #[test]
     fn an_empty_log_is_a_clear_error_and_writes_nothing() {
         let dir = tempfile::tempdir().unwrap();
-        let log = Log {
-            header: LogHeader {
+        let log = Log::of_records(
+            LogHeader {
                 rate_hz: 1000,
                 start_unix_ns: 0,
             },
-            records: Vec::new(),
-            truncated_bytes: 0,
-        };
+            Vec::new(),
+        );
         let limits = TensionLimits {
             t_min_n: 0.3,
             t_max_n: 15.0,

@@ -12,6 +12,7 @@ pub mod init;
 pub mod log;
 pub mod log_plots;
 pub mod motors;
+pub mod replay;
 pub mod service;
 pub mod sim_rig;
 pub mod status;

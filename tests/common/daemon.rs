@@ -24,25 +24,27 @@ impl Daemon {
         calibration: &str,
         duration_s: u32,
         socket: &Path,
+        telemetry_dir: Option<&Path>,
     ) -> Daemon {
         let duration = duration_s.to_string();
-        Daemon::start(
-            &[
-                "--sim",
-                "--sim-calibration",
-                "none",
-                "--no-telemetry",
-                "--config",
-                config,
-                "--sim-guides",
-                guides,
-                "--duration",
-                &duration,
-                "--calibration",
-                calibration,
-            ],
-            socket,
-        )
+        let mut args = vec![
+            "--sim",
+            "--sim-calibration",
+            "none",
+            "--config",
+            config,
+            "--sim-guides",
+            guides,
+            "--duration",
+            &duration,
+            "--calibration",
+            calibration,
+        ];
+        match telemetry_dir.and_then(|d| d.to_str()) {
+            Some(dir) => args.extend(["--telemetry-dir", dir]),
+            None => args.push("--no-telemetry"),
+        }
+        Daemon::start(&args, socket)
     }
 
     /// Starts `videtd` with `args` and `--socket socket` (quiet, its output discarded) and waits

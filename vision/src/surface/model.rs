@@ -67,6 +67,7 @@ pub struct ReliefModel {
     triangles: Vec<[u32; 3]>,
     geometry: Vec<TriangleGeometry>,
     grid: TriangleGrid,
+    grid_cells_per_triangle: f64,
 }
 
 fn normalize(v: [f64; 3]) -> [f64; 3] {
@@ -87,6 +88,24 @@ impl ReliefModel {
         area: [f64; 4],
         back_z: f64,
         params: &ReliefParams,
+    ) -> ReliefModel {
+        ReliefModel::from_mesh_with_grid(
+            vertices,
+            triangles,
+            area,
+            back_z,
+            params.grid_cells_per_triangle,
+        )
+    }
+
+    /// [`ReliefModel::from_mesh`] with only the setting it uses: the acceleration grid's cells
+    /// per triangle (a recorded model is rebuilt with it).
+    pub fn from_mesh_with_grid(
+        vertices: Vec<[f64; 3]>,
+        triangles: Vec<[u32; 3]>,
+        area: [f64; 4],
+        back_z: f64,
+        grid_cells_per_triangle: f64,
     ) -> ReliefModel {
         let mut normals = vec![[0.0f64; 3]; vertices.len()];
         let mut geometry = Vec::with_capacity(triangles.len());
@@ -131,7 +150,7 @@ impl ReliefModel {
         for n in &mut normals {
             *n = normalize(*n);
         }
-        let grid = TriangleGrid::build(area, &flat, params.grid_cells_per_triangle);
+        let grid = TriangleGrid::build(area, &flat, grid_cells_per_triangle);
         ReliefModel {
             area,
             back_z,
@@ -140,7 +159,14 @@ impl ReliefModel {
             triangles,
             geometry,
             grid,
+            grid_cells_per_triangle,
         }
+    }
+
+    /// The acceleration grid's cells per triangle the model was built with: with the mesh, the
+    /// area and the back plane, what [`ReliefModel::from_mesh`] needs to rebuild it exactly.
+    pub fn grid_cells_per_triangle(&self) -> f64 {
+        self.grid_cells_per_triangle
     }
 
     /// Vertices `(x, y, z)`, metres.

@@ -1,0 +1,482 @@
+//! The session log's bytes (`docs/telemetry.md`): the header, the period record (its outputs,
+//! the same 256 bytes as in version 1, and its inputs), and the framing of version 2.
+
+use videt_control::safety::{SafetyReason, SafetyState};
+use videt_hal::{DriveSample, DriveState, MonoTime, WIRES};
+
+use super::session::CalibrationInForce;
+use crate::cycle::{CycleInputs, CycleOp, CycleOps, CycleRecord, EStopReading, TorqueWrite};
+
+/// File magic.
+pub const MAGIC: &[u8; 8] = b"VIDETLOG";
+/// The format version written.
+pub const FORMAT_VERSION: u32 = 2;
+/// The first format version: fixed 256-byte output records, no inputs (still read).
+pub const FORMAT_VERSION_1: u32 = 1;
+/// Header size, bytes.
+pub const HEADER_BYTES: usize = 32;
+/// Size of a period's outputs (the whole record of version 1), bytes.
+pub const RECORD_BYTES: usize = 256;
+/// Size of a period's inputs, bytes.
+pub const INPUTS_BYTES: usize = 160;
+/// Size of a period frame's payload, bytes.
+pub const PERIOD_BYTES: usize = RECORD_BYTES + INPUTS_BYTES;
+/// Size of a calibration frame's payload, bytes.
+pub const CALIBRATION_BYTES: usize = 112;
+/// Frame head (kind, reserved, payload length), bytes.
+pub const FRAME_HEAD_BYTES: usize = 8;
+/// Frame tail (CRC-32), bytes.
+pub const FRAME_TAIL_BYTES: usize = 4;
+/// Largest frame payload a reader accepts (a relief of about a million triangles), bytes.
+pub const MAX_FRAME_PAYLOAD: usize = 64 << 20;
+
+/// Kinds of frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameKind {
+    /// The session: videt version, what ran, the configuration (TOML text).
+    Session = 1,
+    /// The calibration in force from the next period on.
+    Calibration = 2,
+    /// A surface version.
+    Surface = 3,
+    /// One control period.
+    Period = 4,
+    /// A surface version that could not be recorded.
+    SurfaceLost = 5,
+}
+
+impl FrameKind {
+    /// The kind of a frame's first byte.
+    pub fn from_byte(b: u8) -> Option<FrameKind> {
+        Some(match b {
+            1 => FrameKind::Session,
+            2 => FrameKind::Calibration,
+            3 => FrameKind::Surface,
+            4 => FrameKind::Period,
+            5 => FrameKind::SurfaceLost,
+            _ => return None,
+        })
+    }
+}
+
+/// The log file's header.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LogHeader {
+    /// Control rate, Hz.
+    pub rate_hz: u32,
+    /// Wall-clock start of the session, nanoseconds since the Unix epoch.
+    pub start_unix_ns: u64,
+}
+
+/// Encode the header (version 2).
+pub fn encode_header(h: &LogHeader) -> [u8; HEADER_BYTES] {
+    let mut b = [0u8; HEADER_BYTES];
+    b[0..8].copy_from_slice(MAGIC);
+    b[8..12].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
+    b[12..16].copy_from_slice(&(PERIOD_BYTES as u32).to_le_bytes());
+    b[16..20].copy_from_slice(&h.rate_hz.to_le_bytes());
+    b[24..32].copy_from_slice(&h.start_unix_ns.to_le_bytes());
+    b
+}
+
+/// Write one frame to `out` in place: head, payload, CRC.
+pub fn frame(
+    kind: FrameKind,
+    payload: &[u8],
+    out: &mut impl std::io::Write,
+) -> std::io::Result<()> {
+    let mut head = [0u8; FRAME_HEAD_BYTES];
+    head[0] = kind as u8;
+    head[4..8].copy_from_slice(&(payload.len() as u32).to_le_bytes());
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(&head);
+    crc.update(payload);
+    out.write_all(&head)?;
+    out.write_all(payload)?;
+    out.write_all(&crc.finalize().to_le_bytes())
+}
+
+/// The CRC of a frame's head and payload.
+pub fn frame_crc(head_and_payload: &[u8]) -> u32 {
+    crc32fast::hash(head_and_payload)
+}
+
+/// Safety state codes in the log: (state, reason, wire).
+pub fn encode_safety(s: SafetyState) -> [u8; 3] {
+    let state = match s {
+        SafetyState::Normal => 0,
+        SafetyState::MinimumTension(_) => 1,
+        SafetyState::PowerOff(_) => 2,
+    };
+    let (reason, wire) = match s.reason() {
+        None => (0, 255),
+        Some(r) => (reason_code(r), r.wire().unwrap_or(255)),
+    };
+    [state, reason, wire]
+}
+
+fn reason_code(r: SafetyReason) -> u8 {
+    match r {
+        SafetyReason::EmergencyStop => 1,
+        SafetyReason::DriveFault { .. } => 2,
+        SafetyReason::SensorFault { .. } => 3,
+        SafetyReason::OverTension { .. } => 4,
+        SafetyReason::OverSpeed { .. } => 5,
+        SafetyReason::WireBreak { .. } => 6,
+        SafetyReason::DeadlineOverrun => 7,
+        SafetyReason::NotCalibrated => 8,
+        SafetyReason::StaleSurface => 9,
+        SafetyReason::SoftwareFault => 10,
+    }
+}
+
+/// Decode a safety state's codes.
+pub fn decode_safety(state: u8, reason: u8, wire: u8) -> SafetyState {
+    let w = (wire != 255).then_some(wire);
+    let r = match reason {
+        1 => SafetyReason::EmergencyStop,
+        2 => SafetyReason::DriveFault { wire: w },
+        3 => SafetyReason::SensorFault { wire: w },
+        4 => SafetyReason::OverTension { wire: wire.min(2) },
+        5 => SafetyReason::OverSpeed { wire: wire.min(2) },
+        6 => SafetyReason::WireBreak { wire: wire.min(2) },
+        7 => SafetyReason::DeadlineOverrun,
+        8 => SafetyReason::NotCalibrated,
+        9 => SafetyReason::StaleSurface,
+        _ => SafetyReason::SoftwareFault,
+    };
+    match state {
+        0 => SafetyState::Normal,
+        1 => SafetyState::MinimumTension(r),
+        _ => SafetyState::PowerOff(r),
+    }
+}
+
+/// Encode a period's outputs (the record of version 1; see `docs/telemetry.md`).
+pub fn encode_record(r: &CycleRecord, b: &mut [u8; RECORD_BYTES]) {
+    let mut at = 0;
+    let mut put = |bytes: &[u8]| {
+        b[at..at + bytes.len()].copy_from_slice(bytes);
+        at += bytes.len();
+    };
+    put(&r.cycle.to_le_bytes());
+    put(&r.time.0.to_le_bytes());
+    put(&r.wake_latency_ns.to_le_bytes());
+    put(&r.compute_ns.to_le_bytes());
+    for arr in r.vectors() {
+        for v in arr {
+            put(&v.to_le_bytes());
+        }
+    }
+    put(&r.contact_depth_m.to_le_bytes());
+    put(&r.force_scale.to_le_bytes());
+    put(&r.surface_version.to_le_bytes());
+    let flags = u32::from(r.in_contact) | (u32::from(r.surface_stale) << 1);
+    put(&flags.to_le_bytes());
+    put(&encode_safety(r.safety));
+    put(&r.released_wire.to_le_bytes());
+    debug_assert_eq!(at, RECORD_BYTES);
+}
+
+/// Decode a period's outputs (its inputs stay default).
+pub fn decode_record(b: &[u8; RECORD_BYTES]) -> CycleRecord {
+    let mut at = 0;
+    let mut take8 = || {
+        let v: [u8; 8] = b[at..at + 8].try_into().expect("8 bytes");
+        at += 8;
+        v
+    };
+    let mut r = CycleRecord {
+        cycle: u64::from_le_bytes(take8()),
+        time: MonoTime(u64::from_le_bytes(take8())),
+        wake_latency_ns: u64::from_le_bytes(take8()),
+        compute_ns: u64::from_le_bytes(take8()),
+        ..CycleRecord::default()
+    };
+    for arr in r.vectors_mut() {
+        for v in arr.iter_mut() {
+            *v = f64::from_le_bytes(take8());
+        }
+    }
+    r.contact_depth_m = f64::from_le_bytes(take8());
+    r.force_scale = f64::from_le_bytes(take8());
+    r.surface_version = u64::from_le_bytes(take8());
+    let flags = u32::from_le_bytes(b[248..252].try_into().expect("4 bytes"));
+    r.in_contact = flags & 1 != 0;
+    r.surface_stale = flags & 2 != 0;
+    r.safety = decode_safety(b[252], b[253], b[254]);
+    r.released_wire = b[255] as i8;
+    r
+}
+
+fn drive_state_code(s: DriveState) -> u8 {
+    match s {
+        DriveState::Disabled => 0,
+        DriveState::Enabled => 1,
+        DriveState::QuickStop => 2,
+        DriveState::Fault => 3,
+    }
+}
+
+fn op_bytes(op: CycleOp) -> [u8; 4] {
+    match op {
+        CycleOp::None => [0, 0, 0, 0],
+        CycleOp::ReleaseWire(w) => [1, w.unwrap_or(255), 0, 0],
+        CycleOp::ResetFaults => [2, 0, 0, 0],
+        CycleOp::Restart => [3, 0, 0, 0],
+        CycleOp::RequestStop => [4, 0, 0, 0],
+        CycleOp::Trip(s) => {
+            let [a, b, c] = encode_safety(s);
+            [5, a, b, c]
+        }
+    }
+}
+
+fn op_from_bytes(b: [u8; 4]) -> Result<CycleOp, String> {
+    Ok(match b[0] {
+        1 => CycleOp::ReleaseWire((b[1] != 255).then_some(b[1])),
+        2 => CycleOp::ResetFaults,
+        3 => CycleOp::Restart,
+        4 => CycleOp::RequestStop,
+        5 => CycleOp::Trip(decode_safety(b[1], b[2], b[3])),
+        k => return Err(format!("unknown cycle operation {k}")),
+    })
+}
+
+/// Encode a period: outputs then inputs.
+pub fn encode_period(r: &CycleRecord, b: &mut [u8; PERIOD_BYTES]) {
+    let (out, inp) = b.split_at_mut(RECORD_BYTES);
+    encode_record(r, out.try_into().expect("record bytes"));
+    inp.fill(0);
+    let i = &r.inputs;
+    inp[0] = u8::from(i.from_cycle)
+        | u8::from(i.deadline_overrun) << 1
+        | u8::from(i.drives_read_ok) << 2
+        | u8::from(i.tensions_read_ok) << 3
+        | u8::from(i.surface_live) << 4
+        | u8::from(i.ops.overflowed()) << 5;
+    inp[1] = match i.estop {
+        EStopReading::Released => 0,
+        EStopReading::Pressed => 1,
+        EStopReading::Failed => 2,
+    };
+    inp[2] = match i.torque_write {
+        TorqueWrite::NotWritten => 0,
+        TorqueWrite::Written => 1,
+        TorqueWrite::Failed => 2,
+    };
+    inp[3] = i.ops.as_slice().len() as u8;
+    for (w, d) in i.drives.iter().enumerate() {
+        let at = 8 + 24 * w;
+        inp[at..at + 8].copy_from_slice(&d.position_counts.to_le_bytes());
+        inp[at + 8..at + 16].copy_from_slice(&d.velocity_counts_per_s.to_le_bytes());
+        inp[at + 16] = drive_state_code(d.state);
+        inp[at + 18..at + 20].copy_from_slice(&d.error_code.to_le_bytes());
+    }
+    for (w, t) in i.tensions_read_n.iter().enumerate() {
+        inp[80 + 8 * w..88 + 8 * w].copy_from_slice(&t.to_le_bytes());
+    }
+    for (k, op) in i.ops.as_slice().iter().enumerate() {
+        inp[104 + 4 * k..108 + 4 * k].copy_from_slice(&op_bytes(*op));
+    }
+}
+
+/// Decode a period encoded by [`encode_period`]; undefined codes are an error.
+pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
+    let (out, inp) = b.split_at(RECORD_BYTES);
+    let mut r = decode_record(out.try_into().expect("record bytes"));
+    let flags = inp[0];
+    if flags >> 6 != 0 || inp[1] > 2 || inp[2] > 2 || usize::from(inp[3]) > CycleOps::CAPACITY {
+        return Err(format!(
+            "undefined input codes (flags {flags:#04x}, e-stop {}, torque write {}, operations {})",
+            inp[1], inp[2], inp[3]
+        ));
+    }
+    let mut drives = [DriveSample::default(); WIRES];
+    for (w, d) in drives.iter_mut().enumerate() {
+        let at = 8 + 24 * w;
+        d.position_counts = i64::from_le_bytes(inp[at..at + 8].try_into().expect("8"));
+        d.velocity_counts_per_s = f64::from_le_bytes(inp[at + 8..at + 16].try_into().expect("8"));
+        d.state = match inp[at + 16] {
+            0 => DriveState::Disabled,
+            1 => DriveState::Enabled,
+            2 => DriveState::QuickStop,
+            3 => DriveState::Fault,
+            s => return Err(format!("undefined drive state {s}")),
+        };
+        d.error_code = u16::from_le_bytes(inp[at + 18..at + 20].try_into().expect("2"));
+    }
+    let mut ops = CycleOps::default();
+    for k in 0..usize::from(inp[3]) {
+        ops.push(op_from_bytes(
+            inp[104 + 4 * k..108 + 4 * k].try_into().expect("4"),
+        )?);
+    }
+    if flags & 32 != 0 {
+        ops.set_overflowed();
+    }
+    r.inputs = CycleInputs {
+        from_cycle: flags & 1 != 0,
+        deadline_overrun: flags & 2 != 0,
+        drives_read_ok: flags & 4 != 0,
+        drives,
+        tensions_read_ok: flags & 8 != 0,
+        tensions_read_n: core::array::from_fn(|w| {
+            f64::from_le_bytes(inp[80 + 8 * w..88 + 8 * w].try_into().expect("8"))
+        }),
+        estop: [
+            EStopReading::Released,
+            EStopReading::Pressed,
+            EStopReading::Failed,
+        ][usize::from(inp[1])],
+        torque_write: [
+            TorqueWrite::NotWritten,
+            TorqueWrite::Written,
+            TorqueWrite::Failed,
+        ][usize::from(inp[2])],
+        surface_live: flags & 16 != 0,
+        ops,
+    };
+    Ok(r)
+}
+
+/// Encode a calibration frame's payload: the first period it applies to, the guides, the
+/// encoder zeros, whether forces are rendered.
+pub fn encode_calibration(from_cycle: u64, c: &CalibrationInForce) -> [u8; CALIBRATION_BYTES] {
+    let mut b = [0u8; CALIBRATION_BYTES];
+    b[0..8].copy_from_slice(&from_cycle.to_le_bytes());
+    for (k, v) in c
+        .guides_m
+        .iter()
+        .flatten()
+        .chain(c.length_at_zero_m.iter())
+        .enumerate()
+    {
+        b[8 + 8 * k..16 + 8 * k].copy_from_slice(&v.to_le_bytes());
+    }
+    b[104] = u8::from(c.calibrated);
+    b
+}
+
+/// Decode a calibration frame's payload: (first period, calibration).
+pub fn decode_calibration(
+    b: &[u8; CALIBRATION_BYTES],
+) -> Result<(u64, CalibrationInForce), String> {
+    let f = |k: usize| f64::from_le_bytes(b[8 + 8 * k..16 + 8 * k].try_into().expect("8"));
+    if b[104] > 1 {
+        return Err(format!("undefined calibrated flag {}", b[104]));
+    }
+    Ok((
+        u64::from_le_bytes(b[0..8].try_into().expect("8")),
+        CalibrationInForce {
+            guides_m: core::array::from_fn(|i| core::array::from_fn(|j| f(3 * i + j))),
+            length_at_zero_m: core::array::from_fn(|i| f(9 + i)),
+            calibrated: b[104] == 1,
+        },
+    ))
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A period with every field set.
+    pub(crate) fn sample(cycle: u64) -> CycleRecord {
+        let mut ops = CycleOps::default();
+        ops.push(CycleOp::ReleaseWire(Some(1)));
+        ops.push(CycleOp::Trip(SafetyState::MinimumTension(
+            SafetyReason::OverSpeed { wire: 2 },
+        )));
+        ops.push(CycleOp::ReleaseWire(None));
+        ops.push(CycleOp::RequestStop);
+        CycleRecord {
+            cycle,
+            time: MonoTime(cycle * 1_000_000),
+            wake_latency_ns: 12_345,
+            compute_ns: 4_321,
+            lengths_m: [0.3, 0.31, 0.32],
+            tension_setpoint_n: [1.0, 2.0, 3.0],
+            tension_measured_n: [1.1, 2.1, 3.1],
+            torque_nm: [0.001, 0.002, 0.003],
+            position_m: [0.1, 0.2, 0.3],
+            velocity_m_s: [-0.1, 0.0, 0.1],
+            desired_force_n: [0.0, 0.0, -2.0],
+            rendered_force_n: [0.0, 0.01, -2.0],
+            contact_depth_m: 0.0025,
+            in_contact: true,
+            safety: SafetyState::PowerOff(SafetyReason::WireBreak { wire: 2 }),
+            force_scale: 0.75,
+            surface_version: 9,
+            surface_stale: true,
+            released_wire: 1,
+            inputs: CycleInputs {
+                from_cycle: true,
+                deadline_overrun: true,
+                drives_read_ok: true,
+                drives: [
+                    DriveSample {
+                        position_counts: -123_456_789,
+                        velocity_counts_per_s: 1234.5,
+                        state: DriveState::Enabled,
+                        error_code: 0,
+                    },
+                    DriveSample {
+                        position_counts: 42,
+                        velocity_counts_per_s: -0.25,
+                        state: DriveState::Fault,
+                        error_code: 0x7500,
+                    },
+                    DriveSample::default(),
+                ],
+                tensions_read_ok: false,
+                tensions_read_n: [0.5, 1e300, -1.0],
+                estop: EStopReading::Failed,
+                torque_write: TorqueWrite::Failed,
+                surface_live: true,
+                ops,
+            },
+        }
+    }
+
+    #[test]
+    fn periods_round_trip_with_their_inputs() {
+        let mut b = [0u8; PERIOD_BYTES];
+        let r = sample(7);
+        encode_period(&r, &mut b);
+        assert_eq!(decode_period(&b).unwrap(), r);
+        // A NaN read from a sensor comes back bit for bit.
+        let mut nan = r;
+        nan.inputs.tensions_read_n[1] = f64::from_bits(0x7ff8_0000_0000_1234);
+        encode_period(&nan, &mut b);
+        let back = decode_period(&b).unwrap().inputs.tensions_read_n[1];
+        assert_eq!(back.to_bits(), 0x7ff8_0000_0000_1234);
+        let n = CycleRecord {
+            released_wire: -1,
+            ..CycleRecord::default()
+        };
+        encode_period(&n, &mut b);
+        assert_eq!(decode_period(&b).unwrap(), n);
+        // The outputs alone are the record of version 1.
+        let mut v1 = [0u8; RECORD_BYTES];
+        encode_period(&r, &mut b);
+        encode_record(&r, &mut v1);
+        assert_eq!(v1[..], b[..RECORD_BYTES]);
+        // Undefined codes are refused.
+        encode_period(&r, &mut b);
+        b[RECORD_BYTES + 1] = 9;
+        assert!(decode_period(&b).unwrap_err().contains("e-stop 9"));
+    }
+
+    #[test]
+    fn calibrations_round_trip() {
+        let c = CalibrationInForce {
+            guides_m: [[0.1, 0.2, 0.0], [-0.3, 0.25, 0.0], [0.0, -0.2, 0.001]],
+            length_at_zero_m: [0.4, 0.41, 0.42],
+            calibrated: true,
+        };
+        assert_eq!(
+            decode_calibration(&encode_calibration(77, &c)).unwrap(),
+            (77, c)
+        );
+    }
+}

@@ -1,0 +1,409 @@
+//! Record and replay on the whole stack: twin sessions recorded by the telemetry writer (with
+//! supervisor commands, device faults, and reliefs swapped by a vision thread) replay bit for
+//! bit through the same control cycle; a changed gain is reported at the period where it first
+//! matters; a log cut anywhere replays up to the cut.
+
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use videt::control_loop::{
+    run_control_loop, start_hardware, ControlCommand, CycleObserver, LoopControl, LoopSettings,
+    LoopStats, WindowStats,
+};
+use videt::cycle::{CycleOp, CycleRecord, WireZero};
+use videt::replay::{replay, ReplayOverrides};
+use videt::snapshot::{FixedSurface, SurfaceFeed};
+use videt::telemetry::{self, CalibrationInForce, LogHeader, SessionInfo, SessionRecording};
+use videt::{relief_scene, setup};
+use videt_hal::MonoTime;
+use videt_rt_config::Config;
+use videt_sim::TwinFault;
+
+/// Sends supervisor commands at given periods (as the control socket would).
+struct Commander {
+    queue: rtrb::Producer<ControlCommand>,
+    plan: Vec<(u64, ControlCommand)>,
+}
+
+impl CycleObserver for Commander {
+    fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
+        for (at, command) in &self.plan {
+            if *at == record.cycle {
+                let _ = self.queue.push(*command);
+            }
+        }
+    }
+}
+
+/// Run `seconds` of the twin's wall demonstration (or the relief box with a vision thread
+/// publishing rebuilt reliefs) with `commands` and `faults`, recorded into `path`.
+fn record_session(
+    path: &Path,
+    config: &Config,
+    seconds: f64,
+    relief: bool,
+    commands: Vec<(u64, ControlCommand)>,
+    faults: &[(f64, TwinFault)],
+) {
+    let mut scene = setup::demo_scene(config, 3);
+    for &(t, fault) in faults {
+        assert!(scene.twin.schedule_fault(MonoTime((t * 1e9) as u64), fault));
+    }
+    let rig = setup::rig(config).unwrap();
+    let cycle = setup::control_cycle(config, rig, WireZero::default(), true);
+    let settings = LoopSettings {
+        rate_hz: config.control.rate_hz,
+        duration_ns: Some((seconds * 1e9) as u64),
+        max_consecutive_overruns: 10,
+    };
+    let (queue, mut consumer) = rtrb::RingBuffer::new(16);
+    let commander = Commander {
+        queue,
+        plan: commands,
+    };
+    let header = LogHeader {
+        rate_hz: config.control.rate_hz,
+        start_unix_ns: 0,
+    };
+    let stop = AtomicBool::new(false);
+    let mut control = LoopControl {
+        stop: &stop,
+        commands: Some(&mut consumer),
+    };
+    let mut twin = scene.twin;
+    start_hardware(&mut twin).unwrap();
+    let mut session = Session {
+        path,
+        header,
+        info: SessionInfo::new("replay test", config.clone()),
+        twin,
+        cycle,
+        settings,
+    };
+    if relief {
+        let layout = relief_scene::ReliefLayout::for_config(config);
+        let (model, _) = relief_scene::box_relief(&layout, 0.0).unwrap();
+        let (mut writer, mut feed) = videt::relief_feed::relief_channel_for(config, model).unwrap();
+        let start = session.twin.plant().position_m();
+        session
+            .twin
+            .set_operator(relief_scene::box_operator(&layout, start, 6.0));
+        // Vision: rebuilds the box (its height changing) while the loop runs.
+        let done = Arc::new(AtomicBool::new(false));
+        let vision_done = Arc::clone(&done);
+        let vision = std::thread::spawn(move || {
+            let mut k = 0;
+            while !vision_done.load(Ordering::Relaxed) {
+                k += 1;
+                let (m, _) = relief_scene::box_relief(&layout, 0.002 * f64::from(k % 3)).unwrap();
+                writer.publish(m);
+                std::thread::sleep(std::time::Duration::from_millis(3));
+            }
+        });
+        session.run(&mut feed, &mut control, commander);
+        done.store(true, Ordering::Relaxed);
+        vision.join().unwrap();
+    } else {
+        let wall = scene.wall;
+        session.run(&mut FixedSurface(wall), &mut control, commander);
+    }
+}
+
+/// A recorded twin session about to run.
+struct Session<'a> {
+    path: &'a Path,
+    header: LogHeader,
+    info: SessionInfo,
+    twin: videt_sim::Twin,
+    cycle: videt::cycle::ControlCycle,
+    settings: LoopSettings,
+}
+
+impl Session<'_> {
+    /// Record the session, the calibration and `feed`'s surfaces, run the loop, close the log.
+    fn run<F: SurfaceFeed>(
+        mut self,
+        feed: &mut F,
+        control: &mut LoopControl<'_>,
+        commander: Commander,
+    ) {
+        let recording = SessionRecording {
+            session: Some(self.info),
+            surfaces: feed.recording(),
+        };
+        let (mut producer, writer) =
+            telemetry::start_session(self.path, self.header, recording, 1 << 16).unwrap();
+        producer.calibration(0, &CalibrationInForce::of(&self.cycle));
+        let mut observers = (producer, commander);
+        run_control_loop(
+            &mut self.twin,
+            feed,
+            &mut self.cycle,
+            &self.settings,
+            control,
+            &mut observers,
+            &mut LoopStats::default(),
+        );
+        drop(observers);
+        writer.finish().unwrap();
+    }
+}
+
+fn assert_identical(log: &telemetry::Log) -> videt::replay::Replay {
+    let r = replay(log, &ReplayOverrides::default()).unwrap();
+    assert!(r.identical(), "{:?}", r.first_divergence);
+    assert_eq!(r.stopped_early, None);
+    assert_eq!(r.replayed.len(), log.records.len());
+    r
+}
+
+#[test]
+fn a_twin_session_with_commands_and_faults_replays_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.vlog");
+    let config = Config::default();
+    record_session(
+        &path,
+        &config,
+        4.0,
+        false,
+        vec![
+            (1200, ControlCommand::ReleaseWire(1)),
+            (1500, ControlCommand::Resume),
+            (2600, ControlCommand::ResetFaults),
+        ],
+        &[(2.5, TwinFault::FailTensionSensor(2))],
+    );
+    let log = telemetry::read_log(&path).unwrap();
+    assert!(log.damage.is_none());
+    assert!(log.records.len() > 3900, "{}", log.records.len());
+    // The session went through what it was meant to: a released wire, a sensor fault, the
+    // stop ramp.
+    assert!(log.records.iter().any(|r| r.released_wire == 1));
+    assert!(log.records.iter().any(|r| !r.inputs.tensions_read_ok));
+    let ops: Vec<CycleOp> = log
+        .records
+        .iter()
+        .flat_map(|r| r.inputs.ops.as_slice().to_vec())
+        .collect();
+    for op in [
+        CycleOp::ReleaseWire(Some(1)),
+        CycleOp::ReleaseWire(None),
+        CycleOp::ResetFaults,
+        CycleOp::RequestStop,
+    ] {
+        assert!(ops.contains(&op), "{op:?} not recorded: {ops:?}");
+    }
+    assert_identical(&log);
+}
+
+#[test]
+fn a_relief_session_with_swaps_from_a_vision_thread_replays_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("r.vlog");
+    record_session(&path, &Config::default(), 3.0, true, Vec::new(), &[]);
+    let log = telemetry::read_log(&path).unwrap();
+    let rendered: std::collections::BTreeSet<u64> =
+        log.records.iter().map(|r| r.surface_version).collect();
+    assert!(
+        rendered.len() >= 3,
+        "surface versions rendered: {rendered:?}"
+    );
+    assert!(log.records.iter().filter(|r| r.in_contact).count() > 300);
+    assert_identical(&log);
+}
+
+#[test]
+fn a_changed_gain_is_reported_at_the_first_period_it_matters() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("g.vlog");
+    let config = Config::default();
+    record_session(&path, &config, 2.5, false, Vec::new(), &[]);
+    let log = telemetry::read_log(&path).unwrap();
+    // The stiffness only matters in contact, while forces are rendered.
+    let expected = log
+        .records
+        .iter()
+        .position(|r| r.in_contact && r.contact_depth_m > 0.0 && r.force_scale > 0.0)
+        .expect("the operator touches the wall");
+    let mut stiffer = config.clone();
+    stiffer.control.stiffness_n_per_m *= 1.5;
+    let r = replay(
+        &log,
+        &ReplayOverrides {
+            config: Some(stiffer),
+            algorithm: None,
+        },
+    )
+    .unwrap();
+    let d = r
+        .first_divergence
+        .expect("a stiffer wall renders other forces");
+    assert_eq!(d.record, expected, "{d}");
+    assert_eq!(d.cycle, log.records[expected].cycle);
+    assert!(d.field.starts_with("desired_force_n"), "{d}");
+    // The replay went on to the end, every period compared.
+    assert_eq!(r.replayed.len(), log.records.len());
+    assert!(r.divergent_periods > 100);
+    // Another algorithm changes the set-points, not the desired force.
+    let r = replay(
+        &log,
+        &ReplayOverrides {
+            config: None,
+            algorithm: Some("qp".into()),
+        },
+    )
+    .unwrap();
+    let d = r
+        .first_divergence
+        .expect("QP distributes differently from P2");
+    assert!(
+        d.field.starts_with("tension_setpoint_n") || d.field.starts_with("rendered_force_n"),
+        "{d}"
+    );
+    assert_eq!(r.config.control.algorithm, "QP");
+    let e = replay(
+        &log,
+        &ReplayOverrides {
+            config: None,
+            algorithm: Some("P9".into()),
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("P9") && e.contains("P1"), "{e}");
+}
+
+#[test]
+fn a_log_cut_at_a_random_byte_replays_up_to_the_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.vlog");
+    record_session(&path, &Config::default(), 1.5, true, Vec::new(), &[]);
+    let bytes = std::fs::read(&path).unwrap();
+    let whole = telemetry::parse_log(&bytes).unwrap();
+    let mut rng = 0x2545_f491_4f6c_dd1du64;
+    for _ in 0..12 {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        let cut =
+            telemetry::HEADER_BYTES + (rng as usize) % (bytes.len() - telemetry::HEADER_BYTES);
+        let log = telemetry::parse_log(&bytes[..cut]).unwrap();
+        assert!(log.damage_note().is_some() || cut == bytes.len());
+        assert_eq!(log.records[..], whole.records[..log.records.len()]);
+        match replay(&log, &ReplayOverrides::default()) {
+            Ok(r) => {
+                assert!(r.identical(), "cut at {cut}: {:?}", r.first_divergence);
+                // Up to the cut: every record, unless a surface published just before the cut
+                // did not make it into the file.
+                match &r.stopped_early {
+                    None => assert_eq!(r.replayed.len(), log.records.len(), "cut at {cut}"),
+                    Some(why) => assert!(why.contains("not in the log"), "cut at {cut}: {why}"),
+                }
+            }
+            // Cut before the session, the calibration or the first surface was written.
+            Err(e) => assert!(log.records.is_empty(), "cut at {cut}: {e}"),
+        }
+    }
+}
+
+fn videt(args: &[&std::ffi::OsStr]) -> (std::process::ExitStatus, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_videt"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status,
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn the_replay_tool_reports_plots_and_refuses_bad_logs_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.vlog");
+    record_session(&path, &Config::default(), 2.0, false, Vec::new(), &[]);
+    let (status, out, _) = videt(&["replay".as_ref(), path.as_os_str()]);
+    assert!(status.success(), "{out}");
+    assert!(out.contains("identical"), "{out}");
+
+    // Another algorithm: the outputs side by side beside the log, and the figures.
+    let plots = dir.path().join("plots");
+    let (status, out, err) = videt(&[
+        "replay".as_ref(),
+        path.as_os_str(),
+        "--algorithm".as_ref(),
+        "P1".as_ref(),
+        "--plot".as_ref(),
+        plots.as_os_str(),
+    ]);
+    assert!(status.success(), "{out}{err}");
+    assert!(out.contains("first divergence: period"), "{out}");
+    let csv = std::fs::read_to_string(dir.path().join("t.vlog.replay.csv")).unwrap();
+    assert!(
+        csv.starts_with("cycle,time_s,recorded_tension_setpoint_n_0,replayed_tension_setpoint_n_0")
+    );
+    assert!(csv.lines().count() > 2000);
+    for name in [
+        "path.png",
+        "tensions.png",
+        "forces.png",
+        "timing.png",
+        "replay.png",
+    ] {
+        let img = image::open(plots.join(name)).unwrap().to_rgb8();
+        let background = *img.get_pixel(0, 0);
+        let drawn = img.pixels().filter(|p| **p != background).count();
+        assert!(
+            drawn > img.pixels().len() / 50,
+            "{name}: {drawn} drawn pixels"
+        );
+    }
+
+    // Killed mid-write: what was written replays, and the damage is named.
+    let bytes = std::fs::read(&path).unwrap();
+    let cut = dir.path().join("cut.vlog");
+    std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3 + 5]).unwrap();
+    let (status, out, _) = videt(&["replay".as_ref(), cut.as_os_str()]);
+    assert!(status.success(), "{out}");
+    assert!(
+        out.contains("the rest is damaged") && out.contains("identical"),
+        "{out}"
+    );
+    // A corrupt record in the middle: the same.
+    let mut corrupt = bytes.clone();
+    let middle = corrupt.len() / 2;
+    corrupt[middle] ^= 0x10;
+    std::fs::write(&cut, &corrupt).unwrap();
+    let (status, out, _) = videt(&["replay".as_ref(), cut.as_os_str()]);
+    assert!(status.success() && out.contains("CRC"), "{out}");
+    // Another version, and not a log: a clear error, exit 1.
+    let mut other = bytes.clone();
+    other[8] = 7;
+    std::fs::write(&cut, &other).unwrap();
+    let (status, _, err) = videt(&["replay".as_ref(), cut.as_os_str()]);
+    assert_eq!(status.code(), Some(1));
+    assert!(
+        err.contains("version 7") && err.contains("reads versions 1 and 2"),
+        "{err}"
+    );
+    std::fs::write(&cut, "[control]\nrate_hz = 1000\n").unwrap();
+    let (status, _, err) = videt(&["replay".as_ref(), cut.as_os_str()]);
+    assert_eq!(status.code(), Some(1));
+    assert!(err.contains("not a VIDET session log"), "{err}");
+    // A version 1 log reads but cannot be replayed.
+    let mut v1 = Vec::new();
+    v1.extend_from_slice(&bytes[..8]);
+    v1.extend_from_slice(&1u32.to_le_bytes());
+    v1.extend_from_slice(&256u32.to_le_bytes());
+    v1.extend_from_slice(&bytes[16..32]);
+    v1.extend_from_slice(&[0u8; 512]);
+    std::fs::write(&cut, &v1).unwrap();
+    let (status, _, err) = videt(&["replay".as_ref(), cut.as_os_str()]);
+    assert_eq!(status.code(), Some(1));
+    assert!(err.contains("version 1 log records no inputs"), "{err}");
+    let (status, out, _) = videt(&["log".as_ref(), cut.as_os_str()]);
+    assert!(status.success() && out.contains("2 records"), "{out}");
+}
