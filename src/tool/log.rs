@@ -213,9 +213,10 @@ pub fn run(args: &LogArgs) -> ToolResult {
                 .count();
             let rendered: std::collections::BTreeSet<u64> =
                 log.records.iter().map(|r| r.surface_version).collect();
+            let recorded = log.surfaces.len() - lost;
             println!(
-                "  surfaces: {} versions recorded{}, {} rendered by the periods",
-                log.surfaces.len() - lost,
+                "  surfaces: {recorded} version{} recorded{}, {} rendered by the periods",
+                if recorded == 1 { "" } else { "s" },
                 if lost > 0 {
                     format!(" ({lost} lost)")
                 } else {
