@@ -161,6 +161,9 @@ pub struct CycleInputs {
     pub tensions_read_ok: bool,
     /// The tensions as read, newtons (whatever the read left in them on an error).
     pub tensions_read_n: [f64; WIRES],
+    /// Which wires' tension samples were new conversions (a converter slower than the control
+    /// rate repeats its last one in between).
+    pub tensions_fresh: [bool; WIRES],
     /// The e-stop reading.
     pub estop: EStopReading,
     /// The torque command's fate.
@@ -421,7 +424,9 @@ impl ControlCycle {
             }
         }
         let mut measured = [0.0; WIRES];
-        inputs.tensions_read_ok = hw.read_tensions(&mut measured).is_ok();
+        let read = hw.read_fresh_tensions(&mut measured);
+        inputs.tensions_read_ok = read.is_ok();
+        inputs.tensions_fresh = read.unwrap_or([false; WIRES]);
         inputs.tensions_read_n = measured;
         if !inputs.tensions_read_ok {
             input.sensor_fault = Some(None);

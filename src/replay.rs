@@ -131,9 +131,15 @@ impl WireDrives for RecordedDevices<'_> {
 
 impl TensionSensors for RecordedDevices<'_> {
     fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), ErrorKind> {
+        self.read_fresh_tensions(out_n).map(|_| ())
+    }
+    fn read_fresh_tensions(
+        &mut self,
+        out_n: &mut [f64; WIRES],
+    ) -> Result<[bool; WIRES], ErrorKind> {
         *out_n = self.inputs.tensions_read_n;
         if self.inputs.tensions_read_ok {
-            Ok(())
+            Ok(self.inputs.tensions_fresh)
         } else {
             Err(ErrorKind::Fault)
         }

@@ -266,6 +266,7 @@ pub fn encode_period(r: &CycleRecord, b: &mut [u8; PERIOD_BYTES]) {
         TorqueWrite::Failed => 2,
     };
     inp[3] = i.ops.as_slice().len() as u8;
+    inp[4] = (0..WIRES).fold(0, |bits, w| bits | u8::from(i.tensions_fresh[w]) << w);
     for (w, d) in i.drives.iter().enumerate() {
         let at = 8 + 24 * w;
         inp[at..at + 8].copy_from_slice(&d.position_counts.to_le_bytes());
@@ -286,7 +287,12 @@ pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
     let (out, inp) = b.split_at(RECORD_BYTES);
     let mut r = decode_record(out.try_into().expect("record bytes"));
     let flags = inp[0];
-    if flags >> 6 != 0 || inp[1] > 2 || inp[2] > 2 || usize::from(inp[3]) > CycleOps::CAPACITY {
+    if flags >> 6 != 0
+        || inp[1] > 2
+        || inp[2] > 2
+        || usize::from(inp[3]) > CycleOps::CAPACITY
+        || inp[4] >> WIRES != 0
+    {
         return Err(format!(
             "undefined input codes (flags {flags:#04x}, e-stop {}, torque write {}, operations {})",
             inp[1], inp[2], inp[3]
@@ -324,6 +330,7 @@ pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
         tensions_read_n: core::array::from_fn(|w| {
             f64::from_le_bytes(inp[80 + 8 * w..88 + 8 * w].try_into().expect("8"))
         }),
+        tensions_fresh: core::array::from_fn(|w| inp[4] & (1 << w) != 0),
         estop: [
             EStopReading::Released,
             EStopReading::Pressed,
@@ -430,6 +437,7 @@ pub(crate) mod tests {
                 ],
                 tensions_read_ok: false,
                 tensions_read_n: [0.5, 1e300, -1.0],
+                tensions_fresh: [true, false, true],
                 estop: EStopReading::Failed,
                 torque_write: TorqueWrite::Failed,
                 surface_live: true,
