@@ -130,6 +130,8 @@ pub fn start_session(
     if let Some(initial) = &recording.surfaces.initial {
         surfaces.write(0, initial, &mut out)?;
     }
+    // On disk before the first period: a log killed at once still has its header and session.
+    out.flush()?;
     let tap = recording.surfaces.tap;
     if let Some(tap) = &tap {
         tap.start_recording();

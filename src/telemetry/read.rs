@@ -115,6 +115,12 @@ pub fn read_log(path: &Path) -> Result<Log, LogError> {
 
 /// Parse a log's bytes (version 1 or 2).
 pub fn parse_log(bytes: &[u8]) -> Result<Log, LogError> {
+    if bytes.len() < HEADER_BYTES && MAGIC.starts_with(&bytes[..bytes.len().min(8)]) {
+        return Err(LogError::Format(format!(
+            "an empty session log ({} bytes: cut short before its header was written)",
+            bytes.len()
+        )));
+    }
     if bytes.len() < HEADER_BYTES || &bytes[0..8] != MAGIC {
         return Err(LogError::Format(
             "not a VIDET session log (no VIDETLOG header)".into(),
