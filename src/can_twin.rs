@@ -301,6 +301,22 @@ impl<T: TwinDevice> CanTwin<T> {
         }
     }
 
+    /// The fault handles of the twin, its bus and its drives.
+    pub fn sim_faults(&self) -> crate::sim_faults::SimFaultPort {
+        let drives = match (&self.bank, self.drives.port()) {
+            (Some(bank), _) => (0..WIRES).map(|i| Arc::clone(bank.faults(i))).collect(),
+            (None, SimCanPort::Stepped(bus)) => {
+                (0..WIRES).map(|i| Arc::clone(bus.faults(i))).collect()
+            }
+            (None, SimCanPort::Threaded(_)) => Vec::new(),
+        };
+        crate::sim_faults::SimFaultPort {
+            twin: self.twin().fault_inbox(),
+            bus: Some(Arc::clone(&self.bus_faults)),
+            drives,
+        }
+    }
+
     /// The error that put the drives into their safe state, if any.
     pub fn drive_error(&self) -> Option<DriveError> {
         self.drives.latched_error()

@@ -23,6 +23,7 @@ pub mod replay;
 pub mod rt;
 pub mod service;
 pub mod setup;
+pub mod sim_faults;
 pub mod snapshot;
 pub mod socket;
 pub mod status;

@@ -173,6 +173,13 @@ where
             return ExitCode::FAILURE;
         }
     }
+    // SIGHUP (a `systemctl reload`, a closed terminal) would end the process without ramping
+    // the forces out: it is caught and said to do nothing.
+    let hangup = Arc::new(AtomicBool::new(false));
+    if let Err(e) = signal_hook::flag::register(signal_hook::consts::SIGHUP, Arc::clone(&hangup)) {
+        error!("cannot install the handler for SIGHUP: {e}");
+        return ExitCode::FAILURE;
+    }
 
     // Telemetry.
     let mut telemetry_writer = None;
@@ -221,6 +228,7 @@ where
         status: Mutex::new(StatusReport::from_snapshot(&StatusSnapshot::default(), 0)),
         commands: Mutex::new(command_tx),
         procedures: procedure_port,
+        sim_faults: hw.sim_faults(),
     });
     let server = match &options.socket_path {
         Some(path) => {
@@ -380,6 +388,9 @@ where
     let mut last_stale = false;
     while !control.is_finished() {
         std::thread::sleep(Duration::from_millis(10));
+        if hangup.swap(false, Ordering::Relaxed) {
+            warn!("SIGHUP ignored: the configuration is read at start; restart videtd to apply a new one");
+        }
         let snapshot = reader.latest();
         let record = snapshot.record;
         if let Some(c) = &colour {

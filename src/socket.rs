@@ -42,6 +42,14 @@ pub enum Request {
     Resume,
     /// Clear latched faults that do not need a restart.
     ResetFaults,
+    /// On the twin only: inject a fault into the running twin (`sensor:1`, `bus-off`, ...;
+    /// see `videt service sim-fault --help`).
+    SimFault {
+        /// The fault: break:N, detach:N, sensor:N, sensor-restore, estop, estop-release,
+        /// drive:N, emcy:N[:CODE], emcy-clear:N, heartbeat:N, heartbeat-restore:N, bus-off,
+        /// bus-on.
+        fault: String,
+    },
 }
 
 /// The wire form of a request, parsed strictly (unknown fields rejected).
@@ -59,6 +67,8 @@ struct WireRequest {
     sim_faults: Option<Vec<String>>,
     #[serde(default)]
     sim_new_wire_length_m: Option<f64>,
+    #[serde(default)]
+    fault: Option<String>,
 }
 
 /// A procedure the service runs on its own hardware, streaming its progress back
@@ -111,6 +121,9 @@ impl ClientRequest {
     pub fn parse(line: &[u8]) -> Result<ClientRequest, String> {
         let raw: WireRequest = serde_json::from_slice(line).map_err(|e| e.to_string())?;
         let cmd = raw.cmd.as_str();
+        if cmd != "sim-fault" && raw.fault.is_some() {
+            return Err(format!("`{cmd}` takes no `fault`"));
+        }
         let procedure_field = [
             ("yes", raw.yes.is_some()),
             ("sim_seed", raw.sim_seed.is_some()),
@@ -157,10 +170,14 @@ impl ClientRequest {
                 (None, _) => Err("`release` needs `wire`".to_string()),
                 (Some(_), Some(field)) => Err(format!("`release` takes no `{field}`")),
             },
+            "sim-fault" => match raw.fault.clone() {
+                Some(fault) => plain(ClientRequest::Simple(Request::SimFault { fault })),
+                None => Err("`sim-fault` needs `fault`".to_string()),
+            },
             "init" => procedure(ProcedureCommand::Init),
             "wire-replace" => procedure(ProcedureCommand::WireReplace),
             other => Err(format!(
-                "unknown command `{other}` (status, stop, release, resume, reset-faults, init, wire-replace, continue, cancel)"
+                "unknown command `{other}` (status, stop, release, resume, reset-faults, init, wire-replace, continue, cancel, sim-fault)"
             )),
         }
     }
@@ -240,6 +257,9 @@ pub struct Response {
     /// The status, for `status`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub status: Option<StatusReport>,
+    /// What was done, for `sim-fault`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub done: Option<String>,
 }
 
 impl Response {
@@ -248,6 +268,13 @@ impl Response {
             ok: true,
             error: None,
             status: None,
+            done: None,
+        }
+    }
+    fn ok_with(done: String) -> Response {
+        Response {
+            done: Some(done),
+            ..Response::ok()
         }
     }
     /// An error reply.
@@ -256,6 +283,7 @@ impl Response {
             ok: false,
             error: Some(message.into()),
             status: None,
+            done: None,
         }
     }
 }
@@ -294,6 +322,8 @@ pub struct ServerShared {
     pub commands: Mutex<rtrb::Producer<ControlCommand>>,
     /// Procedures on the service's hardware (`None`: this service runs none).
     pub procedures: Option<crate::init::remote::ProcedurePort>,
+    /// Fault injection into the running twin (`None`: on the device).
+    pub sim_faults: Option<crate::sim_faults::SimFaultPort>,
 }
 
 /// Settings of the server.
@@ -537,6 +567,7 @@ fn answer(request: Result<Request, String>, shared: &ServerShared) -> Response {
                 ok: status.is_some(),
                 error: None,
                 status,
+                done: None,
             };
         }
         Request::Stop => ControlCommand::Stop,
@@ -546,6 +577,17 @@ fn answer(request: Result<Request, String>, shared: &ServerShared) -> Response {
         }
         Request::Resume => ControlCommand::Resume,
         Request::ResetFaults => ControlCommand::ResetFaults,
+        Request::SimFault { fault } => {
+            return match &shared.sim_faults {
+                None => Response::error(
+                    "sim-fault: faults are injected into the digital twin only (videtd --sim)",
+                ),
+                Some(port) => match port.apply(&fault) {
+                    Ok(done) => Response::ok_with(done),
+                    Err(e) => Response::error(e),
+                },
+            }
+        }
     };
     let pushed = shared
         .commands
@@ -584,9 +626,30 @@ mod tests {
                 status: Mutex::new(status),
                 commands: Mutex::new(producer),
                 procedures: None,
+                sim_faults: None,
             }),
             consumer,
         )
+    }
+
+    #[test]
+    fn sim_faults_parse_and_are_refused_off_the_twin() {
+        let r = Request::parse(br#"{"cmd":"sim-fault","fault":"sensor:1"}"#).unwrap();
+        assert_eq!(
+            r,
+            Request::SimFault {
+                fault: "sensor:1".into()
+            }
+        );
+        assert_eq!(Request::parse(&serde_json::to_vec(&r).unwrap()), Ok(r));
+        let e = Request::parse(br#"{"cmd":"sim-fault"}"#).unwrap_err();
+        assert!(e.contains("needs `fault`"), "{e}");
+        let e = Request::parse(br#"{"cmd":"status","fault":"x"}"#).unwrap_err();
+        assert!(e.contains("takes no `fault`"), "{e}");
+        let (s, _commands) = shared();
+        let reply = handle(br#"{"cmd":"sim-fault","fault":"estop"}"#, &s);
+        assert!(!reply.ok);
+        assert!(reply.error.unwrap().contains("digital twin only"));
     }
 
     #[test]

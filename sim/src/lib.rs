@@ -27,12 +27,14 @@
 pub mod can_bus;
 pub mod cia402_node;
 pub mod converter;
+pub mod fault_inbox;
 pub mod operator;
 pub mod plant;
 pub mod twin;
 pub mod twin_plant;
 
 pub use converter::ConverterModel;
+pub use fault_inbox::{FaultInbox, InboxFault};
 pub use operator::{VirtualOperator, Waypoint};
 pub use plant::{Plant, PlantParams, WireModules, GRAVITY_M_S2};
 pub use twin::{quantize_torque, ClockMode, SensorModel, Twin, TwinError, TwinFault};

@@ -135,6 +135,7 @@ pub struct Twin {
     /// Encoder count at free length zero (an incremental encoder starts anywhere at power-up).
     encoder_offset_counts: [i64; WIRES],
     scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
+    inbox: std::sync::Arc<crate::fault_inbox::FaultInbox>,
 }
 
 /// The torque a drive whose target torque comes in steps of `step_nm` (one per mille of its
@@ -191,6 +192,7 @@ impl Twin {
             step_ns,
             encoder_offset_counts: [0; WIRES],
             scheduled: [None; FAULT_SLOTS],
+            inbox: Default::default(),
         }
     }
 
@@ -310,8 +312,23 @@ impl Twin {
         }
     }
 
+    /// The inbox through which another thread posts faults to this twin while it runs.
+    pub fn fault_inbox(&self) -> std::sync::Arc<crate::fault_inbox::FaultInbox> {
+        std::sync::Arc::clone(&self.inbox)
+    }
+
     fn fire_due_faults(&mut self) {
         let now = self.sim_time();
+        if self.inbox.has_posts() {
+            let inbox = std::sync::Arc::clone(&self.inbox);
+            inbox.take(now.0, |f| match f {
+                crate::fault_inbox::InboxFault::Fault(fault) => self.inject(fault),
+                crate::fault_inbox::InboxFault::RestoreTensionSensor => {
+                    self.fail_tension_sensor(None)
+                }
+                crate::fault_inbox::InboxFault::ReleaseEStop => self.set_estop_button(false),
+            });
+        }
         for i in 0..FAULT_SLOTS {
             if let Some((at, fault)) = self.scheduled[i] {
                 if at <= now {

@@ -53,6 +53,10 @@ enum Command {
     /// Serve the digital twin as a rig on a CAN interface: its CiA 402 drives, their motors the
     /// twin's, for a videtd in device mode (bench without the rig, kernel-in-the-loop tests).
     SimRig(tool::sim_rig::SimRigArgs),
+    /// Soak videtd on the twin: random faults (sensor loss, wire break, e-stop, EMCY,
+    /// heartbeat loss, bus-off, socket abuse, SIGHUP), each recovered as documented; checks the
+    /// safe state within two periods, no panic, flat memory/fds/threads, complete session logs.
+    Soak(tool::soak::SoakArgs),
 }
 
 fn main() -> ExitCode {
@@ -73,6 +77,7 @@ fn main() -> ExitCode {
         Command::CalibrateStereo(a) => tool::calibrate_stereo::run(a),
         Command::Vision(a) => tool::vision::run(a),
         Command::SimRig(a) => tool::sim_rig::run(a),
+        Command::Soak(a) => tool::soak::run(a),
     };
     match result {
         Ok(code) => code,

@@ -57,6 +57,16 @@ pub trait ProcedureDevice: InitHardware {
     fn twin_mut(&mut self) -> Option<&mut Twin> {
         None
     }
+
+    /// The handles that inject faults into the running twin (its physics, and its simulated
+    /// bus and drives when it has them); `None` on the device.
+    fn sim_faults(&mut self) -> Option<crate::sim_faults::SimFaultPort> {
+        self.twin_mut().map(|t| crate::sim_faults::SimFaultPort {
+            twin: t.fault_inbox(),
+            bus: None,
+            drives: Vec::new(),
+        })
+    }
 }
 
 impl ProcedureDevice for Twin {
@@ -75,11 +85,17 @@ impl<H: ProcedureDevice> ProcedureDevice for CorrectedTensions<H> {
     fn twin_mut(&mut self) -> Option<&mut Twin> {
         self.inner_mut().twin_mut()
     }
+    fn sim_faults(&mut self) -> Option<crate::sim_faults::SimFaultPort> {
+        self.inner_mut().sim_faults()
+    }
 }
 
 impl<T: TwinDevice> ProcedureDevice for CanTwin<T> {
     fn twin_mut(&mut self) -> Option<&mut Twin> {
         Some(CanTwin::twin_mut(self))
+    }
+    fn sim_faults(&mut self) -> Option<crate::sim_faults::SimFaultPort> {
+        Some(CanTwin::sim_faults(self))
     }
 }
 

@@ -15,6 +15,7 @@ pub mod motors;
 pub mod replay;
 pub mod service;
 pub mod sim_rig;
+pub mod soak;
 pub mod status;
 pub mod tension_calibrate;
 pub mod through_service;
