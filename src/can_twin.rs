@@ -314,6 +314,7 @@ impl<T: TwinDevice> CanTwin<T> {
             twin: self.twin().fault_inbox(),
             bus: Some(Arc::clone(&self.bus_faults)),
             drives,
+            vision_stall: None,
         }
     }
 

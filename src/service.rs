@@ -82,6 +82,9 @@ pub struct ServiceExtras {
     pub thimble: Option<crate::snapshot::ThimblePublisher>,
     /// Text appended to each status line (called on the supervisor thread, once a second).
     pub status_suffix: Option<Box<dyn Fn() -> String + Send>>,
+    /// On the twin: while set, the scene's vision thread publishes nothing (a stalled camera,
+    /// for `sim-fault vision-stall`).
+    pub vision_stall: Option<Arc<AtomicBool>>,
 }
 
 /// Install a panic hook that, besides printing, tells the control loop to go safe and stop.
@@ -144,6 +147,7 @@ where
     let ServiceExtras {
         thimble: vision_thimble,
         status_suffix,
+        vision_stall,
     } = extras;
     let extra_text = move || status_suffix.as_ref().map_or_else(String::new, |f| f());
     install_panic_hook();
@@ -228,7 +232,10 @@ where
         status: Mutex::new(StatusReport::from_snapshot(&StatusSnapshot::default(), 0)),
         commands: Mutex::new(command_tx),
         procedures: procedure_port,
-        sim_faults: hw.sim_faults(),
+        sim_faults: hw.sim_faults().map(|port| crate::sim_faults::SimFaultPort {
+            vision_stall,
+            ..port
+        }),
     });
     let server = match &options.socket_path {
         Some(path) => {

@@ -2,6 +2,7 @@
 //! (`{"cmd":"sim-fault","fault":"..."}`, `videt service sim-fault ...`): the soak and a
 //! technician rehearsing a fault use it. Only a twin offers them; the device refuses.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use videt_hal::WIRES;
@@ -21,12 +22,15 @@ pub struct SimFaultPort {
     pub bus: Option<Arc<BusFaults>>,
     /// The simulated drives, one per wire (empty: no drives).
     pub drives: Vec<Arc<NodeFaults>>,
+    /// The scene's vision thread publishes nothing while set (`None`: no live scene).
+    pub vision_stall: Option<Arc<AtomicBool>>,
 }
 
 /// The faults `SimFaultPort::apply` knows, for errors and help.
 pub const FAULTS: &str =
     "break:N, detach:N, sensor:N, sensor-restore, estop, estop-release, drive:N, \
-     emcy:N[:CODE], emcy-clear:N, heartbeat:N, heartbeat-restore:N, bus-off, bus-on";
+     emcy:N[:CODE], emcy-clear:N, heartbeat:N, heartbeat-restore:N, bus-off, bus-on, vision-stall, \
+     vision-resume";
 
 impl SimFaultPort {
     /// Apply the fault `spec` names; returns what was done, or why not.
@@ -112,6 +116,18 @@ impl SimFaultPort {
                 bus()?.set_bus_off(false);
                 Ok("the CAN bus is back".into())
             }
+            ["vision-stall"] | ["vision-resume"] => {
+                let stall = self.vision_stall.as_ref().ok_or_else(|| {
+                    format!("fault {spec:?}: no live scene (videtd --sim --scene box)")
+                })?;
+                let on = parts[0] == "vision-stall";
+                stall.store(on, Ordering::Relaxed);
+                Ok(if on {
+                    "the vision thread stalls: no new relief".into()
+                } else {
+                    "the vision thread publishes again".into()
+                })
+            }
             _ => Err(format!("unknown fault {spec:?}: expected one of {FAULTS}")),
         }
     }
@@ -129,6 +145,7 @@ mod tests {
             drives: (0..WIRES)
                 .map(|_| Arc::new(NodeFaults::default()))
                 .collect(),
+            vision_stall: Some(Arc::new(AtomicBool::new(false))),
         };
         assert!(port.apply("sensor:1").unwrap().contains("sensor 1"));
         port.apply("bus-off").unwrap();
@@ -136,6 +153,10 @@ mod tests {
         port.apply("bus-on").unwrap();
         assert!(!port.bus.as_ref().unwrap().is_bus_off());
         assert!(port.apply("emcy:2:8611").unwrap().contains("0x8611"));
+        port.apply("vision-stall").unwrap();
+        assert!(port.vision_stall.as_ref().unwrap().load(Ordering::Relaxed));
+        port.apply("vision-resume").unwrap();
+        assert!(!port.vision_stall.as_ref().unwrap().load(Ordering::Relaxed));
         for bad in ["sensor:3", "break", "emcy:0:zz", "melt:1", ""] {
             let e = port.apply(bad).unwrap_err();
             assert!(e.contains(bad) || e.contains("unknown fault"), "{bad}: {e}");
@@ -143,8 +164,13 @@ mod tests {
         let hal_twin = SimFaultPort {
             bus: None,
             drives: Vec::new(),
+            vision_stall: None,
             ..port
         };
+        assert!(hal_twin
+            .apply("vision-stall")
+            .unwrap_err()
+            .contains("--scene box"));
         assert!(hal_twin.apply("bus-off").unwrap_err().contains("--sim can"));
         assert!(hal_twin
             .apply("heartbeat:0")

@@ -3,8 +3,8 @@
 //! `videtd --sim` runs the real runtime and control code on the digital twin (a virtual wall and
 //! a virtual operator who touches it and slides along it); `videtd --sim can` runs the same with
 //! the twin's motors behind three simulated CiA 402 drives on a userspace CAN bus, through the
-//! real CANopen drive driver. `--scene box` puts a bas-relief box in front of the HAL twin,
-//! `--scene stereo` the bas-relief of a real stereo pair, re-matched around the finger on a vision
+//! real CANopen drive driver. `--scene box` puts a bas-relief box in front of the twin (either),
+//! `--scene stereo` the bas-relief of a real stereo pair (HAL twin), re-matched around the finger on a vision
 //! thread while the operator sweeps across it. One status line per second; Ctrl-C or
 //! SIGTERM ramps the forces out, powers the drives off and exits 0. Under systemd
 //! (`Type=notify`) it reports READY=1 once the drives are enabled and pets the watchdog while the
@@ -275,8 +275,10 @@ fn main() -> ExitCode {
             return ExitCode::from(23);
         }
     };
-    if args.sim == Some(SimMode::Can) && args.scene != SimScene::Wall {
-        warn!("--scene applies to --sim (the HAL twin) only: the CAN twin touches the wall");
+    if args.sim == Some(SimMode::Can) && !matches!(args.scene, SimScene::Wall | SimScene::Box) {
+        warn!(
+            "--scene stereo and camera apply to the HAL twin only: the CAN twin touches the wall"
+        );
     }
     if let (Some(SimMode::Hal), SimScene::Camera(dir)) = (args.sim, &args.scene) {
         return run_camera_relief_demo(&config, rig, &mut options, args.sim_calibration, dir);
@@ -291,8 +293,8 @@ fn main() -> ExitCode {
         );
     }
     match args.sim {
-        Some(SimMode::Hal) if args.scene == SimScene::Box => {
-            run_relief_demo(&config, rig, &options, args.sim_calibration)
+        Some(sim) if args.scene == SimScene::Box => {
+            run_relief_demo(&config, rig, &options, args.sim_calibration, sim)
         }
         Some(SimMode::Hal) => {
             let (scene, cycle) = wall_demo(
@@ -540,6 +542,7 @@ where
     )
     .map_err(|e| format!("cannot start the vision thread: {e}"))?;
     let extras = videt::service::ServiceExtras {
+        vision_stall: None,
         thimble: None,
         status_suffix: Some(Box::new(move || {
             format!(
@@ -671,6 +674,7 @@ fn run_relief_demo(
     rig: videt_control::Rig3,
     options: &ServiceOptions,
     calibration: SimCalibration,
+    sim: SimMode,
 ) -> ExitCode {
     use videt::relief_scene::{box_operator, box_relief, ReliefLayout};
 
@@ -698,12 +702,18 @@ fn run_relief_demo(
         Err(code) => return code,
     };
     let priority = videt::rt::vision_fifo_priority(&config.realtime);
+    // `sim-fault vision-stall` holds the thread back (a stalled camera).
+    let stall = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stalled = std::sync::Arc::clone(&stall);
     let vision = std::thread::Builder::new()
         .name("videt-vision".into())
         .spawn(move || {
             videt::rt::enter_vision_priority(priority);
             loop {
                 std::thread::sleep(std::time::Duration::from_secs(1));
+                if stalled.load(std::sync::atomic::Ordering::Relaxed) {
+                    continue;
+                }
                 match box_relief(&layout, 0.0) {
                     Ok((model, _)) => {
                         writer.publish(model);
@@ -725,7 +735,34 @@ fn run_relief_demo(
     options.what =
         "digital twin: a bas-relief box, a virtual operator sliding over it and off its edge"
             .into();
-    run_service(RealTimeTwin::new(scene.twin), feed, cycle, &options)
+    let extras = || videt::service::ServiceExtras {
+        vision_stall: Some(stall.clone()),
+        ..Default::default()
+    };
+    match sim {
+        SimMode::Hal => run_service_with(
+            RealTimeTwin::new(scene.twin),
+            feed,
+            cycle,
+            &options,
+            extras(),
+        ),
+        SimMode::Can => {
+            options.what = format!("{} (drives on a simulated CAN bus)", options.what);
+            match CanTwin::new(
+                scene.twin,
+                can_twin::drive_config(config),
+                config.drives.bitrate,
+                Some(config.realtime.control_priority),
+            ) {
+                Ok(hw) => run_service_with(hw, feed, cycle, &options, extras()),
+                Err(e) => {
+                    error!("simulated CAN drives: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+    }
 }
 
 /// The twin with the bas-relief of a real stereo pair: the pipeline and the surface builder at
@@ -815,6 +852,7 @@ fn run_stereo_relief_demo(
     }
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     let extras = videt::service::ServiceExtras {
+        vision_stall: None,
         thimble: Some(thimble_publisher),
         status_suffix: Some(Box::new(move || stats.status_text())),
     };

@@ -65,6 +65,7 @@ pub trait ProcedureDevice: InitHardware {
             twin: t.fault_inbox(),
             bus: None,
             drives: Vec::new(),
+            vision_stall: None,
         })
     }
 }

@@ -52,6 +52,10 @@ pub struct SoakArgs {
     /// Which twin: `can` (drives on a simulated CAN bus) or `hal`.
     #[arg(long, default_value = "can")]
     pub sim: String,
+    /// What the twin's operator touches: `box` (a relief rebuilt every second by a vision
+    /// thread, which can stall) or `wall`.
+    #[arg(long, default_value = "box")]
+    pub scene: String,
 }
 
 /// A fault the soak injects.
@@ -65,6 +69,7 @@ enum Fault {
     BusOff,
     SocketAbuse,
     Hangup,
+    VisionStall,
 }
 
 impl Fault {
@@ -78,6 +83,7 @@ impl Fault {
             Fault::BusOff => "bus-off",
             Fault::SocketAbuse => "socket abuse",
             Fault::Hangup => "SIGHUP",
+            Fault::VisionStall => "vision stall",
         }
     }
     /// The `sim-fault` that causes it and the one that removes its cause.
@@ -92,6 +98,7 @@ impl Fault {
                 Some(format!("heartbeat-restore:{w}")),
             ),
             Fault::BusOff => (Some("bus-off".into()), Some("bus-on".into())),
+            Fault::VisionStall => (Some("vision-stall".into()), Some("vision-resume".into())),
             Fault::SocketAbuse | Fault::Hangup => (None, None),
         }
     }
@@ -102,13 +109,13 @@ impl Fault {
             Fault::WireBreak(_) => Some(&["wire-break", "over-speed", "drive-fault"]),
             Fault::EStop => Some(&["e-stop"]),
             Fault::Emcy(_) | Fault::HeartbeatLoss(_) | Fault::BusOff => Some(&["drive-fault"]),
-            Fault::SocketAbuse | Fault::Hangup => None,
+            Fault::SocketAbuse | Fault::Hangup | Fault::VisionStall => None,
         }
     }
     fn powers_off(self) -> bool {
         !matches!(
             self,
-            Fault::SensorLoss(_) | Fault::SocketAbuse | Fault::Hangup
+            Fault::SensorLoss(_) | Fault::SocketAbuse | Fault::Hangup | Fault::VisionStall
         )
     }
     /// Whether a period's inputs show the fault (the control cycle can see it).
@@ -124,7 +131,7 @@ impl Fault {
             Fault::Emcy(_) | Fault::HeartbeatLoss(_) | Fault::BusOff => drive_fault,
             // A broken wire is seen by the supervisor itself (a wire wound in without tension).
             Fault::WireBreak(_) => r.safety.reason().is_some(),
-            Fault::SocketAbuse | Fault::Hangup => false,
+            Fault::SocketAbuse | Fault::Hangup | Fault::VisionStall => false,
         }
     }
 }
@@ -177,6 +184,7 @@ fn proc_sample(pid: u32) -> Option<(u64, usize, usize)> {
 
 struct Soak {
     sim: String,
+    scene: String,
     dir: PathBuf,
     socket: PathBuf,
     videtd: PathBuf,
@@ -228,7 +236,7 @@ impl Soak {
         let stderr = self.dir.join(format!("videtd-{n}.log"));
         let _ = std::fs::remove_file(&self.socket);
         let child = Command::new(&self.videtd)
-            .args(["--sim", &self.sim, "--socket"])
+            .args(["--sim", &self.sim, "--scene", &self.scene, "--socket"])
             .arg(&self.socket)
             .arg("--telemetry-dir")
             .arg(self.dir.join(format!("logs-{n}")))
@@ -367,6 +375,31 @@ impl Soak {
                 }
             }
         }
+        if fault == Fault::VisionStall {
+            // The relief goes stale (forces fade to the free-space field) without a safe
+            // state, and comes back when the thread publishes again.
+            self.sim_fault("vision-stall")?;
+            trial.reached = self
+                .wait_status(Duration::from_secs(8), |s| s.surface_stale)
+                .map(|s| {
+                    (
+                        format!("stale, {}", s.safety),
+                        injected.elapsed().as_secs_f64(),
+                    )
+                });
+            self.sim_fault("vision-resume")?;
+            trial.recovered = trial
+                .reached
+                .as_ref()
+                .is_some_and(|r| r.0 == "stale, normal")
+                && self
+                    .wait_status(Duration::from_secs(8), |s| {
+                        !s.surface_stale && s.safety == "normal"
+                    })
+                    .is_some();
+            self.trials.push(trial);
+            return Ok(());
+        }
         match fault.expected() {
             Some(reasons) => {
                 trial.reached = self
@@ -474,6 +507,7 @@ pub fn run(args: &SoakArgs) -> ToolResult {
     };
     let mut soak = Soak {
         sim: args.sim.clone(),
+        scene: args.scene.clone(),
         socket: dir.join("videtd.sock"),
         dir: dir.clone(),
         videtd,
@@ -505,6 +539,10 @@ pub fn run(args: &SoakArgs) -> ToolResult {
         let wire = rng.random_range(0..3u8);
         let power_off_allowed = last_power_off.elapsed().as_secs_f64() >= args.power_off_every;
         let mut choices = vec![Fault::SensorLoss(wire), Fault::SocketAbuse, Fault::Hangup];
+        if args.scene == "box" {
+            choices.push(Fault::VisionStall);
+        }
+        let harmless = choices.len();
         if power_off_allowed {
             choices.extend([Fault::WireBreak(wire), Fault::EStop]);
             if can {
@@ -513,9 +551,9 @@ pub fn run(args: &SoakArgs) -> ToolResult {
         }
         let fault = if power_off_allowed {
             // One power-off fault as soon as one is allowed.
-            choices[3 + rng.random_range(0..choices.len() - 3)]
+            choices[harmless + rng.random_range(0..choices.len() - harmless)]
         } else {
-            choices[rng.random_range(0..3)]
+            choices[rng.random_range(0..harmless)]
         };
         eprintln!(
             "soak: {:7.1} s  {}",
@@ -622,6 +660,9 @@ fn report(soak: &Soak) -> ToolResult {
             t.note
         );
         let mut ok = t.recovered;
+        if t.fault == Fault::VisionStall {
+            ok &= t.reached.is_some();
+        }
         if t.fault.expected().is_some() {
             ok &= t.reached.is_some();
             // Within two periods of the fault being visible to the cycle (a broken wire is

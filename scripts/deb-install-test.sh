@@ -1,0 +1,300 @@
+#!/usr/bin/env bash
+# Debian package install test: builds the videt .deb with cargo-deb, installs it with dpkg into a
+# clean Debian bookworm root (debootstrap minbase with systemd, as on the backpack computer, but
+# in a chroot where systemd is not running) and checks what the package promises: the user, the
+# files and their owners, the conffile, the service neither enabled nor started, a clean
+# `systemd-analyze verify` of the unit, the binaries running there; then a reinstall keeps an
+# edited configuration, and remove and purge leave nothing of the package behind. A second round
+# installs without systemd-sysusers (the maintainer scripts' fallback to useradd).
+#
+#   scripts/deb-install-test.sh              build the package, then test it
+#   scripts/deb-install-test.sh --no-build   test the newest target/debian/videt_*.deb
+#   scripts/deb-install-test.sh --keep       keep the root in target/deb-test/root (debugging)
+#
+# Needs root (debootstrap, chroot, mount) and the network to a Debian mirror (the first bookworm
+# mirror of this machine's apt sources, or VIDET_DEBIAN_MIRROR); crates.io when cargo-deb has to
+# be installed. The bootstrapped root is cached as target/deb-test/bookworm-minbase-systemd.tar:
+# later runs unpack it instead of bootstrapping (delete it to bootstrap afresh). CARGO names the
+# cargo command to run (default: cargo). Prints PASS/FAIL lines and exits 1 on any FAIL.
+# The checks are shell snippets run inside the root: their $ expand there, not here.
+# shellcheck disable=SC2016
+set -euo pipefail
+cd "$(dirname "$0")/.."
+REPO=$PWD
+WORK=$REPO/target/deb-test
+ROOT=$WORK/root
+SUITE=bookworm
+INCLUDE=systemd
+CACHE=$WORK/$SUITE-minbase-$INCLUDE.tar
+CARGO=${CARGO:-cargo}
+BUILD=1
+KEEP=0
+while [ $# -gt 0 ]; do
+  case $1 in
+    --no-build) BUILD=0 ;;
+    --keep) KEEP=1 ;;
+    *) echo "usage: $0 [--no-build] [--keep]" >&2; exit 2 ;;
+  esac
+  shift
+done
+
+log() { printf '== deb-install-test: %s\n' "$*" >&2; }
+die() { echo "FAIL: $*"; exit 1; }
+now() { date +%s; }
+T0=$(now)
+TIMES=()
+phase_done() { TIMES+=("$1 $(($(now) - $2))s"); }
+
+[ "$(id -u)" = 0 ] || die "needs root (debootstrap, chroot, mount)"
+mkdir -p "$WORK"
+
+# --- mounts and clean-up ----------------------------------------------------------------------
+# Mount points under $1, deepest first.
+mounts_under() {
+  awk -v d="$1/" 'index($2, d) == 1 { print $2 }' /proc/self/mounts | sort -r
+}
+unmount_under() {
+  local m
+  for m in $(mounts_under "$1"); do
+    umount "$m" 2>/dev/null || umount -l "$m"
+  done
+}
+remove_tree() {
+  [ -e "$1" ] || return 0
+  unmount_under "$1"
+  [ -z "$(mounts_under "$1")" ] || die "$1 still has mounts; not removing it"
+  rm -rf --one-file-system "$1"
+}
+cleanup() {
+  unmount_under "$ROOT"
+  if [ "$KEEP" = 1 ]; then
+    log "root kept in $ROOT"
+  else
+    remove_tree "$ROOT"
+  fi
+}
+trap cleanup EXIT
+
+# --- host tools -------------------------------------------------------------------------------
+need=()
+for tool in debootstrap:debootstrap chroot:coreutils; do
+  command -v "${tool%%:*}" >/dev/null 2>&1 || need+=("${tool#*:}")
+done
+if [ ${#need[@]} -gt 0 ]; then
+  log "installing ${need[*]}"
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
+fi
+
+# --- the package ------------------------------------------------------------------------------
+t=$(now)
+if [ "$BUILD" = 1 ]; then
+  if ! "$CARGO" deb --version >/dev/null 2>&1; then
+    log "installing cargo-deb"
+    "$CARGO" install cargo-deb --locked
+  fi
+  log "building the package (release profile; log: $WORK/build.log)"
+  if ! DEB=$("$CARGO" deb 2>"$WORK/build.log" | tail -n 1) || [ ! -f "$DEB" ]; then
+    tail -n 30 "$WORK/build.log" >&2
+    die "cargo deb failed"
+  fi
+else
+  # shellcheck disable=SC2012 # the newest by time; the names are cargo-deb's
+  DEB=$(ls -t target/debian/videt_*.deb 2>/dev/null | head -n 1) || true
+  [ -n "$DEB" ] || die "no target/debian/videt_*.deb; run without --no-build"
+fi
+echo "package: $DEB"
+phase_done package "$t"
+
+# --- a clean bookworm root --------------------------------------------------------------------
+# The mirror: the first one this machine's apt takes bookworm from (one-line and deb822 sources).
+apt_mirror() {
+  local f
+  for f in /etc/apt/sources.list /etc/apt/sources.list.d/*.list; do
+    [ -f "$f" ] || continue
+    awk -v s="$SUITE" '$1 == "deb" { i = 2; if ($2 ~ /^\[/) { while (i <= NF && $i !~ /\]$/) i++; i++ }
+      if ($(i + 1) == s) { print $i; exit } }' "$f"
+  done
+  for f in /etc/apt/sources.list.d/*.sources; do
+    [ -f "$f" ] || continue
+    awk -v s="$SUITE" 'function flush() { if (deb && on && uris != "" && (" " suites " ") ~ (" " s " "))
+        { split(uris, u, " "); print u[1]; found = 1; exit } deb = 0; on = 1; uris = ""; suites = "" }
+      BEGIN { on = 1 }
+      /^[ \t]*$/ { flush(); next }
+      tolower($1) == "types:" { for (i = 2; i <= NF; i++) if ($i == "deb") deb = 1 }
+      tolower($1) == "enabled:" { on = (tolower($2) != "no") }
+      tolower($1) == "uris:" { $1 = ""; uris = $0 }
+      tolower($1) == "suites:" { $1 = ""; suites = $0 }
+      END { if (!found) flush() }' "$f"
+  done
+}
+
+t=$(now)
+if [ ! -f "$CACHE" ]; then
+  MIRROR=${VIDET_DEBIAN_MIRROR:-$(apt_mirror | head -n 1)}
+  MIRROR=${MIRROR:-http://deb.debian.org/debian}
+  log "bootstrapping $SUITE (minbase + $INCLUDE) from $MIRROR (log: $WORK/debootstrap.log)"
+  remove_tree "$WORK/bootstrap"
+  if ! debootstrap --variant=minbase --include="$INCLUDE" "$SUITE" "$WORK/bootstrap" "$MIRROR" \
+    >"$WORK/debootstrap.log" 2>&1; then
+    tail -n 30 "$WORK/debootstrap.log" >&2
+    remove_tree "$WORK/bootstrap"
+    die "debootstrap failed"
+  fi
+  unmount_under "$WORK/bootstrap"
+  rm -f "$WORK/bootstrap"/var/cache/apt/archives/*.deb
+  tar -C "$WORK/bootstrap" -cf "$CACHE.tmp" . && mv "$CACHE.tmp" "$CACHE"
+  remove_tree "$WORK/bootstrap"
+  phase_done bootstrap "$t"
+fi
+t=$(now)
+remove_tree "$ROOT"
+mkdir -p "$ROOT"
+tar -C "$ROOT" -xf "$CACHE"
+mount -t proc proc "$ROOT/proc"
+for dev in null:1:3 zero:1:5 full:1:7 random:1:8 urandom:1:9 tty:5:0; do
+  IFS=: read -r name major minor <<<"$dev"
+  [ -c "$ROOT/dev/$name" ] || { rm -f "$ROOT/dev/$name"; mknod -m 666 "$ROOT/dev/$name" c "$major" "$minor"; }
+done
+cp "$DEB" "$ROOT/tmp/videt.deb"
+phase_done unpack-root "$t"
+
+# --- checks -----------------------------------------------------------------------------------
+FAILS=0
+in_root() {
+  chroot "$ROOT" /usr/bin/env -i PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
+    HOME=/root LANG=C.UTF-8 DEBIAN_FRONTEND=noninteractive "$@"
+}
+# report NAME STATUS OUTPUT: a PASS line, or a FAIL line with the end of the output.
+report() {
+  if [ "$2" = 0 ]; then
+    echo "PASS: $1"
+  else
+    echo "FAIL: $1"
+    printf '%s\n' "$3" | tail -n 20 | sed 's/^/    /'
+    FAILS=$((FAILS + 1))
+  fi
+}
+# check NAME SNIPPET: runs the shell snippet in the root with `sh -ec`.
+check() {
+  local out rc=0
+  out=$(in_root sh -ec "$2" 2>&1) || rc=$?
+  report "$1" "$rc" "$out"
+}
+# check_host NAME SNIPPET: the same on the host, with bash (paths under $ROOT).
+check_host() {
+  local out rc=0
+  out=$(bash -ec "$2" 2>&1) || rc=$?
+  report "$1" "$rc" "$out"
+}
+# dpkg -i in the root; dependencies from the root's mirror if dpkg lacks them. Output in $1.
+install_package() {
+  if ! in_root dpkg -i /tmp/videt.deb >"$1" 2>&1; then
+    log "dpkg -i failed; installing dependencies with apt-get -f"
+    in_root apt-get update -qq >>"$1" 2>&1 || true
+    in_root apt-get -f install -y -qq >>"$1" 2>&1 || true
+  fi
+}
+# Processes whose root directory is the test root (a started service would be one).
+root_processes() {
+  local p
+  for p in /proc/[0-9]*; do
+    [ "$(readlink "$p/root" 2>/dev/null)" = "$ROOT" ] && echo "${p#/proc/} $(cat "$p/comm" 2>/dev/null)"
+  done
+  return 0
+}
+export ROOT
+export -f root_processes
+FILES="/usr/bin/videtd /usr/bin/videt /lib/systemd/system/videtd.service \
+  /usr/lib/sysusers.d/videt.conf /etc/videt/videt.toml /usr/share/doc/videt/README.md \
+  /usr/share/doc/videt/videt.example.toml /usr/share/doc/videt/copyright"
+USER_CHECK='getent passwd videt | cut -d: -f6,7 | grep -qx "/var/lib/videt:/usr/sbin/nologin"
+  groups=" $(id -nG videt) "
+  for g in videt video gpio; do case $groups in *" $g "*) ;; *) echo "videt not in $g:$groups"; exit 1 ;; esac; done'
+DIRS_CHECK='for d in /var/log/videt /var/lib/videt; do
+    s=$(stat -c "%U:%G %a" "$d"); [ "$s" = "videt:videt 755" ] || { echo "$d: $s"; exit 1; }
+  done'
+
+t=$(now)
+echo "--- install (systemd-sysusers; systemd not running)"
+install_package "$WORK/dpkg-install.log"
+check "dpkg -i installs the package" \
+  '[ "$(dpkg-query -W -f="\${Status}" videt)" = "install ok installed" ]'
+check_host "postinst says how to configure and start the service" \
+  "grep -q 'neither enabled nor started' '$WORK/dpkg-install.log' &&
+   grep -q 'systemctl enable --now videtd' '$WORK/dpkg-install.log'"
+check "user videt (home /var/lib/videt, nologin) in groups videt, video, gpio" "$USER_CHECK"
+check "files in place" "for f in $FILES; do [ -f \"\$f\" ] || { echo \"missing \$f\"; exit 1; }; done
+  [ -x /usr/bin/videtd ] && [ -x /usr/bin/videt ]"
+check_host "docs in /usr/share/doc/videt/docs" \
+  "for f in docs/*.md docs/figures/*.png; do cmp \"\$f\" '$ROOT/usr/share/doc/videt/'\"\$f\"; done"
+check "/var/log/videt and /var/lib/videt owned by videt:videt" "$DIRS_CHECK"
+check "/etc/videt/videt.toml registered as a conffile" \
+  'dpkg-query -W -f="\${Conffiles}\n" videt | grep -q "^ /etc/videt/videt.toml [0-9a-f]\{32\}"'
+check_host "/etc/videt/videt.toml is the example configuration" \
+  "cmp config/videt.example.toml '$ROOT/etc/videt/videt.toml'"
+check "videtd.service not enabled" \
+  '[ "$(systemctl is-enabled videtd.service 2>&1 || true)" = disabled ]
+   ! find /etc/systemd/system -name videtd.service | grep .'
+check_host "videtd not started (no process in the root, no /run/videt)" \
+  "[ ! -e '$ROOT/run/videt' ] && [ -z \"\$(root_processes)\" ]"
+rc=0
+ANALYZE=$(in_root systemd-analyze verify /lib/systemd/system/videtd.service 2>&1) || rc=$?
+printf 'exit %s, output: %s\n' "$rc" "${ANALYZE:-(none)}" >"$WORK/systemd-analyze.log"
+[ -z "$ANALYZE" ] || [ "$rc" != 0 ] || rc=1
+report "systemd-analyze verify videtd.service is clean" "$rc" "$ANALYZE"
+check "videt config check /etc/videt/videt.toml (as user videt) succeeds" \
+  'setpriv --reuid=videt --regid=videt --init-groups videt config check /etc/videt/videt.toml >/tmp/check.out
+   head -n 1 /tmp/check.out | grep -qx "# /etc/videt/videt.toml: valid"'
+check "videt --version" 'videt --version | grep -q "^videt 0\."'
+check "videtd --help" 'videtd --help | grep -q -- "--config"'
+
+echo "--- reinstall over an edited configuration"
+check "edit /etc/videt/videt.toml" 'echo "# edited for this device" >>/etc/videt/videt.toml'
+install_package "$WORK/dpkg-reinstall.log"
+check "dpkg -i again (upgrade path of the scripts)" \
+  '[ "$(dpkg-query -W -f="\${Status}" videt)" = "install ok installed" ]'
+check "the edited conffile is kept" 'tail -n 1 /etc/videt/videt.toml | grep -qx "# edited for this device"'
+check "user and directories unchanged" "$USER_CHECK
+  $DIRS_CHECK"
+
+echo "--- remove and purge"
+check "dpkg -r removes the package" 'dpkg -r videt
+  [ "$(dpkg-query -W -f="\${Status}" videt)" = "deinstall ok config-files" ]'
+check "binaries, unit and docs gone; the conffile stays" \
+  'for f in /usr/bin/videtd /usr/bin/videt /lib/systemd/system/videtd.service \
+     /usr/lib/sysusers.d/videt.conf /usr/share/doc/videt; do [ ! -e "$f" ] || { echo "left: $f"; exit 1; }; done
+   [ -f /etc/videt/videt.toml ]'
+check "dpkg -P purges the package" 'dpkg -P videt
+  ! dpkg-query -W -f="\${Status}" videt 2>/dev/null | grep -q ok'
+check "purge leaves no /etc/videt, /var/log/videt, /var/lib/videt" \
+  'for d in /etc/videt /var/log/videt /var/lib/videt; do [ ! -e "$d" ] || { echo "left: $d"; exit 1; }; done'
+check_host "no process left in the root" "[ -z \"\$(root_processes)\" ]"
+phase_done "install-checks(sysusers)" "$t"
+
+t=$(now)
+echo "--- install without systemd-sysusers (useradd fallback)"
+check "hide systemd-sysusers, delete user videt and group gpio" \
+  'mv /usr/bin/systemd-sysusers /usr/bin/systemd-sysusers.hidden
+   userdel videt; ! getent group videt || groupdel videt; groupdel gpio'
+install_package "$WORK/dpkg-install-fallback.log"
+check "dpkg -i installs the package" \
+  '[ "$(dpkg-query -W -f="\${Status}" videt)" = "install ok installed" ]'
+check "user videt (home /var/lib/videt, nologin) in groups videt, video, gpio" "$USER_CHECK"
+check "/var/log/videt and /var/lib/videt owned by videt:videt" "$DIRS_CHECK"
+check "videt config check /etc/videt/videt.toml (as user videt) succeeds" \
+  'setpriv --reuid=videt --regid=videt --init-groups videt config check /etc/videt/videt.toml >/dev/null'
+check "purge keeps a session log, and says so" \
+  'touch /var/log/videt/videt-1.vlog
+   dpkg -P videt >/tmp/purge.out 2>&1
+   grep -q "kept /var/log/videt" /tmp/purge.out && [ -f /var/log/videt/videt-1.vlog ] && [ ! -e /var/lib/videt ]'
+check "restore systemd-sysusers" 'mv /usr/bin/systemd-sysusers.hidden /usr/bin/systemd-sysusers'
+phase_done "install-checks(fallback)" "$t"
+
+echo "systemd-analyze: $(tr '\n' ' ' <"$WORK/systemd-analyze.log")"
+echo "times: ${TIMES[*]}; total $(($(now) - T0))s"
+if [ "$FAILS" -gt 0 ]; then
+  echo "deb-install-test: FAIL ($FAILS failed)"
+  exit 1
+fi
+echo "deb-install-test: PASS"
