@@ -191,9 +191,38 @@ struct Soak {
     start: Instant,
     instances: Vec<Instance>,
     trials: Vec<Trial>,
+    /// Safe states nobody injected: (seconds from the start, run, state).
+    unprompted: Vec<(f64, usize, String)>,
 }
 
 impl Soak {
+    /// Before a fault: the service must be in normal operation. A safe state nobody caused (a
+    /// host too loaded to run the twin's drives in time, a bug) is recorded and recovered from,
+    /// so the next fault starts clean.
+    fn check_unprompted(&mut self) -> Result<(), String> {
+        let Some(status) = self.status() else {
+            return Err("the service does not answer its socket".into());
+        };
+        if status.safety == "normal" {
+            return Ok(());
+        }
+        let run = self.instances.len() - 1;
+        self.unprompted.push((
+            self.start.elapsed().as_secs_f64(),
+            run,
+            status.safety.clone(),
+        ));
+        if status.power_off {
+            self.stop_instance()?;
+            self.start_instance()
+        } else {
+            let _ = request(&self.socket, &Request::ResetFaults, Duration::from_secs(2));
+            self.wait_status(Duration::from_secs(5), |s| s.safety == "normal")
+                .map(|_| ())
+                .ok_or_else(|| format!("the service stays in {} after reset-faults", status.safety))
+        }
+    }
+
     fn status(&self) -> Option<StatusReport> {
         request(&self.socket, &Request::Status, Duration::from_secs(2))
             .ok()
@@ -338,6 +367,7 @@ impl Soak {
     }
 
     fn run_trial(&mut self, fault: Fault) -> Result<(), String> {
+        self.check_unprompted()?;
         let instance = self.instances.len() - 1;
         let at_s = self.start.elapsed().as_secs_f64();
         let mut trial = Trial {
@@ -514,6 +544,7 @@ pub fn run(args: &SoakArgs) -> ToolResult {
         start: Instant::now(),
         instances: Vec::new(),
         trials: Vec::new(),
+        unprompted: Vec::new(),
     };
     eprintln!(
         "soak: {} s on the {} twin, output in {}",
@@ -568,6 +599,7 @@ pub fn run(args: &SoakArgs) -> ToolResult {
         next_fault = Instant::now() + Duration::from_secs_f64(gap);
     }
     soak.sample();
+    soak.check_unprompted()?;
     soak.stop_instance()?;
     report(&soak)
 }
@@ -677,6 +709,15 @@ fn report(soak: &Soak) -> ToolResult {
         if !ok {
             failures.push(format!("{} at {:.1} s", t.fault.name(), t.at_s));
         }
+    }
+    for (at, run, state) in &soak.unprompted {
+        println!(
+            "  {at:>8.1}  {:<15} {run:>4}  {state:<16}  (nobody injected it)",
+            "UNPROMPTED"
+        );
+        failures.push(format!(
+            "an unprompted {state} in run {run} before {at:.1} s"
+        ));
     }
     println!("summary by fault (passed / injected):");
     for (name, (n, ok)) in &by_kind {
