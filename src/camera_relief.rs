@@ -39,16 +39,30 @@ impl CalibratedRig {
     pub fn load(path: &Path) -> Result<CalibratedRig, String> {
         let at = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
         let calibration = StereoCalibration::load(path).map_err(|e| at(&e))?;
+        CalibratedRig::from_calibration(&calibration).map_err(|e| at(&e))
+    }
+
+    /// Parse a stereo calibration file's text (`path` names it in errors) and build its remap
+    /// tables. Errors start with the path.
+    pub fn from_text(text: &str, path: &Path) -> Result<CalibratedRig, String> {
+        let at = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+        let calibration = StereoCalibration::from_json(text, path).map_err(|e| at(&e))?;
+        CalibratedRig::from_calibration(&calibration).map_err(|e| at(&e))
+    }
+
+    /// Build the remap tables and the rectified geometry of a validated calibration.
+    pub fn from_calibration(calibration: &StereoCalibration) -> Result<CalibratedRig, String> {
         let (p1, p2) = (calibration.p1(), calibration.p2());
         if (p1[(0, 2)] - p2[(0, 2)]).abs() > 1e-6 {
-            return Err(at(&format!(
+            return Err(format!(
                 "the rectified principal points differ (cx {} vs {}); rectify with zero disparity at infinity",
                 p1[(0, 2)],
                 p2[(0, 2)]
-            )));
+            ));
         }
-        let geometry = RectifiedGeometry::from_projections(&p1, &p2).map_err(|e| at(&e))?;
-        let rectifier = StereoRectifier::from_calibration(&calibration).map_err(|e| at(&e))?;
+        let geometry = RectifiedGeometry::from_projections(&p1, &p2).map_err(|e| e.to_string())?;
+        let rectifier =
+            StereoRectifier::from_calibration(calibration).map_err(|e| e.to_string())?;
         Ok(CalibratedRig {
             rectifier,
             geometry,

@@ -321,13 +321,18 @@ impl TensionCalibration {
                 })
             }
         };
-        let body = verified_body(&text, &shown)?;
+        TensionCalibration::from_text(&text, &shown)
+    }
+
+    /// Parse and check a file's text; `path` names the file in errors.
+    pub fn from_text(text: &str, path: &str) -> Result<TensionCalibration, CalibrationError> {
+        let body = verified_body(text, path)?;
         let c: TensionCalibration =
             toml::from_str(body).map_err(|e| CalibrationError::Corrupt {
-                path: shown.clone(),
+                path: path.to_string(),
                 reason: e.to_string(),
             })?;
-        c.validate(&shown)?;
+        c.validate(path)?;
         Ok(c)
     }
 

@@ -8,6 +8,14 @@ use image::{GrayImage, Rgb, RgbImage};
 use serde_json::json;
 use std::path::Path;
 
+/// Largest image side the loaders accept, pixels.
+pub const MAX_IMAGE_SIDE_PX: u32 = 16_384;
+/// Most pixels an image the loaders accept may have (4096 x 4096): the decoder's and the stereo
+/// pipeline's buffers grow with it, so a file's header alone never makes them allocate more.
+pub const MAX_IMAGE_PIXELS: u64 = 4096 * 4096;
+/// Most bytes the decoder may allocate (a [`MAX_IMAGE_PIXELS`] image of 16-bit RGBA).
+const MAX_DECODE_BYTES: u64 = MAX_IMAGE_PIXELS * 8;
+
 /// Loads an image file as 8-bit grey; errors name the file and say what is wrong.
 pub fn load_gray_image(path: &Path) -> Result<GrayImage, VisionError> {
     let io_error = |message: String| VisionError::Io {
@@ -15,20 +23,51 @@ pub fn load_gray_image(path: &Path) -> Result<GrayImage, VisionError> {
         message,
     };
     let bytes = std::fs::read(path).map_err(|e| io_error(format!("cannot read: {e}")))?;
+    decode_gray_image(&bytes).map_err(io_error)
+}
+
+/// Decodes an image held in memory (PNG, JPEG, PNM; the format from the content) as 8-bit grey.
+/// The size is read from the header first: an image with no pixels, a side above
+/// [`MAX_IMAGE_SIDE_PX`] or more than [`MAX_IMAGE_PIXELS`] pixels is refused before any pixel
+/// is decoded. The error says what is wrong.
+pub fn decode_gray_image(bytes: &[u8]) -> Result<GrayImage, String> {
     if bytes.is_empty() {
-        return Err(io_error("the file is empty".into()));
+        return Err("the file is empty".into());
     }
-    let image = image::load_from_memory(&bytes)
-        .map_err(|e| io_error(format!("not a readable image: {e}")))?
-        .to_luma8();
-    if image.width() == 0 || image.height() == 0 {
-        return Err(io_error(format!(
-            "the image has no pixels ({}x{})",
-            image.width(),
-            image.height()
-        )));
-    }
+    let unreadable = |e: &dyn std::fmt::Display| format!("not a readable image: {e}");
+    let reader = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| unreadable(&e))
+    };
+    let (width, height) = reader()?.into_dimensions().map_err(|e| unreadable(&e))?;
+    check_image_size(width, height)?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE_PX);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE_PX);
+    limits.max_alloc = Some(MAX_DECODE_BYTES);
+    let mut reader = reader()?;
+    reader.limits(limits);
+    let image = reader.decode().map_err(|e| unreadable(&e))?.to_luma8();
+    check_image_size(image.width(), image.height())?;
     Ok(image)
+}
+
+/// Whether the loaders accept an image of `width` x `height` pixels; the error says why not.
+pub fn check_image_size(width: u32, height: u32) -> Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err(format!("the image has no pixels ({width}x{height})"));
+    }
+    if width > MAX_IMAGE_SIDE_PX
+        || height > MAX_IMAGE_SIDE_PX
+        || u64::from(width) * u64::from(height) > MAX_IMAGE_PIXELS
+    {
+        return Err(format!(
+            "the image is {width}x{height} pixels; at most {MAX_IMAGE_SIDE_PX} per side and \
+             {MAX_IMAGE_PIXELS} in all are accepted"
+        ));
+    }
+    Ok(())
 }
 
 /// Writes `segments.json`, `matches.json`, `segments3d.json` and the overlays
@@ -187,5 +226,28 @@ mod tests {
             .to_string();
         assert!(e.contains("cannot read"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn oversized_images_are_refused_from_their_header() {
+        // A PGM header announcing 20000 x 20000 pixels followed by no pixel data: refused for
+        // its size before the decoder allocates anything.
+        let e = decode_gray_image(b"P5\n20000 20000\n255\n").unwrap_err();
+        assert!(e.contains("20000x20000"), "{e}");
+        assert!(e.contains("at most"), "{e}");
+        // Within each side's bound but too many pixels in all.
+        let e = decode_gray_image(b"P5\n16000 16000\n255\n").unwrap_err();
+        assert!(e.contains("16000x16000"), "{e}");
+        let e = decode_gray_image(b"P5\n0 7\n255\n").unwrap_err();
+        assert!(
+            e.contains("not a readable image") || e.contains("no pixels"),
+            "{e}"
+        );
+        // A small image decodes.
+        let mut pgm = b"P5\n4 3\n255\n".to_vec();
+        pgm.extend(0..12u8);
+        let image = decode_gray_image(&pgm).unwrap();
+        assert_eq!(image.dimensions(), (4, 3));
+        assert_eq!(image.as_raw()[5], 5);
     }
 }

@@ -81,7 +81,7 @@ pub fn parse_value(text: &str, node_id: u8) -> Result<i128, EdsError> {
     for term in t.split('+') {
         let term = term.trim();
         if term.eq_ignore_ascii_case("$NODEID") {
-            total += i128::from(node_id);
+            total = total.checked_add(i128::from(node_id)).ok_or_else(bad)?;
             continue;
         }
         let (neg, digits) = match term.strip_prefix('-') {
@@ -98,7 +98,9 @@ pub fn parse_value(text: &str, node_id: u8) -> Result<i128, EdsError> {
         } else {
             digits.parse::<i128>().map_err(|_| bad())?
         };
-        total += if neg { -v } else { v };
+        total = total
+            .checked_add(if neg { -v } else { v })
+            .ok_or_else(bad)?;
     }
     Ok(total)
 }
@@ -259,6 +261,22 @@ mod tests {
         assert_eq!(parse_value("0", 0).unwrap(), 0);
         assert!(parse_value("0 or profile-specific", 0).is_err());
         assert!(parse_value("", 0).is_err());
+    }
+
+    #[test]
+    fn sums_beyond_the_number_range_are_bad_values_not_a_panic() {
+        // The terms' sum overflowed (a panic with overflow checks, a wrapped value without);
+        // read in the code, confirmed with the eds_parse fuzz target.
+        let max = "0x7FFFFFFFFFFFFFFFFFFFFFFFFFFFFFFF";
+        assert_eq!(parse_value(max, 0).unwrap(), i128::MAX);
+        assert!(parse_value(&format!("{max}+1"), 0).is_err());
+        assert!(parse_value(&format!("{max}+$NODEID"), 5).is_err());
+        let min = "-99999999999999999999999999999999999999";
+        assert!(parse_value(&format!("{min}+{min}+{min}"), 0).is_err());
+        let eds = Eds::parse(&format!("[1000]\nDefaultValue={max}+1\n")).unwrap();
+        assert!(eds.value(0x1000, 0, 1).is_err());
+        let e = Eds::parse(&format!("[1000]\nObjectType={max}+1\n")).unwrap_err();
+        assert!(matches!(e, EdsError::BadNumber { line: 2, .. }), "{e}");
     }
 
     #[test]

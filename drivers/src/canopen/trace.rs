@@ -33,7 +33,7 @@ pub struct TraceError {
 }
 
 fn hex_byte(t: &str) -> Option<u8> {
-    if t.len() == 2 {
+    if t.len() == 2 && t.bytes().all(|b| b.is_ascii_hexdigit()) {
         u8::from_str_radix(t, 16).ok()
     } else {
         None
@@ -61,8 +61,15 @@ pub fn parse_candump(text: &str) -> Result<Vec<TraceFrame>, TraceError> {
         {
             let (id, data) = tok.split_once('#').expect("contains #");
             let cob_id = u16::from_str_radix(id, 16).map_err(|_| err("bad identifier"))?;
+            if cob_id > 0x7FF {
+                return Err(err("identifier above 0x7FF"));
+            }
             if data.len() % 2 != 0 || data.len() > 16 {
                 return Err(err("bad data field"));
+            }
+            // Hex digits only: the pairs below are then whole characters.
+            if !data.bytes().all(|b| b.is_ascii_hexdigit()) {
+                return Err(err("bad data byte"));
             }
             let data = (0..data.len() / 2)
                 .map(|k| hex_byte(&data[2 * k..2 * k + 2]))
@@ -205,6 +212,33 @@ mod tests {
         assert_eq!((e.line, e.reason), (2, "bad identifier"));
         let e = parse_candump("  can0  701   [9]  7F\n").unwrap_err();
         assert_eq!(e.reason, "length above 8");
+    }
+
+    #[test]
+    fn non_ascii_or_signed_data_bytes_are_bad_data_not_a_panic() {
+        // Found by fuzzing (candump_trace): a multi-byte character in a compact data field
+        // made the byte pairs split it.
+        let e = parse_candump("e A1 a#D\u{1f8}\u{0}\u{11}#").unwrap_err();
+        assert_eq!((e.line, e.reason), (1, "bad data byte"));
+        let e = parse_candump("(0.5) can0 701#A\u{1f8}1\n").unwrap_err();
+        assert_eq!(e.reason, "bad data byte");
+        // A sign is not a hex digit, in either layout.
+        let e = parse_candump("can0 181#+F00\n").unwrap_err();
+        assert_eq!(e.reason, "bad data byte");
+        let e = parse_candump("  can0  701   [1]  +F\n").unwrap_err();
+        assert_eq!(e.reason, "bad data byte");
+    }
+
+    #[test]
+    fn compact_frames_keep_to_11_bit_identifiers_like_the_spaced_layout() {
+        // Found by fuzzing (candump_trace): `AEA#...` gave a frame with identifier 0xAEA,
+        // which no 11-bit COB-ID is.
+        let e = parse_candump("$ 0   [24 Aea#D9000100 TX !\u{0}\u{0}3  ").unwrap_err();
+        assert_eq!((e.line, e.reason), (1, "identifier above 0x7FF"));
+        let e = parse_candump("(1.0) can0 800#00\n").unwrap_err();
+        assert_eq!(e.reason, "identifier above 0x7FF");
+        let f = parse_candump("(1.0) can0 7FF#00\n").unwrap();
+        assert_eq!(f[0].cob_id, 0x7FF);
     }
 
     #[test]

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::camera_model::CameraIntrinsics;
 use super::error::CalibError;
 use super::rectification::Rectification;
+use crate::io::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX};
 
 /// Version of the file layout written by this crate.
 pub const FORMAT_VERSION: u32 = 1;
@@ -192,9 +193,17 @@ impl StereoCalibration {
             ("image_width", self.image_width),
             ("image_height", self.image_height),
         ] {
-            if !(1..=65_536).contains(&v) {
-                return bad(field, v.to_string(), "1..=65536 pixels");
+            if !(1..=MAX_IMAGE_SIDE_PX).contains(&v) {
+                return bad(field, v.to_string(), "1..=16384 pixels");
             }
+        }
+        // The remap tables hold one entry per pixel and camera: bounded as images are.
+        if u64::from(self.image_width) * u64::from(self.image_height) > MAX_IMAGE_PIXELS {
+            return bad(
+                "image_width x image_height",
+                format!("{}x{}", self.image_width, self.image_height),
+                "at most 4096 x 4096 pixels in all",
+            );
         }
         let mut numbers: Vec<(String, f64)> = Vec::new();
         let mut push_rows = |name: &str, rows: &[&[f64]]| {
@@ -310,8 +319,13 @@ impl StereoCalibration {
     /// Read and validate a calibration file. A truncated or corrupt file is an error.
     pub fn load(path: &Path) -> Result<Self, CalibError> {
         let text = std::fs::read_to_string(path).map_err(|e| CalibError::io("read", path, e))?;
+        StereoCalibration::from_json(&text, path)
+    }
+
+    /// Parse and validate a calibration file's text; `path` names the file in errors.
+    pub fn from_json(text: &str, path: &Path) -> Result<Self, CalibError> {
         let cal: StereoCalibration =
-            serde_json::from_str(&text).map_err(|e| CalibError::CorruptFile {
+            serde_json::from_str(text).map_err(|e| CalibError::CorruptFile {
                 path: path.to_path_buf(),
                 message: e.to_string(),
             })?;
@@ -481,6 +495,25 @@ pub(crate) mod tests {
             // And the writer refuses to write it.
             assert!(cal.save(&dir.path().join("other.json")).is_err());
         }
+        // Found with the stereo_calibration fuzz target: a file of a 20000 x 20000 camera made the remap
+        // tables allocate gigabytes; sizes are bounded as the images the pipeline loads.
+        let mut json: serde_json::Value = serde_json::to_value(sample()).unwrap();
+        json["image_width"] = 20_000.into();
+        json["image_height"] = 20_000.into();
+        let err = StereoCalibration::from_json(&json.to_string(), &path).unwrap_err();
+        match err {
+            CalibError::InvalidCalibration { field, value, .. } => {
+                assert_eq!((field.as_str(), value.as_str()), ("image_width", "20000"))
+            }
+            other => panic!("unexpected {other}"),
+        }
+        json["image_width"] = 8_000.into();
+        json["image_height"] = 6_000.into();
+        let err = StereoCalibration::from_json(&json.to_string(), &path).unwrap_err();
+        assert!(
+            matches!(&err, CalibError::InvalidCalibration { field, .. } if field == "image_width x image_height"),
+            "{err}"
+        );
         // Non-finite numbers cannot even be written as JSON numbers; `null` is refused on load.
         let json = serde_json::to_string(&sample())
             .unwrap()
