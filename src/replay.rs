@@ -322,10 +322,10 @@ pub fn replay(log: &Log, overrides: &ReplayOverrides) -> Result<Replay, ReplayEr
             replay.stopped_early = stop("no calibration recorded before it".into());
             break;
         };
-        if previous.is_some_and(|p| record.cycle != p + 1) && !resume {
+        if previous.is_some_and(|p| p.checked_add(1) != Some(record.cycle)) && !resume {
             replay.stopped_early = stop(format!(
                 "{} periods before it were not recorded (dropped by a full ring): the state after them is unknown",
-                record.cycle.saturating_sub(previous.unwrap_or(0) + 1)
+                record.cycle.saturating_sub(previous.unwrap_or(0).saturating_add(1))
             ));
             break;
         }

@@ -82,7 +82,9 @@ pub fn summarise(args: &LogArgs) -> Result<(LogSummary, crate::telemetry::Log), 
     let mut last_state = None;
     for (i, r) in log.records.iter().enumerate() {
         if i > 0 {
-            dropped += r.cycle.saturating_sub(log.records[i - 1].cycle + 1);
+            dropped += r
+                .cycle
+                .saturating_sub(log.records[i - 1].cycle.saturating_add(1));
         }
         wake.record(r.wake_latency_ns);
         compute.record(r.compute_ns);

@@ -645,7 +645,7 @@ fn report(soak: &Soak) -> ToolResult {
         let gaps: u64 = log
             .records
             .windows(2)
-            .map(|w| w[1].cycle.saturating_sub(w[0].cycle + 1))
+            .map(|w| w[1].cycle.saturating_sub(w[0].cycle.saturating_add(1)))
             .sum();
         let reported = reported_drops(&inst.stderr);
         if log.damage.is_some() || reported != Some(gaps) {
