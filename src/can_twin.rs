@@ -229,8 +229,8 @@ impl CanTwin<Twin> {
 impl CanTwin<RealTimeTwin> {
     /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver, on a bus
     /// of `bitrate` bit/s (frames take their bit time, queue while the bus is busy and win it
-    /// by identifier). The nodes run on their own thread, at SCHED_FIFO `drive_priority` when
-    /// given (they stand for hardware that answers SYNC whatever the host's load; use the
+    /// by identifier). The nodes and the bus's wire run on their own threads, at SCHED_FIFO
+    /// `drive_priority` when given (they stand for hardware that answers SYNC whatever the host's load; use the
     /// control thread's priority). The drives' rated torque is `drive_config`'s; they apply
     /// torque in its per-mille steps (the twin's own step model is switched off).
     pub fn new(
@@ -240,22 +240,27 @@ impl CanTwin<RealTimeTwin> {
         drive_priority: Option<u8>,
     ) -> Result<CanTwin<RealTimeTwin>, String> {
         let bus_faults = Arc::new(BusFaults::default());
-        let (mut eps, bus_stats) = InProcessBus::timed(2, 256, bus_faults.clone(), bitrate)
-            .map_err(|e| format!("cannot start the simulated bus: {e}"))?;
+        // The wire and the drives stand for hardware: both run at `drive_priority`, or a loaded
+        // host's scheduler latency lands on every frame and the driver sees missed cycles.
+        let raise = move |what: &'static str| {
+            if let Some(p) = drive_priority {
+                if let Err(e) = crate::rt::set_fifo(p) {
+                    tracing::warn!(
+                        "simulated {what} stay SCHED_OTHER ({e}): a loaded host may delay their frames"
+                    );
+                }
+            }
+        };
+        let (mut eps, bus_stats) =
+            InProcessBus::timed_with(2, 256, bus_faults.clone(), bitrate, move || raise("bus"))
+                .map_err(|e| format!("cannot start the simulated bus: {e}"))?;
         twin.set_torque_step_nm(None);
         let node_side = eps.pop().ok_or("bus without endpoints")?;
         let host_side = eps.pop().ok_or("bus without endpoints")?;
         let motors = Arc::new(SharedMotors::new(WIRES));
         let specs = node_specs(&drive_config);
-        let bank = SimDriveBank::spawn_with(node_side, &specs, motors.clone(), move || {
-            if let Some(p) = drive_priority {
-                if let Err(e) = crate::rt::set_fifo(p) {
-                    tracing::warn!(
-                        "simulated drives stay SCHED_OTHER ({e}): a loaded host may delay their answers"
-                    );
-                }
-            }
-        });
+        let bank =
+            SimDriveBank::spawn_with(node_side, &specs, motors.clone(), move || raise("drives"));
         let drives = Cia402DriveSet::new(SimCanPort::Threaded(host_side), drive_config)
             .map_err(|e| e.to_string())?;
         let mut can_twin = CanTwin {

@@ -65,6 +65,20 @@ impl InProcessBus {
         faults: Arc<BusFaults>,
         bitrate: u32,
     ) -> std::io::Result<(Vec<InProcessEndpoint>, Arc<BusStats>)> {
+        Self::timed_with(count, queue_capacity, faults, bitrate, || {})
+    }
+
+    /// As [`InProcessBus::timed`], running `on_start` first on the wire thread. The wire stands
+    /// for hardware that keeps its bit time whatever the host's load: a caller that runs real
+    /// time uses `on_start` to raise the thread to the drives' priority, or a loaded host delays
+    /// every frame by its scheduler's latency (tens of milliseconds under a busy CFS).
+    pub fn timed_with(
+        count: usize,
+        queue_capacity: usize,
+        faults: Arc<BusFaults>,
+        bitrate: u32,
+        on_start: impl FnOnce() + Send + 'static,
+    ) -> std::io::Result<(Vec<InProcessEndpoint>, Arc<BusStats>)> {
         let stats = Arc::new(BusStats::new(bitrate, Instant::now()));
         let (to_wire, from_endpoints) = sync_channel::<QueuedFrame>(TIMED_BUS_QUEUE);
         let live = Arc::new(AtomicUsize::new(count));
@@ -97,7 +111,10 @@ impl InProcessBus {
         };
         std::thread::Builder::new()
             .name("can-wire".into())
-            .spawn(move || wire.run())?;
+            .spawn(move || {
+                on_start();
+                wire.run()
+            })?;
         Ok((endpoints, stats))
     }
 }
