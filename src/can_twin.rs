@@ -230,24 +230,36 @@ impl CanTwin<RealTimeTwin> {
     /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver, on a bus
     /// of `bitrate` bit/s (frames take their bit time, queue while the bus is busy and win it
     /// by identifier). The nodes and the bus's wire run on their own threads, at SCHED_FIFO
-    /// `drive_priority` when given (they stand for hardware that answers SYNC whatever the host's load; use the
-    /// control thread's priority). The drives' rated torque is `drive_config`'s; they apply
+    /// `drive_priority` when given and pinned to `drive_cpu` when given (they stand for
+    /// hardware that answers SYNC whatever the host's load: use the control thread's priority
+    /// and CPU). The drives' rated torque is `drive_config`'s; they apply
     /// torque in its per-mille steps (the twin's own step model is switched off).
     pub fn new(
         mut twin: Twin,
         drive_config: DriveSetConfig,
         bitrate: u32,
         drive_priority: Option<u8>,
+        drive_cpu: Option<usize>,
     ) -> Result<CanTwin<RealTimeTwin>, String> {
         let bus_faults = Arc::new(BusFaults::default());
         // The wire and the drives stand for hardware: both run at `drive_priority`, or a loaded
-        // host's scheduler latency lands on every frame and the driver sees missed cycles.
+        // host's scheduler latency lands on every frame and the driver sees missed cycles; and
+        // on `drive_cpu` (the control thread's), so that what stalls the rest of the machine
+        // does not stall them while the control thread runs on, and each period's hand-overs
+        // between the control thread, the wire and the drives need no cross-CPU wake-up.
+        let online = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let drive_cpu = drive_cpu.filter(|&cpu| cpu < online);
         let raise = move |what: &'static str| {
             if let Some(p) = drive_priority {
                 if let Err(e) = crate::rt::set_fifo(p) {
                     tracing::warn!(
                         "simulated {what} stay SCHED_OTHER ({e}): a loaded host may delay their frames"
                     );
+                }
+            }
+            if let Some(cpu) = drive_cpu {
+                if let Err(e) = crate::rt::pin_to_cpu(cpu) {
+                    tracing::warn!("simulated {what} not pinned to CPU {cpu}: {e}");
                 }
             }
         };

@@ -327,6 +327,7 @@ fn main() -> ExitCode {
                 can_twin::drive_config(&config),
                 config.drives.bitrate,
                 Some(config.realtime.control_priority),
+                usize::try_from(config.realtime.control_cpu).ok(),
             ) {
                 Ok(hw) => hw,
                 Err(e) => {
@@ -754,6 +755,7 @@ fn run_relief_demo(
                 can_twin::drive_config(config),
                 config.drives.bitrate,
                 Some(config.realtime.control_priority),
+                usize::try_from(config.realtime.control_cpu).ok(),
             ) {
                 Ok(hw) => run_service_with(hw, feed, cycle, &options, extras()),
                 Err(e) => {

@@ -605,11 +605,11 @@ pub fn run(args: &SoakArgs) -> ToolResult {
 }
 
 /// A run's resources after 20 s of warm-up, over the first and the last third of its samples:
-/// the median RSS and the most descriptors and threads (a client of the socket holds a thread
-/// and a descriptor for a moment: a single sample can catch one).
-fn after_warm_up(inst: &Instance) -> Option<(Sample, Sample)> {
-    let warm: Vec<Sample> = inst
-        .samples
+/// the median RSS and the fewest descriptors and threads. A client of the socket holds a
+/// thread and a descriptor for a moment, so any sample can catch one or two more than the
+/// service keeps; a leak raises the fewest too.
+fn after_warm_up(samples: &[Sample]) -> Option<(Sample, Sample)> {
+    let warm: Vec<Sample> = samples
         .iter()
         .filter(|s| s.age_s >= 20.0)
         .copied()
@@ -624,8 +624,8 @@ fn after_warm_up(inst: &Instance) -> Option<(Sample, Sample)> {
         Sample {
             age_s: w[w.len() - 1].age_s,
             rss_kb: rss[rss.len() / 2],
-            fds: w.iter().map(|s| s.fds).max().unwrap_or(0),
-            threads: w.iter().map(|s| s.threads).max().unwrap_or(0),
+            fds: w.iter().map(|s| s.fds).min().unwrap_or(0),
+            threads: w.iter().map(|s| s.threads).min().unwrap_or(0),
         }
     };
     Some((window(&warm[..third]), window(&warm[warm.len() - third..])))
@@ -752,7 +752,7 @@ fn report(soak: &Soak) -> ToolResult {
         let life = inst.samples.last().map_or(0.0, |s| s.age_s);
         let row = log_rows.iter().find(|r| r.0 == k);
         let fmt2 = |a: String, b: String| format!("{a} -> {b}");
-        let (rss, fds, threads) = match after_warm_up(inst) {
+        let (rss, fds, threads) = match after_warm_up(&inst.samples) {
             Some((a, b)) => {
                 // Flat: no more than 2 MB of RSS growth after warm-up, no more descriptors or
                 // threads at the end than at the start.
@@ -800,5 +800,39 @@ fn report(soak: &Soak) -> ToolResult {
         }
         println!("soak: FAILED");
         Ok(ExitCode::FAILURE)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn samples(fds: impl Fn(usize) -> usize, rss_kb: impl Fn(usize) -> u64) -> Vec<Sample> {
+        (0..60)
+            .map(|k| Sample {
+                age_s: 20.0 + 2.0 * k as f64,
+                rss_kb: rss_kb(k),
+                fds: fds(k),
+                threads: 7 + usize::from(fds(k) > 8),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn passing_socket_clients_are_not_a_leak_but_a_growing_baseline_is() {
+        // A client's descriptor (and thread) caught now and then, more often near the end.
+        let (a, b) = after_warm_up(&samples(
+            |k| 8 + 2 * usize::from(k % 7 == 3 || k > 55),
+            |_| 31_632,
+        ))
+        .unwrap();
+        assert_eq!((a.fds, b.fds, a.threads, b.threads), (8, 8, 7, 7));
+        // One descriptor kept every 10 samples: the fewest grows.
+        let (a, b) = after_warm_up(&samples(|k| 8 + k / 10, |_| 31_632)).unwrap();
+        assert!(b.fds > a.fds, "{} -> {}", a.fds, b.fds);
+        // RSS: the median of each third.
+        let (a, b) = after_warm_up(&samples(|_| 8, |k| 30_000 + 100 * k as u64)).unwrap();
+        assert!(b.rss_kb >= a.rss_kb + 4000, "{} -> {}", a.rss_kb, b.rss_kb);
+        assert!(after_warm_up(&samples(|_| 8, |_| 1)[..5]).is_none());
     }
 }
