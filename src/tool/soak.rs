@@ -508,6 +508,36 @@ fn periods_to_safe(log: &Log, fault: Fault, from: usize) -> Option<(usize, u64)>
     Some((safe, log.records[safe].cycle - log.records[seen].cycle))
 }
 
+/// Each entry into a deadline-overrun safe state in `log` that the host caused: over the
+/// periods before it (the overrun limit's worth, taken from the recorded configuration), the
+/// control thread woke at least half a period late at least once. The loop keeps its period
+/// grid, skipping the periods already gone, so its own slowness never shows as late wake-ups:
+/// a late wake-up is the kernel not running a SCHED_FIFO thread on time. Returns, per such
+/// entry, the latest wake-up in those periods, microseconds.
+fn host_stall_trips(log: &Log) -> Vec<f64> {
+    let period_ns = 1e9 / f64::from(log.header.rate_hz.max(1));
+    let limit = log
+        .session
+        .as_ref()
+        .and_then(|s| s.as_ref().ok())
+        .map_or(10, |s| s.config.realtime.max_consecutive_overruns)
+        .max(1) as usize;
+    let overrun = |r: &CycleRecord| {
+        r.safety.reason() == Some(videt_control::safety::SafetyReason::DeadlineOverrun)
+    };
+    let mut trips = Vec::new();
+    for k in 1..log.records.len() {
+        if overrun(&log.records[k]) && !overrun(&log.records[k - 1]) {
+            let before = &log.records[k.saturating_sub(limit)..k];
+            let latest = before.iter().map(|r| r.wake_latency_ns).max().unwrap_or(0) as f64;
+            if latest >= 0.5 * period_ns {
+                trips.push(latest / 1e3);
+            }
+        }
+    }
+    trips
+}
+
 /// Run `videt soak`.
 pub fn run(args: &SoakArgs) -> ToolResult {
     if !(args.duration.is_finite() && args.duration > 0.0) {
@@ -636,6 +666,7 @@ fn report(soak: &Soak) -> ToolResult {
     // Session logs: complete, replayable; periods to the safe state.
     let mut trials = soak.trials.clone();
     let mut log_rows = Vec::new();
+    let mut host_stalls: Vec<(usize, f64)> = Vec::new();
     for (n, inst) in soak.instances.iter().enumerate() {
         let Some(path) = instance_log(&soak.dir, n) else {
             failures.push(format!("instance {n}: no session log"));
@@ -684,6 +715,11 @@ fn report(soak: &Soak) -> ToolResult {
                 }
             }
         }
+        host_stalls.extend(
+            host_stall_trips(&log)
+                .into_iter()
+                .map(|late_us| (n, late_us)),
+        );
         log_rows.push((n, log.records.len(), gaps, reported, replay.identical()));
     }
     println!("faults:");
@@ -730,14 +766,43 @@ fn report(soak: &Soak) -> ToolResult {
             failures.push(format!("{} at {:.1} s", t.fault.name(), t.at_s));
         }
     }
+    let mut stalls_seen = vec![0usize; soak.instances.len()];
+    let mut host_stall_count = 0;
     for (at, run, state) in &soak.unprompted {
+        // A deadline overrun the log shows the host caused: the documented response to a
+        // host that stops running the control thread on time, not a fault of the service.
+        let stall = (state == "deadline-overrun")
+            .then(|| {
+                let seen = stalls_seen.get_mut(*run)?;
+                let late_us = host_stalls.iter().filter(|(r, _)| r == run).nth(*seen)?.1;
+                *seen += 1;
+                Some(late_us)
+            })
+            .flatten();
+        match stall {
+            Some(late_us) => {
+                host_stall_count += 1;
+                println!(
+                    "  {at:>8.1}  {:<15} {run:>4}  {state:<16}  (nobody injected it: the host woke the control thread up to {:.1} ms late in the periods before)",
+                    "HOST STALL",
+                    late_us / 1e3
+                );
+            }
+            None => {
+                println!(
+                    "  {at:>8.1}  {:<15} {run:>4}  {state:<16}  (nobody injected it)",
+                    "UNPROMPTED"
+                );
+                failures.push(format!(
+                    "an unprompted {state} in run {run} before {at:.1} s"
+                ));
+            }
+        }
+    }
+    if host_stall_count > 0 {
         println!(
-            "  {at:>8.1}  {:<15} {run:>4}  {state:<16}  (nobody injected it)",
-            "UNPROMPTED"
+            "host stalls: {host_stall_count} (the host kernel delayed the control thread's wake-ups past half a period over the overrun limit's periods; minimum tension, then reset-faults, is the documented response; not counted as failures)"
         );
-        failures.push(format!(
-            "an unprompted {state} in run {run} before {at:.1} s"
-        ));
     }
     println!("summary by fault (passed / injected):");
     for (name, (n, ok)) in &by_kind {
@@ -816,6 +881,41 @@ mod tests {
                 threads: 7 + usize::from(fds(k) > 8),
             })
             .collect()
+    }
+
+    fn overrun_log(late_ns: u64) -> Log {
+        use videt_control::{SafetyReason, SafetyState};
+        let records = (0..100u64)
+            .map(|k| CycleRecord {
+                cycle: k,
+                wake_latency_ns: if (50..60).contains(&k) {
+                    late_ns
+                } else {
+                    15_000
+                },
+                safety: if k >= 60 {
+                    SafetyState::MinimumTension(SafetyReason::DeadlineOverrun)
+                } else {
+                    SafetyState::Normal
+                },
+                ..CycleRecord::default()
+            })
+            .collect();
+        Log::of_records(
+            crate::telemetry::LogHeader {
+                rate_hz: 1000,
+                start_unix_ns: 0,
+            },
+            records,
+        )
+    }
+
+    #[test]
+    fn a_deadline_overrun_is_the_hosts_only_when_the_wake_ups_were_late() {
+        // The kernel woke the control thread 1.5 ms late: the host's doing.
+        assert_eq!(host_stall_trips(&overrun_log(1_500_000)), vec![1500.0]);
+        // On time every period: the overruns were the cycle's own.
+        assert!(host_stall_trips(&overrun_log(40_000)).is_empty());
     }
 
     #[test]
