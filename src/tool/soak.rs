@@ -801,8 +801,7 @@ fn report(soak: &Soak) -> ToolResult {
         // starts with the control loop, just after the run).
         let entry = entries.get(run).and_then(|e| {
             e.iter()
-                .filter(|x| x.state == *state && x.time_s <= u.run_s + 1.0)
-                .next_back()
+                .rfind(|x| x.state == *state && x.time_s <= u.run_s + 1.0)
         });
         match entry.and_then(|e| e.host_late_us) {
             Some(late_us) => {
