@@ -335,6 +335,12 @@ impl<T: TwinDevice> CanTwin<T> {
         }
     }
 
+    /// The queue of each error that puts the drives into their safe state, as it happens
+    /// ([`Cia402DriveSet::fault_reports`]).
+    pub fn fault_reports(&mut self) -> rtrb::Consumer<DriveError> {
+        self.drives.fault_reports()
+    }
+
     /// The error that put the drives into their safe state, if any.
     pub fn drive_error(&self) -> Option<DriveError> {
         self.drives.latched_error()

@@ -47,6 +47,20 @@ impl<D, T, E> DeviceHardware<D, T, E> {
             clock: SystemClock,
         }
     }
+
+    /// The drives, mutably (to ask them for their fault reports before the service starts).
+    pub fn drives_mut(&mut self) -> &mut D {
+        &mut self.drives
+    }
+}
+
+/// The supervisor's reader of a CiA 402 drive set's fault reports
+/// ([`videt_drivers::cia402::Cia402DriveSet::fault_reports`]): each call formats one latched
+/// error not yet told, for [`crate::service::ServiceExtras::fault_causes`].
+pub fn drive_fault_causes(
+    mut reports: rtrb::Consumer<videt_drivers::cia402::DriveError>,
+) -> Box<dyn FnMut() -> Option<String> + Send> {
+    Box::new(move || reports.pop().ok().map(|e| format!("drives: {e}")))
 }
 
 /// A failure of one part of [`DeviceHardware`], carrying that part's own error.

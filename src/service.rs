@@ -85,6 +85,10 @@ pub struct ServiceExtras {
     /// On the twin: while set, the scene's vision thread publishes nothing (a stalled camera,
     /// for `sim-fault vision-stall`).
     pub vision_stall: Option<Arc<AtomicBool>>,
+    /// The hardware's account of why it went to its safe state: each call returns one cause
+    /// not yet told (already formatted, off the control thread), `None` when there is none.
+    /// The supervisor logs each beside the safe state it explains.
+    pub fault_causes: Option<Box<dyn FnMut() -> Option<String> + Send>>,
 }
 
 /// Install a panic hook that, besides printing, tells the control loop to go safe and stop.
@@ -148,6 +152,7 @@ where
         thimble: vision_thimble,
         status_suffix,
         vision_stall,
+        mut fault_causes,
     } = extras;
     let extra_text = move || status_suffix.as_ref().map_or_else(String::new, |f| f());
     install_panic_hook();
@@ -427,6 +432,11 @@ where
                 None => info!("safety: back to normal operation"),
             }
             last_safety = record.safety;
+        }
+        if let Some(next_cause) = fault_causes.as_mut() {
+            while let Some(cause) = next_cause() {
+                warn!(%cause, "hardware fault");
+            }
         }
         if record.surface_stale != last_stale {
             if record.surface_stale {

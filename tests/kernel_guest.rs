@@ -30,6 +30,10 @@ const VIBROTACTOR_LINES: [u32; 3] = [22, 23, 24];
 /// 1 on the device): the emulated CPU answers late at times.
 const GUEST_MISSED_CYCLES: u32 = 20;
 
+/// Silence after which a drive's heartbeat is lost in the guest (`drives.heartbeat_timeout_ms`;
+/// 50 on the device): the emulated CPU that produces the heartbeats stalls for tens of ms.
+const GUEST_HEARTBEAT_TIMEOUT_MS: u32 = 500;
+
 /// Age at which a strain-gauge sample is stale in the guest (`sensors.stale_after_ms`; 20 on
 /// the device).
 const GUEST_STALE_AFTER_MS: u32 = 200;
@@ -185,7 +189,14 @@ fn guest_config(dir: &Path, can: &str, chip: &Path, cameras: [&str; 2]) -> PathB
         "max_missed_cycles",
         toml::Value::Integer(GUEST_MISSED_CYCLES.into()),
     );
-    // ... and so may the strain-gauge samples they carry (20 ms on the device).
+    // ... and so may their heartbeats ...
+    set(
+        &mut t,
+        "drives",
+        "heartbeat_timeout_ms",
+        toml::Value::Integer(GUEST_HEARTBEAT_TIMEOUT_MS.into()),
+    );
+    // ... and the strain-gauge samples they carry (20 ms on the device).
     set(
         &mut t,
         "sensors",
@@ -676,6 +687,12 @@ mod cameras {
         pulses
     }
 
+    /// Whether the guest runs on an emulated CPU (QEMU's TCG; `KIL_ACCEL` from the guest's
+    /// init): its timings say nothing of the product's.
+    fn emulated_cpu() -> bool {
+        std::env::var("KIL_ACCEL").as_deref() != Ok("kvm")
+    }
+
     fn median(mut v: Vec<f64>) -> f64 {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
@@ -756,11 +773,22 @@ mod cameras {
             let hz = 1.0 / median(periods);
             let duty = median(p.iter().map(|(_, high)| high.as_secs_f64()).collect()) * hz;
             assert!((hz - 75.0).abs() < 7.5, "line {line} pulses at {hz:.1} Hz");
-            assert!(
-                (duty - 0.2).abs() < 0.1 || (duty - 0.5).abs() < 0.1,
-                "line {line} pulses {:.0} % of each period",
-                duty * 100.0
-            );
+            if emulated_cpu() {
+                // Wake-ups milliseconds late (on the pattern's thread and on this sampler) move
+                // each edge by a good part of the 6.7 ms half-period: only a pulse train with
+                // neither level stuck is asked of an emulated CPU.
+                assert!(
+                    (0.05..0.95).contains(&duty),
+                    "line {line} pulses {:.0} % of each period",
+                    duty * 100.0
+                );
+            } else {
+                assert!(
+                    (duty - 0.2).abs() < 0.1 || (duty - 0.5).abs() < 0.1,
+                    "line {line} pulses {:.0} % of each period",
+                    duty * 100.0
+                );
+            }
         }
         assert!(pulsing > 0, "no vibrotactor pulses: {}", d.log());
     }

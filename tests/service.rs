@@ -362,6 +362,74 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
     }
 }
 
+/// A drive's fault puts the service in its safe state, and the log says which drive and why, as
+/// the drive set latched it: what a technician reads when the forces went away.
+#[test]
+fn a_drive_fault_is_logged_with_its_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let socket = dir.path().join("ctl.sock");
+    let stderr = dir.path().join("videtd.log");
+    let mut daemon = Daemon {
+        child: Command::new(env!("CARGO_BIN_EXE_videtd"))
+            .args(["--sim", "can", "--duration", "20", "--socket"])
+            .arg(&socket)
+            .arg("--telemetry-dir")
+            .arg(dir.path().join("logs"))
+            .env("RUST_LOG", "warn")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&stderr).unwrap())
+            .spawn()
+            .unwrap(),
+    };
+    let status = |within: Duration| {
+        let deadline = Instant::now() + within;
+        loop {
+            if let Ok(r) = request(&socket, &Request::Status, Duration::from_secs(2)) {
+                if let Some(s) = r.status.filter(|s| s.cycles > 500) {
+                    return s;
+                }
+            }
+            assert!(Instant::now() < deadline, "no status from videtd");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    };
+    assert_eq!(status(Duration::from_secs(15)).safety, "normal");
+    let injected = request(
+        &socket,
+        &Request::SimFault {
+            // Wire 2's drive: CAN node 3.
+            fault: "emcy:2:8611".into(),
+        },
+        Duration::from_secs(2),
+    )
+    .unwrap();
+    assert!(injected.ok, "{injected:?}");
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while status(Duration::from_secs(5)).safety != "drive-fault" {
+        assert!(Instant::now() < deadline, "no drive fault");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The supervisor tells the cause within its next few ticks.
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(
+        request(&socket, &Request::Stop, Duration::from_secs(2))
+            .unwrap()
+            .ok
+    );
+    wait_exit(&mut daemon, Duration::from_secs(10));
+    let log = std::fs::read_to_string(&stderr).unwrap();
+    let told: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("hardware fault"))
+        .collect();
+    assert_eq!(told.len(), 1, "{log}");
+    assert!(
+        told[0].contains("drive 3: emergency 0x8611 (following error)"),
+        "{}",
+        told[0]
+    );
+}
+
 /// Without --sim the service opens the device named by the configuration. A part that is not
 /// there ends the start with an error naming it and the configuration field to look at; no
 /// panic, and nothing else is opened after it (the e-stop is opened first).

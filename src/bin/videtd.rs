@@ -28,7 +28,7 @@ use clap::{Parser, ValueEnum};
 use tracing::{error, info, warn};
 use videt::can_twin::{self, CanTwin};
 use videt::cycle::WireZero;
-use videt::service::{run_service, run_service_with, ServiceOptions};
+use videt::service::{run_service_with, ServiceOptions};
 use videt::setup;
 use videt::snapshot::FixedSurface;
 use videt::twin_rt::RealTimeTwin;
@@ -322,7 +322,7 @@ fn main() -> ExitCode {
                 &mut options,
                 "digital twin behind CiA 402 drives on a userspace CAN bus: a virtual wall, a virtual operator touching it and sliding along it",
             );
-            let hw = match CanTwin::new(
+            let mut hw = match CanTwin::new(
                 scene.twin,
                 can_twin::drive_config(&config),
                 config.drives.bitrate,
@@ -336,7 +336,11 @@ fn main() -> ExitCode {
                 }
             };
             let bus = hw.bus_stats();
-            let code = run_service(hw, FixedSurface(scene.wall), cycle, &options);
+            let extras = videt::service::ServiceExtras {
+                fault_causes: Some(videt::hardware::drive_fault_causes(hw.fault_reports())),
+                ..Default::default()
+            };
+            let code = run_service_with(hw, FixedSurface(scene.wall), cycle, &options, extras);
             if let Some(s) = bus.map(|b| b.snapshot()) {
                 info!(
                     bitrate = s.bitrate,
@@ -384,7 +388,7 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
         "device: drives on {}, tension sensors {:?}",
         config.drives.can_interface, config.sensors.adc
     );
-    let hw = match videt::hardware::open_device(config) {
+    let mut hw = match videt::hardware::open_device(config) {
         Ok(hw) => hw,
         Err(e) => {
             error!("device: {e}");
@@ -397,9 +401,11 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
         adc = ?config.sensors.adc,
         "device opened"
     );
+    let fault_causes = videt::hardware::drive_fault_causes(hw.drives_mut().fault_reports());
     match device_camera_feed(config) {
-        Ok(camera) => {
+        Ok(mut camera) => {
             options.colour = camera.colour;
+            camera.extras.fault_causes = Some(fault_causes);
             run_with_tension_correction(hw, camera.feed, cycle, options, &path, camera.extras)
         }
         Err(why) => {
@@ -413,7 +419,10 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
                 cycle,
                 options,
                 &path,
-                videt::service::ServiceExtras::default(),
+                videt::service::ServiceExtras {
+                    fault_causes: Some(fault_causes),
+                    ..Default::default()
+                },
             )
         }
     }
@@ -545,6 +554,7 @@ where
     let extras = videt::service::ServiceExtras {
         vision_stall: None,
         thimble: None,
+        fault_causes: None,
         status_suffix: Some(Box::new(move || {
             format!(
                 " | reliefs {} ({} failed), last {:.1} ms",
@@ -757,7 +767,13 @@ fn run_relief_demo(
                 Some(config.realtime.control_priority),
                 usize::try_from(config.realtime.control_cpu).ok(),
             ) {
-                Ok(hw) => run_service_with(hw, feed, cycle, &options, extras()),
+                Ok(mut hw) => {
+                    let extras = videt::service::ServiceExtras {
+                        fault_causes: Some(videt::hardware::drive_fault_causes(hw.fault_reports())),
+                        ..extras()
+                    };
+                    run_service_with(hw, feed, cycle, &options, extras)
+                }
                 Err(e) => {
                     error!("simulated CAN drives: {e}");
                     ExitCode::FAILURE
@@ -857,6 +873,7 @@ fn run_stereo_relief_demo(
         vision_stall: None,
         thimble: Some(thimble_publisher),
         status_suffix: Some(Box::new(move || stats.status_text())),
+        fault_causes: None,
     };
     let mut options = options.clone();
     options.what = format!(

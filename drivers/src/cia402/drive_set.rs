@@ -149,7 +149,12 @@ pub struct Cia402DriveSet<P: CanPort> {
     sync_sent_at: Instant,
     epoch: Instant,
     analog: Option<Arc<DriveAnalogInputs>>,
+    /// Where each latched error is pushed for a non-RT reader to report, once one asked.
+    fault_reports: Option<rtrb::Producer<DriveError>>,
 }
+
+/// Latched errors a [`Cia402DriveSet`] holds for its reader before it drops newer ones.
+pub const FAULT_REPORTS_CAPACITY: usize = 8;
 
 impl<P: CanPort> Cia402DriveSet<P> {
     /// Take the port and a validated configuration. Nothing is sent yet (`Unconfigured`).
@@ -173,6 +178,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             sync_sent_at: now,
             epoch: now,
             analog,
+            fault_reports: None,
         })
     }
 
@@ -202,6 +208,17 @@ impl<P: CanPort> Cia402DriveSet<P> {
     /// advances only for a TPDO1 that answered the current cycle's SYNC.
     pub fn analog_inputs(&self) -> Option<Arc<DriveAnalogInputs>> {
         self.analog.clone()
+    }
+
+    /// From now on, every error that puts the set into its safe state is also pushed, as it is
+    /// latched, to the returned queue: the control thread cannot say why it stopped (it does
+    /// not format), a supervisor reading the queue can. The push is wait-free and allocates
+    /// nothing; errors beyond [`FAULT_REPORTS_CAPACITY`] unread ones are dropped. A second call
+    /// replaces the first queue.
+    pub fn fault_reports(&mut self) -> rtrb::Consumer<DriveError> {
+        let (producer, consumer) = rtrb::RingBuffer::new(FAULT_REPORTS_CAPACITY);
+        self.fault_reports = Some(producer);
+        consumer
     }
 
     /// The error that put the set into its safe state, if any.
@@ -423,6 +440,10 @@ impl<P: CanPort> Cia402DriveSet<P> {
     fn fail(&mut self, e: DriveError) -> DriveError {
         if self.latched.is_none() {
             self.latched = Some(e);
+            if let Some(reports) = self.fault_reports.as_mut() {
+                // A full queue means an unread backlog: the newest error is the one dropped.
+                let _ = reports.push(e);
+            }
         }
         self.lifecycle = LifecycleState::Faulted;
         self.send_safe_commands();

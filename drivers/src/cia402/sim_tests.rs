@@ -323,6 +323,28 @@ fn an_emergency_ends_in_its_readable_error_and_recovery_works() {
 }
 
 #[test]
+fn each_latched_error_is_reported_once_to_the_fault_queue() {
+    let mut r = active_rig();
+    let mut reports = r.set.fault_reports();
+    let (_, e) = cycles_to_error(&mut r, |r| r.bank.faults(0).raise_fault(0x2310));
+    assert_eq!(reports.pop().ok(), Some(e));
+    // The cycles after it fail with the same latched error: nothing new to report.
+    let mut out = [DriveSample::default(); WIRES];
+    assert!(cycle(&mut r.set, [0.0; WIRES], &mut out).is_err());
+    assert_eq!(reports.pop().ok(), None);
+    // Recovered, then a second fault: reported in its turn.
+    r.bank.faults(0).clear_fault();
+    r.set.activate().unwrap();
+    let (_, e2) = cycles_to_error(&mut r, |r| r.bank.faults(2).set_mute_heartbeat(true));
+    assert!(
+        matches!(e2, DriveError::HeartbeatLost { node: 3, .. }),
+        "{e2}"
+    );
+    assert_eq!(reports.pop().ok(), Some(e2));
+    assert_eq!(reports.pop().ok(), None);
+}
+
+#[test]
 fn bus_off_ends_in_bus_off_and_the_drives_stop_by_themselves() {
     let mut r = active_rig();
     let (n, e) = cycles_to_error(&mut r, |r| r.bus.set_bus_off(true));
