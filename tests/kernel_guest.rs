@@ -449,8 +449,9 @@ impl Device {
     }
     /// After a drive fault that took effect at `fault_ns` (monotonic): the service reaches
     /// its power-off state, and once it is stopped the session log shows the drive fault and
-    /// at most `bound` periods that still rendered forces after `fault_ns`.
-    fn assert_drive_fault_within(&mut self, fault_ns: u64, bound: usize, what: &str) {
+    /// at most `bound` periods that still rendered forces after `fault_ns`, and its log tells
+    /// the fault's `cause`.
+    fn assert_drive_fault_within(&mut self, fault_ns: u64, bound: usize, what: &str, cause: &str) {
         self.wait_for(30.0, "drive fault", |s| {
             s.safety == "drive-fault" && s.power_off
         });
@@ -461,6 +462,12 @@ impl Device {
         assert!(
             periods <= bound,
             "{periods} periods rendered forces after {what} (at most {bound})"
+        );
+        let told = self.log();
+        assert!(
+            told.lines()
+                .any(|l| l.contains("hardware fault") && l.contains(cause)),
+            "the log does not tell the cause ({cause}): {told}"
         );
     }
 
@@ -548,7 +555,12 @@ fn the_can_interface_going_down_powers_off_within_two_periods() {
     let mut d = Device::start();
     d.can.set_up(false);
     let down_ns = monotonic_ns();
-    d.assert_drive_fault_within(down_ns, 2, "the link went down");
+    d.assert_drive_fault_within(
+        down_ns,
+        2,
+        "the link went down",
+        "CAN interface: Network is down",
+    );
     d.can.set_up(true);
 }
 
@@ -561,7 +573,7 @@ fn a_killed_drive_process_powers_off_within_two_periods() {
     // Silent drives are a fault once their process data has been missing for more than
     // `drives.max_missed_cycles` periods: within 2 periods with the device's 1.
     let bound = GUEST_MISSED_CYCLES as usize + 1;
-    d.assert_drive_fault_within(killed_ns, bound, "the drives died");
+    d.assert_drive_fault_within(killed_ns, bound, "the drives died", "process data missing");
 }
 
 /// A listener on `iface` that notes when the first frame with identifier `cob_id` crosses the
@@ -596,7 +608,7 @@ fn an_emcy_from_a_drive_powers_off_within_two_periods() {
     std::thread::sleep(Duration::from_millis(100));
     d.rig.signal(libc::SIGUSR1);
     let on_bus_ns = emcy.join().unwrap().expect("the drive sent its EMCY");
-    d.assert_drive_fault_within(on_bus_ns, 2, "the EMCY");
+    d.assert_drive_fault_within(on_bus_ns, 2, "the EMCY", "drive 1: emergency 0x2310");
 }
 
 #[test]

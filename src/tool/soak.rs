@@ -27,6 +27,9 @@ use crate::telemetry::{read_log, Log};
 
 use super::ToolResult;
 
+mod host_stall;
+use host_stall::{safe_state_entries, SafeStateEntry, StolenTime};
+
 /// Soak the service on the twin with random faults.
 #[derive(Debug, Args)]
 pub struct SoakArgs {
@@ -206,6 +209,8 @@ struct Soak {
     trials: Vec<Trial>,
     /// Safe states nobody injected: (seconds from the start, run, state).
     unprompted: Vec<Unprompted>,
+    /// The hypervisor's stolen time, sampled all along.
+    stolen: StolenTime,
 }
 
 impl Soak {
@@ -522,53 +527,6 @@ fn periods_to_safe(log: &Log, fault: Fault, from: usize) -> Option<(usize, u64)>
     Some((safe, log.records[safe].cycle - log.records[seen].cycle))
 }
 
-/// An entry into a safe state recorded in a session log.
-#[derive(Debug, Clone, PartialEq)]
-struct SafeStateEntry {
-    /// Time of the first safe period in the run, seconds.
-    time_s: f64,
-    /// The safe state's name (as the control socket gives it).
-    state: String,
-    /// When the host caused it: the latest wake-up of the control thread in the periods
-    /// before, microseconds.
-    host_late_us: Option<f64>,
-}
-
-/// Every entry into a safe state in `log`, each marked as the host's when, over the periods
-/// before it (the overrun limit's worth from the recorded configuration, and at least 0.2 s:
-/// the drives' silence timeouts), the control thread woke at least half a period late. The
-/// loop keeps its period grid, skipping the periods already gone, so its own slowness never
-/// shows as a late wake-up: a late wake-up is the kernel not running a SCHED_FIFO thread on
-/// time (a virtual machine whose CPU is taken away, a kernel without PREEMPT_RT under load).
-fn safe_state_entries(log: &Log) -> Vec<SafeStateEntry> {
-    let rate = log.header.rate_hz.max(1);
-    let period_ns = 1e9 / f64::from(rate);
-    let limit = log
-        .session
-        .as_ref()
-        .and_then(|s| s.as_ref().ok())
-        .map_or(10, |s| s.config.realtime.max_consecutive_overruns)
-        .max(rate / 5)
-        .max(1) as usize;
-    let mut entries = Vec::new();
-    for k in 1..log.records.len() {
-        let Some(reason) = log.records[k].safety.reason() else {
-            continue;
-        };
-        if log.records[k - 1].safety.reason().is_some() {
-            continue;
-        }
-        let before = &log.records[k.saturating_sub(limit)..k];
-        let latest = before.iter().map(|r| r.wake_latency_ns).max().unwrap_or(0) as f64;
-        entries.push(SafeStateEntry {
-            time_s: log.records[k].time.0 as f64 / 1e9,
-            state: reason.as_str().to_string(),
-            host_late_us: (latest >= 0.5 * period_ns).then_some(latest / 1e3),
-        });
-    }
-    entries
-}
-
 /// Run `videt soak`.
 pub fn run(args: &SoakArgs) -> ToolResult {
     if !(args.duration.is_finite() && args.duration > 0.0) {
@@ -606,6 +564,7 @@ pub fn run(args: &SoakArgs) -> ToolResult {
         instances: Vec::new(),
         trials: Vec::new(),
         unprompted: Vec::new(),
+        stolen: StolenTime::start(),
     };
     eprintln!(
         "soak: {} s on the {} twin, output in {}",
@@ -747,7 +706,9 @@ fn report(soak: &Soak) -> ToolResult {
                 }
             }
         }
-        entries.push(safe_state_entries(&log));
+        entries.push(safe_state_entries(&log, &|cpu, from, to| {
+            soak.stolen.stolen_ms(cpu, from, to)
+        }));
         log_rows.push((n, log.records.len(), gaps, reported, replay.identical()));
     }
     println!("faults:");
@@ -803,13 +764,13 @@ fn report(soak: &Soak) -> ToolResult {
             e.iter()
                 .rfind(|x| x.state == *state && x.time_s <= u.run_s + 1.0)
         });
-        match entry.and_then(|e| e.host_late_us) {
-            Some(late_us) => {
+        match entry.and_then(|e| e.host) {
+            Some(stall) => {
                 host_stall_count += 1;
                 println!(
-                    "  {at:>8.1}  {:<15} {run:>4}  {state:<16}  (nobody injected it: the host woke the control thread {:.1} ms late just before)",
+                    "  {at:>8.1}  {:<15} {run:>4}  {state:<16}  (nobody injected it: {})",
                     "HOST STALL",
-                    late_us / 1e3
+                    stall.describe()
                 );
             }
             None => {
@@ -825,7 +786,7 @@ fn report(soak: &Soak) -> ToolResult {
     }
     if host_stall_count > 0 {
         println!(
-            "host stalls: {host_stall_count} (safe states nobody injected, entered while the host kernel woke the control thread at least half a period late; the service's response is the documented one; not counted as failures)"
+            "host stalls: {host_stall_count} (safe states nobody injected, entered while the host kernel woke the control thread at least half a period late, or held a cycle up while the hypervisor took the CPU; the service's response is the documented one; not counted as failures)"
         );
     }
     println!("summary by fault (passed / injected):");
@@ -905,47 +866,6 @@ mod tests {
                 threads: 7 + usize::from(fds(k) > 8),
             })
             .collect()
-    }
-
-    fn overrun_log(late_ns: u64) -> Log {
-        use videt_control::{SafetyReason, SafetyState};
-        let records = (0..100u64)
-            .map(|k| CycleRecord {
-                cycle: k,
-                time: videt_hal::MonoTime(k * 1_000_000),
-                wake_latency_ns: if (50..60).contains(&k) {
-                    late_ns
-                } else {
-                    15_000
-                },
-                safety: if k >= 60 {
-                    SafetyState::MinimumTension(SafetyReason::DeadlineOverrun)
-                } else {
-                    SafetyState::Normal
-                },
-                ..CycleRecord::default()
-            })
-            .collect();
-        Log::of_records(
-            crate::telemetry::LogHeader {
-                rate_hz: 1000,
-                start_unix_ns: 0,
-            },
-            records,
-        )
-    }
-
-    #[test]
-    fn a_safe_state_is_the_hosts_only_when_the_wake_ups_before_it_were_late() {
-        // The kernel woke the control thread 1.5 ms late: the host's doing.
-        let e = safe_state_entries(&overrun_log(1_500_000));
-        assert_eq!(e.len(), 1);
-        assert_eq!(e[0].state, "deadline-overrun");
-        assert_eq!(e[0].host_late_us, Some(1500.0));
-        assert!((e[0].time_s - 0.060).abs() < 1e-9, "{}", e[0].time_s);
-        // On time every period: the overruns were the cycle's own.
-        let e = safe_state_entries(&overrun_log(40_000));
-        assert_eq!((e.len(), e[0].host_late_us), (1, None));
     }
 
     #[test]

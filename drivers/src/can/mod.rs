@@ -19,4 +19,12 @@ pub trait CanPort: embedded_can::blocking::Can {
     fn is_bus_off(&self) -> bool {
         false
     }
+
+    /// The operating system's error number behind `error`, when it has one (an interface
+    /// gone down, a removed device): kept so the cause can be told in words off the real-time
+    /// path. **RT**.
+    fn os_error(error: &Self::Error) -> Option<i32> {
+        let _ = error;
+        None
+    }
 }

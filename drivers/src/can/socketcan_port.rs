@@ -112,11 +112,31 @@ impl CanPort for SocketCanPort {
     fn is_bus_off(&self) -> bool {
         self.bus_off
     }
+
+    fn os_error(error: &socketcan::Error) -> Option<i32> {
+        match error {
+            socketcan::Error::Io(e) => e.raw_os_error(),
+            _ => None,
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_interface_gone_down_is_told_in_the_systems_words() {
+        let down = socketcan::Error::from(std::io::Error::from_raw_os_error(
+            nix::errno::Errno::ENETDOWN as i32,
+        ));
+        let errno = SocketCanPort::os_error(&down).expect("an OS error");
+        let told = crate::cia402::DriveError::BusIo { errno }.to_string();
+        assert!(told.contains("CAN interface: Network is down"), "{told}");
+        // An error that did not come from the system has no number to tell.
+        let other = socketcan::Error::from(std::io::Error::other("not from the system"));
+        assert_eq!(SocketCanPort::os_error(&other), None);
+    }
 
     #[test]
     #[ignore = "needs a vcan0 interface (ip link add dev vcan0 type vcan && ip link set up vcan0): runs in the kernel-in-the-loop guest"]

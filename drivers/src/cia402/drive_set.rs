@@ -240,6 +240,8 @@ impl<P: CanPort> Cia402DriveSet<P> {
     fn bus_error(&self, e: &P::Error) -> DriveError {
         if self.port.is_bus_off() {
             DriveError::BusOff
+        } else if let Some(errno) = P::os_error(e) {
+            DriveError::BusIo { errno }
         } else {
             DriveError::Bus(embedded_can::Error::kind(e))
         }

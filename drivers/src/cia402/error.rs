@@ -14,6 +14,12 @@ pub enum DriveError {
     BusOff,
     /// The CAN port failed (its `embedded-can` error kind).
     Bus(embedded_can::ErrorKind),
+    /// The CAN interface failed with an operating-system error (`errno`: the interface went
+    /// down, its device was removed, ...).
+    BusIo {
+        /// The error number.
+        errno: i32,
+    },
     /// A drive did not send its boot-up message in time.
     NeverBooted {
         /// Node id.
@@ -156,7 +162,7 @@ impl videt_hal::Error for DriveError {
     fn kind(&self) -> ErrorKind {
         match self {
             DriveError::BusOff => ErrorKind::Disconnected,
-            DriveError::Bus(_) => ErrorKind::Other,
+            DriveError::Bus(_) | DriveError::BusIo { .. } => ErrorKind::Other,
             DriveError::NeverBooted { .. }
             | DriveError::SdoTimeout { .. }
             | DriveError::PowerTimeout { .. }
@@ -181,6 +187,11 @@ impl core::fmt::Display for DriveError {
         match *self {
             DriveError::BusOff => write!(f, "CAN bus off"),
             DriveError::Bus(k) => write!(f, "CAN bus error: {k}"),
+            DriveError::BusIo { errno } => write!(
+                f,
+                "CAN interface: {}",
+                std::io::Error::from_raw_os_error(errno)
+            ),
             DriveError::NeverBooted { node, waited_ms } => {
                 write!(f, "drive {node}: no boot-up message within {waited_ms} ms")
             }
