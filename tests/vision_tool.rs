@@ -16,7 +16,7 @@ fn args(left: PathBuf, right: PathBuf, out: PathBuf, roi: Option<[u32; 4]>) -> V
         baseline: Some(0.16),
         out,
         roi,
-        max_disparity: 64.0,
+        max_disparity: Some(64.0),
         surface: false,
         relief_depth: 0.08,
     }
@@ -74,7 +74,7 @@ fn vision_tool_writes_the_surface_of_a_real_pair() {
         out.path().to_path_buf(),
         None,
     );
-    a.max_disparity = 20.0;
+    a.max_disparity = Some(20.0);
     a.surface = true;
     a.relief_depth = 0.05;
     run(&a).unwrap();
@@ -227,11 +227,53 @@ fn vision_tool_rectifies_with_a_calibration() {
     a.rectified = false;
     a.focal = None;
     a.baseline = None;
-    a.max_disparity = 250.0;
+    a.max_disparity = Some(250.0);
     run(&a).unwrap();
     let matches: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(dir.path().join("out/matches.json")).unwrap(),
     )
     .unwrap();
     assert!(matches["matches"].as_array().unwrap().len() > 20);
+}
+
+/// Without `--max-disparity` the bound is measured on the pair: on tsukuba (true disparities
+/// 5..14 px) the run keeps its matches, nearly all inside the scene's range and none far
+/// beyond it.
+#[test]
+fn without_max_disparity_the_bound_is_measured_on_the_pair() {
+    let Some(dir) = videt_testdata::data_dir("stereo/tsukuba") else {
+        return;
+    };
+    let out = tempfile::tempdir().unwrap();
+    let mut a = args(
+        dir.join("left.ppm"),
+        dir.join("right.ppm"),
+        out.path().to_path_buf(),
+        None,
+    );
+    a.max_disparity = None;
+    run(&a).unwrap();
+    let matches: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("matches.json")).unwrap())
+            .unwrap();
+    let matches = matches["matches"].as_array().unwrap();
+    assert!(matches.len() > 200, "{} matches", matches.len());
+    let disparities: Vec<f64> = matches
+        .iter()
+        .flat_map(|m| m["disparity"].as_array().unwrap().clone())
+        .map(|d| d.as_f64().unwrap())
+        .collect();
+    let inside = disparities
+        .iter()
+        .filter(|d| (3.0..=16.0).contains(*d))
+        .count();
+    // A few percent of the matches are wrong (the held-out figures): they land anywhere in the
+    // searched range, which the measured bound keeps small.
+    assert!(
+        inside * 100 >= disparities.len() * 95,
+        "{inside} of {} endpoint disparities in 3..16 px",
+        disparities.len()
+    );
+    let widest = disparities.iter().copied().fold(0.0, f64::max);
+    assert!(widest <= 40.0, "a match at {widest} px");
 }

@@ -14,6 +14,7 @@ use std::process::ExitCode;
 use clap::Args;
 use image::GrayImage;
 use videt_hal::GrayFrame;
+use videt_vision::disparity_range::choose_max_disparity;
 use videt_vision::io::{load_gray_image, write_results};
 use videt_vision::surface::build_from_scene;
 use videt_vision::surface::export::write_surface_outputs;
@@ -49,9 +50,11 @@ pub struct VisionArgs {
     /// Process only this region of the left image (local mode): column, row, width, height.
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_roi)]
     pub roi: Option<[u32; 4]>,
-    /// Largest disparity searched, pixels (nearest depth = focal x baseline / this).
-    #[arg(long, value_name = "PX", default_value_t = 64.0)]
-    pub max_disparity: f32,
+    /// Largest disparity searched, pixels (nearest depth = focal x baseline / this). Default:
+    /// measured on the pair (a first pass searching the whole width; the bound is the 98th
+    /// percentile of its disparities x1.25 + 8 px), and printed.
+    #[arg(long, value_name = "PX")]
+    pub max_disparity: Option<f32>,
     /// Also build the bas-relief from the 3D segments and write `surface.ply` (the mesh, device
     /// frame, metres) and `surface_depth.png` (shaded depth) into the output directory.
     #[arg(long)]
@@ -116,10 +119,23 @@ pub fn run(args: &VisionArgs) -> ToolResult {
     };
     geometry.validate()?;
     let mut params = VisionParams::default();
-    params.matching.disparity_max_px = args.max_disparity;
     let lv = GrayView::from_image(&left)?;
     let rv = GrayView::from_image(&right)?;
     let mut pipeline = StereoPipeline::new();
+    let range_line = match args.max_disparity {
+        Some(px) => {
+            params.matching.disparity_max_px = px;
+            format!("max disparity {px} px (given)")
+        }
+        None => {
+            let range = choose_max_disparity(&mut pipeline, &lv, &rv, &params)?;
+            params.matching.disparity_max_px = range.max_px;
+            range.describe()
+        }
+    };
+    params
+        .validate()
+        .map_err(|e| format!("--max-disparity: {e}"))?;
     let output = match args.roi {
         None => pipeline.run(&lv, &rv, Some(&geometry), &params)?,
         Some([x, y, w, h]) => {
@@ -135,7 +151,8 @@ pub fn run(args: &VisionArgs) -> ToolResult {
     let t = &output.timings;
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     let report = format!(
-        "segments: {} left, {} right; matches: {}; 3D segments: {}\n\
+        "{range_line}\n\
+         segments: {} left, {} right; matches: {}; 3D segments: {}\n\
          edges (Canny, both images)   {:8.3} ms\n\
          chain linking                {:8.3} ms\n\
          segment approximation        {:8.3} ms\n\

@@ -200,6 +200,9 @@ fn override_param(p: &mut VisionParams, key: &str, v: f64) -> Result<(), String>
         "matching.disparity_tolerance_px" => m.disparity_tolerance_px = v as f32,
         "matching.max_disparity_slope" => m.max_disparity_slope = v as f32,
         "matching.max_photometric_error" => m.max_photometric_error = v as f32,
+        "matching.photometric_sampling_insensitive" => {
+            m.photometric_sampling_insensitive = v != 0.0
+        }
         "matching.max_neighbours" => m.max_neighbours = v as usize,
         "matching.max_intensity_diff" => m.max_intensity_diff = v as f32,
         "matching.max_contrast_ratio" => m.max_contrast_ratio = v as f32,

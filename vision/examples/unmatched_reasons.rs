@@ -15,6 +15,9 @@
 //! the matches that completion added and how they fared; `key=value` overrides a few
 //! completion parameters (see the source).
 //!
+//! The pair `map` is the synthetic printed map before a background plane
+//! (`videt_vision::synthetic::printed_map_scene`).
+//!
 //! `cargo run --release -p videt-vision --example unmatched_reasons [pair ...] [--list]
 //! [--completed] [key=value ...]`
 
@@ -57,6 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             _ => return Err(format!("unknown parameter {key}").into()),
         }
     }
+    let mut pairs = Vec::new();
     for (name, scale) in MIDDLEBURY_PAIRS {
         if !wanted.is_empty() && !wanted.contains(&name) {
             continue;
@@ -64,12 +68,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
             continue;
         };
-        let left_img = image::open(dir.join("left.ppm"))?.to_luma8();
-        let right_img = image::open(dir.join("right.ppm"))?.to_luma8();
-        let truth = load_middlebury_truth(&dir, scale)?;
+        pairs.push((
+            name.to_string(),
+            image::open(dir.join("left.ppm"))?.to_luma8(),
+            image::open(dir.join("right.ppm"))?.to_luma8(),
+            load_middlebury_truth(&dir, scale)?,
+        ));
+    }
+    if wanted.contains(&"map") {
+        let (w, h) = (640, 480);
+        let (left, right, truth) = videt_vision::synthetic::printed_map_scene(w, h, 1);
+        pairs.push((
+            "map".to_string(),
+            image::GrayImage::from_raw(w as u32, h as u32, left).ok_or("map size")?,
+            image::GrayImage::from_raw(w as u32, h as u32, right).ok_or("map size")?,
+            DisparityMap {
+                width: w,
+                height: h,
+                values: truth,
+            },
+        ));
+    }
+    for (name, left_img, right_img, truth) in &pairs {
         let (lv, rv) = (
-            GrayView::from_image(&left_img)?,
-            GrayView::from_image(&right_img)?,
+            GrayView::from_image(left_img)?,
+            GrayView::from_image(right_img)?,
         );
         let out = run_pipeline(&lv, &rv, None, &params)?;
         // The matcher again, on the same segments and smoothed images, to inspect its state.
@@ -99,7 +122,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     continue;
                 }
                 let l = &ls[m.left as usize];
-                let v = judge(l, &rs[m.right as usize], m, &truth);
+                let v = judge(l, &rs[m.right as usize], m, truth);
                 let strict = ws0.diagnose_pair(ls, rs, Some(&images), &plain, m.left, m.right);
                 let strict = match strict {
                     PairDiagnosis::Candidate(c) => format!(
@@ -115,7 +138,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     l.angle_rad.to_degrees(),
                     m.disparity_px[0],
                     m.disparity_px[1],
-                    true_disparity(l, &truth),
+                    true_disparity(l, truth),
                     m.support,
                     m.nearly_horizontal
                 );
@@ -133,12 +156,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             let h = l.is_nearly_horizontal(horizontal);
             let partners: Vec<u32> = (0..rs.len() as u32)
-                .filter(|&j| is_partner(l, &rs[j as usize], h, &truth))
+                .filter(|&j| is_partner(l, &rs[j as usize], h, truth))
                 .collect();
             let kind = if h { "horiz" } else { "ordinary" };
             let class = if partners.is_empty() {
-                if truth_known(l, &truth) {
-                    no_partner_kind(l, rs, &truth).to_string()
+                if truth_known(l, truth) {
+                    no_partner_kind(l, rs, truth).to_string()
                 } else {
                     "no truth".to_string()
                 }
@@ -153,7 +176,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let key = format!("{kind:<8} {class}");
             if list {
-                let d = true_disparity(l, &truth);
+                let d = true_disparity(l, truth);
                 println!(
                     "  L{i} ({:.0},{:.0})-({:.0},{:.0}) len {:.0} ang {:.0} pol {} truth {:?} | {key} | partners {:?}",
                     l.start[0],
@@ -193,7 +216,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .iter()
             .filter(|m| {
                 let l = &ls[m.left as usize];
-                let v = judge(l, &rs[m.right as usize], m, &truth);
+                let v = judge(l, &rs[m.right as usize], m, truth);
                 v == MatchVerdict::Wrong
             })
             .collect();
@@ -216,7 +239,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     "  wrong {} d {:?} truth {:?} support {} pred {} horiz {}",
                     pair_text(m, l),
                     m.disparity_px,
-                    true_disparity(l, &truth),
+                    true_disparity(l, truth),
                     m.support,
                     m.predicted,
                     m.nearly_horizontal

@@ -13,6 +13,7 @@ pub mod rectify;
 
 pub mod canny;
 pub mod chains;
+pub mod disparity_range;
 pub mod error;
 pub mod evaluation;
 pub mod gray;
@@ -22,6 +23,7 @@ pub mod pipeline;
 pub mod reconstruct;
 pub mod roi;
 pub mod segments;
+pub mod synthetic;
 
 pub use error::VisionError;
 pub use gray::{GrayView, PixelRect};

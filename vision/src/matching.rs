@@ -107,6 +107,11 @@ pub struct MatchParams {
     /// match's disparity; the better of the two sides of the edge counts (the other may be
     /// occluded).
     pub max_photometric_error: f32,
+    /// Photometric validation compares each sample with the range of the other image's
+    /// intensities within half a pixel (Birchfield and Tomasi's sampling-insensitive
+    /// dissimilarity) instead of with its value at the exact disparity: on dense texture a
+    /// sub-pixel disparity error otherwise costs tens of grey levels.
+    pub photometric_sampling_insensitive: bool,
     /// Enforce left-right consistency (mutual best candidate) at validation.
     pub left_right_check: bool,
     /// Match nearly horizontal segments during propagation.
@@ -216,6 +221,7 @@ impl Default for MatchParams {
             min_seed_support: 2,
             min_support: 1,
             max_photometric_error: 7.0,
+            photometric_sampling_insensitive: false,
             left_right_check: true,
             match_horizontal: true,
             contained_min_length_ratio: 0.25,
@@ -768,7 +774,12 @@ impl MatchWorkspace {
                 };
                 if let Some(images) = images {
                     if !c.horizontal {
-                        let error = photometric_error(l, &c, images);
+                        let error = photometric_error(
+                            l,
+                            &c,
+                            images,
+                            params.photometric_sampling_insensitive,
+                        );
                         if error > params.max_photometric_error {
                             if complete {
                                 self.loose.push((Candidate { tight: false, ..c }, error));
@@ -904,7 +915,9 @@ impl MatchWorkspace {
             c.rows2 = rows2;
             c.right2 = other.0;
             if let Some(images) = images {
-                if photometric_error(l, &c, images) > params.max_photometric_error {
+                if photometric_error(l, &c, images, params.photometric_sampling_insensitive)
+                    > params.max_photometric_error
+                {
                     continue;
                 }
             }
@@ -1067,9 +1080,12 @@ impl MatchWorkspace {
             return match evaluate_pair(i, l, j, &right[j as usize], horizontal, params) {
                 Err(e) => PairDiagnosis::Constraint(e),
                 Ok(c) => match images {
-                    Some(images) if !horizontal => {
-                        PairDiagnosis::Photometric(photometric_error(l, &c, images))
-                    }
+                    Some(images) if !horizontal => PairDiagnosis::Photometric(photometric_error(
+                        l,
+                        &c,
+                        images,
+                        params.photometric_sampling_insensitive,
+                    )),
                     _ => PairDiagnosis::Unlisted,
                 },
             };
@@ -1520,7 +1536,7 @@ impl MatchWorkspace {
                 // Completion pairs are checked photometrically last (the costliest test).
                 if let Some(images) = images {
                     let error = if known_error.is_nan() {
-                        photometric_error(l, &c, images)
+                        photometric_error(l, &c, images, params.photometric_sampling_insensitive)
                     } else {
                         known_error
                     };
@@ -1709,8 +1725,14 @@ pub struct StereoImages<'a> {
     pub right: ImagePatch<'a>,
 }
 
-/// Photometric error of a candidate (see [`MatchParams::max_photometric_error`]).
-fn photometric_error(l: &Segment, c: &Candidate, images: &StereoImages<'_>) -> f32 {
+/// Photometric error of a candidate (see [`MatchParams::max_photometric_error`] and
+/// [`MatchParams::photometric_sampling_insensitive`]).
+fn photometric_error(
+    l: &Segment,
+    c: &Candidate,
+    images: &StereoImages<'_>,
+    sampling_insensitive: bool,
+) -> f32 {
     const SAMPLES: usize = 12;
     let mut sums = [0.0f32; 2];
     let mut counts = [0u32; 2];
@@ -1728,8 +1750,14 @@ fn photometric_error(l: &Segment, c: &Candidate, images: &StereoImages<'_>) -> f
             (1, [1.0, 2.0, 3.0, 4.0]),
         ] {
             for o in offsets {
-                if let (Some(a), Some(b)) = (left_row.sample(x + o), right_row.sample(x - d + o)) {
-                    sums[side] += (a - b).abs();
+                let (xl, xr) = (x + o, x - d + o);
+                if let (Some(a), Some(b)) = (left_row.sample(xl), right_row.sample(xr)) {
+                    sums[side] += if sampling_insensitive {
+                        distance_to_range(a, &right_row, xr, b)
+                            .min(distance_to_range(b, &left_row, xl, a))
+                    } else {
+                        (a - b).abs()
+                    };
                     counts[side] += 1;
                 }
             }
@@ -1742,6 +1770,20 @@ fn photometric_error(l: &Segment, c: &Candidate, images: &StereoImages<'_>) -> f
         }
     }
     best
+}
+
+/// How far `value` lies outside the range of `row`'s intensities within half a pixel of `x`
+/// (where the row reads `at_x`): 0 inside it.
+fn distance_to_range(value: f32, row: &PatchRow<'_>, x: f32, at_x: f32) -> f32 {
+    let (mut lo, mut hi) = (at_x, at_x);
+    for v in [row.sample(x - 0.5), row.sample(x + 0.5)]
+        .into_iter()
+        .flatten()
+    {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    (lo - value).max(value - hi).max(0.0)
 }
 
 /// Continuity between candidate `a` (on left segment `n`'s owner) and `b` (on `n.other`).
