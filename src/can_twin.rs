@@ -247,8 +247,7 @@ impl CanTwin<RealTimeTwin> {
         // on `drive_cpu` (the control thread's), so that what stalls the rest of the machine
         // does not stall them while the control thread runs on, and each period's hand-overs
         // between the control thread, the wire and the drives need no cross-CPU wake-up.
-        let online = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let drive_cpu = drive_cpu.filter(|&cpu| cpu < online);
+        let drive_cpu = drive_cpu.filter(|&cpu| cpu < crate::rt::cpus_available());
         let raise = move |what: &'static str| {
             if let Some(p) = drive_priority {
                 if let Err(e) = crate::rt::set_fifo(p) {

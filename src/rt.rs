@@ -183,6 +183,12 @@ pub fn cpu_list_contains(list: &str, cpu: usize) -> bool {
         })
 }
 
+/// How many CPUs this process may run on (at least 1): a CPU index at or above it cannot take
+/// a pinned thread here.
+pub fn cpus_available() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 /// Pin the calling thread to `cpu`.
 pub fn pin_to_cpu(cpu: usize) -> io::Result<()> {
     // SAFETY: cpu_set_t is plain data; CPU_ZERO/CPU_SET only write inside it; 0 = this thread.
@@ -209,9 +215,7 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
         )),
     }
     if let Some(cpu) = cpu {
-        let online = std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1);
+        let online = cpus_available();
         if cpu >= online {
             report.warnings.push(format!(
                 "control CPU {cpu} does not exist ({online} CPUs online); not pinned"
