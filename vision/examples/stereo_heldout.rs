@@ -13,7 +13,7 @@
 //! ones back-projected to 3D); "matched" is the fraction of those left segments matched.
 //! Choice on a training set: among the grid's settings that match >= 60 % on every training
 //! pair (all settings when none does), the lowest mean wrong fraction, then the highest mean
-//! matched fraction. The grid: Canny high threshold x photometric limit x propagation angle
+//! matched fraction. The grid (120 settings): Canny high threshold x photometric limit x propagation angle
 //! (the three constants the defaults were tuned on) x the photometric test's form (at the exact
 //! disparity, or sampling-insensitive: "BT").
 //!
@@ -30,8 +30,8 @@ const GOAL_MATCHED: f64 = 0.60;
 /// ... and at most this fraction of those matches wrong.
 const GOAL_WRONG: f64 = 0.02;
 
-const CANNY_HIGH: [u16; 3] = [60, 80, 110];
-const PHOTOMETRIC: [f32; 3] = [5.0, 7.0, 10.0];
+const CANNY_HIGH: [u16; 5] = [40, 50, 60, 80, 110];
+const PHOTOMETRIC: [f32; 4] = [4.0, 5.0, 7.0, 10.0];
 const PROPAGATE_ANGLE_DEG: [f32; 3] = [9.0, 13.0, 18.0];
 const SAMPLING_INSENSITIVE: [bool; 2] = [false, true];
 
