@@ -91,6 +91,15 @@ pub struct ServiceExtras {
     pub fault_causes: Option<Box<dyn FnMut() -> Option<String> + Send>>,
 }
 
+/// Log each hardware fault cause not yet told ([`ServiceExtras::fault_causes`]).
+fn tell_fault_causes(fault_causes: &mut Option<Box<dyn FnMut() -> Option<String> + Send>>) {
+    if let Some(next_cause) = fault_causes.as_mut() {
+        while let Some(cause) = next_cause() {
+            warn!(%cause, "hardware fault");
+        }
+    }
+}
+
 /// Install a panic hook that, besides printing, tells the control loop to go safe and stop.
 pub fn install_panic_hook() {
     let default = std::panic::take_hook();
@@ -433,11 +442,7 @@ where
             }
             last_safety = record.safety;
         }
-        if let Some(next_cause) = fault_causes.as_mut() {
-            while let Some(cause) = next_cause() {
-                warn!(%cause, "hardware fault");
-            }
-        }
+        tell_fault_causes(&mut fault_causes);
         if record.surface_stale != last_stale {
             if record.surface_stale {
                 warn!("surface model stale (vision stalled): forces fade to the free-space field");
@@ -484,6 +489,8 @@ where
     }
     let _ = sd_notify::notify(&[NotifyState::Stopping]);
     let outcome = control.join();
+    // A cause latched in the last periods (the ramp-out, the drives' shutdown).
+    tell_fault_causes(&mut fault_causes);
     if let Some(server) = server {
         server.stop();
     }
