@@ -2,7 +2,8 @@
 //! free nothing: `read_drives` (SYNC, TPDOs with the analog inputs, publishing them) then
 //! `read_tensions` (the three drive inputs through the strain-gauge set) then `write_torques`,
 //! against three simulated CiA 402 drives on the in-process bus, under a global allocator that
-//! counts the allocations made on this thread (the simulated drives run on their own).
+//! counts the allocations made on this thread (the simulated drives run on their own). So does
+//! the fault path: an EMCY latched, queued for the supervisor, and the safe commands sent.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -65,7 +66,7 @@ fn reading_drives_and_drive_input_tensions_allocates_nothing() {
             boot_delay: Duration::from_millis(5),
         })
         .collect();
-    let _bank = SimDriveBank::spawn(drives, &specs, plant.clone());
+    let bank = SimDriveBank::spawn(drives, &specs, plant.clone());
     let mut cfg = DriveSetConfig::new([1, 2, 3], PERIOD, 0.1, 40.0);
     cfg.analog_input = Some(AnalogInputObject::default());
     // This test is about allocations, not deadlines: ride out a loaded machine.
@@ -74,6 +75,7 @@ fn reading_drives_and_drive_input_tensions_allocates_nothing() {
     cfg.drive_heartbeat_timeout = Duration::from_millis(500);
     cfg.host_silence_timeout_ms = 1000;
     let mut set = Cia402DriveSet::new(Host(host), cfg).unwrap();
+    let mut fault_reports = set.fault_reports();
     let inputs = set.analog_inputs().unwrap();
     let mut tensions = StrainGaugeSet::new(
         DriveInputAdc::for_each_wire(&inputs),
@@ -119,4 +121,28 @@ fn reading_drives_and_drive_input_tensions_allocates_nothing() {
         "the inputs kept arriving"
     );
     assert_eq!(n, [10.0, 20.0, 30.0]);
+
+    // A drive's EMCY: the set latches it, reports it to the supervisor's queue and commands
+    // the safe state, all without allocating.
+    bank.faults(1).raise_fault(0x2310);
+    let (latched, counts) = videt_testkit::count_allocations(|| {
+        for _ in 0..50 {
+            let start = Instant::now();
+            if let Err(e) = set.read_drives(&mut samples) {
+                return Some(e);
+            }
+            let _ = set.write_torques(&[0.001; WIRES]);
+            if let Some(rest) = (start + PERIOD).checked_duration_since(Instant::now()) {
+                std::thread::sleep(rest);
+            }
+        }
+        None
+    });
+    assert_eq!(
+        counts,
+        videt_testkit::AllocCounts::default(),
+        "allocations and frees on the fault path"
+    );
+    let latched = latched.expect("the EMCY put the drives in their safe state");
+    assert_eq!(fault_reports.pop().ok(), Some(latched));
 }
