@@ -91,13 +91,19 @@ pub struct ServiceExtras {
     pub fault_causes: Option<Box<dyn FnMut() -> Option<String> + Send>>,
 }
 
-/// Log each hardware fault cause not yet told ([`ServiceExtras::fault_causes`]).
-fn tell_fault_causes(fault_causes: &mut Option<Box<dyn FnMut() -> Option<String> + Send>>) {
+/// Log each hardware fault cause not yet told ([`ServiceExtras::fault_causes`]); the latest
+/// one told, if any.
+fn tell_fault_causes(
+    fault_causes: &mut Option<Box<dyn FnMut() -> Option<String> + Send>>,
+) -> Option<String> {
+    let mut latest = None;
     if let Some(next_cause) = fault_causes.as_mut() {
         while let Some(cause) = next_cause() {
             warn!(%cause, "hardware fault");
+            latest = Some(cause);
         }
     }
+    latest
 }
 
 /// Install a panic hook that, besides printing, tells the control loop to go safe and stop.
@@ -407,6 +413,8 @@ where
     let (mut last_cycle, mut last_progress) = (0u64, Instant::now());
     let mut last_safety = SafetyState::Normal;
     let mut last_stale = false;
+    // What the hardware last said put it in the current safe state.
+    let mut fault_cause: Option<String> = None;
     while !control.is_finished() {
         std::thread::sleep(Duration::from_millis(10));
         if hangup.swap(false, Ordering::Relaxed) {
@@ -442,7 +450,12 @@ where
             }
             last_safety = record.safety;
         }
-        tell_fault_causes(&mut fault_causes);
+        if let Some(cause) = tell_fault_causes(&mut fault_causes) {
+            fault_cause = Some(cause);
+        }
+        if record.safety.reason().is_none() {
+            fault_cause = None;
+        }
         if record.surface_stale != last_stale {
             if record.surface_stale {
                 warn!("surface model stale (vision stalled): forces fade to the free-space field");
@@ -472,6 +485,7 @@ where
         if let Ok(mut status) = shared.status.lock() {
             *status = StatusReport::from_snapshot(&snapshot, dropped);
             status.procedure = procedure.map(str::to_string);
+            status.fault.clone_from(&fault_cause);
         }
         if options.status_lines && running && last_status_line.elapsed() >= Duration::from_secs(1) {
             last_status_line = Instant::now();
@@ -490,7 +504,7 @@ where
     let _ = sd_notify::notify(&[NotifyState::Stopping]);
     let outcome = control.join();
     // A cause latched in the last periods (the ramp-out, the drives' shutdown).
-    tell_fault_causes(&mut fault_causes);
+    let _ = tell_fault_causes(&mut fault_causes);
     if let Some(server) = server {
         server.stop();
     }

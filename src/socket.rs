@@ -244,6 +244,10 @@ pub struct StatusReport {
     /// The fraction of the configured PI gains the tension loop runs with, when degraded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tension_loop_gain_scale: Option<f64>,
+    /// In a safe state: the latest cause the hardware told since it left normal operation
+    /// (`drives: drive 3: emergency 0x8611 ...`), if it told one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fault: Option<String>,
 }
 
 /// A reply.
@@ -310,6 +314,7 @@ impl StatusReport {
             telemetry_dropped,
             procedure: None,
             tension_loop_gain_scale: s.tension_loop_degraded,
+            fault: None,
         }
     }
 }

@@ -409,8 +409,10 @@ fn a_drive_fault_is_logged_with_its_cause() {
         assert!(Instant::now() < deadline, "no drive fault");
         std::thread::sleep(Duration::from_millis(20));
     }
-    // The supervisor tells the cause within its next few ticks.
+    // The supervisor tells the cause within its next few ticks, in the log and in the status.
     std::thread::sleep(Duration::from_millis(200));
+    let fault = status(Duration::from_secs(5)).fault.unwrap_or_default();
+    assert!(fault.contains("drive 3: emergency 0x8611"), "{fault}");
     assert!(
         request(&socket, &Request::Stop, Duration::from_secs(2))
             .unwrap()

@@ -157,11 +157,14 @@ fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
         println!("motors: {motors}");
         match &service {
             Some(s) => println!(
-                "videtd: running{}, safety {}, drives {}, tensions ({:.2}, {:.2}, {:.2}) N, released wire {}, {:.0} Hz, {} overruns",
+                "videtd: running{}, safety {}{}, drives {}, tensions ({:.2}, {:.2}, {:.2}) N, released wire {}, {:.0} Hz, {} overruns",
                 s.procedure
                     .as_deref()
                     .map_or(String::new(), |p| format!(" (procedure `{p}` under way)")),
                 s.safety,
+                s.fault
+                    .as_deref()
+                    .map_or(String::new(), |f| format!(" ({f})")),
                 if s.power_off { "off" } else { "on" },
                 s.tensions_n[0],
                 s.tensions_n[1],
