@@ -785,17 +785,22 @@ mod cameras {
             pulsing += 1;
             let hz = 1.0 / median(periods);
             let duty = median(p.iter().map(|(_, high)| high.as_secs_f64()).collect()) * hz;
-            assert!((hz - 75.0).abs() < 7.5, "line {line} pulses at {hz:.1} Hz");
             if emulated_cpu() {
                 // Wake-ups milliseconds late (on the pattern's thread and on this sampler) move
-                // each edge by a good part of the 6.7 ms half-period: only a pulse train with
-                // neither level stuck is asked of an emulated CPU.
+                // each edge by a good part of the 6.7 ms half-period: an emulated CPU is only
+                // asked for a pulse train near the carrier (within a factor of two) with neither
+                // level stuck. The timing itself is judged on real CPUs.
+                assert!(
+                    (37.5..150.0).contains(&hz),
+                    "line {line} pulses at {hz:.1} Hz"
+                );
                 assert!(
                     (0.05..0.95).contains(&duty),
                     "line {line} pulses {:.0} % of each period",
                     duty * 100.0
                 );
             } else {
+                assert!((hz - 75.0).abs() < 7.5, "line {line} pulses at {hz:.1} Hz");
                 assert!(
                     (duty - 0.2).abs() < 0.1 || (duty - 0.5).abs() < 0.1,
                     "line {line} pulses {:.0} % of each period",
