@@ -59,7 +59,7 @@ impl<D, T, E> DeviceHardware<D, T, E> {
 /// error not yet told, for [`crate::service::ServiceExtras::fault_causes`].
 pub fn drive_fault_causes(
     mut reports: rtrb::Consumer<videt_drivers::cia402::DriveError>,
-) -> Box<dyn FnMut() -> Option<String> + Send> {
+) -> crate::service::FaultCauses {
     Box::new(move || reports.pop().ok().map(|e| format!("drives: {e}")))
 }
 

@@ -88,14 +88,15 @@ pub struct ServiceExtras {
     /// The hardware's account of why it went to its safe state: each call returns one cause
     /// not yet told (already formatted, off the control thread), `None` when there is none.
     /// The supervisor logs each beside the safe state it explains.
-    pub fault_causes: Option<Box<dyn FnMut() -> Option<String> + Send>>,
+    pub fault_causes: Option<FaultCauses>,
 }
+
+/// The hardware's fault causes, one per call ([`ServiceExtras::fault_causes`]).
+pub type FaultCauses = Box<dyn FnMut() -> Option<String> + Send>;
 
 /// Log each hardware fault cause not yet told ([`ServiceExtras::fault_causes`]); the latest
 /// one told, if any.
-fn tell_fault_causes(
-    fault_causes: &mut Option<Box<dyn FnMut() -> Option<String> + Send>>,
-) -> Option<String> {
+fn tell_fault_causes(fault_causes: &mut Option<FaultCauses>) -> Option<String> {
     let mut latest = None;
     if let Some(next_cause) = fault_causes.as_mut() {
         while let Some(cause) = next_cause() {
@@ -446,15 +447,17 @@ where
                     power_off = record.safety.power_off(),
                     "safe state"
                 ),
-                None => info!("safety: back to normal operation"),
+                None => {
+                    info!("safety: back to normal operation");
+                    fault_cause = None;
+                }
             }
             last_safety = record.safety;
         }
+        // A cause can be told a tick before the record shows its safe state: it is kept until
+        // the service is back to normal.
         if let Some(cause) = tell_fault_causes(&mut fault_causes) {
             fault_cause = Some(cause);
-        }
-        if record.safety.reason().is_none() {
-            fault_cause = None;
         }
         if record.surface_stale != last_stale {
             if record.surface_stale {
@@ -485,7 +488,9 @@ where
         if let Ok(mut status) = shared.status.lock() {
             *status = StatusReport::from_snapshot(&snapshot, dropped);
             status.procedure = procedure.map(str::to_string);
-            status.fault.clone_from(&fault_cause);
+            status.fault = fault_cause
+                .clone()
+                .filter(|_| record.safety.reason().is_some());
         }
         if options.status_lines && running && last_status_line.elapsed() >= Duration::from_secs(1) {
             last_status_line = Instant::now();
