@@ -143,15 +143,13 @@ pub(super) struct StolenTime {
     stop: Arc<AtomicBool>,
 }
 
-/// Each CPU's stolen time so far, ms; `None` where `/proc/stat` cannot be read.
-fn read_steal_ms() -> Option<Vec<f64>> {
-    let text = std::fs::read_to_string("/proc/stat").ok()?;
+/// The clock ticks per second `/proc/stat` counts in.
+fn clock_ticks_per_s() -> f64 {
     // SAFETY: sysconf has no preconditions.
-    let ticks_per_s = match unsafe { libc::sysconf(libc::_SC_CLK_TCK) } {
+    match unsafe { libc::sysconf(libc::_SC_CLK_TCK) } {
         t if t > 0 => t as f64,
         _ => 100.0,
-    };
-    Some(parse_steal_ms(&text, ticks_per_s))
+    }
 }
 
 /// Each CPU's stolen time from the text of `/proc/stat` (its `cpuN` lines, 8th value, in
@@ -188,14 +186,14 @@ impl StolenTime {
         let stop = Arc::new(AtomicBool::new(false));
         let (kept, stopped) = (Arc::clone(&samples), Arc::clone(&stop));
         std::thread::spawn(move || {
-            let mut last: Option<Vec<f64>> = None;
+            let ticks_per_s = clock_ticks_per_s();
             while !stopped.load(Ordering::Relaxed) {
-                if let Some(now) = read_steal_ms() {
-                    if last.as_ref() != Some(&now) {
-                        if let Ok(mut k) = kept.lock() {
-                            k.push((unix_ns(), now.clone()));
+                if let Ok(text) = std::fs::read_to_string("/proc/stat") {
+                    let now = parse_steal_ms(&text, ticks_per_s);
+                    if let Ok(mut k) = kept.lock() {
+                        if k.last().map(|(_, v)| v) != Some(&now) {
+                            k.push((unix_ns(), now));
                         }
-                        last = Some(now);
                     }
                 }
                 std::thread::sleep(Duration::from_millis(20));
@@ -220,34 +218,21 @@ impl Drop for StolenTime {
 }
 
 /// From samples kept when they changed: the increase of `cpu`'s stolen time between the last
-/// samples at or before `from_ns` and `to_ns`.
-fn stolen_between(
-    samples: &[(u64, Vec<f64>)],
-    cpu: Option<usize>,
-    from_ns: u64,
-    to_ns: u64,
-) -> f64 {
-    let value = |t: u64| {
-        let at = samples.partition_point(|(s, _)| *s <= t);
-        samples[..at].last().map_or(0.0, |(_, v)| match cpu {
-            Some(c) => v.get(c).copied().unwrap_or(0.0),
-            None => v.iter().sum(),
-        })
-    };
+/// samples at or before `from_ns` and `to_ns` (before the first sample, its value: nothing is
+/// known earlier).
+fn stolen_between(samples: &[StealSample], cpu: Option<usize>, from_ns: u64, to_ns: u64) -> f64 {
     if samples.is_empty() || from_ns > to_ns {
         return 0.0;
     }
-    // Before the first sample, the first sample's value (nothing is known earlier).
-    let first = match cpu {
-        Some(c) => samples[0].1.get(c).copied().unwrap_or(0.0),
-        None => samples[0].1.iter().sum(),
+    let value = |t: u64| {
+        let at = samples.partition_point(|(s, _)| *s <= t).max(1);
+        let v = &samples[at - 1].1;
+        match cpu {
+            Some(c) => v.get(c).copied().unwrap_or(0.0),
+            None => v.iter().sum(),
+        }
     };
-    let start = if from_ns < samples[0].0 {
-        first
-    } else {
-        value(from_ns)
-    };
-    (value(to_ns).max(first) - start).max(0.0)
+    (value(to_ns) - value(from_ns)).max(0.0)
 }
 
 #[cfg(test)]
