@@ -62,18 +62,24 @@ fn parse_ply(text: &str) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
     (vertices, faces)
 }
 
-#[test]
-fn vision_tool_writes_the_surface_of_a_real_pair() {
-    let Some(dir) = videt_testdata::data_dir("stereo/tsukuba") else {
-        return;
-    };
-    let out = tempfile::tempdir().unwrap();
-    let mut a = args(
+/// The tool's arguments for the shared tsukuba pair, writing into `out`; `None` (the test
+/// skips) without the shared data.
+fn tsukuba_args(out: &std::path::Path) -> Option<VisionArgs> {
+    let dir = videt_testdata::data_dir("stereo/tsukuba")?;
+    Some(args(
         dir.join("left.ppm"),
         dir.join("right.ppm"),
-        out.path().to_path_buf(),
+        out.to_path_buf(),
         None,
-    );
+    ))
+}
+
+#[test]
+fn vision_tool_writes_the_surface_of_a_real_pair() {
+    let out = tempfile::tempdir().unwrap();
+    let Some(mut a) = tsukuba_args(out.path()) else {
+        return;
+    };
     a.max_disparity = Some(20.0);
     a.surface = true;
     a.relief_depth = 0.05;
@@ -241,16 +247,10 @@ fn vision_tool_rectifies_with_a_calibration() {
 /// beyond it.
 #[test]
 fn without_max_disparity_the_bound_is_measured_on_the_pair() {
-    let Some(dir) = videt_testdata::data_dir("stereo/tsukuba") else {
+    let out = tempfile::tempdir().unwrap();
+    let Some(mut a) = tsukuba_args(out.path()) else {
         return;
     };
-    let out = tempfile::tempdir().unwrap();
-    let mut a = args(
-        dir.join("left.ppm"),
-        dir.join("right.ppm"),
-        out.path().to_path_buf(),
-        None,
-    );
     a.max_disparity = None;
     run(&a).unwrap();
     let matches: serde_json::Value =
