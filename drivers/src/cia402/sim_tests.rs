@@ -693,8 +693,10 @@ fn an_analog_input_the_drive_cannot_map_is_named_at_configuration() {
 
 #[test]
 fn a_bus_fast_enough_for_the_period_carries_every_cycle() {
-    // 250 kbit/s: a period's process data takes at most 3 ms of the 10 ms period.
-    let mut r = rig_on(config(), 1e-4, Some(250_000));
+    // 250 kbit/s: a period's process data takes at most 3 ms of the 10 ms period. The
+    // drives and the bus's wire run on ordinary threads of a loaded test host: the set rides
+    // out a late answer (what is judged is the bus's load and queueing below).
+    let mut r = rig_on(tolerant(), 1e-4, Some(250_000));
     r.set.configure().unwrap();
     r.set.activate().unwrap();
     let mut out = [DriveSample::default(); WIRES];
