@@ -1,8 +1,13 @@
 //! Time of each stage of the stereo pipeline, of the whole pipeline (rectified images to 3D
 //! segments, and raw camera frames through rectification to 3D segments) on a 640x480 pair, and
-//! of a local run on a 100x100 region.
+//! of local runs on 100x100 regions.
 //!
-//! `cargo bench -p videt-vision --bench stereo_pipeline_stages`
+//! The 640x480 pair is the shared Middlebury teddy pair (450x375) upscaled bilinearly with
+//! `image::imageops::resize` (`common::vga_pair`; disparities scale by 640/450, up to ~80 px,
+//! hence a search up to 96 px), or a synthetic textured pair when the shared data is absent.
+//!
+//! `cargo bench -p videt-vision --bench stereo_pipeline_stages`; the adaptive local mode alone:
+//! `cargo bench -p videt-vision --bench stereo_pipeline_stages -- local_region_100x100_adaptive_640x480`
 
 mod common;
 
@@ -13,6 +18,7 @@ use videt_vision::canny::CannyWorkspace;
 use videt_vision::chains::Chains;
 use videt_vision::matching::MatchWorkspace;
 use videt_vision::rectify::StereoRectifier;
+use videt_vision::roi::LocalContext;
 use videt_vision::segments::SegmentWorkspace;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
@@ -176,10 +182,11 @@ fn stages(c: &mut Criterion) {
                 .len()
         })
     });
-    // The single pass over the region plus its context margin (not grown until the matches
-    // equal the whole-image run's): the fast mode, exact except near chains cut by the window.
+    // The single pass over the region plus its fixed context margin (not grown until the
+    // matches equal the whole-image run's): exact except near chains cut by the window.
     let mut single_pass = params;
     single_pass.local.exact = false;
+    single_pass.local.context = LocalContext::Fixed;
     c.bench_function("local_region_100x100_single_pass", |b| {
         b.iter(|| {
             pipeline
@@ -260,12 +267,84 @@ fn stages(c: &mut Criterion) {
     );
 }
 
+/// The adaptive local mode (context chosen from the data, see `StereoPipeline::run_local`) on
+/// the 640x480 pair: 48 still 100x100 regions on an 8x6 grid over the whole image, one region
+/// per iteration in turn, so criterion's figures are per region over all of them. Then the
+/// median over the regions of each region's per-call median, with the 90th percentile and the
+/// largest, and the same for the exact mode and a fixed 96 px margin.
+fn local_modes(c: &mut Criterion) {
+    let (left, right) = common::vga_pair();
+    let lv = GrayView::from_image(&left).unwrap();
+    let rv = GrayView::from_image(&right).unwrap();
+    let exact = params();
+    let mut adaptive = exact;
+    adaptive.local.exact = false;
+    adaptive.local.context = LocalContext::Adaptive;
+    let mut fixed = adaptive;
+    fixed.local.context = LocalContext::Fixed;
+    fixed.local.context_margin_px = 96;
+    let regions: Vec<LocalRegion> = (0..48)
+        .map(|k| LocalRegion {
+            centre_px: [50.0 + (k % 8) as f32 * 77.0, 50.0 + (k / 8) as f32 * 76.0],
+            size_px: [100.0, 100.0],
+            velocity_px_per_frame: [0.0, 0.0],
+        })
+        .collect();
+    let mut pipeline = StereoPipeline::new();
+    let g = geometry();
+    let mut next = 0usize;
+    c.bench_function("local_region_100x100_adaptive_640x480", |b| {
+        b.iter(|| {
+            next = (next + 1) % regions.len();
+            pipeline
+                .run_local(
+                    black_box(&lv),
+                    black_box(&rv),
+                    Some(&g),
+                    &adaptive,
+                    &regions[next],
+                )
+                .unwrap()
+                .segments_3d
+                .len()
+        })
+    });
+    for (name, p) in [
+        ("adaptive", &adaptive),
+        ("exact", &exact),
+        ("fixed 96 px", &fixed),
+    ] {
+        let mut medians: Vec<f64> = regions
+            .iter()
+            .map(|region| {
+                per_call_median_ms_of(20, || {
+                    pipeline.run_local(&lv, &rv, Some(&g), p, region).unwrap();
+                })
+            })
+            .collect();
+        medians.sort_by(f64::total_cmp);
+        eprintln!(
+            "local_region_100x100 {name:<12} over {} regions of 640x480: median {:.3} ms, p90 {:.3} ms, max {:.3} ms",
+            medians.len(),
+            medians[medians.len() / 2],
+            medians[medians.len() * 9 / 10],
+            medians[medians.len() - 1]
+        );
+    }
+}
+
 /// Median of 200 single calls after 20 warm-up calls, milliseconds.
-fn per_call_median_ms(mut f: impl FnMut()) -> f64 {
-    for _ in 0..20 {
+fn per_call_median_ms(f: impl FnMut()) -> f64 {
+    per_call_median_ms_of(200, f)
+}
+
+/// Median of `calls` single calls after a tenth as many warm-up calls (at least one),
+/// milliseconds.
+fn per_call_median_ms_of(calls: usize, mut f: impl FnMut()) -> f64 {
+    for _ in 0..(calls / 10).max(1) {
         f();
     }
-    let mut times: Vec<f64> = (0..200)
+    let mut times: Vec<f64> = (0..calls)
         .map(|_| {
             let t = std::time::Instant::now();
             f();
@@ -273,8 +352,8 @@ fn per_call_median_ms(mut f: impl FnMut()) -> f64 {
         })
         .collect();
     times.sort_by(f64::total_cmp);
-    times[100]
+    times[calls / 2]
 }
 
-criterion_group!(benches, stages);
+criterion_group!(benches, stages, local_modes);
 criterion_main!(benches);

@@ -18,6 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     exact.matching.disparity_max_px = 96.0;
     let mut single = exact;
     single.local.exact = false;
+    single.local.context = videt_vision::roi::LocalContext::Fixed;
     let region = LocalRegion {
         centre_px: [400.0, 260.0],
         size_px: [100.0, 100.0],

@@ -44,6 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     params.matching.disparity_max_px = 96.0;
     let mut single_pass = params;
     single_pass.local.exact = false;
+    single_pass.local.context = videt_vision::roi::LocalContext::Fixed;
     let geometry = RectifiedGeometry {
         focal_px: 600.0,
         cx_px: 320.0,

@@ -9,8 +9,8 @@ use crate::gray::{GrayView, PixelRect};
 use crate::matching::{ImagePatch, MatchParams, MatchWorkspace, SegmentMatch, StereoImages};
 use crate::reconstruct::{back_project_matches, RectifiedGeometry, Segment3d};
 use crate::roi::{
-    cut_chain_sides, enlarge, grow_window, local_windows, right_band, union, LocalParams,
-    LocalRegion, LocalWindows, WindowSides,
+    cut_chain_sides, enlarge, grow_window, local_windows, right_band, union, LocalContext,
+    LocalParams, LocalRegion, LocalWindows, WindowSides,
 };
 use crate::segments::{Segment, SegmentParams, SegmentWorkspace};
 use std::time::{Duration, Instant};
@@ -139,10 +139,12 @@ impl StereoPipeline {
     }
 
     /// Local run: only the windows around `region` are processed (see [`local_windows`]);
-    /// matches whose left segment does not touch the region of interest are dropped.
+    /// matches whose left segment does not touch the region of interest are dropped. How the
+    /// context around the region is chosen depends on [`LocalParams::exact`] and
+    /// [`LocalParams::context`].
     ///
-    /// The windows start at the region plus the context margin and grow (by
-    /// [`LocalParams::growth_step_px`], up to the whole frame) while
+    /// **Exact** (the default): the windows start at the region plus the context margin and
+    /// grow (by [`LocalParams::growth_step_px`], up to the whole frame) while
     /// - an edge chain cut by a window border comes within the neighbourhood radius of the
     ///   region (right image: within the columns where candidates of those left segments can
     ///   lie): its segments would differ from the whole-image run's;
@@ -153,7 +155,30 @@ impl StereoPipeline {
     /// and propagation that cannot come from outside, the matches inside the region are the
     /// whole-image run's (checked on real pairs by `tests/local_mode.rs`). The price: where
     /// long chains run near the region, most of the frame may be processed, in several passes.
-    /// With [`LocalParams::exact`] off, one pass over the initial windows only.
+    ///
+    /// **Adaptive** (`exact` off, [`LocalContext::Adaptive`]): the paper's criterion instead of
+    /// identity: inside the region no match of the whole-image run is missed (a local match on
+    /// the same line with the same disparities over at least half of it counts) and there is
+    /// no new error. The context is chosen from the data, with `r` the matcher's neighbourhood
+    /// radius:
+    /// - the left window starts at the region plus `2 r`: the neighbours that support a
+    ///   segment of the region, and the neighbours that support those;
+    /// - while an edge chain that crosses the region itself is cut by a window side, that side
+    ///   grows by `r` (a pass of edges and chains of the left image only). Splitting a chain
+    ///   into segments depends on its whole length, and cut chains are what changes segments
+    ///   of the region most; chains that only pass near the region are not followed (their
+    ///   segments change the support of the region's candidates far less than the exact mode
+    ///   assumes, and following them is what makes it slow);
+    /// - after the full pass, if a segment of the region is left unmatched although it has a
+    ///   candidate validation would accept (propagation did not reach it from the seeds in
+    ///   the window), the window grows once by `r` on every side and the full pass is run
+    ///   again.
+    ///
+    /// The right window is the left one's rows over the disparity range plus `r / 2` on each
+    /// side. Checked on every shared Middlebury pair by `tests/local_mode_criterion.rs`.
+    ///
+    /// **Fixed** (`exact` off, [`LocalContext::Fixed`]): one pass over the region plus
+    /// [`LocalParams::context_margin_px`].
     pub fn run_local(
         &mut self,
         left: &GrayView<'_>,
@@ -166,7 +191,7 @@ impl StereoPipeline {
         params.validate()?;
         let (frame_width, frame_height) = (left.width(), left.height());
         let m = &params.matching;
-        let mut windows = local_windows(
+        let windows = local_windows(
             region,
             &params.local,
             frame_width,
@@ -174,6 +199,48 @@ impl StereoPipeline {
             m.disparity_min_px,
             m.disparity_max_px,
         )?;
+        let start = Instant::now();
+        let windows = match (params.local.exact, params.local.context) {
+            (true, _) => self.exact_passes(left, right, params, windows)?,
+            (false, LocalContext::Adaptive) => {
+                self.adaptive_passes(left, right, params, windows)?
+            }
+            (false, LocalContext::Fixed) => {
+                self.process_windows(left, right, params, &windows, None)?;
+                windows
+            }
+        };
+        let roi = windows.roi;
+        let left_segments = &self.output.left_segments;
+        self.output
+            .matches
+            .retain(|m| touches(&left_segments[m.left as usize], &roi));
+        if let Some(g) = geometry {
+            let t = Instant::now();
+            back_project_matches(
+                g,
+                &self.output.left_segments,
+                &self.output.matches,
+                params.disparity_sigma_px,
+                &mut self.output.segments_3d,
+            );
+            self.output.timings.reconstruction = t.elapsed();
+        }
+        self.output.timings.total = start.elapsed();
+        self.output.local = Some(windows);
+        Ok(&self.output)
+    }
+
+    /// The exact mode's passes (see [`StereoPipeline::run_local`]); returns the final windows.
+    fn exact_passes(
+        &mut self,
+        left: &GrayView<'_>,
+        right: &GrayView<'_>,
+        params: &VisionParams,
+        mut windows: LocalWindows,
+    ) -> Result<LocalWindows, VisionError> {
+        let (frame_width, frame_height) = (left.width(), left.height());
+        let m = &params.matching;
         // Chains cut by a window border near the region are followed by growing the windows
         // until they are whole (then their segments are the whole-image run's).
         let left_reach = enlarge(
@@ -196,12 +263,12 @@ impl StereoPipeline {
                     frame_height,
                 ),
             ],
+            follow_right: true,
         };
         let step = params.local.growth_step_px.max(1);
         // Every pass that does not end the loop grows a window side by `step` (a side at the
         // frame border is never asked to grow), so the frame is reached within this many.
         let max_passes = 4 * ((frame_width + frame_height) / step + 2);
-        let start = Instant::now();
         for pass in 0..max_passes {
             if pass + 1 == max_passes {
                 // Unreachable by the argument above; stay complete regardless.
@@ -213,19 +280,7 @@ impl StereoPipeline {
                 );
                 windows.right = windows.left;
             }
-            let left_view = left.window(windows.left).ok_or(VisionError::EmptyImage {
-                width: 0,
-                height: 0,
-            })?;
-            let right_view = right.window(windows.right).ok_or(VisionError::EmptyImage {
-                width: 0,
-                height: 0,
-            })?;
-            let exact = params.local.exact.then_some(&check);
-            let mut cut = self.process(&left_view, &right_view, None, params, exact)?;
-            if exact.is_none() {
-                break;
-            }
+            let mut cut = self.process_windows(left, right, params, &windows, Some(&check))?;
             // A match inside the region that propagation might reach from outside the window
             // (checked once the pass is complete, i.e. no chain was cut).
             let roi = windows.roi;
@@ -236,13 +291,7 @@ impl StereoPipeline {
             {
                 cut[0] = [true; 4];
             }
-            let open = windows.left
-                != PixelRect {
-                    x: 0,
-                    y: 0,
-                    width: frame_width,
-                    height: frame_height,
-                };
+            let open = windows.left != whole_frame(frame_width, frame_height);
             if !cut.iter().flatten().any(|&c| c) || (!open && !cut[1].iter().any(|&c| c)) {
                 break;
             }
@@ -259,25 +308,84 @@ impl StereoPipeline {
                 ),
             );
         }
-        let roi = windows.roi;
-        let left_segments = &self.output.left_segments;
-        self.output
-            .matches
-            .retain(|m| touches(&left_segments[m.left as usize], &roi));
-        if let Some(g) = geometry {
-            let t = Instant::now();
-            back_project_matches(
-                g,
-                &self.output.left_segments,
-                &self.output.matches,
-                params.disparity_sigma_px,
-                &mut self.output.segments_3d,
-            );
-            self.output.timings.reconstruction = t.elapsed();
+        Ok(windows)
+    }
+
+    /// The adaptive mode's passes (see [`StereoPipeline::run_local`]); `windows.roi` is the
+    /// region, the other windows are chosen here. Returns the final windows.
+    fn adaptive_passes(
+        &mut self,
+        left: &GrayView<'_>,
+        right: &GrayView<'_>,
+        params: &VisionParams,
+        mut windows: LocalWindows,
+    ) -> Result<LocalWindows, VisionError> {
+        let (frame_width, frame_height) = (left.width(), left.height());
+        let m = &params.matching;
+        let radius = (m.neighbourhood_radius_px.ceil() as usize).max(1);
+        let band = |left: PixelRect| {
+            right_band(
+                left,
+                m.disparity_min_px,
+                m.disparity_max_px,
+                radius / 2,
+                frame_width,
+                frame_height,
+            )
+        };
+        windows.left = enlarge(windows.roi, 2 * radius, frame_width, frame_height);
+        windows.right = band(windows.left);
+        // Only chains crossing the region are followed, in the left image.
+        let check = CutCheck {
+            frame: (frame_width, frame_height),
+            border_px: params.canny.kernel_radius() + 3,
+            influence: [windows.roi, windows.roi],
+            follow_right: false,
+        };
+        let mut reach_grown = false;
+        // Each pass but the last grows the left window by `radius` on at least one side that
+        // is not at the frame border (a side at the border is never reported cut), so the
+        // whole frame, where no chain is cut, is reached within this many.
+        let max_passes = 2 * ((frame_width + frame_height) / radius + 4);
+        for _ in 0..max_passes {
+            let cut = self.process_windows(left, right, params, &windows, Some(&check))?;
+            let grow = if cut[0].iter().any(|&c| c) {
+                cut[0]
+            } else {
+                let roi = windows.roi;
+                if reach_grown
+                    || windows.left == whole_frame(frame_width, frame_height)
+                    || !self
+                        .matcher
+                        .has_unreached(&self.output.left_segments, m, |s| touches(s, &roi))
+                {
+                    break;
+                }
+                reach_grown = true;
+                [true; 4]
+            };
+            windows.left = grow_window(windows.left, grow, radius, frame_width, frame_height);
+            windows.right = band(windows.left);
         }
-        self.output.timings.total = start.elapsed();
-        self.output.local = Some(windows);
-        Ok(&self.output)
+        Ok(windows)
+    }
+
+    /// One pass over `windows`, with `cut_check` as in `process`.
+    fn process_windows(
+        &mut self,
+        left: &GrayView<'_>,
+        right: &GrayView<'_>,
+        params: &VisionParams,
+        windows: &LocalWindows,
+        cut_check: Option<&CutCheck>,
+    ) -> Result<[WindowSides; 2], VisionError> {
+        let empty = || VisionError::EmptyImage {
+            width: 0,
+            height: 0,
+        };
+        let left_view = left.window(windows.left).ok_or_else(empty)?;
+        let right_view = right.window(windows.right).ok_or_else(empty)?;
+        self.process(&left_view, &right_view, None, params, cut_check)
     }
 
     fn process(
@@ -314,7 +422,7 @@ impl StereoPipeline {
                 params.segments.min_chain_pixels,
             );
             timings.chains += t.elapsed();
-            if let Some(check) = cut_check {
+            if let Some(check) = cut_check.filter(|c| side == 0 || c.follow_right) {
                 let (x, y) = view.origin_px();
                 let rect = PixelRect {
                     x,
@@ -332,8 +440,12 @@ impl StereoPipeline {
                 );
             }
             if cut.iter().flatten().any(|&c| c) {
-                // The windows will grow: segments and matches of this pass are not needed.
+                // The windows will grow: segments and matches of this pass are not needed, nor
+                // the right image's chains when they are not followed.
                 segments.clear();
+                if cut_check.is_some_and(|c| !c.follow_right) {
+                    break;
+                }
                 continue;
             }
             let t = Instant::now();
@@ -347,6 +459,7 @@ impl StereoPipeline {
             timings.segments += t.elapsed();
         }
         if cut.iter().flatten().any(|&c| c) {
+            out.right_segments.clear();
             out.matches.clear();
             out.segments_3d.clear();
             out.timings = timings;
@@ -400,6 +513,19 @@ struct CutCheck {
     border_px: usize,
     /// Left and right: where cut chains matter (frame pixels).
     influence: [PixelRect; 2],
+    /// Whether the right image's chains are checked too; when not, a pass whose left window
+    /// cuts a chain stops before the right image.
+    follow_right: bool,
+}
+
+/// The whole `width x height` frame.
+fn whole_frame(width: usize, height: usize) -> PixelRect {
+    PixelRect {
+        x: 0,
+        y: 0,
+        width,
+        height,
+    }
 }
 
 /// A smoothed image of `size` (width, height) made from the view `v`.
@@ -549,8 +675,16 @@ mod tests {
         let rv = GrayView::new(&r, w, h).unwrap();
         let mut params = VisionParams::default();
         let mut pipeline = StereoPipeline::new();
-        for margin in [0, 1, 32] {
+        for (margin, exact, context) in [
+            (0, true, LocalContext::Fixed),
+            (1, true, LocalContext::Fixed),
+            (32, true, LocalContext::Fixed),
+            (0, false, LocalContext::Fixed),
+            (32, false, LocalContext::Adaptive),
+        ] {
             params.local.context_margin_px = margin;
+            params.local.exact = exact;
+            params.local.context = context;
             for (cx, cy, size) in [
                 (0.0, 0.0, 1.0),
                 (119.0, 89.0, 2.0),

@@ -1,6 +1,17 @@
 //! Local mode: the region of interest around the finger's image position, shifted and enlarged
 //! along its image-plane velocity, the image windows processed for it, and how those windows
 //! grow until edge chains near the region are whole (see `StereoPipeline::run_local`).
+//!
+//! Three ways to choose the context processed around the region ([`LocalParams`]):
+//! - **exact** ([`LocalParams::exact`], the default): the windows grow, pass after pass, until
+//!   the matches inside the region are the whole-image run's;
+//! - **adaptive** (`exact` off, [`LocalContext::Adaptive`]): one full pass over a context chosen
+//!   from the data: the edge chains that cross the region are followed until they are whole,
+//!   and the context grows once more where a segment of the region has an acceptable candidate
+//!   that propagation did not reach. It meets the paper's criterion (no match of the
+//!   whole-image run missed, no new error inside the region) rather than identity;
+//! - **fixed** (`exact` off, [`LocalContext::Fixed`]): one pass over the region plus
+//!   [`LocalParams::context_margin_px`].
 
 use crate::chains::Chains;
 use crate::error::VisionError;
@@ -17,31 +28,57 @@ pub struct LocalRegion {
     pub velocity_px_per_frame: [f32; 2],
 }
 
+/// How a local run without [`LocalParams::exact`] chooses its context.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LocalContext {
+    /// From the data, in a few cheap passes before the full one (`StereoPipeline::run_local`):
+    /// the left window starts at the region plus two neighbourhood radii of the matcher
+    /// (`MatchParams::neighbourhood_radius_px`: a segment's supporting neighbours and theirs);
+    /// while an edge chain crossing the region is cut by a window side, that side grows by one
+    /// radius (edges and chains of the left image only: the cut chain's segments would differ
+    /// from the whole-image run's); after the full pass, if a segment of the region has a
+    /// candidate validation would accept but propagation did not reach, the window grows once
+    /// by one radius on every side and the full pass is repeated. The right window is the left
+    /// one's rows over the disparity range plus half a radius on each side.
+    #[default]
+    Adaptive,
+    /// One pass over the region plus [`LocalParams::context_margin_px`] (right window: the
+    /// left one's rows over the disparity range plus a quarter of the margin on each side).
+    Fixed,
+}
+
 /// Parameters of the local mode.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LocalParams {
     /// How many frames ahead the region must cover: the region is shifted by half and enlarged
     /// by all of `velocity * lookahead_frames`.
     pub lookahead_frames: f32,
-    /// Context around the region processed but not reported, pixels: edges, chains and
-    /// neighbours crossing the region border are then seen as in a whole-image run.
+    /// Context around the region processed but not reported, pixels: the exact mode's initial
+    /// context and the fixed context of [`LocalContext::Fixed`] (not used by
+    /// [`LocalContext::Adaptive`]).
     pub context_margin_px: usize,
-    /// How much a window side grows at a time, pixels (see [`cut_chain_sides`]).
+    /// How much a window side grows at a time in the exact mode, pixels (see
+    /// [`cut_chain_sides`]).
     pub growth_step_px: usize,
     /// Grow the windows until the matches inside the region are the whole-image run's
-    /// (`StereoPipeline::run_local`); when off, one pass over the region plus the context
-    /// margin: faster, but a few matches near chains cut by the window border can differ.
+    /// (`StereoPipeline::run_local`); when off, one full pass over a context chosen by
+    /// [`LocalParams::context`]: faster, and a few matches near the region border can differ
+    /// from the whole-image run's.
     pub exact: bool,
+    /// The context of a run without [`LocalParams::exact`].
+    pub context: LocalContext,
 }
 
 impl Default for LocalParams {
-    /// Two frames of look-ahead; 32 px of initial context; growth by 48 px; exact.
+    /// Two frames of look-ahead; 32 px of initial context; growth by 48 px; exact (adaptive
+    /// context when `exact` is turned off).
     fn default() -> Self {
         Self {
             lookahead_frames: 2.0,
             context_margin_px: 32,
             growth_step_px: 48,
             exact: true,
+            context: LocalContext::Adaptive,
         }
     }
 }

@@ -116,6 +116,7 @@ fn local_runs_equal_the_global_run_inside_the_region() {
 fn a_single_pass_over_a_fixed_window_is_not_exact() {
     let mut params = VisionParams::default();
     params.local.exact = false;
+    params.local.context = videt_vision::roi::LocalContext::Fixed;
     let Some(dir) = videt_testdata::data_dir("stereo/teddy") else {
         return;
     };
