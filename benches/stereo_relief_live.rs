@@ -30,6 +30,19 @@ fn bench_stereo_relief(c: &mut Criterion) {
     let positions: Vec<[f64; 3]> = (0..70)
         .map(|k| [cx - 0.07 + 0.002 * k as f64, cy + 0.03, 0.34])
         .collect();
+    // Stage medians of a live update.
+    let mut stages: [Vec<std::time::Duration>; 3] = Default::default();
+    for p in &positions {
+        let (_, u) = relief.update_around(*p, [0.03, 0.0, 0.0]).unwrap().unwrap();
+        stages[0].push(u.match_time);
+        stages[1].push(u.merge_time);
+        stages[2].push(u.build_time);
+    }
+    let [matching, merge, build] = stages.map(|mut v| {
+        v.sort_unstable();
+        v[v.len() / 2]
+    });
+    eprintln!("live update stage medians: match {matching:?}, merge {merge:?}, rebuild {build:?}");
     let mut k = 0;
     c.bench_function("stereo_relief_live_update_72px_region_demo_pair", |b| {
         b.iter(|| {

@@ -170,6 +170,9 @@ pub struct CycleInputs {
     pub torque_write: TorqueWrite,
     /// The surface came from a live source.
     pub surface_live: bool,
+    /// This period is the first to render a surface version made from a camera frame: how
+    /// long ago the frame was captured, nanoseconds (`SurfaceView::frame_age_ns`).
+    pub surface_frame_age_ns: Option<u64>,
     /// Operations on the cycle since the previous period, applied before this one.
     pub ops: CycleOps,
 }
@@ -402,6 +405,7 @@ impl ControlCycle {
             from_cycle: true,
             deadline_overrun,
             surface_live: view.live,
+            surface_frame_age_ns: view.frame_age_ns,
             ops: core::mem::take(&mut self.pending_ops),
             ..CycleInputs::default()
         };

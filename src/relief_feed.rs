@@ -23,6 +23,8 @@ pub struct ReliefFeed {
     reader: SnapshotReader<ReliefModel>,
     renderer: Cell<SwapRenderer>,
     rendered_version: Cell<u64>,
+    /// The version the last [`SurfaceFeed::current`] gave.
+    current_version: u64,
     period_s: f64,
 }
 
@@ -51,6 +53,7 @@ pub fn relief_channel(
             reader,
             renderer: Cell::new(renderer),
             rendered_version: Cell::new(0),
+            current_version: 0,
             period_s,
         },
     ))
@@ -85,11 +88,22 @@ impl Surface for ReliefFeed {
 impl SurfaceFeed for ReliefFeed {
     type Surface = ReliefFeed;
     fn current(&mut self) -> SurfaceView<'_, ReliefFeed> {
-        let version = self.reader.latest().version;
+        let latest = self.reader.latest();
+        let (version, captured) = (latest.version, latest.captured);
+        // The first period to take a version made from a camera frame measures how old the
+        // frame is (CLOCK_MONOTONIC, as the capture stamp; a vDSO read, no system call).
+        let frame_age_ns = match captured {
+            Some(at) if version != self.current_version => {
+                Some(videt_hal::Clock::now(&crate::rt::SystemClock).nanos_since(at))
+            }
+            _ => None,
+        };
+        self.current_version = version;
         SurfaceView {
             surface: self,
             version,
             live: true,
+            frame_age_ns,
         }
     }
     fn recording(&self) -> FeedRecording {

@@ -6,6 +6,7 @@
 //! snapshot: the vision thread, which writes, owns all allocation.
 
 use videt_control::Surface;
+use videt_hal::MonoTime;
 
 /// Sees every snapshot as it is published (on the writer's thread): the session log records
 /// surfaces through one.
@@ -30,6 +31,9 @@ pub struct Versioned<T> {
     pub version: u64,
     /// The value.
     pub value: T,
+    /// When the data it was made from was captured (a camera frame's exposure), on
+    /// `CLOCK_MONOTONIC`; `None` when it was not made from a capture.
+    pub captured: Option<MonoTime>,
 }
 
 /// A connected writer/reader pair, every buffer starting as a clone of `initial`.
@@ -37,6 +41,7 @@ pub fn snapshot_channel<T: Clone + Send>(initial: T) -> (SnapshotWriter<T>, Snap
     let (input, output) = triple_buffer::triple_buffer(&Versioned {
         version: 0,
         value: initial,
+        captured: None,
     });
     (
         SnapshotWriter {
@@ -52,10 +57,21 @@ impl<T: Send> SnapshotWriter<T> {
     /// Rebuild the back buffer with `fill` (it sees an older value to overwrite, whose
     /// allocations it should reuse) and publish it. Returns the new version.
     pub fn publish_with(&mut self, fill: impl FnOnce(&mut T)) -> u64 {
+        self.publish_captured_with(None, fill)
+    }
+
+    /// As [`SnapshotWriter::publish_with`], for a value made from data captured at `captured`
+    /// (`CLOCK_MONOTONIC`): the reader can tell how old the capture is when it takes it.
+    pub fn publish_captured_with(
+        &mut self,
+        captured: Option<MonoTime>,
+        fill: impl FnOnce(&mut T),
+    ) -> u64 {
         self.version += 1;
         let back = self.input.input_buffer_mut();
         fill(&mut back.value);
         back.version = self.version;
+        back.captured = captured;
         if let Some(tap) = self.tap.as_mut() {
             tap(self.version, &back.value);
         }
@@ -106,6 +122,9 @@ pub struct SurfaceView<'a, S: ?Sized> {
     /// Whether the surface comes from a live source that can go stale (vision); a fixed
     /// surface never does.
     pub live: bool,
+    /// On the first period that renders a version made from a camera frame: how long ago that
+    /// frame was captured, nanoseconds (the frame-to-force latency); `None` otherwise.
+    pub frame_age_ns: Option<u64>,
 }
 
 /// Where the control cycle gets its surface from each period. Called on the control thread:
@@ -133,6 +152,7 @@ impl<S: Surface + crate::telemetry::session::RecordSurface> SurfaceFeed for Fixe
             surface: &self.0,
             version: 0,
             live: false,
+            frame_age_ns: None,
         }
     }
     fn recording(&self) -> crate::telemetry::FeedRecording {
@@ -151,6 +171,7 @@ impl<T: Surface + Send> SurfaceFeed for SnapshotReader<T> {
             surface: &latest.value,
             version: latest.version,
             live: true,
+            frame_age_ns: None,
         }
     }
 }

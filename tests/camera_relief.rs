@@ -8,7 +8,9 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use videt::camera_relief::{spawn_camera_updates, CalibratedRig, CameraRelief, CameraStats};
+use videt::camera_relief::{
+    spawn_camera_updates, CalibratedRig, CameraRelief, CameraSchedule, CameraStats,
+};
 use videt::relief_scene::ReliefLayout;
 use videt::snapshot::snapshot_channel;
 use videt_drivers::camera::file_source::FileStereoSource;
@@ -136,25 +138,28 @@ fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
         "small: the left frame is 320x240 but the stereo calibration is for 640x480 images"
     );
 
-    // A camera that fails (its files are gone) leaves the published relief alone and is
-    // counted; the control loop then fades the stale relief out.
-    let gone = tempfile::tempdir().unwrap();
-    for name in ["left01.jpg", "right01.jpg"] {
-        std::fs::copy(images.join(name), gone.path().join(name)).unwrap();
-    }
-    let mut failing =
-        CameraRelief::new(camera(gone.path()), "gone".into(), rig, 64.0, layout).unwrap();
+    // A camera that fails (unplugged after its first pair) leaves the published relief alone
+    // and is counted; the control loop then fades the stale relief out.
+    let mut failing = CameraRelief::new(
+        Unplugged {
+            camera: camera(&images),
+            pairs_left: 1,
+        },
+        "unplugged".into(),
+        rig,
+        64.0,
+        layout,
+    )
+    .unwrap();
     let (first, _) = failing.rebuild().unwrap();
-    for name in ["left01.jpg", "right01.jpg"] {
-        std::fs::remove_file(gone.path().join(name)).unwrap();
-    }
     let (writer, mut reader) = snapshot_channel(first);
     let stats = Arc::new(CameraStats::default());
     let stop = Arc::new(AtomicBool::new(false));
     let thread = spawn_camera_updates(
         failing,
         writer,
-        Duration::from_millis(5),
+        schedule(Duration::from_millis(5)),
+        None,
         Arc::clone(&stats),
         Arc::clone(&stop),
         None,
@@ -173,6 +178,35 @@ fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
         0,
         "nothing published after the failure"
     );
+}
+
+/// A camera that delivers `pairs_left` pairs, then reports itself disconnected.
+struct Unplugged {
+    camera: FileStereoSource,
+    pairs_left: usize,
+}
+
+impl videt_hal::ErrorType for Unplugged {
+    type Error = videt_drivers::camera::CameraError;
+}
+
+impl videt_hal::StereoCamera for Unplugged {
+    fn capture(&mut self, out: &mut videt_hal::StereoFrame) -> Result<(), Self::Error> {
+        if self.pairs_left == 0 {
+            return Err(videt_drivers::camera::CameraError::Disconnected {
+                device: "/dev/video0".into(),
+            });
+        }
+        self.pairs_left -= 1;
+        self.camera.capture(out)
+    }
+}
+
+fn schedule(rebuild_period: Duration) -> CameraSchedule {
+    CameraSchedule {
+        rebuild_period,
+        full_refresh: Duration::from_secs(10),
+    }
 }
 
 /// A colour camera's left frames are published rectified, for the colour under the finger; a
@@ -261,19 +295,30 @@ fn videtd_renders_the_relief_of_camera_frames_on_the_twin() {
     let Some((images, calibration)) = calibrated_rig(dir.path()) else {
         return;
     };
+    // A camera before a still scene: the set's first pair, frame after frame (the set's
+    // other pairs are other poses of the board: a relief made from each would jump under the
+    // finger from one frame to the next).
+    let still = dir.path().join("still");
+    std::fs::create_dir(&still).unwrap();
+    for name in ["left01.jpg", "right01.jpg"] {
+        std::fs::copy(images.join(name), still.join(name)).unwrap();
+    }
     let logs = dir.path().join("logs");
     let telemetry = ["--telemetry-dir", logs.to_str().unwrap()];
-    let (stdout, stderr) = videtd_on_camera(&images, &calibration, &telemetry);
+    let (stdout, stderr) = videtd_on_camera(&still, &calibration, &telemetry);
     assert!(stderr.contains("relief from the cameras"), "{stderr}");
-    // The status lines count the reliefs rebuilt from fresh frames.
+    // The status lines count the reliefs made from fresh frames: whole images, then updates
+    // around the finger while the operator sweeps over the scene.
     let last = stdout
         .lines()
         .chain(stderr.lines())
         .filter_map(|l| l.split_once("| reliefs ").map(|(_, r)| r.to_string()))
         .next_back()
         .unwrap_or_else(|| panic!("no status line with reliefs: {stdout}{stderr}"));
-    let rebuilt: u64 = last.split_whitespace().next().unwrap().parse().unwrap();
-    assert!(rebuilt >= 2, "{last}");
+    let words: Vec<&str> = last.split_whitespace().collect();
+    let (whole, local): (u64, u64) = (words[0].parse().unwrap(), words[3].parse().unwrap());
+    assert!(whole + local >= 3, "{last}");
+    assert!(local >= 1, "no update around the finger: {last}");
     assert!(last.contains("(0 failed)"), "{last}");
     let log_file = std::fs::read_dir(&logs)
         .unwrap()
@@ -284,5 +329,25 @@ fn videtd_renders_the_relief_of_camera_frames_on_the_twin() {
     let unsafe_state = log.records.iter().find(|r| r.safety.reason().is_some());
     assert!(unsafe_state.is_none(), "{:?}", unsafe_state.map(|r| r.time));
     let contact = log.records.iter().filter(|r| r.in_contact).count();
-    assert!(contact > 100, "in contact for {contact} periods only");
+    assert!(
+        contact > log.records.len() / 3,
+        "in contact for {contact} of {} periods only",
+        log.records.len()
+    );
+    // Each relief made from a frame is rendered with the frame's age: the frame-to-force
+    // latency, as `videt log` reports it.
+    let latency = videt::tool::log::FrameToForce::of(&log.records)
+        .unwrap_or_else(|| panic!("no frame age in the log: {last}"));
+    assert!(latency.frames >= 2, "{latency:?} ({last})");
+    assert!(
+        latency.p50_ms > 0.0 && latency.max_ms < 5000.0,
+        "{latency:?}"
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_videt"))
+        .arg("log")
+        .arg(&log_file)
+        .output()
+        .unwrap();
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(summary.contains("frame to force:  p50 "), "{summary}");
 }

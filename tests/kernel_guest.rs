@@ -747,7 +747,8 @@ mod cameras {
             );
             [left, right]
         });
-        // Reliefs are rebuilt from paired, rectified frames on the vision thread.
+        // Reliefs are made from paired, rectified frames on the vision thread (`reliefs N whole
+        // + M local`: whole-image runs and updates around the finger).
         let deadline = Instant::now() + Duration::from_secs(120);
         loop {
             let log = d.log();
@@ -755,7 +756,10 @@ mod cameras {
             let rebuilt = log
                 .lines()
                 .filter_map(|l| l.split(" | reliefs ").nth(1))
-                .filter_map(|r| r.split_whitespace().next()?.parse::<u64>().ok())
+                .filter_map(|r| {
+                    let words: Vec<&str> = r.split_whitespace().collect();
+                    Some(words.first()?.parse::<u64>().ok()? + words.get(3)?.parse::<u64>().ok()?)
+                })
                 .max()
                 .unwrap_or(0);
             if rebuilt >= 3 {

@@ -24,6 +24,7 @@ impl SurfaceFeed for FailingFeed {
             surface: &self.wall,
             version: 0,
             live: false,
+            frame_age_ns: None,
         }
     }
 }

@@ -243,6 +243,12 @@ fn operator_sweeps_a_live_relief_from_a_real_stereo_pair() {
         if b.force_scale < 1.0 || i < 6 {
             continue;
         }
+        // A swap in the period the finger touches or leaves: the force steps by the damper's
+        // B v_n switching at once whatever the model, which the bound on every period's step
+        // below covers; the blend's bound is judged on swaps during contact or free motion.
+        if a.in_contact != b.in_contact {
+            continue;
+        }
         swaps += 1;
         let step = force_step(a, b);
         let motion = records[i - 5..=i]

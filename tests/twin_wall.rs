@@ -150,6 +150,7 @@ impl videt::snapshot::SurfaceFeed for StallingVision {
             surface: &self.wall,
             version,
             live: true,
+            frame_age_ns: None,
         }
     }
 }

@@ -365,8 +365,13 @@ pub struct VisionConfig {
     /// The rig's stereo calibration (`videt calibrate-stereo --out FILE`): without it the
     /// device renders the check wall instead of the scene.
     pub stereo_calibration: String,
-    /// Time between two reliefs built from fresh camera frames, seconds.
+    /// Time between two whole-image reliefs built from fresh camera frames while the finger is
+    /// not over the scene, seconds.
     pub rebuild_period_s: f64,
+    /// Time between two whole-image reliefs while the finger is over the scene, seconds: every
+    /// frame in between re-matches the region under the finger only (fast), and the whole-image
+    /// run renews the rest of the relief.
+    pub full_refresh_s: f64,
     /// Largest disparity searched in the rectified pair, pixels (sets the nearest depth seen:
     /// focal x baseline / disparity).
     pub max_disparity_px: f64,
@@ -376,7 +381,8 @@ pub struct VisionConfig {
     /// can be held to 1-2 ms.
     pub pair_tolerance_ms: f64,
     /// Frame rate asked of the cameras, frames per second (a camera without that rate keeps
-    /// its nearest; the relief is rebuilt every `rebuild_period_s` from the newest pair).
+    /// its nearest). Every frame is captured; while the finger is over the scene, every frame
+    /// updates the relief around it.
     pub frame_rate_hz: u32,
 }
 
@@ -455,6 +461,7 @@ impl Default for VisionConfig {
             surface_fade_s: 0.5,
             stereo_calibration: "/etc/videt/stereo.json".into(),
             rebuild_period_s: 0.2,
+            full_refresh_s: 10.0,
             max_disparity_px: 64.0,
             pair_tolerance_ms: 20.0,
             frame_rate_hz: 30,

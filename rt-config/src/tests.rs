@@ -165,6 +165,7 @@ fn every_section_is_validated() {
         ),
         ("[telemetry]\nring_records = 3\n", "telemetry.ring_records"),
         ("[vision]\nrebuild_period_s = 0.0\n", "vision.rebuild_period_s"),
+        ("[vision]\nfull_refresh_s = 0.01\n", "vision.full_refresh_s"),
         ("[vision]\nmax_disparity_px = 0.5\n", "vision.max_disparity_px"),
         ("[vision]\npair_tolerance_ms = 0\n", "vision.pair_tolerance_ms"),
         ("[vision]\nframe_rate_hz = 0\n", "vision.frame_rate_hz"),

@@ -225,6 +225,12 @@ impl Config {
             10.0,
         )?;
         in_range(
+            "vision.full_refresh_s",
+            self.vision.full_refresh_s,
+            0.02,
+            3600.0,
+        )?;
+        in_range(
             "vision.max_disparity_px",
             self.vision.max_disparity_px,
             1.0,

@@ -108,8 +108,9 @@ struct Args {
     /// real stereo pair, Middlebury tsukuba, re-matched around the finger as it moves) or
     /// `stereo:DIR` (the same for the pair in DIR: left.png/right.png or .ppm, and optionally a
     /// camera.toml with focal_px, baseline_m, max_disparity_px) or `camera:DIR` (the raw
-    /// pairs of DIR, `*left*`/`*right*` images, as a camera delivering them in a loop: rectified
-    /// with the stereo calibration and rebuilt into a relief every `vision.rebuild_period_s`).
+    /// pairs of DIR, `*left*`/`*right*` images, as a camera delivering them in a loop at
+    /// `vision.frame_rate_hz`: rectified with the stereo calibration and turned into reliefs as
+    /// the device's cameras are).
     /// Without --sim the scene is the cameras' when a stereo calibration is installed, else
     /// the wall.
     #[arg(long, value_name = "SCENE", value_parser = parse_scene, default_value = "wall")]
@@ -487,7 +488,7 @@ struct CameraFeed {
 }
 
 /// Build the first relief from `camera` (rectified by `rig`), open the relief channel and
-/// start the thread that rebuilds it every `vision.rebuild_period_s`.
+/// start the thread that keeps it up to date (`camera_relief::spawn_camera_updates`).
 fn start_camera_feed<C>(
     config: &Config,
     camera: C,
@@ -500,7 +501,7 @@ where
 {
     use std::sync::atomic::AtomicBool;
     use std::sync::Arc;
-    use videt::camera_relief::{spawn_camera_updates, CameraRelief, CameraStats};
+    use videt::camera_relief::{spawn_camera_updates, CameraRelief, CameraSchedule, CameraStats};
     use videt::relief_scene::ReliefLayout;
     let layout = ReliefLayout::for_config(config);
     // The colour under the finger, from the same left frames, mapped as the relief is.
@@ -525,6 +526,10 @@ where
     if let Some(writer) = colour_frames {
         relief = relief.with_colour(writer);
     }
+    relief = relief.with_live_settings(videt::stereo_relief::LiveSettings {
+        update_period_s: 1.0 / f64::from(config.vision.frame_rate_hz.max(1)),
+        ..Default::default()
+    });
     let (model, first) = relief.rebuild()?;
     info!(
         camera = %name,
@@ -534,18 +539,24 @@ where
         triangles = first.report.triangles,
         pipeline_ms = first.pipeline_time.as_secs_f64() * 1e3,
         build_ms = first.build_time.as_secs_f64() * 1e3,
-        "relief from the cameras, rebuilt every {} s",
+        "relief from the cameras: updated around the finger every frame while it is over the scene (whole image every {} s), whole image every {} s while it is not",
+        config.vision.full_refresh_s,
         config.vision.rebuild_period_s
     );
     let (writer, feed) = demo_relief_channel(config, model.clone())
         .map_err(|_| "invalid relief settings (see above)".to_string())?;
     let stats = Arc::new(CameraStats::default());
+    let (thimble_publisher, thimble_reader) = videt::snapshot::thimble_channel();
     // The thread runs as long as the process: the service ends by exiting.
     let stop = Arc::new(AtomicBool::new(false));
     spawn_camera_updates(
         relief,
         writer,
-        std::time::Duration::from_secs_f64(config.vision.rebuild_period_s),
+        CameraSchedule {
+            rebuild_period: std::time::Duration::from_secs_f64(config.vision.rebuild_period_s),
+            full_refresh: std::time::Duration::from_secs_f64(config.vision.full_refresh_s),
+        },
+        Some(thimble_reader),
         Arc::clone(&stats),
         stop,
         videt::rt::vision_fifo_priority(&config.realtime),
@@ -553,16 +564,9 @@ where
     .map_err(|e| format!("cannot start the vision thread: {e}"))?;
     let extras = videt::service::ServiceExtras {
         vision_stall: None,
-        thimble: None,
+        thimble: Some(thimble_publisher),
         fault_causes: None,
-        status_suffix: Some(Box::new(move || {
-            format!(
-                " | reliefs {} ({} failed), last {:.1} ms",
-                stats.rebuilds(),
-                stats.failures(),
-                stats.last_rebuild_us() as f64 / 1e3
-            )
-        })),
+        status_suffix: Some(Box::new(move || stats.status_text())),
     };
     Ok(CameraFeed {
         feed,
@@ -583,7 +587,8 @@ fn run_camera_relief_demo(
 ) -> ExitCode {
     use videt::camera_relief::CalibratedRig;
     use videt::relief_scene::{sweep_operator, ReliefLayout, SweepPath};
-    let period = std::time::Duration::from_secs_f64(config.vision.rebuild_period_s);
+    // Played like a free-running camera at the device's frame rate.
+    let period = std::time::Duration::from_secs_f64(1.0 / f64::from(config.vision.frame_rate_hz));
     let camera =
         match videt_drivers::camera::file_source::FileStereoSource::from_folder(dir, period) {
             Ok(c) => c,

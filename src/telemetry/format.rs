@@ -280,7 +280,13 @@ pub fn encode_period(r: &CycleRecord, b: &mut [u8; PERIOD_BYTES]) {
     for (k, op) in i.ops.as_slice().iter().enumerate() {
         inp[104 + 4 * k..108 + 4 * k].copy_from_slice(&op_bytes(*op));
     }
+    // 0 = none (and in logs written before the field existed).
+    let age = i.surface_frame_age_ns.map_or(0, |ns| ns.max(1));
+    inp[FRAME_AGE_AT..FRAME_AGE_AT + 8].copy_from_slice(&age.to_le_bytes());
 }
+
+/// Where a period's inputs keep the surface's frame age.
+const FRAME_AGE_AT: usize = 136;
 
 /// Decode a period encoded by [`encode_period`]; undefined codes are an error.
 pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
@@ -342,6 +348,12 @@ pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
             TorqueWrite::Failed,
         ][usize::from(inp[2])],
         surface_live: flags & 16 != 0,
+        surface_frame_age_ns: match u64::from_le_bytes(
+            inp[FRAME_AGE_AT..FRAME_AGE_AT + 8].try_into().expect("8"),
+        ) {
+            0 => None,
+            ns => Some(ns),
+        },
         ops,
     };
     Ok(r)
@@ -441,6 +453,7 @@ pub(crate) mod tests {
                 estop: EStopReading::Failed,
                 torque_write: TorqueWrite::Failed,
                 surface_live: true,
+                surface_frame_age_ns: Some(7_250_000),
                 ops,
             },
         }

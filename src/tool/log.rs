@@ -59,6 +59,44 @@ pub struct LogSummary {
     pub max_force_n: f64,
     /// Safety transitions: (time in s, new state).
     pub safety_events: Vec<(f64, String)>,
+    /// Frame to force: from a camera frame's capture to the first period rendering the relief
+    /// built from it (`None` when no rendered surface came from a camera frame).
+    pub frame_to_force: Option<FrameToForce>,
+}
+
+/// Latency from camera frames to the control thread, over the surface versions rendered.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FrameToForce {
+    /// Versions built from a camera frame and rendered.
+    pub frames: usize,
+    /// Median, ms.
+    pub p50_ms: f64,
+    /// 99th percentile, ms (nearest rank).
+    pub p99_ms: f64,
+    /// Largest, ms.
+    pub max_ms: f64,
+}
+
+impl FrameToForce {
+    /// The latency of the periods that first rendered a version made from a camera frame.
+    pub fn of(records: &[CycleRecord]) -> Option<FrameToForce> {
+        let mut ages: Vec<u64> = records
+            .iter()
+            .filter_map(|r| r.inputs.surface_frame_age_ns)
+            .collect();
+        if ages.is_empty() {
+            return None;
+        }
+        ages.sort_unstable();
+        let rank =
+            |q: f64| ages[((q * ages.len() as f64).ceil() as usize).clamp(1, ages.len()) - 1];
+        Some(FrameToForce {
+            frames: ages.len(),
+            p50_ms: rank(0.5) as f64 * 1e-6,
+            p99_ms: rank(0.99) as f64 * 1e-6,
+            max_ms: ages[ages.len() - 1] as f64 * 1e-6,
+        })
+    }
 }
 
 fn percentiles_us(h: &Histogram) -> [f64; 4] {
@@ -123,6 +161,7 @@ pub fn summarise(args: &LogArgs) -> Result<(LogSummary, crate::telemetry::Log), 
         max_tension_n: max_tension,
         max_force_n: max_force,
         safety_events: events,
+        frame_to_force: FrameToForce::of(&log.records),
     };
     Ok((summary, log))
 }
@@ -136,7 +175,7 @@ pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::R
         }
     }
     header.push_str(
-        ",contact,depth_m,force_scale,surface_version,surface_stale,safety,released_wire",
+        ",contact,depth_m,force_scale,surface_version,surface_stale,safety,released_wire,frame_age_ms",
     );
     writeln!(out, "{header}")?;
     for r in &log.records {
@@ -153,9 +192,9 @@ pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::R
                 write!(out, ",{v:.6e}")?;
             }
         }
-        writeln!(
+        write!(
             out,
-            ",{},{:.6e},{:.4},{},{},{},{}",
+            ",{},{:.6e},{:.4},{},{},{},{},",
             u8::from(r.in_contact),
             r.contact_depth_m,
             r.force_scale,
@@ -164,6 +203,11 @@ pub fn write_csv(log: &crate::telemetry::Log, out: &mut dyn Write) -> std::io::R
             r.safety.as_str(),
             r.released_wire
         )?;
+        // Empty but on the first period rendering a version made from a camera frame.
+        match r.inputs.surface_frame_age_ns {
+            Some(ns) => writeln!(out, "{:.3}", ns as f64 * 1e-6)?,
+            None => writeln!(out)?,
+        }
     }
     Ok(())
 }
@@ -235,6 +279,12 @@ pub fn run(args: &LogArgs) -> ToolResult {
         };
         println!("  wake-up latency: {}", p(s.wake_latency_us));
         println!("  compute time:    {}", p(s.compute_us));
+        if let Some(f) = &s.frame_to_force {
+            println!(
+                "  frame to force:  p50 {:.2}  p99 {:.2}  max {:.2} ms over {} camera frames (capture to first render)",
+                f.p50_ms, f.p99_ms, f.max_ms, f.frames
+            );
+        }
         println!(
             "  in contact {:.1}% of the time; max tension {:.2} N; max force {:.2} N",
             100.0 * s.contact_fraction,
