@@ -6,6 +6,8 @@
 //! - [`cia402`]: CiA 402 wire drives in cyclic synchronous torque mode (`WireDrives`);
 //! - [`adc`]: HX711 and ADS1220 strain-gauge ADCs or the drives' analog inputs, tension
 //!   calibration (`TensionSensors`);
+//! - [`angle`]: AS5048A absolute magnetic encoders, the one-wire device's azimuth and elevation
+//!   sensors (`AngleSensors`);
 //! - [`gpio`]: the e-stop input (`EStop`) and the vibrotactor outputs (`Vibrotactors`);
 //! - [`camera`]: image-file stereo source and, with the `v4l` feature, V4L2 stereo capture
 //!   (`StereoCamera`).
@@ -16,6 +18,7 @@
 #![warn(missing_docs)]
 
 pub mod adc;
+pub mod angle;
 pub mod camera;
 pub mod can;
 pub mod canopen;

@@ -16,6 +16,7 @@
 
 extern crate alloc;
 
+pub mod angle;
 pub mod camera;
 pub mod clock;
 pub mod drive;
@@ -25,6 +26,7 @@ pub mod lifecycle;
 pub mod tension;
 pub mod vibro;
 
+pub use angle::{AngleAxis, AngleSensors};
 pub use camera::{GrayFrame, RgbFrame, StereoCamera, StereoFrame};
 pub use clock::{Clock, MonoTime};
 pub use drive::{DriveSample, DriveState, Transmission, WireDrives};

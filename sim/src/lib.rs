@@ -12,10 +12,14 @@
 //!   sensors with offset, gain error and seeded noise, an e-stop, recording vibrotactors, and a
 //!   clock that is either simulated (faster than real time, deterministic) or real time;
 //! - [`converter`]: the strain-gauge converters' timing (data rate, digital filter,
-//!   quantization, held samples) the twin's sensors go through when configured.
+//!   quantization, held samples) the twin's sensors go through when configured;
+//! - [`angle_sensors`]: the one-wire device's azimuth and elevation sensors, 14-bit like the
+//!   real encoders, from a thimble position, with fault injection.
 //!
-//! Protocol-level twins of devices, so the real drive driver runs end to end without hardware:
+//! Protocol-level twins of devices, so the real drivers run end to end without hardware:
 //!
+//! - [`as5048a_encoder`]: a simulated AS5048A angle encoder on SPI, at the one-wire device's
+//!   thimble position, for the real angle driver;
 //! - [`can_bus`]: a userspace CAN bus (in-process, or across processes over loopback UDP) with
 //!   fault injection;
 //! - [`cia402_node`]: a simulated CiA 402 drive node on that bus, its motor given by a plant;
@@ -24,6 +28,8 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod angle_sensors;
+pub mod as5048a_encoder;
 pub mod can_bus;
 pub mod cia402_node;
 pub mod converter;
@@ -33,6 +39,10 @@ pub mod plant;
 pub mod twin;
 pub mod twin_plant;
 
+pub use angle_sensors::{
+    AngleFaults, AngleSensorFault, AngleSensorTwin, AngleTwinError, AngleTwinFault, PositionSource,
+    SharedPosition,
+};
 pub use converter::ConverterModel;
 pub use fault_inbox::{FaultInbox, InboxFault};
 pub use operator::{VirtualOperator, Waypoint};
