@@ -366,3 +366,77 @@ fn on_the_device_the_motor_subcommands_name_a_missing_part() {
     );
     assert!(!stderr.contains("gpiochip"), "{stderr}");
 }
+
+/// `videt angle-sensors` reads the one-wire device's encoders through the real AS5048A driver:
+/// on simulated encoders the angles are eq. 7's of the thimble position, and the position comes
+/// back from them and the wire length; a missing device is named with its sensor.
+#[test]
+fn angle_sensors_read_eq_7_of_the_thimble_and_name_a_missing_device() {
+    let [x, y, z] = [0.25f64, -0.2, 0.15];
+    let length = (x * x + y * y + z * z).sqrt().to_string();
+    let out = videt(&[
+        "angle-sensors",
+        "--sim",
+        "0.25,-0.2,0.15",
+        "--count",
+        "2",
+        "--period-ms",
+        "1",
+        "--length",
+        &length,
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("azimuth: magnetic field in range"),
+        "{stdout}"
+    );
+    let readings: Vec<&str> = stdout.lines().filter(|l| l.starts_with("counts")).collect();
+    assert_eq!(readings.len(), 2, "{stdout}");
+    let number_after = |line: &str, key: &str| -> f64 {
+        let rest = line.split(key).nth(1).unwrap().trim_start();
+        rest.split(|c: char| c == '°' || c.is_whitespace())
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let alpha = y.atan2(x).to_degrees();
+    let beta = z.atan2(x.hypot(y)).to_degrees();
+    let count_deg = 360.0 / 16384.0;
+    for line in readings {
+        assert!(
+            (number_after(line, "alpha") - alpha).abs() <= count_deg,
+            "{line}"
+        );
+        assert!(
+            (number_after(line, "beta") - beta).abs() <= count_deg,
+            "{line}"
+        );
+        let position = line.split("x (").nth(1).unwrap().split(')').next().unwrap();
+        let p: Vec<f64> = position
+            .split(',')
+            .map(|c| c.trim().parse().unwrap())
+            .collect();
+        for (got, want) in p.iter().zip([x, y, z]) {
+            assert!((got - want).abs() < 1e-3, "{line}");
+        }
+    }
+    let out = videt(&[
+        "angle-sensors",
+        "--azimuth",
+        "/dev/videt-no-such-spidev",
+        "--elevation",
+        "/dev/videt-no-such-spidev2",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("azimuth angle sensor: /dev/videt-no-such-spidev"),
+        "{stderr}"
+    );
+}

@@ -32,6 +32,9 @@ enum Command {
     /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
     /// limit, plots (paper section 6).
     Analyze(tool::analyze::AnalyzeArgs),
+    /// The one-wire device's passive angle sensors: magnetic field, raw counts, angles and the
+    /// thimble position by eq. 7 (or simulated encoders with --sim X,Y,Z).
+    AngleSensors(tool::angle_sensors::AngleSensorsArgs),
     /// Colour-to-touch trainer's aid: the levels at a pixel, or the image in level colours.
     Colour(tool::colour::ColourArgs),
     /// Summarise a telemetry session log and export it as CSV.
@@ -68,6 +71,7 @@ fn main() -> ExitCode {
         Command::TensionCalibrate(a) => tool::tension_calibrate::run(a),
         Command::Status(a) => tool::status::run(a),
         Command::Analyze(a) => tool::analyze::run(a),
+        Command::AngleSensors(a) => tool::angle_sensors::run(a),
         Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Replay(a) => tool::replay::run(a),

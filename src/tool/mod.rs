@@ -2,6 +2,7 @@
 //! function returning the process exit code or an error to print.
 
 pub mod analyze;
+pub mod angle_sensors;
 pub mod bench_haptic;
 pub mod bench_rt;
 pub mod calibrate_stereo;
