@@ -86,7 +86,6 @@ pub struct CameraStats {
     rebuilds: AtomicU64,
     local_updates: AtomicU64,
     failures: AtomicU64,
-    last_rebuild_us: AtomicU64,
     last_latency_us: AtomicU64,
     max_latency_us: AtomicU64,
     cpu_permille: AtomicU64,
@@ -104,10 +103,6 @@ impl CameraStats {
     /// Captures or builds that failed (the previous relief stays).
     pub fn failures(&self) -> u64 {
         self.failures.load(Ordering::Relaxed)
-    }
-    /// Time of the last whole-image capture-to-relief, microseconds.
-    pub fn last_rebuild_us(&self) -> u64 {
-        self.last_rebuild_us.load(Ordering::Relaxed)
     }
     /// Capture to publication of the last relief and the largest so far, microseconds.
     pub fn latency_us(&self) -> [u64; 2] {
@@ -289,12 +284,6 @@ impl<C: StereoCamera> CameraRelief<C> {
             image(&self.right)?,
             self.pair_camera,
         )
-    }
-
-    /// Capture the next pair and rectify it.
-    pub fn capture_pair(&mut self) -> Result<StereoPair, String> {
-        self.capture()?;
-        self.captured_pair()
     }
 
     /// The whole-image relief of the last captured pair (its depth range mapped anew); the
@@ -509,8 +498,6 @@ pub fn spawn_camera_updates<C: StereoCamera + Send + 'static>(
                         planner.ran(work, start, took);
                         if work == FrameWork::Whole {
                             stats.rebuilds.fetch_add(1, Ordering::Relaxed);
-                            let us = took.as_micros() as u64;
-                            stats.last_rebuild_us.store(us, Ordering::Relaxed);
                         } else {
                             stats.local_updates.fetch_add(1, Ordering::Relaxed);
                         }
