@@ -14,11 +14,12 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use videt_control::WireDevice;
 use videt_drivers::can::CanPort;
 use videt_drivers::cia402::{Cia402DriveSet, DriveError, DriveSetConfig};
 use videt_hal::{
-    Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState, MonoTime,
-    TensionSensors, WireDrives, WIRES,
+    AngleSensors, Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState,
+    MonoTime, TensionSensors, WireDrives,
 };
 use videt_sim::can_bus::{
     BusError, BusFaults, BusStats, InProcessBus, InProcessEndpoint, SimFrame,
@@ -30,8 +31,8 @@ use crate::setup;
 use crate::twin_rt::RealTimeTwin;
 use videt_rt_config::Config;
 
-/// Node ids of the simulated drives (wire 0, 1, 2).
-pub const NODE_IDS: [u8; WIRES] = [1, 2, 3];
+/// Node ids of the simulated drives (wire 0, 1, 2, 3: a device uses the first ones).
+pub const NODE_IDS: [u8; 4] = [1, 2, 3, 4];
 
 /// The driver's CAN port onto the simulated drives.
 #[derive(Debug)]
@@ -87,30 +88,41 @@ impl CanPort for SimCanPort {
     }
 }
 
-/// The twin as the CAN twin needs it: its HAL devices plus access to the model.
-pub trait TwinDevice:
-    Lifecycle + WireDrives + TensionSensors + EStop + Clock + ErrorType<Error = TwinError>
+/// The twin of an `N`-wire device as the CAN twin needs it: its HAL devices plus access to
+/// the model.
+pub trait TwinDevice<const N: usize>:
+    Lifecycle
+    + WireDrives<N>
+    + TensionSensors<N>
+    + EStop
+    + AngleSensors
+    + Clock
+    + ErrorType<Error = TwinError>
 {
+    /// The device the twin models.
+    type Device: WireDevice<N>;
     /// The twin.
-    fn model(&self) -> &Twin;
+    fn model(&self) -> &Twin<N, Self::Device>;
     /// The twin, mutably.
-    fn model_mut(&mut self) -> &mut Twin;
+    fn model_mut(&mut self) -> &mut Twin<N, Self::Device>;
 }
 
-impl TwinDevice for Twin {
-    fn model(&self) -> &Twin {
+impl<const N: usize, D: WireDevice<N>> TwinDevice<N> for Twin<N, D> {
+    type Device = D;
+    fn model(&self) -> &Twin<N, D> {
         self
     }
-    fn model_mut(&mut self) -> &mut Twin {
+    fn model_mut(&mut self) -> &mut Twin<N, D> {
         self
     }
 }
 
-impl TwinDevice for RealTimeTwin {
-    fn model(&self) -> &Twin {
+impl<const N: usize, D: WireDevice<N>> TwinDevice<N> for RealTimeTwin<N, D> {
+    type Device = D;
+    fn model(&self) -> &Twin<N, D> {
         self.twin()
     }
-    fn model_mut(&mut self) -> &mut Twin {
+    fn model_mut(&mut self) -> &mut Twin<N, D> {
         self.twin_mut()
     }
 }
@@ -151,10 +163,10 @@ fn twin_err(e: videt_sim::TwinError) -> CanTwinError {
 /// The drive-set configuration for the simulated drives, from the daemon's configuration: the
 /// configured drive's rated torque to the nearest mN·m ([`setup::twin_rated_torque_mnm`]),
 /// which the simulated drives report in 0x6076 (mN·m, CiA 402).
-pub fn drive_config(config: &Config) -> DriveSetConfig {
+pub fn drive_config<const N: usize>(config: &Config) -> DriveSetConfig<N> {
     let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
     let mut c = DriveSetConfig::new(
-        NODE_IDS,
+        core::array::from_fn(|i| NODE_IDS[i]),
         period,
         f64::from(setup::twin_rated_torque_mnm(config)) / 1000.0,
         config.control.t_max_n,
@@ -171,27 +183,27 @@ pub fn drive_config(config: &Config) -> DriveSetConfig {
     c
 }
 
-/// The twin with its drives behind CiA 402 nodes on a userspace CAN bus.
-pub struct CanTwin<T: TwinDevice> {
+/// The twin of an `N`-wire device with its drives behind CiA 402 nodes on a userspace CAN bus.
+pub struct CanTwin<const N: usize, T: TwinDevice<N>> {
     twin: T,
-    drives: Cia402DriveSet<SimCanPort>,
+    drives: Cia402DriveSet<SimCanPort, N>,
     motors: Arc<SharedMotors>,
     bank: Option<SimDriveBank>,
     bus_faults: Arc<BusFaults>,
     bus_stats: Option<Arc<BusStats>>,
-    encoders: [DriveSample; WIRES],
+    encoders: [DriveSample; N],
 }
 
-impl<T: TwinDevice> core::fmt::Debug for CanTwin<T> {
+impl<const N: usize, T: TwinDevice<N>> core::fmt::Debug for CanTwin<N, T> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("CanTwin").field("bank", &self.bank).finish()
     }
 }
 
 /// The simulated drives, their rated torque (0x6076, mN·m) the drive set's.
-fn node_specs(drive_config: &DriveSetConfig) -> Vec<SimDriveSpec> {
+fn node_specs<const N: usize>(drive_config: &DriveSetConfig<N>) -> Vec<SimDriveSpec> {
     let rated_torque_mnm = setup::whole_mnm(drive_config.rated_torque_nm);
-    (0..WIRES)
+    (0..N)
         .map(|i| SimDriveSpec {
             node_id: NODE_IDS[i],
             axis: i,
@@ -201,14 +213,17 @@ fn node_specs(drive_config: &DriveSetConfig) -> Vec<SimDriveSpec> {
         .collect()
 }
 
-impl CanTwin<Twin> {
+impl<const N: usize, D: WireDevice<N>> CanTwin<N, Twin<N, D>> {
     /// The twin on its simulated clock, its drives answering inline: deterministic and faster
     /// than real time (whole-stack tests). The drives' rated torque is `drive_config`'s; they
     /// apply torque in its per-mille steps (the twin's own step model is switched off).
-    pub fn stepped(mut twin: Twin, drive_config: DriveSetConfig) -> Result<CanTwin<Twin>, String> {
+    pub fn stepped(
+        mut twin: Twin<N, D>,
+        drive_config: DriveSetConfig<N>,
+    ) -> Result<CanTwin<N, Twin<N, D>>, String> {
         twin.set_clock_mode(videt_sim::ClockMode::Simulated);
         twin.set_torque_step_nm(None);
-        let motors = Arc::new(SharedMotors::new(WIRES));
+        let motors = Arc::new(SharedMotors::new(N));
         let bus = SteppedDriveBus::new(&node_specs(&drive_config), motors.clone());
         let drives = Cia402DriveSet::new(SimCanPort::Stepped(Box::new(bus)), drive_config)
             .map_err(|e| e.to_string())?;
@@ -219,14 +234,14 @@ impl CanTwin<Twin> {
             bank: None,
             bus_faults: Arc::new(BusFaults::default()),
             bus_stats: None,
-            encoders: [DriveSample::default(); WIRES],
+            encoders: [DriveSample::default(); N],
         };
         can_twin.publish_encoders();
         Ok(can_twin)
     }
 }
 
-impl CanTwin<RealTimeTwin> {
+impl<const N: usize, D: WireDevice<N>> CanTwin<N, RealTimeTwin<N, D>> {
     /// Put `twin`'s motors behind three simulated CiA 402 nodes and the real driver, on a bus
     /// of `bitrate` bit/s (frames take their bit time, queue while the bus is busy and win it
     /// by identifier). The nodes and the bus's wire run on their own threads, at SCHED_FIFO
@@ -235,12 +250,12 @@ impl CanTwin<RealTimeTwin> {
     /// and CPU). The drives' rated torque is `drive_config`'s; they apply
     /// torque in its per-mille steps (the twin's own step model is switched off).
     pub fn new(
-        mut twin: Twin,
-        drive_config: DriveSetConfig,
+        mut twin: Twin<N, D>,
+        drive_config: DriveSetConfig<N>,
         bitrate: u32,
         drive_priority: Option<u8>,
         drive_cpu: Option<usize>,
-    ) -> Result<CanTwin<RealTimeTwin>, String> {
+    ) -> Result<CanTwin<N, RealTimeTwin<N, D>>, String> {
         let bus_faults = Arc::new(BusFaults::default());
         // The wire and the drives stand for hardware: both run at `drive_priority`, or a loaded
         // host's scheduler latency lands on every frame and the driver sees missed cycles; and
@@ -268,7 +283,7 @@ impl CanTwin<RealTimeTwin> {
         twin.set_torque_step_nm(None);
         let node_side = eps.pop().ok_or("bus without endpoints")?;
         let host_side = eps.pop().ok_or("bus without endpoints")?;
-        let motors = Arc::new(SharedMotors::new(WIRES));
+        let motors = Arc::new(SharedMotors::new(N));
         let specs = node_specs(&drive_config);
         let bank =
             SimDriveBank::spawn_with(node_side, &specs, motors.clone(), move || raise("drives"));
@@ -281,14 +296,14 @@ impl CanTwin<RealTimeTwin> {
             bank: Some(bank),
             bus_faults,
             bus_stats: Some(bus_stats),
-            encoders: [DriveSample::default(); WIRES],
+            encoders: [DriveSample::default(); N],
         };
         can_twin.publish_encoders();
         Ok(can_twin)
     }
 }
 
-impl<T: TwinDevice> CanTwin<T> {
+impl<const N: usize, T: TwinDevice<N>> CanTwin<N, T> {
     /// The bus's fault injector (drops, delay, bus-off).
     pub fn bus_faults(&self) -> &Arc<BusFaults> {
         &self.bus_faults
@@ -320,10 +335,8 @@ impl<T: TwinDevice> CanTwin<T> {
     /// The fault handles of the twin, its bus and its drives.
     pub fn sim_faults(&self) -> crate::sim_faults::SimFaultPort {
         let drives = match (&self.bank, self.drives.port()) {
-            (Some(bank), _) => (0..WIRES).map(|i| Arc::clone(bank.faults(i))).collect(),
-            (None, SimCanPort::Stepped(bus)) => {
-                (0..WIRES).map(|i| Arc::clone(bus.faults(i))).collect()
-            }
+            (Some(bank), _) => (0..N).map(|i| Arc::clone(bank.faults(i))).collect(),
+            (None, SimCanPort::Stepped(bus)) => (0..N).map(|i| Arc::clone(bus.faults(i))).collect(),
             (None, SimCanPort::Threaded(_)) => Vec::new(),
         };
         crate::sim_faults::SimFaultPort {
@@ -346,12 +359,12 @@ impl<T: TwinDevice> CanTwin<T> {
     }
 
     /// The twin.
-    pub fn twin(&self) -> &Twin {
+    pub fn twin(&self) -> &Twin<N, T::Device> {
         self.twin.model()
     }
 
     /// The twin, mutably (a procedure's simulated technician acts on it).
-    pub fn twin_mut(&mut self) -> &mut Twin {
+    pub fn twin_mut(&mut self) -> &mut Twin<N, T::Device> {
         self.twin.model_mut()
     }
 
@@ -374,13 +387,13 @@ impl<T: TwinDevice> CanTwin<T> {
     /// The simulated drives' torques into the twin's motors.
     fn apply_node_torques(&mut self) {
         if self.twin.model().drives_enabled() {
-            let t: [f64; WIRES] = core::array::from_fn(|i| self.motors.torque_nm(i));
+            let t: [f64; N] = core::array::from_fn(|i| self.motors.torque_nm(i));
             let _ = self.twin.model_mut().write_torques(&t);
         }
     }
 }
 
-impl<T: TwinDevice> ErrorType for CanTwin<T> {
+impl<const N: usize, T: TwinDevice<N>> ErrorType for CanTwin<N, T> {
     type Error = CanTwinError;
 }
 
@@ -392,7 +405,7 @@ fn logged(r: Result<(), CanTwinError>, step: &str) -> Result<(), CanTwinError> {
     r
 }
 
-impl<T: TwinDevice> Lifecycle for CanTwin<T> {
+impl<const N: usize, T: TwinDevice<N>> Lifecycle for CanTwin<N, T> {
     fn configure(&mut self) -> Result<(), CanTwinError> {
         self.twin.configure().map_err(twin_err)?;
         let r = self.drives.configure().map_err(CanTwinError::Drives);
@@ -419,38 +432,41 @@ impl<T: TwinDevice> Lifecycle for CanTwin<T> {
     }
 }
 
-impl<T: TwinDevice> WireDrives for CanTwin<T> {
+impl<const N: usize, T: TwinDevice<N>> WireDrives<N> for CanTwin<N, T> {
     fn enable(&mut self) -> Result<(), CanTwinError> {
         self.drives.enable().map_err(CanTwinError::Drives)
     }
     fn disable(&mut self) -> Result<(), CanTwinError> {
         self.drives.disable().map_err(CanTwinError::Drives)
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), CanTwinError> {
+    fn read_drives(&mut self, out: &mut [DriveSample; N]) -> Result<(), CanTwinError> {
         let r = self.drives.read_drives(out).map_err(CanTwinError::Drives);
         self.apply_node_torques();
         r
     }
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), CanTwinError> {
+    fn write_torques(&mut self, torque_nm: &[f64; N]) -> Result<(), CanTwinError> {
         self.drives
             .write_torques(torque_nm)
             .map_err(CanTwinError::Drives)
     }
 }
 
-impl<T: TwinDevice> TensionSensors for CanTwin<T> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), CanTwinError> {
+impl<const N: usize, T: TwinDevice<N>> TensionSensors<N> for CanTwin<N, T> {
+    fn read_tensions(&mut self, out_n: &mut [f64; N]) -> Result<(), CanTwinError> {
         self.twin.read_tensions(out_n).map_err(twin_err)
     }
-    fn read_fresh_tensions(
-        &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], CanTwinError> {
+    fn read_fresh_tensions(&mut self, out_n: &mut [f64; N]) -> Result<[bool; N], CanTwinError> {
         self.twin.read_fresh_tensions(out_n).map_err(twin_err)
     }
 }
 
-impl<T: TwinDevice> EStop for CanTwin<T> {
+impl<const N: usize, T: TwinDevice<N>> videt_hal::AngleSensors for CanTwin<N, T> {
+    fn read_angles(&mut self, out_rad: &mut [f64; 2]) -> Result<(), CanTwinError> {
+        self.twin.read_angles(out_rad).map_err(twin_err)
+    }
+}
+
+impl<const N: usize, T: TwinDevice<N>> EStop for CanTwin<N, T> {
     fn is_pressed(&mut self) -> Result<bool, CanTwinError> {
         self.twin.is_pressed().map_err(twin_err)
     }
@@ -459,7 +475,7 @@ impl<T: TwinDevice> EStop for CanTwin<T> {
     }
 }
 
-impl<T: TwinDevice> Clock for CanTwin<T> {
+impl<const N: usize, T: TwinDevice<N>> Clock for CanTwin<N, T> {
     fn now(&self) -> MonoTime {
         self.twin.now()
     }

@@ -9,7 +9,8 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use videt_control::safety::{SafetyReason, SafetyState};
-use videt_hal::{Clock, EStop, Lifecycle, TensionSensors, WireDrives};
+use videt_control::WireDevice;
+use videt_hal::{AngleSensors, Clock, EStop, Lifecycle, TensionSensors, WireDrives};
 
 use crate::cycle::{ControlCycle, CycleRecord};
 use crate::histogram::Histogram;
@@ -142,7 +143,9 @@ impl StartError {
 }
 
 /// Bring the hardware up: configure, activate, enable the drives.
-pub fn start_hardware<H: Lifecycle + WireDrives>(hw: &mut H) -> Result<(), StartError> {
+pub fn start_hardware<const N: usize, H: Lifecycle + WireDrives<N>>(
+    hw: &mut H,
+) -> Result<(), StartError> {
     hw.configure()
         .map_err(|e| StartError::new("configure", &e))?;
     hw.activate().map_err(|e| StartError::new("activate", &e))?;
@@ -171,17 +174,18 @@ impl<'a> LoopControl<'a> {
 /// Run the loop until stopped (signal, command, duration, or a panic elsewhere in the service),
 /// then ramp the forces out, power the drives off and return. The hardware must have been
 /// started with [`start_hardware`]; `stats` is filled in place.
-pub fn run_control_loop<H, F, O>(
+pub fn run_control_loop<const N: usize, D, H, F, O>(
     hw: &mut H,
     surfaces: &mut F,
-    cycle: &mut ControlCycle,
+    cycle: &mut ControlCycle<N, D>,
     settings: &LoopSettings,
     control: &mut LoopControl<'_>,
     observer: &mut O,
     stats: &mut LoopStats,
 ) -> LoopReport
 where
-    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock,
+    D: WireDevice<N>,
+    H: Lifecycle + WireDrives<N> + TensionSensors<N> + EStop + AngleSensors + Clock,
     F: SurfaceFeed + ?Sized,
     O: CycleObserver + ?Sized,
 {

@@ -6,12 +6,17 @@
 use videt_control::safety::{
     SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor,
 };
-use videt_control::{ControlStep, StepInput, StepOutput, Surface};
+use videt_control::{ControlStep, StepInput, StepOutput, Surface, WireDevice};
 
 use crate::snapshot::SurfaceView;
 use videt_hal::{
-    DriveSample, DriveState, EStop, MonoTime, TensionSensors, Transmission, WireDrives, WIRES,
+    AngleSensors, DriveSample, DriveState, EStop, MonoTime, TensionSensors, Transmission,
+    WireDrives,
 };
+
+/// Per-wire slots of a period's record (and of the session log): the wires of a device fill the
+/// first ones, the rest stay zero. A cycle for more wires does not compile.
+pub const LOG_WIRE_SLOTS: usize = 3;
 
 /// Everything the device did in one period: the telemetry record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -25,13 +30,13 @@ pub struct CycleRecord {
     /// Time from wake-up to the end of the period's work, nanoseconds (filled in by the loop).
     pub compute_ns: u64,
     /// Wire lengths, metres.
-    pub lengths_m: [f64; WIRES],
+    pub lengths_m: [f64; LOG_WIRE_SLOTS],
     /// Tension set-points, newtons.
-    pub tension_setpoint_n: [f64; WIRES],
+    pub tension_setpoint_n: [f64; LOG_WIRE_SLOTS],
     /// Measured tensions, newtons.
-    pub tension_measured_n: [f64; WIRES],
+    pub tension_measured_n: [f64; LOG_WIRE_SLOTS],
     /// Motor torque commands, N·m.
-    pub torque_nm: [f64; WIRES],
+    pub torque_nm: [f64; LOG_WIRE_SLOTS],
     /// Thimble position, metres.
     pub position_m: [f64; 3],
     /// Thimble velocity, m/s.
@@ -156,14 +161,18 @@ pub struct CycleInputs {
     /// The drives were read without error.
     pub drives_read_ok: bool,
     /// The drive samples as read (whatever the read left in them on an error).
-    pub drives: [DriveSample; WIRES],
+    pub drives: [DriveSample; LOG_WIRE_SLOTS],
     /// The tensions were read without error.
     pub tensions_read_ok: bool,
     /// The tensions as read, newtons (whatever the read left in them on an error).
-    pub tensions_read_n: [f64; WIRES],
+    pub tensions_read_n: [f64; LOG_WIRE_SLOTS],
     /// Which wires' tension samples were new conversions (a converter slower than the control
     /// rate repeats its last one in between).
-    pub tensions_fresh: [bool; WIRES],
+    pub tensions_fresh: [bool; LOG_WIRE_SLOTS],
+    /// The passive angle sensors were read without error (a device without them: `false`).
+    pub angles_read_ok: bool,
+    /// The passive angles as read (azimuth, elevation), radians; zero without angle sensors.
+    pub angles_rad: [f64; 2],
     /// The e-stop reading.
     pub estop: EStopReading,
     /// The torque command's fate.
@@ -223,13 +232,13 @@ impl CycleRecord {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WireZero {
     /// Wire length at encoder count zero, metres (0 after homing against the guide ring).
-    pub length_at_zero_m: [f64; WIRES],
+    pub length_at_zero_m: [f64; LOG_WIRE_SLOTS],
 }
 
 impl Default for WireZero {
     fn default() -> Self {
         WireZero {
-            length_at_zero_m: [0.0; WIRES],
+            length_at_zero_m: [0.0; LOG_WIRE_SLOTS],
         }
     }
 }
@@ -262,14 +271,19 @@ enum Ramp {
     Finished,
 }
 
-/// The control cycle: devices in, devices out, one period at a time.
+/// The control cycle of an `N`-wire device `D`: devices in, devices out, one period at a time.
+/// One cycle for every device, monomorphized: the wire count is chosen when the service starts.
 #[derive(Debug, Clone)]
-pub struct ControlCycle {
-    step: ControlStep,
-    safety: SafetySupervisor,
+pub struct ControlCycle<const N: usize, D: WireDevice<N>> {
+    step: ControlStep<N, D>,
+    safety: SafetySupervisor<N>,
     settings: CycleSettings,
-    samples: [DriveSample; WIRES],
-    output: StepOutput,
+    samples: [DriveSample; N],
+    output: StepOutput<N>,
+    /// The passive angles of the last [`ANGLE_RATE_PERIODS`] periods (rates by difference over
+    /// them), radians, and how many are held.
+    angle_history: [[f64; 2]; ANGLE_RATE_PERIODS],
+    angle_history_len: usize,
     ramp: Ramp,
     force_scale: f64,
     cycle: u64,
@@ -281,15 +295,27 @@ pub struct ControlCycle {
     pending_ops: CycleOps,
 }
 
-impl ControlCycle {
+impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
     /// A cycle for a control step, safety limits and settings.
-    pub fn new(step: ControlStep, limits: SafetyLimits, settings: CycleSettings) -> ControlCycle {
+    pub fn new(
+        step: ControlStep<N, D>,
+        limits: SafetyLimits,
+        settings: CycleSettings,
+    ) -> ControlCycle<N, D> {
+        const {
+            assert!(
+                N >= 1 && N <= LOG_WIRE_SLOTS,
+                "the session log holds 1 to 3 wires"
+            )
+        };
         ControlCycle {
             step,
             safety: SafetySupervisor::new(limits),
             settings,
-            samples: [DriveSample::default(); WIRES],
+            samples: [DriveSample::default(); N],
             output: StepOutput::default(),
+            angle_history: [[0.0; 2]; ANGLE_RATE_PERIODS],
+            angle_history_len: 0,
             ramp: Ramp::Up,
             force_scale: 0.0,
             cycle: 0,
@@ -302,8 +328,8 @@ impl ControlCycle {
         }
     }
 
-    /// The rig geometry the cycle computes with.
-    pub fn rig(&self) -> &videt_control::Rig3 {
+    /// The device geometry the cycle computes with.
+    pub fn rig(&self) -> &D {
         self.step.rig()
     }
 
@@ -317,7 +343,7 @@ impl ControlCycle {
     pub fn release_wire(&mut self, wire: Option<usize>) {
         self.pending_ops
             .push(CycleOp::ReleaseWire(wire.map(|w| w.min(255) as u8)));
-        self.released_wire = wire.filter(|&w| w < WIRES);
+        self.released_wire = wire.filter(|&w| w < N);
     }
 
     /// The wire released for replacement, if any.
@@ -384,7 +410,7 @@ impl ControlCycle {
     }
 
     /// The last step output.
-    pub fn output(&self) -> &StepOutput {
+    pub fn output(&self) -> &StepOutput<N> {
         &self.output
     }
 
@@ -397,7 +423,7 @@ impl ControlCycle {
         deadline_overrun: bool,
         record: &mut CycleRecord,
     ) where
-        H: WireDrives + TensionSensors + EStop,
+        H: WireDrives<N> + TensionSensors<N> + EStop + AngleSensors,
         S: Surface + ?Sized,
     {
         let dt = self.settings.period_s;
@@ -418,7 +444,7 @@ impl ControlCycle {
             ..SafetyInput::default()
         };
         inputs.drives_read_ok = hw.read_drives(&mut self.samples).is_ok();
-        inputs.drives = self.samples;
+        inputs.drives[..N].copy_from_slice(&self.samples);
         if !inputs.drives_read_ok {
             input.drive_fault = Some(None);
         }
@@ -427,16 +453,43 @@ impl ControlCycle {
                 input.drive_fault = Some(Some(i as u8));
             }
         }
-        let mut measured = [0.0; WIRES];
+        let mut measured = [0.0; N];
         let read = hw.read_fresh_tensions(&mut measured);
         inputs.tensions_read_ok = read.is_ok();
-        inputs.tensions_fresh = read.unwrap_or([false; WIRES]);
-        inputs.tensions_read_n = measured;
+        inputs.tensions_fresh[..N].copy_from_slice(&read.unwrap_or([false; N]));
+        inputs.tensions_read_n[..N].copy_from_slice(&measured);
         if !inputs.tensions_read_ok {
             input.sensor_fault = Some(None);
             measured = self.output.distribution.tensions_n;
         }
         input.measured_tension_n = measured;
+        // The passive angles of a device that has them: a failed read is a sensor fault (the
+        // thimble's position is unknown); the rates come from the previous period's angles.
+        let mut angle_rates_rad_s = [0.0; 2];
+        if D::KIND.has_angle_sensors() {
+            let mut angles = [0.0; 2];
+            inputs.angles_read_ok = hw.read_angles(&mut angles).is_ok();
+            if inputs.angles_read_ok {
+                inputs.angles_rad = angles;
+                // The oldest held angle is `len` periods old (the history is a shift register,
+                // newest last).
+                let len = self.angle_history_len;
+                if len > 0 {
+                    let oldest = self.angle_history[ANGLE_RATE_PERIODS - len];
+                    angle_rates_rad_s = angle_rates(&oldest, &angles, dt * len as f64);
+                }
+                self.angle_history.copy_within(1.., 0);
+                self.angle_history[ANGLE_RATE_PERIODS - 1] = angles;
+                self.angle_history_len = (len + 1).min(ANGLE_RATE_PERIODS);
+            } else {
+                input.sensor_fault = Some(None);
+                inputs.angles_rad = if self.angle_history_len > 0 {
+                    self.angle_history[ANGLE_RATE_PERIODS - 1]
+                } else {
+                    [0.0; 2]
+                };
+            }
+        }
         let estop = hw.is_pressed();
         inputs.estop = match estop {
             Ok(false) => EStopReading::Released,
@@ -449,10 +502,12 @@ impl ControlCycle {
         let mpc = tr.metres_per_count();
         let mut step_in = StepInput {
             measured_tension_n: measured,
+            angles_rad: inputs.angles_rad,
+            angle_rates_rad_s,
             dt_s: dt,
             ..StepInput::default()
         };
-        for i in 0..WIRES {
+        for i in 0..N {
             step_in.lengths_m[i] = self.settings.wire_zero.length_at_zero_m[i]
                 - self.samples[i].position_counts as f64 * mpc;
             // Winding (positive counts/s) shortens the wire.
@@ -517,7 +572,7 @@ impl ControlCycle {
                 self.powered_off = true;
                 self.step.reset();
             }
-            self.output.torque_nm = [0.0; WIRES];
+            self.output.torque_nm = [0.0; N];
         } else if hw.write_torques(&self.output.torque_nm).is_err() {
             inputs.torque_write = TorqueWrite::Failed;
             self.safety
@@ -534,10 +589,10 @@ impl ControlCycle {
             time: now,
             wake_latency_ns: record.wake_latency_ns,
             compute_ns: record.compute_ns,
-            lengths_m: step_in.lengths_m,
-            tension_setpoint_n: o.distribution.tensions_n,
-            tension_measured_n: measured,
-            torque_nm: o.torque_nm,
+            lengths_m: slots(&step_in.lengths_m),
+            tension_setpoint_n: slots(&o.distribution.tensions_n),
+            tension_measured_n: slots(&measured),
+            torque_nm: slots(&o.torque_nm),
             position_m: o.position_m.into(),
             velocity_m_s: o.velocity_m_s.into(),
             desired_force_n: o.desired_force_n.into(),
@@ -552,5 +607,49 @@ impl ControlCycle {
             inputs,
         };
         self.cycle += 1;
+    }
+}
+
+/// Periods over which the passive angles are differenced into rates: a 14-bit encoder's count
+/// (0.38 mrad) over one 1 ms period is 0.4 rad/s, about 0.15 m/s at the end of a 0.4 m wire,
+/// noise the contact damping would render; over ten periods it is a tenth of that, for 5 ms of
+/// delay.
+pub const ANGLE_RATE_PERIODS: usize = 10;
+
+/// `N` per-wire values in the record's slots (the rest zero).
+fn slots<const N: usize>(values: &[f64; N]) -> [f64; LOG_WIRE_SLOTS] {
+    let mut out = [0.0; LOG_WIRE_SLOTS];
+    out[..N].copy_from_slice(values);
+    out
+}
+
+/// Rates of two angles between periods `dt_s` apart, the shorter way round (an angle wraps at
+/// ±π).
+fn angle_rates(last: &[f64; 2], now: &[f64; 2], dt_s: f64) -> [f64; 2] {
+    core::array::from_fn(|i| {
+        let d = (now[i] - last[i] + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
+            - core::f64::consts::PI;
+        if dt_s > 0.0 && d.is_finite() {
+            d / dt_s
+        } else {
+            0.0
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angle_rates_take_the_short_way_round() {
+        let r = angle_rates(&[3.1, 0.0], &[-3.1, 0.01], 0.01);
+        assert!(
+            (r[0] - (core::f64::consts::TAU - 6.2) / 0.01).abs() < 1e-9,
+            "{r:?}"
+        );
+        assert!((r[1] - 1.0).abs() < 1e-9);
+        assert_eq!(angle_rates(&[0.0; 2], &[f64::NAN, 0.0], 0.01)[0], 0.0);
+        assert_eq!(angle_rates(&[0.0; 2], &[1.0, 1.0], 0.0), [0.0; 2]);
     }
 }

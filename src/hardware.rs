@@ -6,6 +6,7 @@
 //! [`DeviceHardware`] only delegates each capability to the part that has it; the parts are the
 //! `drivers` crate's, and [`open_device`] opens them from the configuration, e-stop first.
 
+use crate::WIREMAN_WIRES;
 use core::fmt;
 use std::time::Duration;
 
@@ -13,7 +14,7 @@ use videt_drivers::adc::calibration::TensionCalibration;
 use videt_drivers::cia402::{AnalogInputObject, DriveSetConfig};
 use videt_hal::{
     Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState, MonoTime,
-    TensionSensors, WireDrives, WIRES,
+    TensionSensors, WireDrives,
 };
 use videt_rt_config::{Config, TensionAdc};
 
@@ -72,6 +73,8 @@ pub enum DeviceError<DE, TE, EE> {
     Tensions(TE),
     /// The e-stop.
     EStop(EE),
+    /// The device has no passive angle sensors (the WireMan's hardware).
+    NoAngleSensors,
 }
 
 impl<DE, TE, EE> videt_hal::Error for DeviceError<DE, TE, EE>
@@ -85,6 +88,7 @@ where
             DeviceError::Drives(e) => e.kind(),
             DeviceError::Tensions(e) => e.kind(),
             DeviceError::EStop(e) => e.kind(),
+            DeviceError::NoAngleSensors => ErrorKind::Other,
         }
     }
 }
@@ -97,6 +101,7 @@ impl<DE: fmt::Display, TE: fmt::Display, EE: fmt::Display> fmt::Display
             DeviceError::Drives(e) => write!(f, "drives: {e}"),
             DeviceError::Tensions(e) => write!(f, "{e}"),
             DeviceError::EStop(e) => write!(f, "e-stop: {e}"),
+            DeviceError::NoAngleSensors => f.write_str("the device has no passive angle sensors"),
         }
     }
 }
@@ -128,33 +133,37 @@ impl<D: Lifecycle, T: ErrorType, E: ErrorType> Lifecycle for DeviceHardware<D, T
     }
 }
 
-impl<D: WireDrives, T: ErrorType, E: ErrorType> WireDrives for DeviceHardware<D, T, E> {
+impl<D: WireDrives<WIREMAN_WIRES>, T: ErrorType, E: ErrorType> WireDrives<WIREMAN_WIRES>
+    for DeviceHardware<D, T, E>
+{
     fn enable(&mut self) -> Result<(), Self::Error> {
         self.drives.enable().map_err(DeviceError::Drives)
     }
     fn disable(&mut self) -> Result<(), Self::Error> {
         self.drives.disable().map_err(DeviceError::Drives)
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), Self::Error> {
+    fn read_drives(&mut self, out: &mut [DriveSample; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.drives.read_drives(out).map_err(DeviceError::Drives)
     }
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), Self::Error> {
+    fn write_torques(&mut self, torque_nm: &[f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.drives
             .write_torques(torque_nm)
             .map_err(DeviceError::Drives)
     }
 }
 
-impl<D: ErrorType, T: TensionSensors, E: ErrorType> TensionSensors for DeviceHardware<D, T, E> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
+impl<D: ErrorType, T: TensionSensors<WIREMAN_WIRES>, E: ErrorType> TensionSensors<WIREMAN_WIRES>
+    for DeviceHardware<D, T, E>
+{
+    fn read_tensions(&mut self, out_n: &mut [f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.tensions
             .read_tensions(out_n)
             .map_err(DeviceError::Tensions)
     }
     fn read_fresh_tensions(
         &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], Self::Error> {
+        out_n: &mut [f64; WIREMAN_WIRES],
+    ) -> Result<[bool; WIREMAN_WIRES], Self::Error> {
         self.tensions
             .read_fresh_tensions(out_n)
             .map_err(DeviceError::Tensions)
@@ -170,6 +179,14 @@ impl<D: ErrorType, T: ErrorType, E: EStop> EStop for DeviceHardware<D, T, E> {
     }
 }
 
+/// The WireMan's hardware has no passive angle sensors (the cycle reads them only on a device
+/// that has them).
+impl<D: ErrorType, T: ErrorType, E: ErrorType> videt_hal::AngleSensors for DeviceHardware<D, T, E> {
+    fn read_angles(&mut self, _out_rad: &mut [f64; 2]) -> Result<(), Self::Error> {
+        Err(DeviceError::NoAngleSensors)
+    }
+}
+
 impl<D, T, E> Clock for DeviceHardware<D, T, E> {
     fn now(&self) -> MonoTime {
         self.clock.now()
@@ -180,7 +197,10 @@ impl<D, T, E> Clock for DeviceHardware<D, T, E> {
 }
 
 /// Procedures (`videt init`, wire replacement) run on the device with a real technician.
-impl<D: WireDrives, T: TensionSensors, E: EStop> ProcedureDevice for DeviceHardware<D, T, E> {}
+impl<D: WireDrives<WIREMAN_WIRES>, T: TensionSensors<WIREMAN_WIRES>, E: EStop> ProcedureDevice
+    for DeviceHardware<D, T, E>
+{
+}
 
 /// The drive-set settings of the device: node ids, rated torque and heartbeats from
 /// `[drives]`, the transmission and limits from `[transmission]` and `[control]`, one SYNC per
@@ -188,7 +208,7 @@ impl<D: WireDrives, T: TensionSensors, E: EStop> ProcedureDevice for DeviceHardw
 /// (`sensors.drive_analog_index`/`drive_analog_subindex`) mapped into every drive's TPDO1.
 /// With `drives.device_description`, the unit the drives give their rated torque in (µN·m on
 /// maxon drives) and their position and velocity units come from the file.
-pub fn drive_set_config(config: &Config) -> DriveSetConfig {
+pub fn drive_set_config(config: &Config) -> DriveSetConfig<WIREMAN_WIRES> {
     let d = &config.drives;
     let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
     let mut c = DriveSetConfig::new(
@@ -237,7 +257,7 @@ pub fn ads1220_config(s: &videt_rt_config::SensorsConfig) -> videt_drivers::adc:
 }
 
 /// The nominal raw-count-to-newton scale of each wire's converter, from `[sensors]`.
-pub fn nominal_tension_scales(config: &Config) -> [TensionCalibration; WIRES] {
+pub fn nominal_tension_scales(config: &Config) -> [TensionCalibration; WIREMAN_WIRES] {
     let s = &config.sensors;
     core::array::from_fn(|i| TensionCalibration {
         offset_counts: f64::from(s.zero_counts[i]),
@@ -269,10 +289,12 @@ mod linux {
     /// The device on Linux: SocketCAN drives, spidev, GPIO or drive-input converters, a GPIO
     /// e-stop.
     pub type LinuxDevice = DeviceHardware<
-        Cia402DriveSet<SocketCanPort>,
-        StrainGaugeSet<LinuxAdc, MonotonicClock>,
+        Cia402DriveSet<SocketCanPort, { crate::WIREMAN_WIRES }>,
+        StrainGaugeSet<LinuxAdc, MonotonicClock, { crate::WIREMAN_WIRES }>,
         EStopInput<CdevPin>,
     >;
+
+    crate::runtime_device::wireman_service_hardware!(LinuxDevice, false);
 
     /// Open the device's parts named by `config`: the e-stop first (so no drive is reached
     /// without it), then the three converters, then the CAN interface; with
@@ -384,24 +406,24 @@ mod tests {
         }
     }
 
-    impl WireDrives for Part {
+    impl WireDrives<WIREMAN_WIRES> for Part {
         fn enable(&mut self) -> Result<(), ErrorKind> {
             self.step("enable")
         }
         fn disable(&mut self) -> Result<(), ErrorKind> {
             self.step("disable")
         }
-        fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), ErrorKind> {
+        fn read_drives(&mut self, out: &mut [DriveSample; WIREMAN_WIRES]) -> Result<(), ErrorKind> {
             out[1].position_counts = 1234;
             self.step("read_drives")
         }
-        fn write_torques(&mut self, _: &[f64; WIRES]) -> Result<(), ErrorKind> {
+        fn write_torques(&mut self, _: &[f64; WIREMAN_WIRES]) -> Result<(), ErrorKind> {
             self.step("write_torques")
         }
     }
 
-    impl TensionSensors for Part {
-        fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), ErrorKind> {
+    impl TensionSensors<WIREMAN_WIRES> for Part {
+        fn read_tensions(&mut self, out_n: &mut [f64; WIREMAN_WIRES]) -> Result<(), ErrorKind> {
             *out_n = [1.0, 2.0, 3.0];
             self.step("read_tensions")
         }
@@ -434,11 +456,11 @@ mod tests {
         hw.activate().unwrap();
         assert_eq!(hw.lifecycle_state(), LifecycleState::Active);
         hw.enable().unwrap();
-        let mut samples = [DriveSample::default(); WIRES];
+        let mut samples = [DriveSample::default(); WIREMAN_WIRES];
         hw.read_drives(&mut samples).unwrap();
         assert_eq!(samples[1].position_counts, 1234);
-        hw.write_torques(&[0.0; WIRES]).unwrap();
-        let mut t = [0.0; WIRES];
+        hw.write_torques(&[0.0; WIREMAN_WIRES]).unwrap();
+        let mut t = [0.0; WIREMAN_WIRES];
         hw.read_tensions(&mut t).unwrap();
         assert_eq!(t, [1.0, 2.0, 3.0]);
         assert!(hw.is_pressed().unwrap());
@@ -472,10 +494,10 @@ mod tests {
             failing(ErrorKind::Fault),
         );
         let e = hw
-            .read_drives(&mut [DriveSample::default(); WIRES])
+            .read_drives(&mut [DriveSample::default(); WIREMAN_WIRES])
             .unwrap_err();
         assert!(matches!(e, DeviceError::Drives(ErrorKind::Disconnected)));
-        let e = hw.read_tensions(&mut [0.0; WIRES]).unwrap_err();
+        let e = hw.read_tensions(&mut [0.0; WIREMAN_WIRES]).unwrap_err();
         assert_eq!(videt_hal::Error::kind(&e), ErrorKind::Timeout);
         let e = hw.is_pressed().unwrap_err();
         assert_eq!(videt_hal::Error::kind(&e), ErrorKind::Fault);

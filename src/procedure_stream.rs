@@ -180,7 +180,17 @@ pub fn serve(
     let Some(port) = shared.procedures.as_ref() else {
         return reply(
             writer,
-            &Response::error("this service runs no procedures on its hardware"),
+            &Response::error(if shared.wires == 3 {
+                "this service runs no procedures on its hardware".to_string()
+            } else {
+                format!(
+                    "this service runs no procedures: auto-initialization, tension calibration \
+                     and wire replacement are the three-wire WireMan's, and its device has {} \
+                     wire{}",
+                    shared.wires,
+                    if shared.wires == 1 { "" } else { "s" }
+                )
+            }),
         );
     };
     let spec = match spec_for(port, request) {

@@ -13,7 +13,12 @@ use std::sync::Arc;
 use videt_control::safety::SafetyState;
 use videt_control::surface::Plane;
 use videt_control::Algorithm;
-use videt_hal::{DriveSample, EStop, ErrorKind, ErrorType, TensionSensors, WireDrives, WIRES};
+use videt_control::WireDevice;
+use videt_hal::{
+    AngleSensors, DriveSample, EStop, ErrorKind, ErrorType, TensionSensors, WireDrives,
+};
+
+use crate::runtime_device::RuntimeDevice;
 use videt_rt_config::Config;
 use videt_vision::surface::ReliefModel;
 
@@ -104,22 +109,22 @@ impl ErrorType for RecordedDevices<'_> {
     type Error = ErrorKind;
 }
 
-impl WireDrives for RecordedDevices<'_> {
+impl<const N: usize> WireDrives<N> for RecordedDevices<'_> {
     fn enable(&mut self) -> Result<(), ErrorKind> {
         Ok(())
     }
     fn disable(&mut self) -> Result<(), ErrorKind> {
         Ok(())
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), ErrorKind> {
-        *out = self.inputs.drives;
+    fn read_drives(&mut self, out: &mut [DriveSample; N]) -> Result<(), ErrorKind> {
+        out.copy_from_slice(&self.inputs.drives[..N]);
         if self.inputs.drives_read_ok {
             Ok(())
         } else {
             Err(ErrorKind::Fault)
         }
     }
-    fn write_torques(&mut self, _torque_nm: &[f64; WIRES]) -> Result<(), ErrorKind> {
+    fn write_torques(&mut self, _torque_nm: &[f64; N]) -> Result<(), ErrorKind> {
         match self.inputs.torque_write {
             TorqueWrite::Failed => Err(ErrorKind::Fault),
             // A write the recorded cycle did not make succeeds here; the record then says
@@ -129,17 +134,27 @@ impl WireDrives for RecordedDevices<'_> {
     }
 }
 
-impl TensionSensors for RecordedDevices<'_> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), ErrorKind> {
+impl<const N: usize> TensionSensors<N> for RecordedDevices<'_> {
+    fn read_tensions(&mut self, out_n: &mut [f64; N]) -> Result<(), ErrorKind> {
         self.read_fresh_tensions(out_n).map(|_| ())
     }
-    fn read_fresh_tensions(
-        &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], ErrorKind> {
-        *out_n = self.inputs.tensions_read_n;
+    fn read_fresh_tensions(&mut self, out_n: &mut [f64; N]) -> Result<[bool; N], ErrorKind> {
+        out_n.copy_from_slice(&self.inputs.tensions_read_n[..N]);
         if self.inputs.tensions_read_ok {
-            Ok(self.inputs.tensions_fresh)
+            let mut fresh = [false; N];
+            fresh.copy_from_slice(&self.inputs.tensions_fresh[..N]);
+            Ok(fresh)
+        } else {
+            Err(ErrorKind::Fault)
+        }
+    }
+}
+
+impl AngleSensors for RecordedDevices<'_> {
+    fn read_angles(&mut self, out_rad: &mut [f64; 2]) -> Result<(), ErrorKind> {
+        *out_rad = self.inputs.angles_rad;
+        if self.inputs.angles_read_ok {
+            Ok(())
         } else {
             Err(ErrorKind::Fault)
         }
@@ -222,9 +237,9 @@ impl ReplayFeed {
         }
     }
 
-    fn run(
+    fn run<const N: usize, D: WireDevice<N>>(
         &mut self,
-        cycle: &mut ControlCycle,
+        cycle: &mut ControlCycle<N, D>,
         devices: &mut RecordedDevices<'_>,
         record: &CycleRecord,
         out: &mut CycleRecord,
@@ -258,7 +273,7 @@ pub fn replay_config(session: &SessionInfo, overrides: &ReplayOverrides) -> Resu
     Ok(config)
 }
 
-fn apply(cycle: &mut ControlCycle, op: CycleOp) {
+fn apply<const N: usize, D: WireDevice<N>>(cycle: &mut ControlCycle<N, D>, op: CycleOp) {
     match op {
         CycleOp::None => {}
         CycleOp::ReleaseWire(w) => cycle.release_wire(w.map(usize::from)),
@@ -269,8 +284,31 @@ fn apply(cycle: &mut ControlCycle, op: CycleOp) {
     }
 }
 
-/// Replay `log` (version 2, with its session) through [`ControlCycle::run`].
+/// Replay `log` (version 2, with its session) through [`ControlCycle::run`], the cycle of the
+/// device the recorded configuration (or the override) names.
 pub fn replay(log: &Log, overrides: &ReplayOverrides) -> Result<Replay, ReplayError> {
+    let device = match &log.session {
+        Some(Ok(s)) => replay_config(s, overrides)
+            .map_err(ReplayError)?
+            .rig
+            .device
+            .clone(),
+        _ => String::new(),
+    };
+    match device.as_str() {
+        "planar2" => replay_device::<2, videt_control::PlanarDevice>(log, overrides),
+        "polar1" => replay_device::<1, videt_control::PolarDevice>(log, overrides),
+        "wireman3" | "" => replay_device::<3, videt_control::Rig3>(log, overrides),
+        other => Err(ReplayError(format!(
+            "rig.device = {other:?}: the service does not run it, so no log of it is replayed"
+        ))),
+    }
+}
+
+fn replay_device<const N: usize, D: RuntimeDevice<N>>(
+    log: &Log,
+    overrides: &ReplayOverrides,
+) -> Result<Replay, ReplayError> {
     let session = match &log.session {
         Some(Ok(s)) => s,
         Some(Err(e)) => return Err(ReplayError(e.clone())),
@@ -297,16 +335,16 @@ pub fn replay(log: &Log, overrides: &ReplayOverrides) -> Result<Replay, ReplayEr
         divergent_periods: 0,
         stopped_early: None,
     };
-    let mut cycle: Option<ControlCycle> = None;
+    let mut cycle: Option<ControlCycle<N, D>> = None;
     let mut calibrations = log.calibrations.iter().peekable();
     let mut previous: Option<u64> = None;
     let mut resume = true;
     for (i, record) in log.records.iter().enumerate() {
         while let Some(c) = calibrations.next_if(|c| c.before_record <= i) {
-            let (rig, zero) = c.calibration.rig().map_err(ReplayError)?;
-            cycle = Some(crate::setup::control_cycle(
+            let (device, zero) = c.calibration.device::<N, D>().map_err(ReplayError)?;
+            cycle = Some(crate::setup::control_cycle_for(
                 &replay.config,
-                rig,
+                device,
                 zero,
                 c.calibration.calibrated,
             ));

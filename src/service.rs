@@ -12,7 +12,6 @@ use std::time::{Duration, Instant};
 use sd_notify::NotifyState;
 use tracing::{error, info, warn};
 use videt_control::safety::SafetyState;
-use videt_hal::{Clock, EStop, Lifecycle, TensionSensors, WireDrives};
 use videt_rt_config::Config;
 
 use crate::control_loop::{
@@ -20,8 +19,9 @@ use crate::control_loop::{
     LoopStats, SERVICE_PANICKED,
 };
 use crate::cycle::ControlCycle;
-use crate::init::remote::{procedure_channel, run_procedure, ProcedureDevice};
+use crate::init::remote::procedure_channel;
 use crate::rt;
+use crate::runtime_device::{RuntimeDevice, ServiceHardware};
 use crate::snapshot::SurfaceFeed;
 use crate::socket::{self, ServerSettings, ServerShared, StatusReport};
 use crate::status::{status_channel, StatusPublisher, StatusSnapshot};
@@ -144,24 +144,31 @@ impl CycleObserver for Observers {
 }
 
 /// Run the service on `hw` with surfaces from `feed` until stopped; returns the exit code.
-pub fn run_service<H, F>(hw: H, feed: F, cycle: ControlCycle, options: &ServiceOptions) -> ExitCode
+pub fn run_service<const N: usize, D, H, F>(
+    hw: H,
+    feed: F,
+    cycle: ControlCycle<N, D>,
+    options: &ServiceOptions,
+) -> ExitCode
 where
-    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + ProcedureDevice + Send + 'static,
+    D: RuntimeDevice<N>,
+    H: ServiceHardware<N>,
     F: SurfaceFeed + Send + 'static,
 {
     run_service_with(hw, feed, cycle, options, ServiceExtras::default())
 }
 
 /// [`run_service`] with a scene's [`ServiceExtras`].
-pub fn run_service_with<H, F>(
+pub fn run_service_with<const N: usize, D, H, F>(
     mut hw: H,
     mut feed: F,
-    mut cycle: ControlCycle,
+    mut cycle: ControlCycle<N, D>,
     options: &ServiceOptions,
     extras: ServiceExtras,
 ) -> ExitCode
 where
-    H: Lifecycle + WireDrives + TensionSensors + EStop + Clock + ProcedureDevice + Send + 'static,
+    D: RuntimeDevice<N>,
+    H: ServiceHardware<N>,
     F: SurfaceFeed + Send + 'static,
 {
     let ServiceExtras {
@@ -242,14 +249,14 @@ where
     // Control socket, and procedures run on this hardware for its clients.
     let (command_tx, mut command_rx) = rtrb::RingBuffer::new(64);
     let (procedure_port, mut procedure_handle) = match &options.calibration_path {
-        Some(path) if options.socket_path.is_some() => {
-            let (port, handle) =
-                procedure_channel(config.clone(), path.clone(), hw.twin_mut().is_some());
+        Some(path) if options.socket_path.is_some() && hw.runs_procedures() => {
+            let (port, handle) = procedure_channel(config.clone(), path.clone(), hw.is_twin());
             (Some(port), Some(handle))
         }
         _ => (None, None),
     };
     let shared = Arc::new(ServerShared {
+        wires: N,
         status: Mutex::new(StatusReport::from_snapshot(&StatusSnapshot::default(), 0)),
         commands: Mutex::new(command_tx),
         procedures: procedure_port,
@@ -291,6 +298,7 @@ where
         max_consecutive_overruns: config.realtime.max_consecutive_overruns,
     };
     let (mut publisher, mut reader) = status_channel();
+    publisher.set_device(D::KIND.name(), N);
     if let Ok(crate::tension_budget::TensionLoopPlan::Degraded { scale, .. }) =
         crate::tension_budget::plan(config)
     {
@@ -358,21 +366,26 @@ where
                         break report;
                     };
                     // Procedure mode: same thread, same priority, same period.
-                    let (recalibration, next_cycle) = run_procedure(
-                        &mut hw,
+                    let Some((recalibration, next_cycle)) = hw.run_procedure(
                         handle,
                         &thread_config,
                         &mut observers,
                         cycle.cycle_count(),
                         cycle.wire_zero(),
                         cycle.safety_state(),
-                    );
-                    match recalibration {
-                        Some(r) => {
-                            cycle = crate::setup::control_cycle(
+                    ) else {
+                        let _ = hw.disable();
+                        let _ = hw.deactivate();
+                        break report;
+                    };
+                    match recalibration.and_then(|r| {
+                        D::from_base_triangle(r.rig).map(|device| (device, r.wire_zero))
+                    }) {
+                        Some((device, wire_zero)) => {
+                            cycle = crate::setup::control_cycle_for(
                                 &thread_config,
-                                r.rig,
-                                r.wire_zero,
+                                device,
+                                wire_zero,
                                 true,
                             );
                             cycle.set_cycle_count(next_cycle);

@@ -2,10 +2,10 @@
 //! (`{"cmd":"sim-fault","fault":"..."}`, `videt service sim-fault ...`): the soak and a
 //! technician rehearsing a fault use it. Only a twin offers them; the device refuses.
 
+use crate::WIREMAN_WIRES;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use videt_hal::WIRES;
 use videt_sim::can_bus::BusFaults;
 use videt_sim::cia402_node::NodeFaults;
 use videt_sim::{FaultInbox, InboxFault, TwinFault};
@@ -39,7 +39,7 @@ impl SimFaultPort {
         let wire = |s: &str| {
             s.parse::<usize>()
                 .ok()
-                .filter(|w| *w < WIRES)
+                .filter(|w| *w < WIREMAN_WIRES)
                 .ok_or_else(|| format!("fault {spec:?}: wire {s:?} must be 0, 1 or 2"))
         };
         let post = |f: InboxFault, what: String| {
@@ -142,7 +142,7 @@ mod tests {
         let port = SimFaultPort {
             twin: Arc::new(FaultInbox::default()),
             bus: Some(Arc::new(BusFaults::default())),
-            drives: (0..WIRES)
+            drives: (0..WIREMAN_WIRES)
                 .map(|_| Arc::new(NodeFaults::default()))
                 .collect(),
             vision_stall: Some(Arc::new(AtomicBool::new(false))),

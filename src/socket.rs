@@ -226,8 +226,11 @@ pub struct StatusReport {
     pub power_off: bool,
     /// Thimble position, metres.
     pub position_m: [f64; 3],
-    /// Measured wire tensions, newtons.
-    pub tensions_n: [f64; 3],
+    /// The device (`wireman3`, `planar2`, `polar1`; absent from older services: the WireMan).
+    #[serde(default = "wireman")]
+    pub device: String,
+    /// Measured wire tensions, newtons, one per wire of the device.
+    pub tensions_n: Vec<f64>,
     /// Touching the surface.
     pub in_contact: bool,
     /// Rendered force magnitude, newtons.
@@ -248,6 +251,10 @@ pub struct StatusReport {
     /// (`drives: drive 3: emergency 0x8611 ...`), if it told one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fault: Option<String>,
+}
+
+fn wireman() -> String {
+    "wireman3".into()
 }
 
 /// A reply.
@@ -306,7 +313,8 @@ impl StatusReport {
             safety: r.safety.as_str().to_string(),
             power_off: r.safety.power_off(),
             position_m: r.position_m,
-            tensions_n: r.tension_measured_n,
+            device: s.device.to_string(),
+            tensions_n: s.tensions_n().to_vec(),
             in_contact: r.in_contact,
             force_n: (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt(),
             released_wire: u8::try_from(r.released_wire).ok(),
@@ -329,6 +337,8 @@ pub struct ServerShared {
     pub procedures: Option<crate::init::remote::ProcedurePort>,
     /// Fault injection into the running twin (`None`: on the device).
     pub sim_faults: Option<crate::sim_faults::SimFaultPort>,
+    /// Wires of the service's device (wire numbers run from 0 to `wires - 1`).
+    pub wires: usize,
 }
 
 /// Settings of the server.
@@ -576,9 +586,15 @@ fn answer(request: Result<Request, String>, shared: &ServerShared) -> Response {
             };
         }
         Request::Stop => ControlCommand::Stop,
-        Request::Release { wire } if wire < 3 => ControlCommand::ReleaseWire(wire),
+        Request::Release { wire } if usize::from(wire) < shared.wires => {
+            ControlCommand::ReleaseWire(wire)
+        }
         Request::Release { wire } => {
-            return Response::error(format!("no wire {wire}: wires are 0, 1, 2"))
+            let names: Vec<String> = (0..shared.wires).map(|w| w.to_string()).collect();
+            return Response::error(format!(
+                "no wire {wire}: the device's wires are {}",
+                names.join(", ")
+            ));
         }
         Request::Resume => ControlCommand::Resume,
         Request::ResetFaults => ControlCommand::ResetFaults,
@@ -628,6 +644,7 @@ mod tests {
         let status = StatusReport::from_snapshot(&StatusSnapshot::default(), 0);
         (
             Arc::new(ServerShared {
+                wires: 3,
                 status: Mutex::new(status),
                 commands: Mutex::new(producer),
                 procedures: None,

@@ -16,14 +16,27 @@ pub struct StatusSnapshot {
     /// The fraction of the configured PI gains the tension loop runs with when it is degraded
     /// (a sensor too slow for them); `None` at the configured gains.
     pub tension_loop_degraded: Option<f64>,
+    /// Wires of the device (the record's first `wires` per-wire slots are its).
+    pub wires: usize,
+    /// The device's configuration name (`wireman3`, `planar2`, `polar1`).
+    pub device: &'static str,
 }
 
 impl StatusSnapshot {
+    /// The device's measured tensions, one per wire, newtons.
+    pub fn tensions_n(&self) -> &[f64] {
+        &self.record.tension_measured_n[..self.wires.clamp(1, self.record.tension_measured_n.len())]
+    }
+
     /// One human-readable status line.
     pub fn line(&self) -> String {
         let r = &self.record;
         let p = r.position_m;
-        let t = r.tension_measured_n;
+        let t: Vec<String> = self
+            .tensions_n()
+            .iter()
+            .map(|t| format!("{t:5.2}"))
+            .collect();
         let contact_n = if r.in_contact {
             (r.rendered_force_n[0].powi(2)
                 + r.rendered_force_n[1].powi(2)
@@ -53,14 +66,12 @@ impl StatusSnapshot {
             None => String::new(),
         };
         format!(
-            "t={:7.2}s {timing}  x=({:+.4}, {:+.4}, {:+.4}) m  T=({:5.2}, {:5.2}, {:5.2}) N  contact {:5.2} N  {}{degraded}",
+            "t={:7.2}s {timing}  x=({:+.4}, {:+.4}, {:+.4}) m  T=({}) N  contact {:5.2} N  {}{degraded}",
             r.time.as_secs_f64(),
             p[0],
             p[1],
             p[2],
-            t[0],
-            t[1],
-            t[2],
+            t.join(", "),
             contact_n,
             state
         )
@@ -71,9 +82,17 @@ impl StatusSnapshot {
 pub struct StatusPublisher {
     input: triple_buffer::Input<StatusSnapshot>,
     tension_loop_degraded: Option<f64>,
+    wires: usize,
+    device: &'static str,
 }
 
 impl StatusPublisher {
+    /// Say which device the records come from (default: the WireMan).
+    pub fn set_device(&mut self, device: &'static str, wires: usize) {
+        self.device = device;
+        self.wires = wires;
+    }
+
     /// Say in every snapshot that the tension loop runs at `scale` of its configured gains.
     pub fn set_tension_loop_degraded(&mut self, scale: Option<f64>) {
         self.tension_loop_degraded = scale;
@@ -92,6 +111,8 @@ pub fn status_channel() -> (StatusPublisher, StatusReader) {
         StatusPublisher {
             input,
             tension_loop_degraded: None,
+            wires: 3,
+            device: "wireman3",
         },
         StatusReader { output },
     )
@@ -103,6 +124,8 @@ impl CycleObserver for StatusPublisher {
             record: *record,
             window: *window,
             tension_loop_degraded: self.tension_loop_degraded,
+            wires: self.wires,
+            device: self.device,
         });
     }
 }

@@ -4,9 +4,10 @@
 //! real device's state up to date), not inside the sleep: the loop's wake-up latency then
 //! measures the operating system alone, and the physics cost shows in the compute time.
 
+use videt_control::WireDevice;
 use videt_hal::{
-    Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime, TensionSensors,
-    WireDrives, WIRES,
+    AngleSensors, Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime,
+    TensionSensors, WireDrives,
 };
 use videt_sim::{ClockMode, Twin, TwinError};
 
@@ -14,15 +15,15 @@ use crate::rt::SystemClock;
 
 /// A [`Twin`] whose time is the system's monotonic clock (from the moment it was wrapped).
 #[derive(Debug)]
-pub struct RealTimeTwin {
-    twin: Twin,
+pub struct RealTimeTwin<const N: usize, D: WireDevice<N>> {
+    twin: Twin<N, D>,
     clock: SystemClock,
     origin: MonoTime,
 }
 
-impl RealTimeTwin {
+impl<const N: usize, D: WireDevice<N>> RealTimeTwin<N, D> {
     /// Wrap a twin; its simulated time follows the system clock from now on.
-    pub fn new(mut twin: Twin) -> RealTimeTwin {
+    pub fn new(mut twin: Twin<N, D>) -> RealTimeTwin<N, D> {
         twin.set_clock_mode(ClockMode::External);
         let clock = SystemClock;
         let origin = MonoTime(clock.now().0.saturating_sub(twin.sim_time().0));
@@ -33,20 +34,20 @@ impl RealTimeTwin {
         }
     }
     /// The twin.
-    pub fn twin(&self) -> &Twin {
+    pub fn twin(&self) -> &Twin<N, D> {
         &self.twin
     }
     /// The twin, mutably.
-    pub fn twin_mut(&mut self) -> &mut Twin {
+    pub fn twin_mut(&mut self) -> &mut Twin<N, D> {
         &mut self.twin
     }
 }
 
-impl ErrorType for RealTimeTwin {
+impl<const N: usize, D: WireDevice<N>> ErrorType for RealTimeTwin<N, D> {
     type Error = TwinError;
 }
 
-impl Lifecycle for RealTimeTwin {
+impl<const N: usize, D: WireDevice<N>> Lifecycle for RealTimeTwin<N, D> {
     fn configure(&mut self) -> Result<(), TwinError> {
         self.twin.configure()
     }
@@ -61,36 +62,39 @@ impl Lifecycle for RealTimeTwin {
     }
 }
 
-impl WireDrives for RealTimeTwin {
+impl<const N: usize, D: WireDevice<N>> WireDrives<N> for RealTimeTwin<N, D> {
     fn enable(&mut self) -> Result<(), TwinError> {
         self.twin.enable()
     }
     fn disable(&mut self) -> Result<(), TwinError> {
         self.twin.disable()
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), TwinError> {
+    fn read_drives(&mut self, out: &mut [DriveSample; N]) -> Result<(), TwinError> {
         let now = self.now();
         self.twin.advance_to(now);
         self.twin.read_drives(out)
     }
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), TwinError> {
+    fn write_torques(&mut self, torque_nm: &[f64; N]) -> Result<(), TwinError> {
         self.twin.write_torques(torque_nm)
     }
 }
 
-impl TensionSensors for RealTimeTwin {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), TwinError> {
+impl<const N: usize, D: WireDevice<N>> TensionSensors<N> for RealTimeTwin<N, D> {
+    fn read_tensions(&mut self, out_n: &mut [f64; N]) -> Result<(), TwinError> {
         self.twin.read_tensions(out_n)
     }
-    fn read_fresh_tensions(
-        &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], TwinError> {
+    fn read_fresh_tensions(&mut self, out_n: &mut [f64; N]) -> Result<[bool; N], TwinError> {
         self.twin.read_fresh_tensions(out_n)
     }
 }
 
-impl EStop for RealTimeTwin {
+impl<const N: usize, D: WireDevice<N>> AngleSensors for RealTimeTwin<N, D> {
+    fn read_angles(&mut self, out_rad: &mut [f64; 2]) -> Result<(), TwinError> {
+        self.twin.read_angles(out_rad)
+    }
+}
+
+impl<const N: usize, D: WireDevice<N>> EStop for RealTimeTwin<N, D> {
     fn is_pressed(&mut self) -> Result<bool, TwinError> {
         self.twin.is_pressed()
     }
@@ -99,7 +103,7 @@ impl EStop for RealTimeTwin {
     }
 }
 
-impl Clock for RealTimeTwin {
+impl<const N: usize, D: WireDevice<N>> Clock for RealTimeTwin<N, D> {
     fn now(&self) -> MonoTime {
         MonoTime(self.clock.now().0.saturating_sub(self.origin.0))
     }

@@ -3,6 +3,7 @@
 //! encoder offsets and noisy, offset, gain-erring tension sensors.
 
 use std::sync::atomic::AtomicBool;
+use videt::WiremanTwin as Twin;
 
 use videt::init::params::procedure_params;
 use videt::init::runner::Runner;
@@ -10,7 +11,7 @@ use videt::init::session::{self, run_settings, FlowContext, InitError, InitOutco
 use videt::init::twin::{rest_twin, SimFault, SimTechnician, TwinSetup};
 use videt_control::autoinit::{Failure, Limit, Plan, Procedure, Status};
 use videt_rt_config::Config;
-use videt_sim::{SensorModel, Twin, TwinFault, Vec3};
+use videt_sim::{SensorModel, TwinFault, Vec3};
 
 fn setup(guides: [[f64; 2]; 3], seed: u64) -> TwinSetup {
     TwinSetup {

@@ -137,6 +137,70 @@ fn the_control_thread_allocates_and_frees_nothing() {
     );
 }
 
+/// The control loop of every other device allocates nothing either: the planar prototype and
+/// the one-wire device (its angle sensors read every period) run 3000 periods against the check
+/// wall on their twins, status and telemetry observed.
+#[test]
+fn every_devices_control_loop_allocates_nothing() {
+    fn run<const N: usize, D: videt::runtime_device::RuntimeDevice<N>>(device: D) {
+        let config = Config::default();
+        let scene = setup::demo_scene_for(&config, device, setup::demo_start(&device), 5);
+        let mut cycle = setup::control_cycle_for(&config, device, WireZero::default(), true);
+        let (status_publisher, mut status_reader) = status_channel();
+        let dir = tempfile::tempdir().unwrap();
+        let (telemetry_producer, telemetry_writer) = telemetry::start(
+            &dir.path().join("a.vlog"),
+            LogHeader {
+                rate_hz: 1000,
+                start_unix_ns: 0,
+            },
+            1 << 13,
+        )
+        .unwrap();
+        let mut twin = scene.twin;
+        let mut wall = videt::snapshot::FixedSurface(scene.wall);
+        start_hardware(&mut twin).unwrap();
+        let settings = LoopSettings {
+            rate_hz: 1000,
+            duration_ns: Some(3_000_000_000),
+            max_consecutive_overruns: 10,
+        };
+        let stop = AtomicBool::new(false);
+        let mut stats = LoopStats::default();
+        let mut observers = (status_publisher, telemetry_producer);
+        let mut control = LoopControl::stop_flag(&stop);
+        let (report, counts) = videt_testkit::count_allocations(|| {
+            run_control_loop(
+                &mut twin,
+                &mut wall,
+                &mut cycle,
+                &settings,
+                &mut control,
+                &mut observers,
+                &mut stats,
+            )
+        });
+        drop(observers);
+        telemetry_writer.finish().unwrap();
+        assert!(
+            report.cycles >= 3_000,
+            "{:?}: {} periods",
+            D::KIND,
+            report.cycles
+        );
+        let last = status_reader.latest().record;
+        assert!(last.cycle > 2_900, "{:?}", D::KIND);
+        assert_eq!(
+            counts,
+            videt_testkit::AllocCounts::default(),
+            "{:?}: allocations and frees on the control thread",
+            D::KIND
+        );
+    }
+    run(videt_control::PlanarDevice::paper_prototype());
+    run(videt_control::PolarDevice::at_origin());
+}
+
 /// A hand-over (auto-initialization through the control socket) adds nothing to the rendering
 /// loop: the loop ramps out and returns without allocating; the procedure that then runs on the
 /// control thread allocates only at its stage changes and its end, never per period.

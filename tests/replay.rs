@@ -115,8 +115,8 @@ struct Session<'a> {
     path: &'a Path,
     header: LogHeader,
     info: SessionInfo,
-    twin: videt_sim::Twin,
-    cycle: videt::cycle::ControlCycle,
+    twin: videt::WiremanTwin,
+    cycle: videt::WiremanCycle,
     settings: LoopSettings,
 }
 

@@ -8,16 +8,18 @@ mod common;
 use common::Recorder;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
+use videt::WiremanTwin as Twin;
+use videt::WIREMAN_WIRES;
 
 use videt::can_twin::{drive_config, CanTwin};
 use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
 use videt::cycle::WireZero;
 use videt::setup;
 use videt_control::safety::SafetyState;
-use videt_hal::{DriveSample, WireDrives, WIRES};
+use videt_hal::{DriveSample, WireDrives};
 use videt_rt_config::Config;
 use videt_sim::cia402_node::DrivePower;
-use videt_sim::{Twin, Vec3, VirtualOperator, Waypoint};
+use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 #[test]
 fn the_wall_is_rendered_through_cia402_drives_on_the_can_bus() {
@@ -41,12 +43,12 @@ fn configured_drive(dir: &Path, description: &str, body: &str) -> Config {
 }
 
 /// Command `torque_nm` for a few periods and return what the motors apply.
-fn applied<H: WireDrives>(
+fn applied<H: WireDrives<WIREMAN_WIRES>>(
     hw: &mut H,
-    torque_nm: [f64; WIRES],
+    torque_nm: [f64; WIREMAN_WIRES],
     twin: fn(&H) -> &Twin,
-) -> [f64; WIRES] {
-    let mut out = [DriveSample::default(); WIRES];
+) -> [f64; WIREMAN_WIRES] {
+    let mut out = [DriveSample::default(); WIREMAN_WIRES];
     for _ in 0..3 {
         hw.write_torques(&torque_nm).ok().unwrap();
         hw.read_drives(&mut out).ok().unwrap();
@@ -59,7 +61,7 @@ fn the_can_twin_s_drives_have_the_rated_torque_of_the_device_description() {
     let dir = tempfile::tempdir().unwrap();
     let config = configured_drive(dir.path(), DRIVE_EDS, "");
     assert_eq!(config.drives.rated_torque_nm, 0.04);
-    let drives = drive_config(&config);
+    let drives = drive_config::<3>(&config);
     assert_eq!(drives.rated_torque_nm, 0.04);
     // One step of 40 µN·m: the CAN twin's drives and the HAL twin apply the same torques.
     let step = setup::twin_torque_step_nm(&config);
@@ -72,7 +74,7 @@ fn the_can_twin_s_drives_have_the_rated_torque_of_the_device_description() {
     let mut hal = setup::demo_scene(&config, 42).twin;
     start_hardware(&mut hal).unwrap();
     let through_hal = applied(&mut hal, command, |t| t);
-    for i in 0..WIRES {
+    for i in 0..WIREMAN_WIRES {
         assert!(
             (through_can[i] - expected[i]).abs() < 1e-12,
             "CAN twin: {through_can:?}"
@@ -105,7 +107,7 @@ fn the_can_twin_renders_the_wall_with_the_epos4_of_a_real_dcf() {
     assert_eq!(config.transmission.counts_per_motor_rev, 3200);
     // The simulated drives are CiA 402 ones (mN·m) with this motor.
     assert_eq!(setup::twin_rated_torque_mnm(&config), 513);
-    assert_eq!(drive_config(&config).rated_torque_nm, 0.513);
+    assert_eq!(drive_config::<3>(&config).rated_torque_nm, 0.513);
     // Each wire's tension is held to within half a step: the contact force to within 1.5 steps.
     let force_resolution_n = 1.5 * config.torque_step_tension_n();
     render_the_wall(
@@ -114,7 +116,7 @@ fn the_can_twin_renders_the_wall_with_the_epos4_of_a_real_dcf() {
     );
 }
 
-fn can_twin(config: &Config) -> CanTwin<Twin> {
+fn can_twin(config: &Config) -> CanTwin<3, Twin> {
     // Simulated time runs faster than the nodes' real-time heartbeats: widen the host's
     // heartbeat tolerance accordingly.
     let mut drives = drive_config(config);

@@ -4,6 +4,7 @@
 mod common;
 use common::Recorder;
 use std::sync::atomic::AtomicBool;
+use videt::WiremanTwin as Twin;
 
 use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
 use videt::cycle::{CycleRecord, WireZero};
@@ -12,7 +13,7 @@ use videt::snapshot::FixedSurface;
 use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::MonoTime;
 use videt_rt_config::Config;
-use videt_sim::{Twin, TwinFault, Vec3, VirtualOperator, Waypoint};
+use videt_sim::{TwinFault, Vec3, VirtualOperator, Waypoint};
 
 /// Run `seconds` of the demo scene with `operator`, after `prepare` has scheduled faults.
 fn run(

@@ -17,7 +17,7 @@ fn run(
     operator: VirtualOperator,
     seconds: f64,
 ) -> (
-    videt_sim::Twin,
+    videt::WiremanTwin,
     Vec<CycleRecord>,
     videt::control_loop::LoopReport,
 ) {

@@ -1,33 +1,30 @@
 //! One full control step — forward kinematics, velocity, a plane query, contact force, field,
-//! projection, PI — per algorithm, in contact with a wall whose normal is outside the wire cone
+//! projection, PI — per device and algorithm, in contact with a wall whose normal is outside the wire cone
 //! (the expensive case: the projection runs), and in free space.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use videt_control::{
-    project, Algorithm, ControlParams, ControlStep, ForceField, ForceLimits, FreeSpace, Plane,
-    Projection, Rig3, StepInput, StepOutput, TensionPiGains, Vec3, WireMap,
+    project, Algorithm, ControlParams, ControlStep, ForceField, ForceLimits, FreeSpace,
+    PlanarDevice, Plane, PolarDevice, Projection, Rig3, Rig4, StepInput, StepOutput,
+    TensionPiGains, Vec3, WireDevice, WireMap,
 };
 
-fn bench_control_step(c: &mut Criterion) {
-    let rig = Rig3::new([
-        Vec3::zeros(),
-        Vec3::new(0.37, 0.0, 0.0),
-        Vec3::new(0.185, 0.30, 0.0),
-    ])
-    .unwrap();
-    // A wall facing the user, tilted: its push is outside the wire cone.
+fn bench_device<const N: usize, D: WireDevice<N>>(c: &mut Criterion, device: D, p: Vec3) {
+    // A wall facing the user, tilted: on the cone devices its push is outside the wire cone.
     let wall = Plane::new(Vec3::new(0.0, 0.0, 0.3), Vec3::new(0.4, 0.1, 1.0)).unwrap();
-    let p = Vec3::new(0.2, 0.12, 0.2);
+    let p = device.constrain(&p);
     let input = StepInput {
-        lengths_m: rig.inverse(&p),
-        length_rates_m_s: [0.01, -0.02, 0.005],
-        measured_tension_n: [1.0, 2.0, 0.5],
+        lengths_m: device.inverse(&p),
+        length_rates_m_s: core::array::from_fn(|i| 0.01 - 0.015 * i as f64),
+        angles_rad: device.passive_angles(&p),
+        angle_rates_rad_s: [0.05, -0.02],
+        measured_tension_n: core::array::from_fn(|i| 1.0 + 0.5 * i as f64),
         dt_s: 1e-3,
         render_forces: true,
         force_scale: 1.0,
     };
-    let mut group = c.benchmark_group("control_step");
+    let mut group = c.benchmark_group(format!("control_step/{}", D::KIND.name()));
     for algorithm in Algorithm::ALL {
         let mut params =
             ControlParams::paper_defaults(TensionPiGains::pi_only(0.0008, 0.0005, 0.02, 0.02));
@@ -35,11 +32,11 @@ fn bench_control_step(c: &mut Criterion) {
         if matches!(algorithm, Algorithm::F1 | Algorithm::F2 | Algorithm::Qp) {
             params.field = ForceField::towards_frame(1.0);
         }
-        let mut step = ControlStep::new(rig, params);
+        let mut step = ControlStep::new(device, params);
         let mut out = StepOutput::default();
         step.update(&input, &wall, &mut out);
-        assert!(out.contact.is_some() && out.distribution.projected);
-        group.bench_function(format!("contact_projected/{}", algorithm.name()), |b| {
+        assert!(out.contact.is_some(), "{:?} {algorithm:?}", D::KIND);
+        group.bench_function(format!("contact/{}", algorithm.name()), |b| {
             b.iter(|| {
                 step.update(black_box(&input), black_box(&wall), &mut out);
                 black_box(&out);
@@ -53,6 +50,21 @@ fn bench_control_step(c: &mut Criterion) {
         });
     }
     group.finish();
+}
+
+/// One step per device and algorithm, in contact with the tilted wall and in free space.
+fn bench_control_step(c: &mut Criterion) {
+    let rig = Rig3::new([
+        Vec3::zeros(),
+        Vec3::new(0.37, 0.0, 0.0),
+        Vec3::new(0.185, 0.30, 0.0),
+    ])
+    .unwrap();
+    let p = Vec3::new(0.2, 0.12, 0.2);
+    bench_device(c, rig, p);
+    bench_device(c, PlanarDevice::paper_prototype(), p);
+    bench_device(c, PolarDevice::at_origin(), p);
+    bench_device(c, Rig4::paper_frame(), p);
 }
 
 /// The projections alone over 256 mixed cases (positions over and beside the guide triangle,

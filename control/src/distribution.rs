@@ -12,7 +12,7 @@ use nalgebra::SVector;
 
 use crate::kinematics::Rig3;
 use crate::wire_map::WireMap;
-use crate::{Vec3, WIRES};
+use crate::Vec3;
 
 /// Tension limits of the wires.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -166,7 +166,7 @@ impl Algorithm {
 
 /// The tensions chosen for a target force, and what was lost on the way.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Distribution<const N: usize = WIRES> {
+pub struct Distribution<const N: usize> {
     /// Tension set-points, newtons, each within `[t_min, t_max]`.
     pub tensions_n: [f64; N],
     /// The force those tensions make on the thimble, newtons.
@@ -662,7 +662,7 @@ pub fn distribute(
     desired_n: &Vec3,
     algorithm: Algorithm,
     limits: &ForceLimits,
-) -> Distribution {
+) -> Distribution<3> {
     match rig.wire_map(position_m) {
         Some(map) => project(&map, desired_n, algorithm.projection(), limits),
         None => minimum_tension(None, limits),
@@ -912,7 +912,7 @@ mod tests {
             prop_assume!(f.norm() > 1e-3);
             let map = rig().wire_map(&p).unwrap();
             let q = project(&map, &f, Projection::NormalFirstNearest, &limits);
-            let miss = |d: &Distribution| (1.0 - v_index(&d.rendered_n, &f)).abs();
+            let miss = |d: &Distribution<3>| (1.0 - v_index(&d.rendered_n, &f)).abs();
             for other in [Projection::ClampNegative, Projection::ExactAlongNormal] {
                 let o = project(&map, &f, other, &limits);
                 prop_assert!(miss(&q) <= miss(&o) + 1e-9, "{other:?}: V {} vs {}", v_index(&q.rendered_n, &f), v_index(&o.rendered_n, &f));

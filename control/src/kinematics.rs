@@ -8,7 +8,7 @@
 use nalgebra::{Matrix2, Matrix3, Vector2};
 
 use crate::wire_map::WireMap;
-use crate::{Vec3, WIRES};
+use crate::Vec3;
 
 /// Why a rig geometry was rejected.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,14 +65,14 @@ pub struct ForwardSolution {
 /// A three-wire rig: guide points in the `z = 0` plane, validated non-degenerate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rig3 {
-    guides_m: [Vec3; WIRES],
+    guides_m: [Vec3; 3],
     /// Inverse of the 2x2 system of forward kinematics, precomputed.
     fk_inverse: Matrix2<f64>,
 }
 
 impl Rig3 {
     /// Build a rig from three guide points (metres, `z = 0`).
-    pub fn new(guides_m: [Vec3; WIRES]) -> Result<Rig3, RigError> {
+    pub fn new(guides_m: [Vec3; 3]) -> Result<Rig3, RigError> {
         if guides_m
             .iter()
             .any(|g| !(g.x.is_finite() && g.y.is_finite() && g.z.is_finite()))
@@ -101,6 +101,21 @@ impl Rig3 {
         })
     }
 
+    /// A rig with any finite guide points, unchecked: for a plant whose frame may be built
+    /// wrong (the twin rehearsing a degenerate base triangle). Its inverse kinematics and wire
+    /// directions hold; its forward kinematics means nothing for a degenerate triangle (finite,
+    /// but not the thimble). Non-finite coordinates become 0.
+    pub fn unchecked(guides_m: [Vec3; 3]) -> Rig3 {
+        let guides_m = guides_m.map(|g| g.map(|c| if c.is_finite() { c } else { 0.0 }));
+        let e1 = guides_m[1] - guides_m[0];
+        let e2 = guides_m[2] - guides_m[0];
+        let a = Matrix2::new(e1.x, e1.y, e2.x, e2.y) * 2.0;
+        Rig3 {
+            guides_m,
+            fk_inverse: a.try_inverse().unwrap_or_else(Matrix2::zeros),
+        }
+    }
+
     /// The paper's frame from its three base-triangle sides: `g_0` at the origin, `g_1` on the
     /// +x axis, `g_2` in the `z = 0` plane with `y > 0`. Sides in metres: `d01 = |g1-g0|`,
     /// `d02 = |g2-g0|`, `d12 = |g2-g1|`.
@@ -121,13 +136,13 @@ impl Rig3 {
     }
 
     /// The guide points, metres.
-    pub fn guides_m(&self) -> &[Vec3; WIRES] {
+    pub fn guides_m(&self) -> &[Vec3; 3] {
         &self.guides_m
     }
 
     /// Inverse kinematics (eq. 1): wire lengths for a thimble position.
-    pub fn inverse(&self, position_m: &Vec3) -> [f64; WIRES] {
-        let mut l = [0.0; WIRES];
+    pub fn inverse(&self, position_m: &Vec3) -> [f64; 3] {
+        let mut l = [0.0; 3];
         for (li, g) in l.iter_mut().zip(self.guides_m.iter()) {
             *li = (position_m - g).norm();
         }
@@ -137,7 +152,7 @@ impl Rig3 {
     /// Forward kinematics (eq. 2, generalised to any guide placement): the thimble position
     /// (with `z >= 0`) from the wire lengths. Inconsistent lengths clamp `z` to 0 and say so; the
     /// result is never NaN for finite input.
-    pub fn forward(&self, lengths_m: &[f64; WIRES]) -> ForwardSolution {
+    pub fn forward(&self, lengths_m: &[f64; 3]) -> ForwardSolution {
         let g = &self.guides_m;
         let sq = |v: &Vec3| v.x * v.x + v.y * v.y;
         // |p-gi|² - |p-g0|² = li² - l0²  =>  2 p·(gi-g0) = l0² - li² + |gi|² - |g0|²
@@ -194,7 +209,7 @@ impl Rig3 {
 
     /// Tensions `t = J^T f` that make the force `f` (eq. 5), or `None` where `V` is singular
     /// (thimble in the guide plane). Tensions may be negative: projection is the caller's job.
-    pub fn tensions_for_force(&self, position_m: &Vec3, force_n: &Vec3) -> Option<[f64; WIRES]> {
+    pub fn tensions_for_force(&self, position_m: &Vec3, force_n: &Vec3) -> Option<[f64; 3]> {
         let v_inv = self.force_matrix(position_m).try_inverse()?;
         let t = v_inv * force_n;
         Some([t.x, t.y, t.z])
@@ -205,7 +220,7 @@ impl Rig3 {
     pub fn velocity_from_rates(
         &self,
         position_m: &Vec3,
-        length_rates_m_s: &[f64; WIRES],
+        length_rates_m_s: &[f64; 3],
     ) -> Option<Vec3> {
         // l̇_i = v_i · ẋ  =>  W^T ẋ = l̇ with W = [v_0 v_1 v_2]
         let wt = self.wire_directions(position_m).transpose();

@@ -10,8 +10,9 @@
 //! in front of the frame. SI units everywhere.
 //!
 //! - Devices: [`Rig3`] (three wires, guides anywhere in `z = 0`), [`RigPlanar`] (the two-wire
-//!   x-z device of the paper's experiments), [`polar`] (the one-wire device, eq. 7). Each gives a
-//!   [`WireMap`] (`V = J^-T`, `J^T`) at a position.
+//!   x-z device of the paper's experiments), [`polar`] (the one-wire device, eq. 7), [`Rig4`]
+//!   (four wires around the workspace). [`device::WireDevice`] is what the step needs of each:
+//!   the wire count is a const generic, chosen once when the runtime starts.
 //! - Force: [`contact`] (spring-damper along the normal), [`field`] (constant-direction and
 //!   bisector fields, free-space pull), [`distribution`] (P1, P2, F1, F2 and QP projections onto
 //!   `F = { V t : t_min <= t_i <= t_max }`), [`measures`] (index V, isotropic force limit).
@@ -27,16 +28,19 @@ pub mod analysis;
 pub mod autoinit;
 pub mod blend;
 pub mod contact;
+pub mod device;
 pub mod distribution;
 pub mod field;
 pub mod kinematics;
 pub mod measures;
 pub mod planar;
 pub mod polar;
+pub mod profile;
 pub mod proxy;
 pub mod relief;
 pub mod safety;
 pub mod scene_map;
+pub mod spidar;
 pub mod step;
 pub mod surface;
 pub mod tension_loop;
@@ -44,6 +48,10 @@ pub mod tension_pi;
 pub mod wire_map;
 
 pub use contact::{contact_force, ContactModel};
+pub use device::{
+    minimum_tensions, DeviceForces, DeviceKind, ForceSettings, PlanarDevice, PolarDevice,
+    PolarError, Sensed, WireDevice, WireTensions,
+};
 pub use distribution::{
     distribute, project, Algorithm, Distribution, FieldRule, ForceLimits, LimitsError, Projection,
 };
@@ -52,8 +60,10 @@ pub use kinematics::{ForwardSolution, Rig3, RigError};
 pub use measures::{isotropic_force_limit_n, v_index};
 pub use planar::{PlanarForward, RigPlanar, Vec2};
 pub use polar::{one_wire_distribute, polar_forward, polar_inverse, PolarCoordinates};
+pub use profile::{Profile, ProfileError, SolidSide};
 pub use safety::{SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor};
 pub use scene_map::SceneMap;
+pub use spidar::Rig4;
 pub use step::{ControlParams, ControlStep, StepInput, StepOutput};
 pub use surface::{Contact, FreeSpace, Plane, Surface};
 pub use tension_pi::{TensionPi, TensionPiGains};
@@ -61,5 +71,3 @@ pub use wire_map::WireMap;
 
 /// 3-vector of `f64` (positions in metres, forces in newtons).
 pub type Vec3 = nalgebra::Vector3<f64>;
-/// Number of wires of the device.
-pub const WIRES: usize = 3;

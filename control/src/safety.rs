@@ -4,8 +4,6 @@
 //! Pure and allocation-free: the runtime feeds it what it read and what went wrong; it answers
 //! with a [`SafetyState`]. Faults latch until [`SafetySupervisor::reset`].
 
-use crate::WIRES;
-
 /// Why the device left normal operation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SafetyReason {
@@ -154,8 +152,8 @@ impl SafetyLimits {
 }
 
 /// What the supervisor is told each period.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct SafetyInput {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SafetyInput<const N: usize> {
     /// Period, seconds.
     pub dt_s: f64,
     /// E-stop latched pressed (a read error counts as pressed).
@@ -165,11 +163,11 @@ pub struct SafetyInput {
     /// A tension sensor read failed.
     pub sensor_fault: Option<Option<u8>>,
     /// Measured tensions, N.
-    pub measured_tension_n: [f64; WIRES],
+    pub measured_tension_n: [f64; N],
     /// Tension set-points of the previous period, N.
-    pub setpoint_tension_n: [f64; WIRES],
+    pub setpoint_tension_n: [f64; N],
     /// Wire length rates, m/s (positive = paying out, negative = winding in).
-    pub wire_speed_m_s: [f64; WIRES],
+    pub wire_speed_m_s: [f64; N],
     /// The loop reports too many consecutive overruns.
     pub deadline_overrun: bool,
     /// The rig has a valid calibration.
@@ -178,30 +176,47 @@ pub struct SafetyInput {
     pub drives_enabled: bool,
 }
 
+impl<const N: usize> Default for SafetyInput<N> {
+    fn default() -> Self {
+        SafetyInput {
+            dt_s: 0.0,
+            estop_pressed: false,
+            drive_fault: None,
+            sensor_fault: None,
+            measured_tension_n: [0.0; N],
+            setpoint_tension_n: [0.0; N],
+            wire_speed_m_s: [0.0; N],
+            deadline_overrun: false,
+            calibrated: false,
+            drives_enabled: false,
+        }
+    }
+}
+
 /// The safety supervisor: faults latch until [`SafetySupervisor::reset`]; an over-speed holds
 /// only while it lasts.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SafetySupervisor {
+pub struct SafetySupervisor<const N: usize> {
     limits: SafetyLimits,
     latched: SafetyState,
     transient: SafetyState,
-    slack_time_s: [f64; WIRES],
-    slack_wound_m: [f64; WIRES],
-    over_tension_time_s: [f64; WIRES],
-    over_speed_time_s: [f64; WIRES],
+    slack_time_s: [f64; N],
+    slack_wound_m: [f64; N],
+    over_tension_time_s: [f64; N],
+    over_speed_time_s: [f64; N],
 }
 
-impl SafetySupervisor {
+impl<const N: usize> SafetySupervisor<N> {
     /// A supervisor in the normal state.
-    pub fn new(limits: SafetyLimits) -> SafetySupervisor {
+    pub fn new(limits: SafetyLimits) -> SafetySupervisor<N> {
         SafetySupervisor {
             limits,
             latched: SafetyState::Normal,
             transient: SafetyState::Normal,
-            slack_time_s: [0.0; WIRES],
-            slack_wound_m: [0.0; WIRES],
-            over_tension_time_s: [0.0; WIRES],
-            over_speed_time_s: [0.0; WIRES],
+            slack_time_s: [0.0; N],
+            slack_wound_m: [0.0; N],
+            over_tension_time_s: [0.0; N],
+            over_speed_time_s: [0.0; N],
         }
     }
 
@@ -221,7 +236,7 @@ impl SafetySupervisor {
     }
 
     /// Evaluate one period; returns the state.
-    pub fn update(&mut self, input: &SafetyInput) -> SafetyState {
+    pub fn update(&mut self, input: &SafetyInput<N>) -> SafetyState {
         let l = self.limits;
         let mut now = SafetyState::Normal;
         let mut transient = SafetyState::Normal;
@@ -252,7 +267,7 @@ impl SafetySupervisor {
                 SafetyState::MinimumTension(SafetyReason::NotCalibrated),
             );
         }
-        for i in 0..WIRES {
+        for i in 0..N {
             let wire = i as u8;
             let t = input.measured_tension_n[i];
             if !t.is_finite() {
@@ -326,18 +341,20 @@ fn more_severe(current: SafetyState, candidate: SafetyState) -> SafetyState {
 mod tests {
     use super::*;
 
-    fn normal_input() -> SafetyInput {
+    const N: usize = 3;
+
+    fn normal_input() -> SafetyInput<N> {
         SafetyInput {
             dt_s: 1e-3,
-            measured_tension_n: [1.0; WIRES],
-            setpoint_tension_n: [1.0; WIRES],
+            measured_tension_n: [1.0; N],
+            setpoint_tension_n: [1.0; N],
             calibrated: true,
             drives_enabled: true,
             ..SafetyInput::default()
         }
     }
 
-    fn supervisor() -> SafetySupervisor {
+    fn supervisor() -> SafetySupervisor<N> {
         SafetySupervisor::new(SafetyLimits::for_device(0.3, 15.0, 0.8))
     }
 
@@ -385,8 +402,8 @@ mod tests {
     fn slack_from_a_quick_retraction_is_not_a_break() {
         let mut s = supervisor();
         let mut slack = normal_input();
-        slack.measured_tension_n = [0.0; WIRES];
-        slack.wire_speed_m_s = [-0.15; WIRES];
+        slack.measured_tension_n = [0.0; N];
+        slack.wire_speed_m_s = [-0.15; N];
         // 5 cm of slack on every wire, taken up in a third of a second, then taut again.
         for _ in 0..333 {
             assert_eq!(s.update(&slack), SafetyState::Normal);

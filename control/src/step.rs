@@ -2,13 +2,13 @@
 //! steps 2 and 4-7). Pure and allocation-free; the runtime moves the data in and out.
 
 use crate::contact::{contact_force, ContactModel};
-use crate::distribution::{minimum_tension, project, Algorithm, Distribution, ForceLimits};
-use crate::field::{field_force, free_space_force, ForceField};
-use crate::kinematics::Rig3;
+use crate::device::{minimum_tensions, ForceSettings, Sensed, WireDevice, WireTensions};
+use crate::distribution::{Algorithm, ForceLimits};
+use crate::field::ForceField;
 use crate::measures::v_index;
 use crate::surface::{Contact, Surface};
 use crate::tension_pi::{TensionPi, TensionPiGains};
-use crate::{Vec3, WIRES};
+use crate::Vec3;
 
 /// Parameters of the control step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,14 +51,18 @@ impl ControlParams {
 }
 
 /// What the step reads each period.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct StepInput {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepInput<const N: usize> {
     /// Wire lengths from the encoders, metres.
-    pub lengths_m: [f64; WIRES],
+    pub lengths_m: [f64; N],
     /// Wire length rates, m/s (positive = paying out).
-    pub length_rates_m_s: [f64; WIRES],
+    pub length_rates_m_s: [f64; N],
+    /// Passive angles (azimuth, elevation), radians, on a device with angle sensors.
+    pub angles_rad: [f64; 2],
+    /// Rates of the passive angles, rad/s.
+    pub angle_rates_rad_s: [f64; 2],
     /// Measured tensions, newtons.
-    pub measured_tension_n: [f64; WIRES],
+    pub measured_tension_n: [f64; N],
     /// Period, seconds.
     pub dt_s: f64,
     /// False in the safe state: no force is rendered and every wire is held at `t_min`.
@@ -67,9 +71,24 @@ pub struct StepInput {
     pub force_scale: f64,
 }
 
+impl<const N: usize> Default for StepInput<N> {
+    fn default() -> Self {
+        StepInput {
+            lengths_m: [0.0; N],
+            length_rates_m_s: [0.0; N],
+            angles_rad: [0.0; 2],
+            angle_rates_rad_s: [0.0; 2],
+            measured_tension_n: [0.0; N],
+            dt_s: 0.0,
+            render_forces: false,
+            force_scale: 0.0,
+        }
+    }
+}
+
 /// What the step produces each period.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct StepOutput {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepOutput<const N: usize> {
     /// Thimble position, metres.
     pub position_m: Vec3,
     /// Thimble velocity, m/s.
@@ -87,32 +106,49 @@ pub struct StepOutput {
     /// Performance index V (eq. 8) of the rendered force against the target.
     pub v_index: f64,
     /// Tension set-points and the force they render.
-    pub distribution: Distribution,
+    pub distribution: WireTensions<N>,
     /// Motor torque commands, N·m (positive = winding).
-    pub torque_nm: [f64; WIRES],
+    pub torque_nm: [f64; N],
 }
 
-/// The control step: kinematics, contact, projection, tension loop.
+impl<const N: usize> Default for StepOutput<N> {
+    fn default() -> Self {
+        StepOutput {
+            position_m: Vec3::zeros(),
+            velocity_m_s: Vec3::zeros(),
+            fk_clamped: false,
+            contact: None,
+            desired_force_n: Vec3::zeros(),
+            field_force_n: Vec3::zeros(),
+            target_force_n: Vec3::zeros(),
+            v_index: 0.0,
+            distribution: WireTensions::default(),
+            torque_nm: [0.0; N],
+        }
+    }
+}
+
+/// The control step of an `N`-wire device `D`: kinematics, contact, projection, tension loop.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ControlStep {
-    rig: Rig3,
+pub struct ControlStep<const N: usize, D: WireDevice<N>> {
+    device: D,
     params: ControlParams,
-    pi: TensionPi,
+    pi: TensionPi<N>,
 }
 
-impl ControlStep {
-    /// A step for a rig with the given parameters.
-    pub fn new(rig: Rig3, params: ControlParams) -> ControlStep {
+impl<const N: usize, D: WireDevice<N>> ControlStep<N, D> {
+    /// A step for a device with the given parameters.
+    pub fn new(device: D, params: ControlParams) -> ControlStep<N, D> {
         ControlStep {
-            rig,
+            device,
             params,
             pi: TensionPi::new(params.pi),
         }
     }
 
-    /// The rig geometry.
-    pub fn rig(&self) -> &Rig3 {
-        &self.rig
+    /// The device geometry.
+    pub fn rig(&self) -> &D {
+        &self.device
     }
 
     /// The parameters.
@@ -128,16 +164,22 @@ impl ControlStep {
     /// Run one period against `surface`, writing into `out`.
     pub fn update<S: Surface + ?Sized>(
         &mut self,
-        input: &StepInput,
+        input: &StepInput<N>,
         surface: &S,
-        out: &mut StepOutput,
+        out: &mut StepOutput<N>,
     ) {
-        let fk = self.rig.forward(&input.lengths_m);
+        let sensed = Sensed {
+            lengths_m: input.lengths_m,
+            length_rates_m_s: input.length_rates_m_s,
+            angles_rad: input.angles_rad,
+            angle_rates_rad_s: input.angle_rates_rad_s,
+        };
+        let fk = self.device.forward(&sensed);
         out.position_m = fk.position_m;
         out.fk_clamped = fk.clamped;
         out.velocity_m_s = self
-            .rig
-            .velocity_from_rates(&fk.position_m, &input.length_rates_m_s)
+            .device
+            .velocity(&fk.position_m, &sensed)
             .filter(|v| v.iter().all(|c| c.is_finite()))
             .unwrap_or_else(Vec3::zeros);
 
@@ -147,61 +189,58 @@ impl ControlStep {
             None
         };
         let params = &self.params;
-        let map = if input.render_forces {
-            self.rig.wire_map(&out.position_m)
+        // Start-up and shutdown ramps scale everything rendered above the tension floor.
+        let scale = if input.force_scale.is_nan() {
+            0.0
+        } else {
+            input.force_scale.clamp(0.0, 1.0)
+        };
+        out.desired_force_n = match out.contact {
+            Some(c) => {
+                contact_force(
+                    &ContactModel {
+                        stiffness_n_per_m: params.stiffness_n_per_m,
+                        damping_n_s_per_m: params.damping_n_s_per_m,
+                    },
+                    &c,
+                    &out.velocity_m_s,
+                ) * scale
+            }
+            None => Vec3::zeros(),
+        };
+        let settings = ForceSettings {
+            algorithm: params.algorithm,
+            limits: params.limits,
+            field: params.field,
+            free_space_field_n: params.free_space_field_n,
+        };
+        let forces = if input.render_forces {
+            self.device.forces(
+                &out.position_m,
+                &out.desired_force_n,
+                out.contact.is_some(),
+                scale,
+                &settings,
+            )
         } else {
             None
         };
-        match map {
-            Some(map) => {
-                out.desired_force_n = match out.contact {
-                    Some(c) => contact_force(
-                        &ContactModel {
-                            stiffness_n_per_m: params.stiffness_n_per_m,
-                            damping_n_s_per_m: params.damping_n_s_per_m,
-                        },
-                        &c,
-                        &out.velocity_m_s,
-                    ),
-                    None => Vec3::zeros(),
-                };
-                let field = field_force(params.algorithm, &params.field, &map);
-                out.field_force_n = if out.contact.is_none()
-                    && field == Vec3::zeros()
-                    && params.free_space_field_n > 0.0
-                {
-                    free_space_force(params.free_space_field_n, params.limits.t_min_n, &map)
-                } else {
-                    field
-                };
-                // Start-up and shutdown ramps scale everything rendered above the tension floor.
-                let scale = if input.force_scale.is_nan() {
-                    0.0
-                } else {
-                    input.force_scale.clamp(0.0, 1.0)
-                };
-                out.desired_force_n *= scale;
-                out.field_force_n *= scale;
-                out.target_force_n = out.desired_force_n + out.field_force_n;
-                out.distribution = project(
-                    &map,
-                    &out.target_force_n,
-                    params.algorithm.projection(),
-                    &params.limits,
-                );
+        match forces {
+            Some(f) => {
+                out.field_force_n = f.field_force_n;
+                out.target_force_n = f.target_force_n;
+                out.distribution = f.tensions;
             }
             None => {
-                // Safe state, or the thimble on the guide plane: hold every wire at t_min.
+                // Safe state, or a configuration the device cannot hold: every wire at t_min.
                 out.desired_force_n = Vec3::zeros();
                 out.field_force_n = Vec3::zeros();
                 out.target_force_n = Vec3::zeros();
-                out.distribution = minimum_tension(None, &params.limits);
-                out.distribution.rendered_n = self.rig.force_matrix(&out.position_m)
-                    * Vec3::from(out.distribution.tensions_n);
+                out.distribution = minimum_tensions(&self.device, &out.position_m, &params.limits);
             }
         }
         out.v_index = v_index(&out.distribution.rendered_n, &out.target_force_n);
-        let winding_speed_m_s: [f64; WIRES] = core::array::from_fn(|i| -input.length_rates_m_s[i]);
+        let winding_speed_m_s: [f64; N] = core::array::from_fn(|i| -input.length_rates_m_s[i]);
         self.pi.update_with_speed(
             &out.distribution.tensions_n,
             &input.measured_tension_n,
@@ -215,9 +254,12 @@ impl ControlStep {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::Rig3;
     use crate::surface::{FreeSpace, Plane};
 
-    fn step(algorithm: Algorithm) -> ControlStep {
+    const WIRES: usize = 3;
+
+    fn step(algorithm: Algorithm) -> ControlStep<3, Rig3> {
         let rig = Rig3::new([
             Vec3::zeros(),
             Vec3::new(0.37, 0.0, 0.0),
@@ -230,7 +272,7 @@ mod tests {
         ControlStep::new(rig, params)
     }
 
-    fn input_at(step: &ControlStep, p: Vec3) -> StepInput {
+    fn input_at(step: &ControlStep<3, Rig3>, p: Vec3) -> StepInput<3> {
         StepInput {
             lengths_m: step.rig().inverse(&p),
             dt_s: 1e-3,
@@ -319,6 +361,8 @@ mod tests {
                 lengths_m: lengths,
                 length_rates_m_s: [f64::INFINITY, 0.0, 0.0],
                 measured_tension_n: [0.0; 3],
+                angles_rad: [0.0; 2],
+                angle_rates_rad_s: [0.0; 2],
                 dt_s: 1e-3,
                 render_forces: true,
                 force_scale: 1.0,

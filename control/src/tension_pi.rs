@@ -7,8 +7,6 @@
 //! at `takeup_speed_m_s` until it pulls again. While pulling, winding faster than
 //! `max_winding_speed_m_s` is braked.
 
-use crate::WIRES;
-
 /// Gains and limits of the tension loop (same for every wire).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TensionPiGains {
@@ -54,17 +52,17 @@ impl TensionPiGains {
 /// Per-wire PI tension controller with anti-windup (conditional integration at the torque
 /// limit), slack take-up and a winding-speed limit.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TensionPi {
+pub struct TensionPi<const N: usize> {
     gains: TensionPiGains,
-    integral_nm: [f64; WIRES],
+    integral_nm: [f64; N],
 }
 
-impl TensionPi {
+impl<const N: usize> TensionPi<N> {
     /// A controller with zero integral state.
-    pub fn new(gains: TensionPiGains) -> TensionPi {
+    pub fn new(gains: TensionPiGains) -> TensionPi<N> {
         TensionPi {
             gains,
-            integral_nm: [0.0; WIRES],
+            integral_nm: [0.0; N],
         }
     }
 
@@ -75,19 +73,19 @@ impl TensionPi {
 
     /// Forget the integral state (after a fault or when the drives were off).
     pub fn reset(&mut self) {
-        self.integral_nm = [0.0; WIRES];
+        self.integral_nm = [0.0; N];
     }
 
     /// One update without speed information (speeds taken as zero): motor torques (N·m,
     /// positive = winding) into `torque_nm` for the set-points and measured tensions (N).
     pub fn update(
         &mut self,
-        setpoint_n: &[f64; WIRES],
-        measured_n: &[f64; WIRES],
+        setpoint_n: &[f64; N],
+        measured_n: &[f64; N],
         dt_s: f64,
-        torque_nm: &mut [f64; WIRES],
+        torque_nm: &mut [f64; N],
     ) {
-        self.update_with_speed(setpoint_n, measured_n, &[0.0; WIRES], dt_s, torque_nm);
+        self.update_with_speed(setpoint_n, measured_n, &[0.0; N], dt_s, torque_nm);
     }
 
     /// One update: motor torques (N·m, positive = winding) into `torque_nm` for the set-points
@@ -96,14 +94,14 @@ impl TensionPi {
     /// layer decides what a broken sensor means).
     pub fn update_with_speed(
         &mut self,
-        setpoint_n: &[f64; WIRES],
-        measured_n: &[f64; WIRES],
-        winding_speed_m_s: &[f64; WIRES],
+        setpoint_n: &[f64; N],
+        measured_n: &[f64; N],
+        winding_speed_m_s: &[f64; N],
         dt_s: f64,
-        torque_nm: &mut [f64; WIRES],
+        torque_nm: &mut [f64; N],
     ) {
         let g = &self.gains;
-        for i in 0..WIRES {
+        for i in 0..N {
             let speed = if winding_speed_m_s[i].is_finite() {
                 winding_speed_m_s[i]
             } else {
@@ -156,6 +154,8 @@ impl TensionPi {
 mod tests {
     use super::*;
 
+    const N: usize = 3;
+
     fn gains() -> TensionPiGains {
         TensionPiGains {
             feedforward_nm_per_n: 0.0008,
@@ -173,12 +173,12 @@ mod tests {
     fn integral_removes_a_constant_error() {
         // Plant: measured tension = 0.8 * torque / feedforward (a 20% gain loss).
         let mut pi = TensionPi::new(gains());
-        let sp = [5.0; WIRES];
-        let mut measured = [0.2; WIRES];
-        let mut torque = [0.0; WIRES];
+        let sp = [5.0; N];
+        let mut measured = [0.2; N];
+        let mut torque = [0.0; N];
         for _ in 0..5000 {
             pi.update(&sp, &measured, 1e-3, &mut torque);
-            for i in 0..WIRES {
+            for i in 0..N {
                 measured[i] = 0.8 * torque[i] / gains().feedforward_nm_per_n;
             }
         }
@@ -188,7 +188,7 @@ mod tests {
     #[test]
     fn output_is_limited_and_finite() {
         let mut pi = TensionPi::new(gains());
-        let mut torque = [0.0; WIRES];
+        let mut torque = [0.0; N];
         pi.update_with_speed(
             &[1e9, f64::NAN, -1e9],
             &[1.0, 1.0, f64::INFINITY],
@@ -203,23 +203,17 @@ mod tests {
     fn slack_is_taken_up_at_the_takeup_speed_not_at_full_torque() {
         let g = gains();
         let mut pi = TensionPi::new(g);
-        let mut torque = [0.0; WIRES];
+        let mut torque = [0.0; N];
         // Slack, standing still: wind in with a modest torque, far below the limit.
-        pi.update_with_speed(
-            &[0.3; WIRES],
-            &[0.0; WIRES],
-            &[0.0; WIRES],
-            1e-3,
-            &mut torque,
-        );
+        pi.update_with_speed(&[0.3; N], &[0.0; N], &[0.0; N], 1e-3, &mut torque);
         let hold = g.feedforward_nm_per_n * g.slack_tension_n;
         let expected = hold + g.speed_gain_nm_s_per_m * g.takeup_speed_m_s;
         assert!((torque[0] - expected).abs() < 1e-12 && torque[0] < 0.5 * g.torque_limit_nm);
         // Slack, already winding at the take-up speed: only the slack threshold's feed-forward.
         pi.update_with_speed(
-            &[0.3; WIRES],
-            &[0.0; WIRES],
-            &[g.takeup_speed_m_s; WIRES],
+            &[0.3; N],
+            &[0.0; N],
+            &[g.takeup_speed_m_s; N],
             1e-3,
             &mut torque,
         );
@@ -228,9 +222,9 @@ mod tests {
         // the set-point's feed-forward does not run the free pulley away.
         for setpoint in [0.3, 3.0, 15.0] {
             pi.update_with_speed(
-                &[setpoint; WIRES],
-                &[0.0; WIRES],
-                &[2.0 * g.takeup_speed_m_s; WIRES],
+                &[setpoint; N],
+                &[0.0; N],
+                &[2.0 * g.takeup_speed_m_s; N],
                 1e-3,
                 &mut torque,
             );
@@ -238,21 +232,9 @@ mod tests {
         }
         // Slack does not wind the integral up.
         for _ in 0..10_000 {
-            pi.update_with_speed(
-                &[0.3; WIRES],
-                &[0.0; WIRES],
-                &[0.0; WIRES],
-                1e-3,
-                &mut torque,
-            );
+            pi.update_with_speed(&[0.3; N], &[0.0; N], &[0.0; N], 1e-3, &mut torque);
         }
-        pi.update_with_speed(
-            &[0.3; WIRES],
-            &[0.3; WIRES],
-            &[0.0; WIRES],
-            1e-3,
-            &mut torque,
-        );
+        pi.update_with_speed(&[0.3; N], &[0.3; N], &[0.0; N], 1e-3, &mut torque);
         assert!(
             (torque[0] - g.feedforward_nm_per_n * 0.3).abs() < 1e-9,
             "no wound-up integral"
@@ -263,10 +245,10 @@ mod tests {
     fn winding_faster_than_the_limit_is_braked() {
         let g = gains();
         let mut pi = TensionPi::new(g);
-        let (mut slow, mut fast) = ([0.0; WIRES], [0.0; WIRES]);
-        pi.update_with_speed(&[2.0; WIRES], &[1.0; WIRES], &[0.1; WIRES], 1e-3, &mut slow);
+        let (mut slow, mut fast) = ([0.0; N], [0.0; N]);
+        pi.update_with_speed(&[2.0; N], &[1.0; N], &[0.1; N], 1e-3, &mut slow);
         pi.reset();
-        pi.update_with_speed(&[2.0; WIRES], &[1.0; WIRES], &[1.0; WIRES], 1e-3, &mut fast);
+        pi.update_with_speed(&[2.0; N], &[1.0; N], &[1.0; N], 1e-3, &mut fast);
         assert!((slow[0] - fast[0] - g.speed_gain_nm_s_per_m * 0.4).abs() < 1e-12);
     }
 
@@ -274,18 +256,18 @@ mod tests {
     fn a_slack_wire_forgets_the_integral_so_a_late_spike_cannot_ratchet_it() {
         let g = gains();
         let mut pi = TensionPi::new(g);
-        let mut out = [0.0; WIRES];
+        let mut out = [0.0; N];
         // The take-up snapped the wire taut: the converter reports a spike above the set-point
         // for a few periods, which winds the integral negative...
         for _ in 0..20 {
-            pi.update(&[0.4; WIRES], &[3.0; WIRES], 1e-3, &mut out);
+            pi.update(&[0.4; N], &[3.0; N], 1e-3, &mut out);
         }
         assert!(pi.integral_nm[0] < 0.0);
         // ...the wire goes slack, and is taken up...
-        pi.update(&[0.4; WIRES], &[0.0; WIRES], 1e-3, &mut out);
+        pi.update(&[0.4; N], &[0.0; N], 1e-3, &mut out);
         // ...and pulls again: the torque is the feed-forward and the error's, nothing left from
         // the spike that would unwind it at once.
-        pi.update(&[0.4; WIRES], &[0.2; WIRES], 1e-3, &mut out);
+        pi.update(&[0.4; N], &[0.2; N], 1e-3, &mut out);
         let expected =
             g.feedforward_nm_per_n * 0.4 + g.kp_nm_per_n * 0.2 + g.ki_nm_per_n_s * 0.2 * 1e-3;
         assert!(

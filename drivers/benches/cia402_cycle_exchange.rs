@@ -13,9 +13,12 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use videt_drivers::can::CanPort;
 use videt_drivers::cia402::pdo::{Command, Motion, Status};
 use videt_drivers::cia402::{Cia402DriveSet, DriveSetConfig};
-use videt_hal::{DriveSample, Lifecycle, WireDrives, WIRES};
+use videt_hal::{DriveSample, Lifecycle, WireDrives};
 use videt_sim::can_bus::{BusError, BusFaults, InProcessBus, InProcessEndpoint, SimFrame};
 use videt_sim::cia402_node::{FreeMotorPlant, SimDriveBank, SimDriveSpec, SteppedDriveBus};
+
+/// The WireMan's wire count (three drives, nodes 1, 2, 3).
+const WIRES: usize = 3;
 
 struct Inline(SteppedDriveBus<Arc<Mutex<FreeMotorPlant>>>);
 
@@ -78,7 +81,7 @@ fn specs() -> Vec<SimDriveSpec> {
         .collect()
 }
 
-fn config() -> DriveSetConfig {
+fn config() -> DriveSetConfig<WIRES> {
     let mut c = DriveSetConfig::new([1, 2, 3], Duration::from_millis(1), 0.025, 15.0);
     // A benchmark iteration is back to back, not paced: allow for the harness's pauses.
     // A loaded machine may stall the process for tens of ms: keep the drives' host-silence

@@ -16,9 +16,12 @@ use std::time::{Duration, Instant};
 
 use videt_drivers::can::CanPort;
 use videt_drivers::cia402::{Cia402DriveSet, DriveSetConfig};
-use videt_hal::{DriveSample, Lifecycle, WireDrives, WIRES};
+use videt_hal::{DriveSample, Lifecycle, WireDrives};
 use videt_sim::can_bus::udp::UdpEndpoint;
 use videt_sim::can_bus::{BusError, BusFaults, SimFrame};
+
+/// The WireMan's wire count (three drives, nodes 1, 2, 3).
+const WIRES: usize = 3;
 
 struct Port(UdpEndpoint);
 

@@ -13,9 +13,12 @@ use videt_drivers::adc::drive_input::DriveInputAdc;
 use videt_drivers::adc::tension_set::{MonotonicClock, StrainGaugeSet};
 use videt_drivers::can::CanPort;
 use videt_drivers::cia402::{AnalogInputObject, Cia402DriveSet, DriveSetConfig};
-use videt_hal::{DriveSample, Lifecycle, TensionSensors, WireDrives, WIRES};
+use videt_hal::{DriveSample, Lifecycle, TensionSensors, WireDrives};
 use videt_sim::can_bus::{BusError, BusFaults, InProcessBus, InProcessEndpoint, SimFrame};
 use videt_sim::cia402_node::{FreeMotorPlant, SimDriveBank, SimDriveSpec};
+
+/// The WireMan's wire count (three drives, nodes 1, 2, 3).
+const WIRES: usize = 3;
 
 #[global_allocator]
 static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;

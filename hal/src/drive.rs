@@ -5,7 +5,7 @@
 //! guide ring); positive encoder counts mean the wire was wound in. The wire length is therefore
 //! `length = length_at_zero - counts * metres_per_count`.
 
-use crate::{ErrorType, WIRES};
+use crate::ErrorType;
 
 /// Power state of a drive, as the CiA 402 state machine (or the twin) reports it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -81,13 +81,13 @@ impl Transmission {
 
 /// The set of wire drives, read and written once per control cycle (all wires together, so a
 /// bus implementation can exchange one SYNC-driven set of process data).
-pub trait WireDrives: ErrorType {
+pub trait WireDrives<const N: usize>: ErrorType {
     /// Power the drives so torque commands are followed (**non-RT**: waits for the state machine).
     fn enable(&mut self) -> Result<(), Self::Error>;
     /// Remove power (**RT-safe**: sends the command and returns; the drive stops by itself).
     fn disable(&mut self) -> Result<(), Self::Error>;
     /// Latest sample of every drive. **RT**: never blocks longer than the bus exchange.
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), Self::Error>;
+    fn read_drives(&mut self, out: &mut [DriveSample; N]) -> Result<(), Self::Error>;
     /// Command motor torques in N·m, positive = winding. **RT**.
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), Self::Error>;
+    fn write_torques(&mut self, torque_nm: &[f64; N]) -> Result<(), Self::Error>;
 }

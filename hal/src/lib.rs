@@ -4,6 +4,9 @@
 //! error exposes an [`ErrorKind`] the caller can act on (the embedded-hal 1.0 pattern). This crate
 //! holds traits and plain data only: no I/O, no allocation in the real-time methods' contracts.
 //!
+//! The wire count `N` of the configured device is a const generic of the per-wire capabilities
+//! ([`WireDrives`], [`TensionSensors`]): one implementation serves every device.
+//!
 //! Units are SI everywhere (metres, newtons, newton-metres, seconds, radians); names carry the
 //! unit (`tension_n`, `torque_nm`, `position_counts`).
 //!
@@ -35,9 +38,6 @@ pub use estop::EStop;
 pub use lifecycle::{Lifecycle, LifecycleState};
 pub use tension::TensionSensors;
 pub use vibro::Vibrotactors;
-
-/// Number of wires of the device (three wires converging on the thimble).
-pub const WIRES: usize = 3;
 
 /// Number of vibrotactors (one per colour channel: red, green, blue).
 pub const VIBROTACTORS: usize = 3;

@@ -493,9 +493,23 @@ impl Default for SocketConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RigConfig {
-    /// Guide points in the frame plane `z = 0`, metres, as `[x, y]` pairs.
+    /// The device: `"wireman3"` (the wearable three-wire WireMan), `"planar2"` (the planar
+    /// two-wire prototype), `"polar1"` (one wire and two passive angle sensors) or `"spidar4"`
+    /// (four wires around the workspace).
+    pub device: String,
+    /// `wireman3`: guide points in the frame plane `z = 0`, metres, as `[x, y]` pairs.
     pub guides_m: [[f64; 2]; 3],
+    /// `planar2`: the two guides' positions on the x axis, metres (the paper's prototype:
+    /// 0 and 0.52).
+    pub planar_guides_x_m: [f64; 2],
+    /// `polar1`: the wire's guide point, metres, `[x, y, z]`.
+    pub polar_guide_m: [f64; 3],
+    /// `spidar4`: the four guide points, metres, `[x, y, z]` each, not in one plane.
+    pub spidar_guides_m: [[f64; 3]; 4],
 }
+
+/// The device names `rig.device` accepts.
+pub const RIG_DEVICES: [&str; 4] = ["wireman3", "planar2", "polar1", "spidar4"];
 
 /// Motor-to-wire transmission of every wire module.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -575,7 +589,17 @@ impl Default for RigConfig {
     fn default() -> Self {
         // A frame of the paper's size (370 mm x 300 mm).
         RigConfig {
+            device: "wireman3".into(),
             guides_m: [[0.0, 0.0], [0.37, 0.0], [0.185, 0.30]],
+            planar_guides_x_m: [0.0, 0.52],
+            polar_guide_m: [0.0, 0.0, 0.0],
+            // Four alternating corners of a 0.6 m cube around the WireMan's workspace.
+            spidar_guides_m: [
+                [-0.1, -0.15, 0.0],
+                [0.5, 0.45, 0.0],
+                [0.5, -0.15, 0.6],
+                [-0.1, 0.45, 0.6],
+            ],
         }
     }
 }

@@ -270,3 +270,27 @@ fn unknown_keys_are_rejected() {
         .to_string();
     assert!(e.contains("rate_hzz"), "{e}");
 }
+
+#[test]
+fn rig_device_is_named_and_checked() {
+    let mut c = Config::default();
+    assert_eq!(c.rig.device, "wireman3");
+    for d in RIG_DEVICES {
+        c.rig.device = d.into();
+        c.validate().unwrap();
+    }
+    c.rig.device = "wireman".into();
+    let e = c.validate().unwrap_err().to_string();
+    assert!(e.contains("rig.device") && e.contains("planar2"), "{e}");
+    let mut c = Config::default();
+    c.rig.planar_guides_x_m = [0.3, 0.305];
+    let e = c.validate().unwrap_err().to_string();
+    assert!(e.contains("rig.planar_guides_x_m"), "{e}");
+    let mut c = Config::default();
+    c.rig.spidar_guides_m[2][2] = f64::NAN;
+    assert!(c
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("rig.spidar_guides_m[2].z"));
+}

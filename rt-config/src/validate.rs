@@ -19,9 +19,35 @@ fn in_range(field: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError
 impl Config {
     /// Check every value against its allowed range.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        if !RIG_DEVICES.contains(&self.rig.device.as_str()) {
+            return Err(ConfigError::Invalid {
+                field: "rig.device".into(),
+                value: self.rig.device.clone(),
+                allowed: format!("one of {}", RIG_DEVICES.join(", ")),
+            });
+        }
         for (i, g) in self.rig.guides_m.iter().enumerate() {
             for (axis, v) in ["x", "y"].iter().zip(g) {
                 in_range(&format!("rig.guides_m[{i}].{axis}"), *v, -2.0, 2.0)?;
+            }
+        }
+        for (i, x) in self.rig.planar_guides_x_m.iter().enumerate() {
+            in_range(&format!("rig.planar_guides_x_m[{i}]"), *x, -2.0, 2.0)?;
+        }
+        let [x0, x1] = self.rig.planar_guides_x_m;
+        if (x1 - x0).abs() < 0.01 {
+            return Err(ConfigError::Invalid {
+                field: "rig.planar_guides_x_m".into(),
+                value: format!("[{x0}, {x1}]"),
+                allowed: "two guides at least 0.01 m apart".into(),
+            });
+        }
+        for (axis, v) in ["x", "y", "z"].iter().zip(&self.rig.polar_guide_m) {
+            in_range(&format!("rig.polar_guide_m.{axis}"), *v, -2.0, 2.0)?;
+        }
+        for (i, g) in self.rig.spidar_guides_m.iter().enumerate() {
+            for (axis, v) in ["x", "y", "z"].iter().zip(g) {
+                in_range(&format!("rig.spidar_guides_m[{i}].{axis}"), *v, -2.0, 2.0)?;
             }
         }
         let t = &self.transmission;

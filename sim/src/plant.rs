@@ -4,16 +4,18 @@
 //! angle `theta` grows when winding; the unstretched wire length from guide ring to thimble is
 //! `free_length = free_length_at_zero - pulley_radius * theta`.
 
-use videt_hal::{Transmission, WIRES};
+use videt_control::{Rig3, WireDevice};
+use videt_hal::Transmission;
 
 use crate::operator::VirtualOperator;
 use crate::Vec3;
 
-/// Physical parameters of the twin.
+/// Physical parameters of the twin of an `N`-wire device `D`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PlantParams {
-    /// Guide-ring positions, metres (`z = 0`).
-    pub guides_m: [Vec3; WIRES],
+pub struct PlantParams<const N: usize, D: WireDevice<N>> {
+    /// The device: where its wires leave their guides, and for the planar device the plane the
+    /// thimble is held in.
+    pub device: D,
     /// Motor-to-wire transmission.
     pub transmission: Transmission,
     /// Axial stiffness of the wire, `EA`, newtons (Kevlar: ~3% strain at 250 N → ~8 kN).
@@ -32,15 +34,25 @@ pub struct PlantParams {
     pub step_s: f64,
 }
 
-impl PlantParams {
+impl PlantParams<3, Rig3> {
     /// The paper's device on a frame of the paper's size (370 mm x 300 mm).
-    pub fn paper_default() -> PlantParams {
-        PlantParams {
-            guides_m: [
+    pub fn paper_default() -> PlantParams<3, Rig3> {
+        PlantParams::for_device(
+            Rig3::new([
                 Vec3::new(0.0, 0.0, 0.0),
                 Vec3::new(0.37, 0.0, 0.0),
                 Vec3::new(0.185, 0.30, 0.0),
-            ],
+            ])
+            .expect("the paper's frame is a valid rig"),
+        )
+    }
+}
+
+impl<const N: usize, D: WireDevice<N>> PlantParams<N, D> {
+    /// The paper's actuation modules, wires and thimble on `device`.
+    pub fn for_device(device: D) -> PlantParams<N, D> {
+        PlantParams {
+            device,
             transmission: Transmission::PAPER,
             wire_ea_n: 8000.0,
             wire_damping_n_s: 4.0,
@@ -61,28 +73,28 @@ impl PlantParams {
 
 /// The plant's state and its integrator.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Plant {
-    params: PlantParams,
+pub struct Plant<const N: usize, D: WireDevice<N>> {
+    params: PlantParams<N, D>,
     /// Thimble position, metres.
     position_m: Vec3,
     /// Thimble velocity, m/s.
     velocity_m_s: Vec3,
     /// Pulley angle, rad (positive = wound in).
-    pulley_angle_rad: [f64; WIRES],
+    pulley_angle_rad: [f64; N],
     /// Pulley speed, rad/s.
-    pulley_speed_rad_s: [f64; WIRES],
+    pulley_speed_rad_s: [f64; N],
     /// Unstretched wire length at pulley angle zero, metres.
-    free_length_at_zero_m: [f64; WIRES],
+    free_length_at_zero_m: [f64; N],
     /// Wire tensions of the last step, newtons (never negative).
-    tension_n: [f64; WIRES],
+    tension_n: [f64; N],
     /// Whether each wire is intact (a broken wire carries no tension).
-    intact: [bool; WIRES],
+    intact: [bool; N],
     /// Last hand force on the thimble, newtons.
     hand_force_n: Vec3,
     /// Simulated time, seconds.
     time_s: f64,
     /// Wire-module details used by homing, initialization and tension calibration.
-    modules: WireModules,
+    modules: WireModules<N>,
 }
 
 /// Stiffness of the frame's contact with the thimble, N/m.
@@ -99,64 +111,62 @@ pub const GRAVITY_M_S2: f64 = 9.806_65;
 /// The defaults (no inside wire, every wire attached, no weight, unlimited yarn) reproduce the
 /// basic plant exactly.
 #[derive(Debug, Clone, PartialEq)]
-pub struct WireModules {
+pub struct WireModules<const N: usize> {
     /// Wire from the pulley to the guide ring (over the idle pulley), metres. It stretches in
     /// series with the free wire, and alone once the wire end is pulled against the ring.
-    pub inside_length_m: [f64; WIRES],
+    pub inside_length_m: [f64; N],
     /// Whether each wire's end is connected to the thimble; a detached end stops against its
     /// guide ring (end sphere larger than the ring's hole).
-    pub attached: [bool; WIRES],
+    pub attached: [bool; N],
     /// A weight hanging on a detached wire end, kg (tension calibration); 0 = none.
-    pub hanging_mass_kg: [f64; WIRES],
+    pub hanging_mass_kg: [f64; N],
     /// Largest free length the yarn allows before its end, knotted on the pulley, stops the
     /// pulley, metres.
-    pub usable_length_m: [f64; WIRES],
+    pub usable_length_m: [f64; N],
     /// The frame (and the wearer's back behind it) stops the thimble at the guide plane `z = 0`:
     /// an empty thimble pulled by its wires comes to rest against it instead of swinging through.
     pub frame_stop: bool,
 }
 
-impl Default for WireModules {
+impl<const N: usize> Default for WireModules<N> {
     fn default() -> Self {
         WireModules {
-            inside_length_m: [0.0; WIRES],
-            attached: [true; WIRES],
-            hanging_mass_kg: [0.0; WIRES],
-            usable_length_m: [f64::INFINITY; WIRES],
+            inside_length_m: [0.0; N],
+            attached: [true; N],
+            hanging_mass_kg: [0.0; N],
+            usable_length_m: [f64::INFINITY; N],
             frame_stop: false,
         }
     }
 }
 
-impl WireModules {
+impl<const N: usize> WireModules<N> {
     /// The paper's modules: 120 mm of wire inside each module, 1.5 m of usable yarn.
-    pub fn paper() -> WireModules {
+    pub fn paper() -> WireModules<N> {
         WireModules {
-            inside_length_m: [0.12; WIRES],
-            usable_length_m: [1.5; WIRES],
+            inside_length_m: [0.12; N],
+            usable_length_m: [1.5; N],
             frame_stop: true,
             ..WireModules::default()
         }
     }
 }
 
-impl Plant {
-    /// A plant at rest with the thimble at `position_m` and every wire just taut (zero stretch),
-    /// pulley angles zero.
-    pub fn new(params: PlantParams, position_m: Vec3) -> Plant {
-        let mut free = [0.0; WIRES];
-        for (f, g) in free.iter_mut().zip(params.guides_m.iter()) {
-            *f = (position_m - g).norm();
-        }
+impl<const N: usize, D: WireDevice<N>> Plant<N, D> {
+    /// A plant at rest with the thimble at `position_m` (on the planar device, its projection
+    /// on the plane) and every wire just taut (zero stretch), pulley angles zero.
+    pub fn new(params: PlantParams<N, D>, position_m: Vec3) -> Plant<N, D> {
+        let position_m = params.device.constrain(&position_m);
+        let free = params.device.inverse(&position_m);
         Plant {
             params,
             position_m,
             velocity_m_s: Vec3::zeros(),
-            pulley_angle_rad: [0.0; WIRES],
-            pulley_speed_rad_s: [0.0; WIRES],
+            pulley_angle_rad: [0.0; N],
+            pulley_speed_rad_s: [0.0; N],
             free_length_at_zero_m: free,
-            tension_n: [0.0; WIRES],
-            intact: [true; WIRES],
+            tension_n: [0.0; N],
+            intact: [true; N],
             hand_force_n: Vec3::zeros(),
             time_s: 0.0,
             modules: WireModules::default(),
@@ -164,18 +174,18 @@ impl Plant {
     }
 
     /// The same plant with these wire-module details.
-    pub fn with_modules(mut self, modules: WireModules) -> Plant {
+    pub fn with_modules(mut self, modules: WireModules<N>) -> Plant<N, D> {
         self.modules = modules;
         self
     }
 
     /// Replace the wire-module details.
-    pub fn set_modules(&mut self, modules: WireModules) {
+    pub fn set_modules(&mut self, modules: WireModules<N>) {
         self.modules = modules;
     }
 
     /// The wire-module details.
-    pub fn modules(&self) -> &WireModules {
+    pub fn modules(&self) -> &WireModules<N> {
         &self.modules
     }
 
@@ -190,7 +200,7 @@ impl Plant {
     /// Rest position of the device: every wire detached from the thimble and fully wound, its
     /// end just touching its guide ring (free length 0, no tension).
     pub fn rest_detached(&mut self) {
-        for i in 0..WIRES {
+        for i in 0..N {
             self.modules.attached[i] = false;
             self.modules.hanging_mass_kg[i] = 0.0;
             self.set_free_length_m(i, 0.0);
@@ -205,13 +215,14 @@ impl Plant {
     /// The technician pulls every wire out to the thimble placed at `position_m` (at rest) and
     /// connects them: each wire just taut.
     pub fn connect_wires_at(&mut self, position_m: Vec3) {
+        let position_m = self.params.device.constrain(&position_m);
         self.position_m = position_m;
         self.velocity_m_s = Vec3::zeros();
-        for i in 0..WIRES {
+        let lengths = self.params.device.inverse(&position_m);
+        for i in 0..N {
             self.modules.attached[i] = true;
             self.modules.hanging_mass_kg[i] = 0.0;
-            let length = (position_m - self.params.guides_m[i]).norm();
-            self.set_free_length_m(i, length);
+            self.set_free_length_m(i, lengths[i]);
         }
     }
 
@@ -237,7 +248,7 @@ impl Plant {
     }
 
     /// The parameters.
-    pub fn params(&self) -> &PlantParams {
+    pub fn params(&self) -> &PlantParams<N, D> {
         &self.params
     }
     /// Thimble position, metres.
@@ -249,7 +260,7 @@ impl Plant {
         self.velocity_m_s
     }
     /// True wire tensions, newtons.
-    pub fn tension_n(&self) -> [f64; WIRES] {
+    pub fn tension_n(&self) -> [f64; N] {
         self.tension_n
     }
     /// Last hand force on the thimble, newtons.
@@ -261,18 +272,18 @@ impl Plant {
         self.time_s
     }
     /// Pulley angles, rad (positive = wound in).
-    pub fn pulley_angle_rad(&self) -> [f64; WIRES] {
+    pub fn pulley_angle_rad(&self) -> [f64; N] {
         self.pulley_angle_rad
     }
     /// Pulley speeds, rad/s.
-    pub fn pulley_speed_rad_s(&self) -> [f64; WIRES] {
+    pub fn pulley_speed_rad_s(&self) -> [f64; N] {
         self.pulley_speed_rad_s
     }
     /// Unstretched free length of each wire, metres.
-    pub fn free_length_m(&self) -> [f64; WIRES] {
+    pub fn free_length_m(&self) -> [f64; N] {
         let r = self.params.transmission.pulley_radius_m;
-        let mut l = [0.0; WIRES];
-        for i in 0..WIRES {
+        let mut l = [0.0; N];
+        for i in 0..N {
             l[i] = self.free_length_at_zero_m[i] - r * self.pulley_angle_rad[i];
         }
         l
@@ -283,8 +294,8 @@ impl Plant {
     }
     /// Place the thimble (e.g. to start a scenario), keeping the wires' free lengths.
     pub fn set_thimble(&mut self, position_m: Vec3, velocity_m_s: Vec3) {
-        self.position_m = position_m;
-        self.velocity_m_s = velocity_m_s;
+        self.position_m = self.params.device.constrain(&position_m);
+        self.velocity_m_s = self.params.device.constrain(&velocity_m_s);
     }
 
     /// Tension of wire `i` for the current state and its force on the thimble (elastic,
@@ -293,14 +304,10 @@ impl Plant {
     /// The free wire (outside the ring) and the inside wire stretch in series. A wire wound
     /// past its end (free length <= 0) has its end against the guide ring: attached, it holds the
     /// thimble at the ring like a stiff spring; detached, only the inside wire carries tension.
-    fn wire_tension(&self, i: usize, free_length_m: f64) -> (f64, Vec3) {
-        let d = self.position_m - self.params.guides_m[i];
-        let length = d.norm();
-        let unit = if length > 1e-12 {
-            d / length
-        } else {
-            Vec3::z()
-        };
+    fn wire_tension(&self, i: usize, length: f64, free_length_m: f64) -> (f64, Vec3) {
+        // From the guide to the thimble.
+        let unit = -self.params.device.pull_direction(&self.position_m, i);
+        let d = unit * length;
         let m = &self.modules;
         let inside = m.inside_length_m[i];
         let r = self.params.transmission.pulley_radius_m;
@@ -342,13 +349,14 @@ impl Plant {
 
     /// Advance by one integration step under motor torques (N·m, positive = winding) and the
     /// operator's hand (semi-implicit Euler).
-    pub fn step(&mut self, motor_torque_nm: &[f64; WIRES], operator: &VirtualOperator) {
+    pub fn step(&mut self, motor_torque_nm: &[f64; N], operator: &VirtualOperator) {
         let h = self.params.step_s;
         let tr = self.params.transmission;
         let free = self.free_length_m();
+        let lengths = self.params.device.inverse(&self.position_m);
         let mut wire_force = Vec3::zeros();
         for (i, free_i) in free.iter().enumerate() {
-            let (t, force) = self.wire_tension(i, *free_i);
+            let (t, force) = self.wire_tension(i, lengths[i], *free_i);
             self.tension_n[i] = t;
             wire_force += force;
         }
@@ -360,12 +368,14 @@ impl Plant {
             wire_force.z += push.max(0.0);
         }
         let accel = (wire_force + self.hand_force_n) / self.params.thimble_mass_kg;
+        // The planar device's linkage takes the out-of-plane part (a projection: linear).
+        let accel = self.params.device.constrain(&accel);
         self.velocity_m_s += accel * h;
         self.position_m += self.velocity_m_s * h;
 
         let base_inertia = self.params.pulley_side_inertia();
         let r = tr.pulley_radius_m;
-        for i in 0..WIRES {
+        for i in 0..N {
             let hanging = if !self.modules.attached[i] && free[i] > 0.0 && self.intact[i] {
                 self.modules.hanging_mass_kg[i] * r * r
             } else {
@@ -395,6 +405,8 @@ impl Plant {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const WIRES: usize = 3;
     use proptest::prelude::*;
 
     fn centre() -> Vec3 {
@@ -414,7 +426,7 @@ mod tests {
                 // Tensions of a step are computed from the state before it.
                 let free = plant.free_length_m();
                 let slack: [bool; WIRES] = core::array::from_fn(|i| {
-                    (plant.position_m() - plant.params().guides_m[i]).norm() <= free[i]
+                    plant.params().device.inverse(&plant.position_m())[i] <= free[i]
                 });
                 plant.step(&torques, &op);
                 for (i, t) in plant.tension_n().iter().enumerate() {
@@ -439,10 +451,11 @@ mod tests {
         let r = params.transmission.pulley_radius_m;
         let mut resultant = Vec3::zeros();
         for i in 0..WIRES {
-            let l = (p0 - params.guides_m[i]).norm();
+            let g = params.device.guides_m()[i];
+            let l = (p0 - g).norm();
             let free = l / (1.0 + tensions[i] / params.wire_ea_n);
             plant.free_length_at_zero_m[i] = free;
-            resultant -= (p0 - params.guides_m[i]) / l * tensions[i];
+            resultant -= (p0 - g) / l * tensions[i];
             let _ = r;
         }
         let torques: [f64; WIRES] =

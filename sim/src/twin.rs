@@ -2,9 +2,10 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use videt_control::WireDevice;
 use videt_hal::{
-    Clock, DriveSample, DriveState, EStop, Error, ErrorKind, ErrorType, Lifecycle, LifecycleState,
-    MonoTime, TensionSensors, WireDrives, WIRES,
+    AngleSensors, Clock, DriveSample, DriveState, EStop, Error, ErrorKind, ErrorType, Lifecycle,
+    LifecycleState, MonoTime, TensionSensors, WireDrives,
 };
 
 use crate::converter::{ConverterModel, ConverterTwin};
@@ -40,11 +41,11 @@ impl std::error::Error for TwinError {}
 
 /// How the twin's strain gauges err.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SensorModel {
+pub struct SensorModel<const N: usize> {
     /// Offset of each sensor, newtons.
-    pub offset_n: [f64; WIRES],
+    pub offset_n: [f64; N],
     /// Relative gain error of each sensor (0.02 = reads 2% high).
-    pub gain_error: [f64; WIRES],
+    pub gain_error: [f64; N],
     /// Standard deviation of the white noise, newtons.
     pub noise_std_n: f64,
     /// Seed of the noise generator (runs are reproducible).
@@ -54,11 +55,12 @@ pub struct SensorModel {
     pub converter: Option<ConverterModel>,
 }
 
-impl Default for SensorModel {
+impl<const N: usize> Default for SensorModel<N> {
     fn default() -> Self {
         SensorModel {
-            offset_n: [0.02, -0.03, 0.01],
-            gain_error: [0.01, -0.015, 0.005],
+            // The same per-wire errors as the three-wire default, repeated for more wires.
+            offset_n: core::array::from_fn(|i| [0.02, -0.03, 0.01][i % 3]),
+            gain_error: core::array::from_fn(|i| [0.01, -0.015, 0.005][i % 3]),
             noise_std_n: 0.02,
             seed: 1,
             converter: None,
@@ -66,12 +68,12 @@ impl Default for SensorModel {
     }
 }
 
-impl SensorModel {
+impl<const N: usize> SensorModel<N> {
     /// Ideal sensors (no offset, gain error or noise).
-    pub fn ideal() -> SensorModel {
+    pub fn ideal() -> SensorModel<N> {
         SensorModel {
-            offset_n: [0.0; WIRES],
-            gain_error: [0.0; WIRES],
+            offset_n: [0.0; N],
+            gain_error: [0.0; N],
             noise_std_n: 0.0,
             seed: 0,
             converter: None,
@@ -110,17 +112,18 @@ pub enum ClockMode {
     External,
 }
 
-/// The digital twin of the whole device, implementing the HAL traits.
+/// The digital twin of a whole `N`-wire device `D`, implementing the HAL traits (the passive
+/// angle sensors too: they read the wire's direction, eq. 7, on a device that has them).
 #[derive(Debug)]
-pub struct Twin {
-    plant: Plant,
+pub struct Twin<const N: usize, D: WireDevice<N>> {
+    plant: Plant<N, D>,
     operator: VirtualOperator,
-    sensors: SensorModel,
-    converters: Option<Box<[ConverterTwin; WIRES]>>,
+    sensors: SensorModel<N>,
+    converters: Option<Box<[ConverterTwin; N]>>,
     rng: ChaCha8Rng,
     lifecycle: LifecycleState,
     drives_enabled: bool,
-    torque_command_nm: [f64; WIRES],
+    torque_command_nm: [f64; N],
     /// One step of the drives' target torque, N·m (`None`: torque as commanded).
     torque_step_nm: Option<f64>,
     /// Largest torque the simulated motors deliver, N·m.
@@ -133,7 +136,7 @@ pub struct Twin {
     steps_done: u64,
     step_ns: u64,
     /// Encoder count at free length zero (an incremental encoder starts anywhere at power-up).
-    encoder_offset_counts: [i64; WIRES],
+    encoder_offset_counts: [i64; N],
     scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
     inbox: std::sync::Arc<crate::fault_inbox::FaultInbox>,
 }
@@ -150,20 +153,20 @@ pub fn quantize_torque(torque_nm: f64, step_nm: f64) -> f64 {
 }
 
 /// One converter per wire, each free-running at its own phase.
-fn converters_for(m: ConverterModel) -> Box<[ConverterTwin; WIRES]> {
+fn converters_for<const N: usize>(m: ConverterModel) -> Box<[ConverterTwin; N]> {
     Box::new(core::array::from_fn(|i| {
         ConverterTwin::new(m, m.period_s() * (0.17 + 0.31 * i as f64))
     }))
 }
 
-impl Twin {
+impl<const N: usize, D: WireDevice<N>> Twin<N, D> {
     /// A twin with the thimble at `start_m` (wires just taut), an operator, and sensor errors.
     pub fn new(
-        params: PlantParams,
+        params: PlantParams<N, D>,
         start_m: Vec3,
         operator: VirtualOperator,
-        sensors: SensorModel,
-    ) -> Twin {
+        sensors: SensorModel<N>,
+    ) -> Twin<N, D> {
         let step_ns = (params.step_s * 1e9).round() as u64;
         assert!(
             step_ns > 0 && step_ns <= 100_000,
@@ -180,7 +183,7 @@ impl Twin {
             rng,
             lifecycle: LifecycleState::Unconfigured,
             drives_enabled: false,
-            torque_command_nm: [0.0; WIRES],
+            torque_command_nm: [0.0; N],
             torque_step_nm: None,
             motor_torque_limit_nm: 0.03,
             estop_held: false,
@@ -190,7 +193,7 @@ impl Twin {
             clock_mode: ClockMode::Simulated,
             steps_done: 0,
             step_ns,
-            encoder_offset_counts: [0; WIRES],
+            encoder_offset_counts: [0; N],
             scheduled: [None; FAULT_SLOTS],
             inbox: Default::default(),
         }
@@ -198,11 +201,11 @@ impl Twin {
 
     /// Where each encoder counts from: the count read with the wire's free length at zero
     /// (default 0, i.e. the encoders start homed). Homing must find these.
-    pub fn set_encoder_offset_counts(&mut self, offset_counts: [i64; WIRES]) {
+    pub fn set_encoder_offset_counts(&mut self, offset_counts: [i64; N]) {
         self.encoder_offset_counts = offset_counts;
     }
     /// The encoder offsets (ground truth for tests).
-    pub fn encoder_offset_counts(&self) -> [i64; WIRES] {
+    pub fn encoder_offset_counts(&self) -> [i64; N] {
         self.encoder_offset_counts
     }
     /// The e-stop button is held down now.
@@ -215,11 +218,11 @@ impl Twin {
         self.clock_mode = mode;
     }
     /// The plant (true state, for tests and status).
-    pub fn plant(&self) -> &Plant {
+    pub fn plant(&self) -> &Plant<N, D> {
         &self.plant
     }
     /// The plant, mutably (fault injection, scenario set-up).
-    pub fn plant_mut(&mut self) -> &mut Plant {
+    pub fn plant_mut(&mut self) -> &mut Plant<N, D> {
         &mut self.plant
     }
     /// The virtual operator.
@@ -267,8 +270,8 @@ impl Twin {
         self.faulted_drive = Some(wire);
     }
     /// The torques the drives are applying, N·m.
-    pub fn applied_torque_nm(&self) -> [f64; WIRES] {
-        let mut t = [0.0; WIRES];
+    pub fn applied_torque_nm(&self) -> [f64; N] {
+        let mut t = [0.0; N];
         if self.drives_enabled {
             for (i, ti) in t.iter_mut().enumerate() {
                 if self.faulted_drive != Some(i) {
@@ -358,11 +361,11 @@ impl Twin {
     }
 }
 
-impl ErrorType for Twin {
+impl<const N: usize, D: WireDevice<N>> ErrorType for Twin<N, D> {
     type Error = TwinError;
 }
 
-impl Lifecycle for Twin {
+impl<const N: usize, D: WireDevice<N>> Lifecycle for Twin<N, D> {
     fn configure(&mut self) -> Result<(), TwinError> {
         self.lifecycle = LifecycleState::Inactive;
         Ok(())
@@ -379,7 +382,7 @@ impl Lifecycle for Twin {
     }
     fn deactivate(&mut self) -> Result<(), TwinError> {
         self.drives_enabled = false;
-        self.torque_command_nm = [0.0; WIRES];
+        self.torque_command_nm = [0.0; N];
         if self.lifecycle != LifecycleState::Unconfigured {
             self.lifecycle = LifecycleState::Inactive;
         }
@@ -390,7 +393,7 @@ impl Lifecycle for Twin {
     }
 }
 
-impl WireDrives for Twin {
+impl<const N: usize, D: WireDevice<N>> WireDrives<N> for Twin<N, D> {
     fn enable(&mut self) -> Result<(), TwinError> {
         if self.lifecycle != LifecycleState::Active {
             return Err(TwinError {
@@ -410,17 +413,17 @@ impl WireDrives for Twin {
 
     fn disable(&mut self) -> Result<(), TwinError> {
         self.drives_enabled = false;
-        self.torque_command_nm = [0.0; WIRES];
+        self.torque_command_nm = [0.0; N];
         Ok(())
     }
 
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), TwinError> {
+    fn read_drives(&mut self, out: &mut [DriveSample; N]) -> Result<(), TwinError> {
         let tr = self.plant.params().transmission;
         let counts_per_pulley_rad =
             tr.counts_per_motor_rev as f64 * tr.gear_ratio / core::f64::consts::TAU;
         let free = self.plant.free_length_m();
         let speed = self.plant.pulley_speed_rad_s();
-        for i in 0..WIRES {
+        for i in 0..N {
             // Encoder zero = wire fully wound (free length 0), as after homing.
             let wound_rad = -free[i] / tr.pulley_radius_m;
             out[i] = DriveSample {
@@ -450,7 +453,7 @@ impl WireDrives for Twin {
         }
     }
 
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), TwinError> {
+    fn write_torques(&mut self, torque_nm: &[f64; N]) -> Result<(), TwinError> {
         if !self.drives_enabled {
             return Err(TwinError {
                 kind: ErrorKind::NotReady,
@@ -465,15 +468,12 @@ impl WireDrives for Twin {
     }
 }
 
-impl TensionSensors for Twin {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), TwinError> {
+impl<const N: usize, D: WireDevice<N>> TensionSensors<N> for Twin<N, D> {
+    fn read_tensions(&mut self, out_n: &mut [f64; N]) -> Result<(), TwinError> {
         self.read_fresh_tensions(out_n).map(|_| ())
     }
 
-    fn read_fresh_tensions(
-        &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], TwinError> {
+    fn read_fresh_tensions(&mut self, out_n: &mut [f64; N]) -> Result<[bool; N], TwinError> {
         if let Some(w) = self.failed_sensor {
             return Err(TwinError {
                 kind: ErrorKind::Disconnected,
@@ -486,11 +486,11 @@ impl TensionSensors for Twin {
             *out = truth[i] * (1.0 + self.sensors.gain_error[i]) + self.sensors.offset_n[i] + noise;
         }
         let Some(converters) = self.converters.as_mut() else {
-            return Ok([true; WIRES]);
+            return Ok([true; N]);
         };
         let t = self.plant.time_s();
-        let mut fresh = [false; WIRES];
-        for i in 0..WIRES {
+        let mut fresh = [false; N];
+        for i in 0..N {
             converters[i].observe(t, out_n[i]);
             (out_n[i], fresh[i]) = converters[i].read();
         }
@@ -498,7 +498,29 @@ impl TensionSensors for Twin {
     }
 }
 
-impl EStop for Twin {
+impl<const N: usize, D: WireDevice<N>> AngleSensors for Twin<N, D> {
+    /// The passive angles at the thimble, as an AS5048A's 14 bits resolve them. On a device
+    /// without angle sensors: an `Other` error (it has none to read).
+    fn read_angles(&mut self, out_rad: &mut [f64; 2]) -> Result<(), TwinError> {
+        if !D::KIND.has_angle_sensors() {
+            return Err(TwinError {
+                kind: ErrorKind::Other,
+                wire: None,
+            });
+        }
+        let angles = self
+            .plant
+            .params()
+            .device
+            .passive_angles(&self.plant.position_m());
+        for (out, a) in out_rad.iter_mut().zip(angles) {
+            *out = crate::angle_sensors::quantize_angle(a, 0);
+        }
+        Ok(())
+    }
+}
+
+impl<const N: usize, D: WireDevice<N>> EStop for Twin<N, D> {
     fn is_pressed(&mut self) -> Result<bool, TwinError> {
         Ok(self.estop_latched)
     }
@@ -514,7 +536,7 @@ impl EStop for Twin {
     }
 }
 
-impl Clock for Twin {
+impl<const N: usize, D: WireDevice<N>> Clock for Twin<N, D> {
     fn now(&self) -> MonoTime {
         self.sim_time()
     }
@@ -528,8 +550,11 @@ impl Clock for Twin {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use videt_control::Rig3;
 
-    fn twin() -> Twin {
+    const WIRES: usize = 3;
+
+    fn twin() -> Twin<3, Rig3> {
         let start = Vec3::new(0.185, 0.12, 0.30);
         Twin::new(
             PlantParams::paper_default(),

@@ -9,7 +9,8 @@
 
 use std::time::Instant;
 
-use videt_hal::{DriveSample, Lifecycle, MonoTime, TensionSensors, WireDrives, WIRES};
+use videt_control::WireDevice;
+use videt_hal::{DriveSample, Lifecycle, MonoTime, TensionSensors, WireDrives};
 
 use crate::cia402_node::MotorPlant;
 use crate::Twin;
@@ -36,20 +37,20 @@ impl AnalogScale {
 
 /// A [`Twin`] stepped on the wall clock behind simulated drives.
 #[derive(Debug)]
-pub struct RealTimeTwinPlant {
-    twin: Twin,
+pub struct RealTimeTwinPlant<const N: usize, D: WireDevice<N>> {
+    twin: Twin<N, D>,
     origin: Instant,
-    torque_nm: [f64; WIRES],
-    encoders: [DriveSample; WIRES],
-    analog: [i16; WIRES],
-    scale: [AnalogScale; WIRES],
+    torque_nm: [f64; N],
+    encoders: [DriveSample; N],
+    analog: [i16; N],
+    scale: [AnalogScale; N],
     sensor_failed: bool,
 }
 
-impl RealTimeTwinPlant {
+impl<const N: usize, D: WireDevice<N>> RealTimeTwinPlant<N, D> {
     /// Take `twin` (its drives are enabled: the simulated nodes decide which torque is applied),
     /// its time following the wall clock from now on.
-    pub fn new(mut twin: Twin, scale: [AnalogScale; WIRES]) -> RealTimeTwinPlant {
+    pub fn new(mut twin: Twin<N, D>, scale: [AnalogScale; N]) -> RealTimeTwinPlant<N, D> {
         twin.set_clock_mode(crate::ClockMode::External);
         // The twin's own lifecycle stands for the motors' power stages, always on here.
         let _ = twin.configure();
@@ -58,9 +59,9 @@ impl RealTimeTwinPlant {
         let mut plant = RealTimeTwinPlant {
             twin,
             origin: Instant::now(),
-            torque_nm: [0.0; WIRES],
-            encoders: [DriveSample::default(); WIRES],
-            analog: [0; WIRES],
+            torque_nm: [0.0; N],
+            encoders: [DriveSample::default(); N],
+            analog: [0; N],
             scale,
             sensor_failed: false,
         };
@@ -69,12 +70,12 @@ impl RealTimeTwinPlant {
     }
 
     /// The twin.
-    pub fn twin(&self) -> &Twin {
+    pub fn twin(&self) -> &Twin<N, D> {
         &self.twin
     }
 
     /// The twin, mutably (to inject faults).
-    pub fn twin_mut(&mut self) -> &mut Twin {
+    pub fn twin_mut(&mut self) -> &mut Twin<N, D> {
         &mut self.twin
     }
 
@@ -97,9 +98,9 @@ impl RealTimeTwinPlant {
         let now = MonoTime(self.origin.elapsed().as_nanos() as u64);
         self.twin.advance_to(now);
         let _ = self.twin.read_drives(&mut self.encoders);
-        let mut tension = [0.0; WIRES];
+        let mut tension = [0.0; N];
         self.sensor_failed = self.twin.read_tensions(&mut tension).is_err();
-        for i in 0..WIRES {
+        for i in 0..N {
             self.analog[i] = if self.sensor_failed {
                 self.scale[i].counts(0.0)
             } else {
@@ -109,9 +110,9 @@ impl RealTimeTwinPlant {
     }
 }
 
-impl MotorPlant for RealTimeTwinPlant {
+impl<const N: usize, D: WireDevice<N>> MotorPlant for RealTimeTwinPlant<N, D> {
     fn apply_torque(&mut self, axis: usize, torque_nm: f64) {
-        if axis >= WIRES {
+        if axis >= N {
             return;
         }
         self.sample();
@@ -134,11 +135,14 @@ impl MotorPlant for RealTimeTwinPlant {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use videt_control::Rig3;
+
+    const WIRES: usize = 3;
     use crate::{PlantParams, SensorModel, Vec3, VirtualOperator};
 
-    fn twin() -> Twin {
+    fn twin() -> Twin<3, Rig3> {
         let params = PlantParams::paper_default();
-        let g = params.guides_m;
+        let g = *params.device.guides_m();
         let start = (g[0] + g[1] + g[2]) / 3.0 + Vec3::new(0.0, 0.0, 0.3);
         Twin::new(
             params,

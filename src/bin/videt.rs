@@ -32,6 +32,10 @@ enum Command {
     /// Designer's analysis of a rig at a point: index V over force directions, isotropic force
     /// limit, plots (paper section 6).
     Analyze(tool::analyze::AnalyzeArgs),
+    /// The paper's experiments on the twin (Figs. 18, 22, 23: the planar prototype following a
+    /// profile with P1, exploring a surface in region C with a field; the one-wire device
+    /// exploring a contour): runs them, writes the figures and a summary of each.
+    Experiments(tool::experiments::ExperimentsArgs),
     /// The one-wire device's passive angle sensors: magnetic field, raw counts, angles and the
     /// thimble position by eq. 7 (or simulated encoders with --sim X,Y,Z).
     AngleSensors(tool::angle_sensors::AngleSensorsArgs),
@@ -72,6 +76,7 @@ fn main() -> ExitCode {
         Command::Status(a) => tool::status::run(a),
         Command::Analyze(a) => tool::analyze::run(a),
         Command::AngleSensors(a) => tool::angle_sensors::run(a),
+        Command::Experiments(a) => tool::experiments::run(a),
         Command::Colour(a) => tool::colour::run(a),
         Command::Log(a) => tool::log::run(a),
         Command::Replay(a) => tool::replay::run(a),

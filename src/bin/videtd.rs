@@ -23,6 +23,7 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use videt::WIREMAN_WIRES;
 
 use clap::{Parser, ValueEnum};
 use tracing::{error, info, warn};
@@ -276,6 +277,9 @@ fn main() -> ExitCode {
             return ExitCode::from(23);
         }
     };
+    if config.rig.device != "wireman3" {
+        return run_other_device(&config, &args, &mut options);
+    }
     if args.sim == Some(SimMode::Can) && !matches!(args.scene, SimScene::Wall | SimScene::Box) {
         warn!(
             "--scene stereo and camera apply to the HAL twin only: the CAN twin touches the wall"
@@ -640,25 +644,141 @@ fn run_camera_relief_demo(
     )
 }
 
+/// Run a device other than the WireMan: the planar prototype or the one-wire device, on the
+/// HAL twin's wall scene. The CAN twin, the bas-relief scenes, the procedures and the device
+/// mode are the WireMan's: asked for, they are refused with the reason.
+fn run_other_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> ExitCode {
+    let name = config.rig.device.as_str();
+    let Some(sim) = args.sim.filter(|_| args.scene == SimScene::Wall) else {
+        error!(
+            "rig.device = {name:?}: runs on the digital twin's wall scene (--sim or --sim can, \
+             --scene wall); the bas-relief scenes and the device mode drive the three-wire WireMan"
+        );
+        return ExitCode::from(2);
+    };
+    match name {
+        "planar2" => match setup::planar_device(config) {
+            Ok(device) => device_wall_demo(config, device, sim, args.sim_calibration, options),
+            Err(e) => {
+                error!("rig.planar_guides_x_m: {e}");
+                ExitCode::from(2)
+            }
+        },
+        "polar1" => match setup::polar_device(config) {
+            Ok(device) => device_wall_demo(config, device, sim, args.sim_calibration, options),
+            Err(e) => {
+                error!("rig.polar_guide_m: {e}");
+                ExitCode::from(2)
+            }
+        },
+        other => {
+            error!(
+                "rig.device = {other:?}: the service runs the wireman3, planar2 and polar1 devices \
+                 (its session log keeps three wires); the four-wire device runs in the control \
+                 benchmarks and `videt analyze`"
+            );
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// The wall demonstration on the twin of a device other than the WireMan: the twin's geometry
+/// is the configured one (`--sim-calibration config`) or forces are off (`none`);
+/// auto-initialization measures the WireMan's base triangle and is refused here.
+fn device_wall_demo<const N: usize, D>(
+    config: &Config,
+    device: D,
+    sim: SimMode,
+    calibration: SimCalibration,
+    options: &mut ServiceOptions,
+) -> ExitCode
+where
+    D: videt::runtime_device::RuntimeDevice<N>,
+    RealTimeTwin<N, D>: videt::runtime_device::ServiceHardware<N>,
+    CanTwin<N, RealTimeTwin<N, D>>: videt::runtime_device::ServiceHardware<N>,
+{
+    let name = D::KIND.name();
+    let calibrated = match calibration {
+        SimCalibration::Config => true,
+        SimCalibration::None => {
+            warn!("forces will not be rendered (not calibrated): --sim-calibration none");
+            false
+        }
+        SimCalibration::Init => {
+            error!(
+                "--sim-calibration init: auto-initialization measures the WireMan's base \
+                 triangle; the {name} device has none (use --sim-calibration config)"
+            );
+            return ExitCode::from(2);
+        }
+    };
+    let start = setup::demo_start(&device);
+    let scene = setup::demo_scene_for(config, device, start, 1);
+    options.what = format!(
+        "digital twin of the {name} device ({N} wire{}): a virtual wall, a virtual operator \
+         touching it and sliding along it",
+        if N == 1 { "" } else { "s" }
+    );
+    tracing::info!(
+        rate_hz = config.control.rate_hz,
+        wall_z_m = scene.wall_z_m,
+        "{}",
+        options.what
+    );
+    if options.colour.take().is_some() || config.colour.enabled {
+        info!("colour rendering off: the demonstration image is laid over the WireMan's frame");
+    }
+    let cycle = setup::control_cycle_for(
+        config,
+        device,
+        videt::cycle::WireZero::default(),
+        calibrated,
+    );
+    match sim {
+        SimMode::Hal => run_service_with(
+            RealTimeTwin::new(scene.twin),
+            FixedSurface(scene.wall),
+            cycle,
+            options,
+            videt::service::ServiceExtras::default(),
+        ),
+        SimMode::Can => {
+            options.what = format!("{} (drives on a simulated CAN bus)", options.what);
+            match CanTwin::new(
+                scene.twin,
+                can_twin::drive_config::<N>(config),
+                config.drives.bitrate,
+                Some(config.realtime.control_priority),
+                usize::try_from(config.realtime.control_cpu).ok(),
+            ) {
+                Ok(mut hw) => {
+                    let extras = videt::service::ServiceExtras {
+                        fault_causes: Some(videt::hardware::drive_fault_causes(hw.fault_reports())),
+                        ..Default::default()
+                    };
+                    run_service_with(hw, FixedSurface(scene.wall), cycle, options, extras)
+                }
+                Err(e) => {
+                    error!("simulated CAN drives: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+    }
+}
+
 /// Run the service on `hw`, its tension readings corrected by the strain-gauge calibration
 /// beside `calibration_path` when there is one (`videt tension-calibrate` writes it).
 fn run_with_tension_correction<H, F>(
     hw: H,
     feed: F,
-    cycle: videt::cycle::ControlCycle,
+    cycle: videt::WiremanCycle,
     options: &ServiceOptions,
     calibration_path: &std::path::Path,
     extras: videt::service::ServiceExtras,
 ) -> ExitCode
 where
-    H: videt_hal::Lifecycle
-        + videt_hal::WireDrives
-        + videt_hal::TensionSensors
-        + videt_hal::EStop
-        + videt_hal::Clock
-        + videt::init::remote::ProcedureDevice
-        + Send
-        + 'static,
+    H: videt::runtime_device::ServiceHardware<WIREMAN_WIRES> + videt::init::remote::ProcedureDevice,
     F: videt::snapshot::SurfaceFeed + Send + 'static,
 {
     use videt_rt_config::calibration::{CalibrationError, TensionCalibration};
@@ -947,7 +1067,7 @@ fn wall_demo(
     calibration: SimCalibration,
     options: &mut ServiceOptions,
     what: &str,
-) -> (setup::DemoScene, videt::cycle::ControlCycle) {
+) -> (setup::DemoScene, videt::WiremanCycle) {
     let mut scene = setup::demo_scene(config, 1);
     tracing::info!(
         rate_hz = config.control.rate_hz,

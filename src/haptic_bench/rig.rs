@@ -4,13 +4,14 @@
 //! clock (deterministic, faster than real time). The twin's physics is the truth the bench
 //! measures against: the force the wires put on the thimble, where the thimble is.
 
+use crate::WIREMAN_WIRES;
 use std::sync::atomic::AtomicBool;
 
 use videt_control::safety::SafetyState;
 use videt_control::surface::Plane;
 use videt_hal::{
-    Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime, TensionSensors,
-    WireDrives, WIRES,
+    AngleSensors, Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime,
+    TensionSensors, WireDrives,
 };
 use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator};
@@ -37,13 +38,13 @@ pub struct TruthSample {
     /// Largest wire tension, newtons.
     pub max_tension_n: f64,
     /// Every wire's tension, newtons.
-    pub tension_n: [f64; WIRES],
+    pub tension_n: [f64; WIREMAN_WIRES],
     /// Every wire's tension as the control cycle read it this period, newtons.
-    pub measured_tension_n: [f64; WIRES],
+    pub measured_tension_n: [f64; WIREMAN_WIRES],
     /// Every wire's torque command, N·m.
-    pub torque_nm: [f64; WIRES],
+    pub torque_nm: [f64; WIREMAN_WIRES],
     /// Every pulley's speed, rad/s (positive: winding in).
-    pub pulley_speed_rad_s: [f64; WIRES],
+    pub pulley_speed_rad_s: [f64; WIREMAN_WIRES],
 }
 
 /// What one experiment produced.
@@ -93,18 +94,20 @@ pub enum Parts {
 }
 
 /// The twin inside a piece of simulated hardware.
-trait HasTwin: Lifecycle + WireDrives + TensionSensors + EStop + Clock {
-    fn model(&self) -> &videt_sim::Twin;
+trait HasTwin:
+    Lifecycle + WireDrives<WIREMAN_WIRES> + TensionSensors<WIREMAN_WIRES> + EStop + AngleSensors + Clock
+{
+    fn model(&self) -> &crate::WiremanTwin;
 }
 
-impl HasTwin for videt_sim::Twin {
-    fn model(&self) -> &videt_sim::Twin {
+impl HasTwin for crate::WiremanTwin {
+    fn model(&self) -> &crate::WiremanTwin {
         self
     }
 }
 
-impl HasTwin for CanTwin<videt_sim::Twin> {
-    fn model(&self) -> &videt_sim::Twin {
+impl HasTwin for CanTwin<3, crate::WiremanTwin> {
+    fn model(&self) -> &crate::WiremanTwin {
         self.twin()
     }
 }
@@ -153,7 +156,7 @@ pub fn run(experiment: &Experiment) -> Result<Trace, String> {
 fn run_probed<H: HasTwin>(
     hw: H,
     experiment: &Experiment,
-    cycle: &mut crate::cycle::ControlCycle,
+    cycle: &mut crate::WiremanCycle,
     settings: &LoopSettings,
     periods: usize,
 ) -> Result<(crate::control_loop::LoopReport, Vec<TruthSample>), String> {
@@ -161,7 +164,7 @@ fn run_probed<H: HasTwin>(
         hw,
         samples: Vec::with_capacity(periods),
         start: None,
-        measured_n: [0.0; WIRES],
+        measured_n: [0.0; WIREMAN_WIRES],
     };
     start_hardware(&mut probe).map_err(|e| format!("the twin did not start: {e:?}"))?;
     let stop = AtomicBool::new(false);
@@ -182,18 +185,18 @@ struct Probe<H> {
     hw: H,
     samples: Vec<TruthSample>,
     start: Option<MonoTime>,
-    measured_n: [f64; WIRES],
+    measured_n: [f64; WIREMAN_WIRES],
 }
 
 impl<H: HasTwin> Probe<H> {
-    fn sample(&mut self, torque_nm: &[f64; WIRES]) {
+    fn sample(&mut self, torque_nm: &[f64; WIREMAN_WIRES]) {
         let now = self.hw.now();
         let start = *self.start.get_or_insert(now);
         let plant = self.hw.model().plant();
         let position = plant.position_m();
         let tension = plant.tension_n();
         let mut force = Vec3::zeros();
-        for (i, guide) in plant.params().guides_m.iter().enumerate() {
+        for (i, guide) in plant.params().device.guides_m().iter().enumerate() {
             let towards = guide - position;
             let norm = towards.norm();
             if norm > 1e-9 {
@@ -236,36 +239,42 @@ impl<H: HasTwin> Lifecycle for Probe<H> {
     }
 }
 
-impl<H: HasTwin> WireDrives for Probe<H> {
+impl<H: HasTwin> WireDrives<WIREMAN_WIRES> for Probe<H> {
     fn enable(&mut self) -> Result<(), Self::Error> {
         self.hw.enable()
     }
     fn disable(&mut self) -> Result<(), Self::Error> {
         self.hw.disable()
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), Self::Error> {
+    fn read_drives(&mut self, out: &mut [DriveSample; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.hw.read_drives(out)
     }
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), Self::Error> {
+    fn write_torques(&mut self, torque_nm: &[f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         let r = self.hw.write_torques(torque_nm);
         self.sample(torque_nm);
         r
     }
 }
 
-impl<H: HasTwin> TensionSensors for Probe<H> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
+impl<H: HasTwin> TensionSensors<WIREMAN_WIRES> for Probe<H> {
+    fn read_tensions(&mut self, out_n: &mut [f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         let r = self.hw.read_tensions(out_n);
         self.measured_n = *out_n;
         r
     }
     fn read_fresh_tensions(
         &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], Self::Error> {
+        out_n: &mut [f64; WIREMAN_WIRES],
+    ) -> Result<[bool; WIREMAN_WIRES], Self::Error> {
         let r = self.hw.read_fresh_tensions(out_n);
         self.measured_n = *out_n;
         r
+    }
+}
+
+impl<H: HasTwin> AngleSensors for Probe<H> {
+    fn read_angles(&mut self, out_rad: &mut [f64; 2]) -> Result<(), Self::Error> {
+        self.hw.read_angles(out_rad)
     }
 }
 

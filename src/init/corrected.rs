@@ -1,9 +1,10 @@
 //! A device whose tension readings are corrected by the strain gauges' two-point calibration
 //! (`videt tension-calibrate`): every other capability is passed through unchanged.
 
+use crate::WIREMAN_WIRES;
 use videt_hal::{
     Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime, TensionSensors,
-    WireDrives, WIRES,
+    WireDrives,
 };
 use videt_rt_config::calibration::TensionCalibration;
 
@@ -33,14 +34,14 @@ impl<H: ErrorType> ErrorType for CorrectedTensions<H> {
     type Error = H::Error;
 }
 
-impl<H: TensionSensors> TensionSensors for CorrectedTensions<H> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
+impl<H: TensionSensors<WIREMAN_WIRES>> TensionSensors<WIREMAN_WIRES> for CorrectedTensions<H> {
+    fn read_tensions(&mut self, out_n: &mut [f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.read_fresh_tensions(out_n).map(|_| ())
     }
     fn read_fresh_tensions(
         &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], Self::Error> {
+        out_n: &mut [f64; WIREMAN_WIRES],
+    ) -> Result<[bool; WIREMAN_WIRES], Self::Error> {
         let fresh = self.inner.read_fresh_tensions(out_n)?;
         for (i, t) in out_n.iter_mut().enumerate() {
             *t = self.correction.correct(i, *t);
@@ -49,17 +50,17 @@ impl<H: TensionSensors> TensionSensors for CorrectedTensions<H> {
     }
 }
 
-impl<H: WireDrives> WireDrives for CorrectedTensions<H> {
+impl<H: WireDrives<WIREMAN_WIRES>> WireDrives<WIREMAN_WIRES> for CorrectedTensions<H> {
     fn enable(&mut self) -> Result<(), Self::Error> {
         self.inner.enable()
     }
     fn disable(&mut self) -> Result<(), Self::Error> {
         self.inner.disable()
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), Self::Error> {
+    fn read_drives(&mut self, out: &mut [DriveSample; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.inner.read_drives(out)
     }
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), Self::Error> {
+    fn write_torques(&mut self, torque_nm: &[f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.inner.write_torques(torque_nm)
     }
 }
@@ -76,6 +77,12 @@ impl<H: Lifecycle> Lifecycle for CorrectedTensions<H> {
     }
     fn lifecycle_state(&self) -> LifecycleState {
         self.inner.lifecycle_state()
+    }
+}
+
+impl<H: videt_hal::AngleSensors> videt_hal::AngleSensors for CorrectedTensions<H> {
+    fn read_angles(&mut self, out_rad: &mut [f64; 2]) -> Result<(), Self::Error> {
+        self.inner_mut().read_angles(out_rad)
     }
 }
 
@@ -100,7 +107,8 @@ impl<H: Clock> Clock for CorrectedTensions<H> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use videt_sim::{PlantParams, SensorModel, Twin, Vec3, VirtualOperator};
+    use crate::WiremanTwin as Twin;
+    use videt_sim::{PlantParams, SensorModel, Vec3, VirtualOperator};
 
     #[test]
     fn readings_are_corrected_by_offset_and_gain() {
@@ -116,7 +124,7 @@ mod tests {
             sensors.clone(),
         );
         let mut c = TensionCalibration::default();
-        for i in 0..WIRES {
+        for i in 0..WIREMAN_WIRES {
             c.offset_n[i] = sensors.offset_n[i];
             c.gain[i] = 1.0 / (1.0 + sensors.gain_error[i]);
         }
@@ -127,10 +135,10 @@ mod tests {
             sensors,
         );
         let mut corrected = CorrectedTensions::new(twin, c);
-        let (mut a, mut b) = ([0.0; WIRES], [0.0; WIRES]);
+        let (mut a, mut b) = ([0.0; WIREMAN_WIRES], [0.0; WIREMAN_WIRES]);
         raw.read_tensions(&mut a).unwrap();
         corrected.read_tensions(&mut b).unwrap();
-        for i in 0..WIRES {
+        for i in 0..WIREMAN_WIRES {
             // The plant is at rest with zero tension: the raw reading is the offset alone.
             assert!((a[i] - raw_offset(i)).abs() < 1e-12);
             assert!(b[i].abs() < 1e-12, "wire {i}: {}", b[i]);
@@ -138,6 +146,6 @@ mod tests {
     }
 
     fn raw_offset(i: usize) -> f64 {
-        SensorModel::default().offset_n[i]
+        SensorModel::<WIREMAN_WIRES>::default().offset_n[i]
     }
 }

@@ -3,6 +3,7 @@
 //! minimum tension (`NotCalibrated`) and no force is rendered — and, for the twin, an
 //! auto-initialization at start-up.
 
+use crate::WiremanTwin as Twin;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -10,7 +11,7 @@ use videt_control::Rig3;
 use videt_hal::{Lifecycle, WireDrives};
 use videt_rt_config::calibration::Calibration;
 use videt_rt_config::Config;
-use videt_sim::{Twin, VirtualOperator, WireModules};
+use videt_sim::{VirtualOperator, WireModules};
 
 use super::runner::Runner;
 use super::session::{self, run_settings, FlowContext, InitError, InitOutcome};
@@ -92,7 +93,7 @@ pub fn initialize_twin(
     seed: u64,
     stop: &AtomicBool,
 ) -> Result<InitOutcome, InitError> {
-    let guides = twin.plant().params().guides_m;
+    let guides = *twin.plant().params().device.guides_m();
     let setup = TwinSetup {
         guides_m: guides,
         ..TwinSetup::from_config(config, seed)

@@ -3,13 +3,13 @@
 //! few atomics (client → control thread), made once when the service starts; and the one
 //! procedure slot a client takes ([`ProcedurePort::begin`]).
 
+use crate::WIREMAN_WIRES;
 use std::cell::RefCell;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 
 use videt_control::autoinit::Stage;
-use videt_hal::WIRES;
 use videt_rt_config::Config;
 
 use super::session::{InitError, Measurement, Request};
@@ -113,18 +113,18 @@ pub enum ProcedureEvent {
         /// The stage.
         stage: Stage,
         /// Encoder counts.
-        counts: [i64; WIRES],
+        counts: [i64; WIREMAN_WIRES],
         /// Measured tensions, N.
-        tension_n: [f64; WIRES],
+        tension_n: [f64; WIREMAN_WIRES],
     },
     /// Readings, a few times a second.
     Progress {
         /// Seconds since the procedure started.
         elapsed_s: f64,
         /// Wire paid out since the procedure started, metres.
-        travel_m: [f64; WIRES],
+        travel_m: [f64; WIREMAN_WIRES],
         /// Measured tensions, N.
-        tension_n: [f64; WIRES],
+        tension_n: [f64; WIREMAN_WIRES],
     },
     /// A message (stage descriptions, results), as the tool prints them.
     Message(Text),

@@ -17,6 +17,8 @@
 //! The procedure mode is not the rendering cycle: it allocates at stage changes and at its end
 //! (messages, the calibration record), as the tool's direct run does, never per period.
 
+use crate::WiremanTwin as Twin;
+use crate::WIREMAN_WIRES;
 use std::cell::RefCell;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -24,11 +26,9 @@ use std::sync::Arc;
 use videt_control::autoinit::{Failure, Stage};
 use videt_control::safety::SafetyState;
 use videt_control::Rig3;
-use videt_hal::{
-    Clock, DriveSample, EStop, ErrorType, MonoTime, TensionSensors, WireDrives, WIRES,
-};
+use videt_hal::{Clock, DriveSample, EStop, ErrorType, MonoTime, TensionSensors, WireDrives};
 use videt_rt_config::Config;
-use videt_sim::{Twin, VirtualOperator, WireModules};
+use videt_sim::{VirtualOperator, WireModules};
 
 use super::corrected::CorrectedTensions;
 use super::runner::{InitHardware, Readings, Runner};
@@ -76,7 +76,7 @@ impl ProcedureDevice for Twin {
     }
 }
 
-impl ProcedureDevice for RealTimeTwin {
+impl ProcedureDevice for RealTimeTwin<3, videt_control::Rig3> {
     fn twin_mut(&mut self) -> Option<&mut Twin> {
         Some(RealTimeTwin::twin_mut(self))
     }
@@ -91,7 +91,7 @@ impl<H: ProcedureDevice> ProcedureDevice for CorrectedTensions<H> {
     }
 }
 
-impl<T: TwinDevice> ProcedureDevice for CanTwin<T> {
+impl<T: TwinDevice<3, Device = videt_control::Rig3>> ProcedureDevice for CanTwin<3, T> {
     fn twin_mut(&mut self) -> Option<&mut Twin> {
         Some(CanTwin::twin_mut(self))
     }
@@ -102,7 +102,7 @@ impl<T: TwinDevice> ProcedureDevice for CanTwin<T> {
 
 /// What the twin looked like before the procedure took it (restored afterwards).
 struct TwinScene {
-    modules: WireModules,
+    modules: WireModules<WIREMAN_WIRES>,
     operator: VirtualOperator,
     position_m: videt_sim::Vec3,
 }
@@ -143,16 +143,16 @@ struct Observed<'a, H, O: ?Sized> {
     window_start: MonoTime,
     window_cycles: u64,
     started: MonoTime,
-    start_counts: Option<[i64; WIRES]>,
-    counts: [i64; WIRES],
+    start_counts: Option<[i64; WIREMAN_WIRES]>,
+    counts: [i64; WIREMAN_WIRES],
     wire_zero: WireZero,
     metres_per_count: f64,
     progress_every: u64,
 }
 
 impl<H: ProcedureDevice, O: CycleObserver + ?Sized> Observed<'_, H, O> {
-    fn travel_m(&self) -> [f64; WIRES] {
-        let start = self.start_counts.unwrap_or([0; WIRES]);
+    fn travel_m(&self) -> [f64; WIREMAN_WIRES] {
+        let start = self.start_counts.unwrap_or([0; WIREMAN_WIRES]);
         core::array::from_fn(|i| (start[i] - self.counts[i]) as f64 * self.metres_per_count)
     }
 }
@@ -161,16 +161,18 @@ impl<H: ErrorType, O: ?Sized> ErrorType for Observed<'_, H, O> {
     type Error = H::Error;
 }
 
-impl<H: ProcedureDevice, O: CycleObserver + ?Sized> WireDrives for Observed<'_, H, O> {
+impl<H: ProcedureDevice, O: CycleObserver + ?Sized> WireDrives<WIREMAN_WIRES>
+    for Observed<'_, H, O>
+{
     fn enable(&mut self) -> Result<(), Self::Error> {
         self.hw.enable()
     }
     fn disable(&mut self) -> Result<(), Self::Error> {
         self.hw.disable()
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), Self::Error> {
+    fn read_drives(&mut self, out: &mut [DriveSample; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         let r = self.hw.read_drives(out);
-        let counts: [i64; WIRES] = core::array::from_fn(|i| out[i].position_counts);
+        let counts: [i64; WIREMAN_WIRES] = core::array::from_fn(|i| out[i].position_counts);
         if self.start_counts.is_none() {
             self.start_counts = Some(counts);
         }
@@ -181,7 +183,7 @@ impl<H: ProcedureDevice, O: CycleObserver + ?Sized> WireDrives for Observed<'_, 
         }
         r
     }
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), Self::Error> {
+    fn write_torques(&mut self, torque_nm: &[f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         let r = self.hw.write_torques(torque_nm);
         let now = self.hw.now();
         self.record.time = now;
@@ -207,14 +209,16 @@ impl<H: ProcedureDevice, O: CycleObserver + ?Sized> WireDrives for Observed<'_, 
     }
 }
 
-impl<H: ProcedureDevice, O: CycleObserver + ?Sized> TensionSensors for Observed<'_, H, O> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), Self::Error> {
+impl<H: ProcedureDevice, O: CycleObserver + ?Sized> TensionSensors<WIREMAN_WIRES>
+    for Observed<'_, H, O>
+{
+    fn read_tensions(&mut self, out_n: &mut [f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
         self.read_fresh_tensions(out_n).map(|_| ())
     }
     fn read_fresh_tensions(
         &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], Self::Error> {
+        out_n: &mut [f64; WIREMAN_WIRES],
+    ) -> Result<[bool; WIREMAN_WIRES], Self::Error> {
         let r = self.hw.read_fresh_tensions(out_n);
         self.record.tension_measured_n = *out_n;
         r
@@ -400,7 +404,7 @@ where
         window_cycles: 0,
         started: now,
         start_counts: None,
-        counts: [0; WIRES],
+        counts: [0; WIREMAN_WIRES],
         wire_zero,
         metres_per_count: runner.settings().transmission.metres_per_count(),
         progress_every: u64::from((rate_hz / PROGRESS_HZ).max(1)),
@@ -468,7 +472,7 @@ fn deliver<H: ProcedureDevice>(
 ) -> bool {
     let mut pending = event;
     let limit = 5 * u64::from(runner.settings().rate_hz.max(1));
-    let hold = [runner.settings().pay_out_tension_n; WIRES];
+    let hold = [runner.settings().pay_out_tension_n; WIREMAN_WIRES];
     for _ in 0..limit {
         match events.borrow_mut().push(pending) {
             Ok(()) => return true,
@@ -487,7 +491,7 @@ fn wait_until_saved<H: ProcedureDevice>(
     control: &ProcedureControl,
 ) -> bool {
     let limit = (SAVE_WAIT_S * f64::from(runner.settings().rate_hz.max(1))) as u64;
-    let hold = [runner.settings().pay_out_tension_n; WIRES];
+    let hold = [runner.settings().pay_out_tension_n; WIREMAN_WIRES];
     let mut disabled = false;
     for period in 0.. {
         let state = control.saved.load(Ordering::Acquire);

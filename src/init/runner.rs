@@ -5,18 +5,24 @@
 //!
 //! The loop body allocates nothing; the progress callback is called on stage changes only.
 
+use crate::WIREMAN_WIRES;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use videt_control::autoinit::{Failure, Procedure, ProcedureInput, Stage, Status};
 use videt_hal::{
     Clock, DriveSample, DriveState, EStop, MonoTime, TensionSensors, Transmission, WireDrives,
-    WIRES,
 };
 use videt_rt_config::calibration::TensionCalibration;
 
 /// The device capabilities the procedure needs.
-pub trait InitHardware: WireDrives + TensionSensors + EStop + Clock {}
-impl<T: WireDrives + TensionSensors + EStop + Clock> InitHardware for T {}
+pub trait InitHardware:
+    WireDrives<WIREMAN_WIRES> + TensionSensors<WIREMAN_WIRES> + EStop + Clock
+{
+}
+impl<T: WireDrives<WIREMAN_WIRES> + TensionSensors<WIREMAN_WIRES> + EStop + Clock> InitHardware
+    for T
+{
+}
 
 /// How the procedure is run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,9 +44,9 @@ pub struct RunSettings {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Readings {
     /// Drive samples.
-    pub drives: [DriveSample; WIRES],
+    pub drives: [DriveSample; WIREMAN_WIRES],
     /// Measured tensions, N.
-    pub tension_n: [f64; WIRES],
+    pub tension_n: [f64; WIREMAN_WIRES],
     /// The procedure's view of them.
     pub input: ProcedureInput,
 }
@@ -51,9 +57,9 @@ pub struct Runner {
     settings: RunSettings,
     next: MonoTime,
     started: bool,
-    torque_nm: [f64; WIRES],
+    torque_nm: [f64; WIREMAN_WIRES],
     readings: Readings,
-    lowest_counts: [i64; WIRES],
+    lowest_counts: [i64; WIREMAN_WIRES],
     tension_correction: Option<TensionCalibration>,
 }
 
@@ -64,9 +70,9 @@ impl Runner {
             settings,
             next: MonoTime(0),
             started: false,
-            torque_nm: [0.0; WIRES],
+            torque_nm: [0.0; WIREMAN_WIRES],
             readings: Readings::default(),
-            lowest_counts: [i64::MAX; WIRES],
+            lowest_counts: [i64::MAX; WIREMAN_WIRES],
             tension_correction: None,
         }
     }
@@ -89,7 +95,7 @@ impl Runner {
 
     /// The lowest count each encoder read since [`Self::reset_lowest_counts`]: how far each wire
     /// was paid out.
-    pub fn lowest_counts(&self) -> [i64; WIRES] {
+    pub fn lowest_counts(&self) -> [i64; WIREMAN_WIRES] {
         self.lowest_counts
     }
 
@@ -124,7 +130,7 @@ impl Runner {
         }
         let sensor_fault = hw.read_tensions(&mut r.tension_n).is_err();
         if let Some(c) = &self.tension_correction {
-            for i in 0..WIRES {
+            for i in 0..WIREMAN_WIRES {
                 r.tension_n[i] = c.correct(i, r.tension_n[i]);
             }
         }
@@ -140,7 +146,7 @@ impl Runner {
             drive_fault,
             sensor_fault,
         };
-        for i in 0..WIRES {
+        for i in 0..WIREMAN_WIRES {
             self.lowest_counts[i] = self.lowest_counts[i].min(r.input.counts[i]);
         }
     }
@@ -150,14 +156,14 @@ impl Runner {
     fn write<H: InitHardware>(
         &mut self,
         hw: &mut H,
-        setpoint_n: &[f64; WIRES],
+        setpoint_n: &[f64; WIREMAN_WIRES],
         released: Option<usize>,
     ) -> bool {
         let tr = self.settings.transmission;
-        for i in 0..WIRES {
+        for i in 0..WIREMAN_WIRES {
             self.torque_nm[i] = tr.torque_for_tension(setpoint_n[i]);
         }
-        if let Some(w) = released.filter(|w| *w < WIRES) {
+        if let Some(w) = released.filter(|w| *w < WIREMAN_WIRES) {
             self.torque_nm[w] = 0.0;
         }
         hw.write_torques(&self.torque_nm).is_ok()
@@ -168,7 +174,7 @@ impl Runner {
     pub fn period<H: InitHardware>(
         &mut self,
         hw: &mut H,
-        force_n: &[f64; WIRES],
+        force_n: &[f64; WIREMAN_WIRES],
         released: Option<usize>,
     ) -> (Readings, bool) {
         self.read(hw);
@@ -186,7 +192,7 @@ impl Runner {
         stop: &AtomicBool,
         progress: &mut dyn FnMut(Stage, &Readings),
     ) -> Status {
-        let mut setpoint = [self.settings.pay_out_tension_n; WIRES];
+        let mut setpoint = [self.settings.pay_out_tension_n; WIREMAN_WIRES];
         let mut stage = None;
         let status = loop {
             self.read(hw);
@@ -231,9 +237,9 @@ impl Runner {
 
     /// The pay-out force on every wire, lowered on a wire winding faster than half the governor
     /// speed (to zero at the governor speed).
-    fn governed_hold(&self) -> [f64; WIRES] {
+    fn governed_hold(&self) -> [f64; WIREMAN_WIRES] {
         let v = self.settings.governor_speed_m_s.max(1e-3);
-        let mut hold = [self.settings.pay_out_tension_n; WIRES];
+        let mut hold = [self.settings.pay_out_tension_n; WIREMAN_WIRES];
         for (i, f) in hold.iter_mut().enumerate() {
             let excess = (self.readings.input.wind_speed_m_s[i] - 0.5 * v) / (0.5 * v);
             if excess > 0.0 {

@@ -4,13 +4,14 @@
 //! Nothing here writes the calibration: a flow returns the new [`Calibration`] and the caller
 //! saves it, so every failure leaves the previous calibration untouched.
 
+use crate::WIREMAN_WIRES;
 use std::sync::atomic::AtomicBool;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use videt_control::autoinit::{
     workspace, BaseTriangle, Failure, Plan, Procedure, Stage, Status, Workspace,
 };
-use videt_hal::{Lifecycle, WIRES};
+use videt_hal::Lifecycle;
 use videt_rt_config::calibration::{utc_timestamp, Calibration, WorkspaceRecord, FORMAT_VERSION};
 use videt_rt_config::Config;
 
@@ -181,7 +182,7 @@ pub struct InitOutcome {
     /// The measured triangle.
     pub triangle: BaseTriangle,
     /// Encoder counts at free length zero.
-    pub zero_counts: [i64; WIRES],
+    pub zero_counts: [i64; WIREMAN_WIRES],
     /// The workspace.
     pub workspace: Workspace,
     /// The calibration to save.
@@ -250,14 +251,14 @@ pub struct Measurement {
     /// The measured triangle.
     pub triangle: BaseTriangle,
     /// Encoder counts at free length zero.
-    pub zero_counts: [i64; WIRES],
+    pub zero_counts: [i64; WIREMAN_WIRES],
     /// Encoder resolution the counts were taken with, metres per count.
     pub metres_per_count: f64,
 }
 
 impl Measurement {
     /// Wire length at encoder count zero, metres (the control cycle's encoder zeros).
-    pub fn length_at_zero_m(&self) -> [f64; WIRES] {
+    pub fn length_at_zero_m(&self) -> [f64; WIREMAN_WIRES] {
         videt_rt_config::calibration::length_at_zero_m(&self.zero_counts, self.metres_per_count)
     }
 }
@@ -356,13 +357,13 @@ pub fn replace_wire_measure<H: InitHardware, T: Technician<H>>(
     required_length_m: f64,
 ) -> Result<Measurement, InitError> {
     let (config, stop) = (ctx.config, ctx.stop);
-    if wire >= WIRES {
+    if wire >= WIREMAN_WIRES {
         return Err(InitError::NoSuchWire(wire));
     }
     tech.inform(&format!("wire {wire} released: it turns freely"));
     tech.perform(Request::FitNewWire { wire }, hw, runner, stop)
         .map_err(InitError::Procedure)?;
-    let mut wires = [false; WIRES];
+    let mut wires = [false; WIREMAN_WIRES];
     wires[wire] = true;
     let homing = run_plan(hw, tech, runner, config, Plan::Home { wires }, stop)?;
     let zero = homing.homed_zero_counts()[wire];

@@ -4,10 +4,10 @@
 //! manual steps take the time a person takes: the motors hold the wires meanwhile, and the
 //! weight is caught as soon as it pulls.
 
+use crate::WIREMAN_WIRES;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use videt_control::autoinit::Failure;
-use videt_hal::WIRES;
 
 use super::runner::{InitHardware, Runner};
 
@@ -118,7 +118,7 @@ fn hold_wire<H: InitHardware>(
     let (mut sum, mut periods) = (0.0, 0u32);
     let (mut reading, mut wind_speed) = (0.0, 0.0);
     loop {
-        let mut f = [pay_out; WIRES];
+        let mut f = [pay_out; WIREMAN_WIRES];
         f[wire] = force(reading, wind_speed);
         let (r, ok) = runner.period(hw, &f, released.then_some(wire));
         if r.input.estop_pressed {
@@ -156,7 +156,7 @@ fn weight_hold(load_n: f64, wind_speed_m_s: f64) -> f64 {
 
 /// Check the wire and the weight before any motor moves.
 pub fn check_arguments(wire: usize, mass_kg: f64) -> Result<(), TensionCalibrationError> {
-    if wire >= WIRES {
+    if wire >= WIREMAN_WIRES {
         return Err(TensionCalibrationError::Usage(format!(
             "wire {wire} does not exist: wires are 0, 1, 2"
         )));

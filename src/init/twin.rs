@@ -5,14 +5,15 @@
 //! strain gauges with their offset, gain error and noise. The technician connects the wires to
 //! an empty thimble (no hand on it, only a light drag), fits new yarns and pulls them out.
 
+use crate::WiremanTwin as Twin;
+use crate::WIREMAN_WIRES;
 use std::sync::atomic::AtomicBool;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use videt_control::autoinit::Failure;
-use videt_hal::WIRES;
 use videt_rt_config::Config;
-use videt_sim::{PlantParams, SensorModel, Twin, TwinFault, Vec3, VirtualOperator, WireModules};
+use videt_sim::{PlantParams, SensorModel, TwinFault, Vec3, VirtualOperator, WireModules};
 
 use super::runner::Runner;
 use super::session::{Request, Technician};
@@ -22,11 +23,11 @@ use crate::setup;
 #[derive(Debug, Clone, PartialEq)]
 pub struct TwinSetup {
     /// True guide points, metres (`z = 0`).
-    pub guides_m: [Vec3; WIRES],
+    pub guides_m: [Vec3; WIREMAN_WIRES],
     /// Seed of the encoder offsets, the sensor noise and where the technician puts the thimble.
     pub seed: u64,
     /// Sensor model (noise on by default).
-    pub sensors: SensorModel,
+    pub sensors: SensorModel<WIREMAN_WIRES>,
     /// Usable length of a newly fitted yarn, metres.
     pub new_wire_length_m: f64,
     /// Faults to rehearse.
@@ -50,7 +51,7 @@ pub fn parse_fault(text: &str, transmission: &videt_hal::Transmission) -> Result
     let wire = |s: &str| {
         s.parse::<usize>()
             .ok()
-            .filter(|w| *w < WIRES)
+            .filter(|w| *w < WIREMAN_WIRES)
             .ok_or_else(|| format!("--sim-fault {text:?}: wire {s:?} must be 0, 1 or 2"))
     };
     let secs = |s: &str| {
@@ -102,15 +103,15 @@ impl TwinSetup {
 }
 
 /// Parse `--sim-guides "X,Y;X,Y;X,Y"` (metres).
-pub fn parse_guides(text: &str) -> Result<[Vec3; WIRES], String> {
+pub fn parse_guides(text: &str) -> Result<[Vec3; WIREMAN_WIRES], String> {
     let points: Vec<&str> = text.split(';').map(str::trim).collect();
-    if points.len() != WIRES {
+    if points.len() != WIREMAN_WIRES {
         return Err(format!(
             "--sim-guides {text:?}: needs three points \"X,Y;X,Y;X,Y\" (metres), found {}",
             points.len()
         ));
     }
-    let mut out = [Vec3::zeros(); WIRES];
+    let mut out = [Vec3::zeros(); WIREMAN_WIRES];
     for (i, p) in points.iter().enumerate() {
         let xy: Vec<&str> = p.split(',').map(str::trim).collect();
         let parse = |s: &str| {
@@ -137,7 +138,8 @@ pub fn parse_guides(text: &str) -> Result<[Vec3; WIRES], String> {
 /// The twin at rest for `setup`, with the configured transmission.
 pub fn rest_twin(config: &Config, setup: &TwinSetup) -> Twin {
     let mut params = PlantParams::paper_default();
-    params.guides_m = setup.guides_m;
+    // The frame as built, even a degenerate one (the procedure must find that out).
+    params.device = videt_control::Rig3::unchecked(setup.guides_m);
     params.transmission = setup::transmission(config);
     // An empty thimble: the terminal element and the three end spheres.
     params.thimble_mass_kg = 0.03;
@@ -195,8 +197,9 @@ impl SimTechnician {
         match request {
             Request::ConnectWires => {
                 // Somewhere in front of the frame, within the triangle's shadow.
-                let g = hw.plant().params().guides_m;
-                let w: [f64; WIRES] = core::array::from_fn(|_| self.rng.random_range(0.2..1.0));
+                let g = *hw.plant().params().device.guides_m();
+                let w: [f64; WIREMAN_WIRES] =
+                    core::array::from_fn(|_| self.rng.random_range(0.2..1.0));
                 let sum: f64 = w.iter().sum();
                 let mut p = (g[0] * w[0] + g[1] * w[1] + g[2] * w[2]) / sum;
                 p.z = self.rng.random_range(0.15..0.35);

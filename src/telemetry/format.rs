@@ -2,10 +2,12 @@
 //! the same 256 bytes as in version 1, and its inputs), and the framing of version 2.
 
 use videt_control::safety::{SafetyReason, SafetyState};
-use videt_hal::{DriveSample, DriveState, MonoTime, WIRES};
+use videt_hal::{DriveSample, DriveState, MonoTime};
 
 use super::session::CalibrationInForce;
-use crate::cycle::{CycleInputs, CycleOp, CycleOps, CycleRecord, EStopReading, TorqueWrite};
+use crate::cycle::{
+    CycleInputs, CycleOp, CycleOps, CycleRecord, EStopReading, TorqueWrite, LOG_WIRE_SLOTS,
+};
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"VIDETLOG";
@@ -254,7 +256,8 @@ pub fn encode_period(r: &CycleRecord, b: &mut [u8; PERIOD_BYTES]) {
         | u8::from(i.drives_read_ok) << 2
         | u8::from(i.tensions_read_ok) << 3
         | u8::from(i.surface_live) << 4
-        | u8::from(i.ops.overflowed()) << 5;
+        | u8::from(i.ops.overflowed()) << 5
+        | u8::from(i.angles_read_ok) << 6;
     inp[1] = match i.estop {
         EStopReading::Released => 0,
         EStopReading::Pressed => 1,
@@ -266,7 +269,7 @@ pub fn encode_period(r: &CycleRecord, b: &mut [u8; PERIOD_BYTES]) {
         TorqueWrite::Failed => 2,
     };
     inp[3] = i.ops.as_slice().len() as u8;
-    inp[4] = (0..WIRES).fold(0, |bits, w| bits | u8::from(i.tensions_fresh[w]) << w);
+    inp[4] = (0..LOG_WIRE_SLOTS).fold(0, |bits, w| bits | u8::from(i.tensions_fresh[w]) << w);
     for (w, d) in i.drives.iter().enumerate() {
         let at = 8 + 24 * w;
         inp[at..at + 8].copy_from_slice(&d.position_counts.to_le_bytes());
@@ -283,28 +286,34 @@ pub fn encode_period(r: &CycleRecord, b: &mut [u8; PERIOD_BYTES]) {
     // 0 = none (and in logs written before the field existed).
     let age = i.surface_frame_age_ns.map_or(0, |ns| ns.max(1));
     inp[FRAME_AGE_AT..FRAME_AGE_AT + 8].copy_from_slice(&age.to_le_bytes());
+    for (k, a) in i.angles_rad.iter().enumerate() {
+        inp[ANGLES_AT + 8 * k..ANGLES_AT + 8 * k + 8].copy_from_slice(&a.to_le_bytes());
+    }
 }
 
 /// Where a period's inputs keep the surface's frame age.
 const FRAME_AGE_AT: usize = 136;
+/// Where a period's inputs keep the passive angles (azimuth, elevation; zero on devices
+/// without angle sensors, and in logs written before the field existed).
+const ANGLES_AT: usize = 144;
 
 /// Decode a period encoded by [`encode_period`]; undefined codes are an error.
 pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
     let (out, inp) = b.split_at(RECORD_BYTES);
     let mut r = decode_record(out.try_into().expect("record bytes"));
     let flags = inp[0];
-    if flags >> 6 != 0
+    if flags >> 7 != 0
         || inp[1] > 2
         || inp[2] > 2
         || usize::from(inp[3]) > CycleOps::CAPACITY
-        || inp[4] >> WIRES != 0
+        || inp[4] >> LOG_WIRE_SLOTS != 0
     {
         return Err(format!(
             "undefined input codes (flags {flags:#04x}, e-stop {}, torque write {}, operations {})",
             inp[1], inp[2], inp[3]
         ));
     }
-    let mut drives = [DriveSample::default(); WIRES];
+    let mut drives = [DriveSample::default(); LOG_WIRE_SLOTS];
     for (w, d) in drives.iter_mut().enumerate() {
         let at = 8 + 24 * w;
         d.position_counts = i64::from_le_bytes(inp[at..at + 8].try_into().expect("8"));
@@ -354,6 +363,14 @@ pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
             0 => None,
             ns => Some(ns),
         },
+        angles_read_ok: flags & 64 != 0,
+        angles_rad: core::array::from_fn(|k| {
+            f64::from_le_bytes(
+                inp[ANGLES_AT + 8 * k..ANGLES_AT + 8 * k + 8]
+                    .try_into()
+                    .expect("8"),
+            )
+        }),
         ops,
     };
     Ok(r)
@@ -454,6 +471,8 @@ pub(crate) mod tests {
                 torque_write: TorqueWrite::Failed,
                 surface_live: true,
                 surface_frame_age_ns: Some(7_250_000),
+                angles_read_ok: true,
+                angles_rad: [0.25, -1.5],
                 ops,
             },
         }

@@ -7,12 +7,12 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use serde::{Deserialize, Serialize};
 use videt_control::surface::Plane;
-use videt_control::{Rig3, Vec3};
-use videt_hal::WIRES;
+use videt_control::Vec3;
 use videt_rt_config::Config;
 use videt_vision::surface::ReliefModel;
 
-use crate::cycle::{ControlCycle, WireZero};
+use crate::cycle::{ControlCycle, WireZero, LOG_WIRE_SLOTS};
+use crate::runtime_device::RuntimeDevice;
 
 /// The session frame: who recorded the log, what ran, and the configuration in force.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -52,31 +52,30 @@ impl SessionInfo {
 /// re-initialization through the control socket replaces it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CalibrationInForce {
-    /// Guide points, metres.
-    pub guides_m: [[f64; 3]; WIRES],
+    /// Guide points, metres, one per wire of the device (the remaining slots zero).
+    pub guides_m: [[f64; 3]; LOG_WIRE_SLOTS],
     /// Wire length at encoder count zero, metres.
-    pub length_at_zero_m: [f64; WIRES],
+    pub length_at_zero_m: [f64; LOG_WIRE_SLOTS],
     /// Forces are rendered (the rig was calibrated).
     pub calibrated: bool,
 }
 
 impl CalibrationInForce {
     /// The calibration `cycle` computes with.
-    pub fn of(cycle: &ControlCycle) -> CalibrationInForce {
-        let g = cycle.rig().guides_m();
+    pub fn of<const N: usize, D: RuntimeDevice<N>>(
+        cycle: &ControlCycle<N, D>,
+    ) -> CalibrationInForce {
         CalibrationInForce {
-            guides_m: core::array::from_fn(|i| [g[i].x, g[i].y, g[i].z]),
+            guides_m: cycle.rig().logged_guides_m(),
             length_at_zero_m: cycle.wire_zero().length_at_zero_m,
             calibrated: cycle.calibrated(),
         }
     }
 
-    /// The rig geometry and encoder zeros to build a cycle with.
-    pub fn rig(&self) -> Result<(Rig3, WireZero), String> {
-        let rig = Rig3::new(self.guides_m.map(|g| Vec3::new(g[0], g[1], g[2])))
-            .map_err(|e| format!("recorded rig geometry: {e}"))?;
+    /// The device geometry and encoder zeros to build a cycle with.
+    pub fn device<const N: usize, D: RuntimeDevice<N>>(&self) -> Result<(D, WireZero), String> {
         Ok((
-            rig,
+            D::from_logged_guides(&self.guides_m)?,
             WireZero {
                 length_at_zero_m: self.length_at_zero_m,
             },

@@ -9,6 +9,7 @@ pub mod calibrate_stereo;
 pub mod colour;
 pub mod config;
 pub mod device;
+pub mod experiments;
 pub mod init;
 pub mod log;
 pub mod log_plots;

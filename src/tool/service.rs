@@ -46,13 +46,16 @@ pub fn run(args: &ServiceArgs) -> ToolResult {
             if s.power_off { " (drives off)" } else { "" }
         );
         println!(
-            "thimble ({:+.4}, {:+.4}, {:+.4}) m; tensions {:.2} {:.2} {:.2} N; {}",
+            "thimble ({:+.4}, {:+.4}, {:+.4}) m; {} tensions {} N; {}",
             s.position_m[0],
             s.position_m[1],
             s.position_m[2],
-            s.tensions_n[0],
-            s.tensions_n[1],
-            s.tensions_n[2],
+            s.device,
+            s.tensions_n
+                .iter()
+                .map(|t| format!("{t:.2}"))
+                .collect::<Vec<_>>()
+                .join(" "),
             if s.in_contact {
                 format!("in contact, {:.2} N", s.force_n)
             } else {

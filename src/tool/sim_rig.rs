@@ -10,6 +10,7 @@
 //! wire 0's drive (it sends an EMCY and goes to its fault state), SIGUSR2 removes the cause
 //! (a fault reset from the host then clears it).
 
+use crate::WIREMAN_WIRES;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -18,7 +19,6 @@ use std::time::Duration;
 
 use clap::Args;
 use videt_control::autoinit::BaseTriangle;
-use videt_hal::WIRES;
 use videt_rt_config::Config;
 use videt_sim::cia402_node::{MotorPlant, SharedMotors, SimDriveBank, SimDriveSpec};
 use videt_sim::twin_plant::{AnalogScale, RealTimeTwinPlant};
@@ -64,7 +64,7 @@ pub fn true_calibration(
             residuals_m: [0.0; 6],
             rig,
         },
-        zero_counts: [0; WIRES],
+        zero_counts: [0; WIREMAN_WIRES],
         metres_per_count: setup::transmission(config).metres_per_count(),
     };
     Ok(
@@ -84,7 +84,7 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         .map_err(|e| format!("CAN interface {interface}: {e} (--can, drives.can_interface)"))?;
     let scene = setup::demo_scene(&config, 1);
     let s = &config.sensors;
-    let scales: [AnalogScale; WIRES] = core::array::from_fn(|i| AnalogScale {
+    let scales: [AnalogScale; WIREMAN_WIRES] = core::array::from_fn(|i| AnalogScale {
         zero_counts: s.zero_counts[i],
         newtons_per_count: s.newtons_per_count[i],
     });
@@ -93,9 +93,9 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     // SYNC at once whatever the physics costs (on a slow machine the twin then moves in slow
     // motion rather than the bus falling silent).
     let mut plant = RealTimeTwinPlant::new(scene.twin, scales);
-    let motors = Arc::new(SharedMotors::new(WIRES));
+    let motors = Arc::new(SharedMotors::new(WIREMAN_WIRES));
     publish(&plant, &motors);
-    let specs: Vec<SimDriveSpec> = (0..WIRES)
+    let specs: Vec<SimDriveSpec> = (0..WIREMAN_WIRES)
         .map(|axis| SimDriveSpec {
             node_id: config.drives.node_ids[axis],
             axis,
@@ -125,7 +125,7 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         .name("sim-rig-physics".into())
         .spawn(move || {
             while !physics_stop.load(Ordering::Relaxed) {
-                for axis in 0..WIRES {
+                for axis in 0..WIREMAN_WIRES {
                     plant.apply_torque(axis, physics_motors.torque_nm(axis));
                 }
                 publish(&plant, &physics_motors);
@@ -206,8 +206,8 @@ fn units_unlike_the_simulated_drives(config: &Config) -> Vec<String> {
 }
 
 /// The twin's encoders and strain-gauge readings, as the drives report them.
-fn publish(plant: &RealTimeTwinPlant, motors: &SharedMotors) {
-    for axis in 0..WIRES {
+fn publish(plant: &RealTimeTwinPlant<WIREMAN_WIRES, videt_control::Rig3>, motors: &SharedMotors) {
+    for axis in 0..WIREMAN_WIRES {
         let (counts, counts_per_s) = plant.encoder(axis);
         motors.publish_encoder(axis, counts, counts_per_s);
         motors.publish_analog_input(axis, plant.analog_input(axis));

@@ -157,7 +157,7 @@ fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
         println!("motors: {motors}");
         match &service {
             Some(s) => println!(
-                "videtd: running{}, safety {}{}, drives {}, tensions ({:.2}, {:.2}, {:.2}) N, released wire {}, {:.0} Hz, {} overruns",
+                "videtd: running{}, safety {}{}, drives {}, tensions ({}) N, released wire {}, {:.0} Hz, {} overruns",
                 s.procedure
                     .as_deref()
                     .map_or(String::new(), |p| format!(" (procedure `{p}` under way)")),
@@ -166,9 +166,11 @@ fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
                     .as_deref()
                     .map_or(String::new(), |f| format!(" ({f})")),
                 if s.power_off { "off" } else { "on" },
-                s.tensions_n[0],
-                s.tensions_n[1],
-                s.tensions_n[2],
+                s.tensions_n
+                    .iter()
+                    .map(|t| format!("{t:.2}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
                 s.released_wire.map_or("none".to_string(), |w| w.to_string()),
                 s.rate_hz,
                 s.overruns

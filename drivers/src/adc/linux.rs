@@ -280,7 +280,7 @@ mod tests {
 
     #[test]
     fn a_drive_input_reads_through_the_enum() {
-        let inputs = std::sync::Arc::new(crate::cia402::DriveAnalogInputs::new());
+        let inputs = std::sync::Arc::new(crate::cia402::DriveAnalogInputs::<3>::new());
         let mut adc = LinuxAdc::DriveInput(DriveInputAdc::new(inputs.clone(), 2).unwrap());
         assert_eq!(format!("{adc:?}"), "LinuxAdc::DriveInput");
         assert_eq!(adc.read_raw(), Err(nb::Error::WouldBlock));

@@ -2,8 +2,8 @@
 //! [`hx711::Hx711`] (bit-banged clock/data) and [`ads1220::Ads1220`] (SPI precision ADC), or
 //! the load-cell amplifier wired into each wire drive's analog input
 //! ([`drive_input::DriveInputAdc`], read from the drives' TPDO2); the two-point tension
-//! [`calibration`], the three-sensor set implementing `videt_hal::TensionSensors`
-//! ([`tension_set`]), and their Linux devices ([`linux`]).
+//! [`calibration`], the set of one sensor per wire implementing `videt_hal::TensionSensors<N>`
+//! for any wire count ([`tension_set`]), and their Linux devices ([`linux`]).
 //!
 //! Reads never block the control loop: a driver answers `nb::Error::WouldBlock` while no new
 //! conversion is ready, and the set then keeps the last sample (failing only once a sample is

@@ -1,8 +1,8 @@
-//! Three strain-gauge ADCs as the HAL's tension sensors: each read takes a new conversion when
-//! one is ready, else keeps the last sample; a sample older than the staleness limit, a
-//! saturated converter or a bus error is an error naming the wire.
+//! One strain-gauge ADC per wire as the HAL's tension sensors of an `N`-wire device: each read
+//! takes a new conversion when one is ready, else keeps the last sample; a sample older than
+//! the staleness limit, a saturated converter or a bus error is an error naming the wire.
 
-use videt_hal::{ErrorKind, TensionSensors, WIRES};
+use videt_hal::{ErrorKind, TensionSensors};
 
 use super::calibration::TensionCalibration;
 use super::RawAdc;
@@ -91,23 +91,23 @@ impl std::error::Error for TensionError {}
 const FULL_SCALE_POS: i32 = 0x7F_FFFF;
 const FULL_SCALE_NEG: i32 = -0x80_0000;
 
-/// Three ADCs with their calibrations.
+/// `N` ADCs (one per wire) with their calibrations: `TensionSensors<N>` for every `N`.
 #[derive(Debug)]
-pub struct StrainGaugeSet<A, C> {
-    adcs: [A; WIRES],
-    calibration: [TensionCalibration; WIRES],
+pub struct StrainGaugeSet<A, C, const N: usize> {
+    adcs: [A; N],
+    calibration: [TensionCalibration; N],
     clock: C,
     stale_after_ns: u64,
-    last_n: [f64; WIRES],
-    last_at_ns: [Option<u64>; WIRES],
+    last_n: [f64; N],
+    last_at_ns: [Option<u64>; N],
 }
 
-impl<A: RawAdc, C: NanoClock> StrainGaugeSet<A, C> {
-    /// Take the three ADCs (wire order), their calibrations, a clock, and the age at which a
-    /// sample is stale.
+impl<A: RawAdc, C: NanoClock, const N: usize> StrainGaugeSet<A, C, N> {
+    /// Take the ADCs (wire order: their count is the wire count `N`), their calibrations, a
+    /// clock, and the age at which a sample is stale.
     pub fn new(
-        adcs: [A; WIRES],
-        calibration: [TensionCalibration; WIRES],
+        adcs: [A; N],
+        calibration: [TensionCalibration; N],
         clock: C,
         stale_after: core::time::Duration,
     ) -> Self {
@@ -116,39 +116,36 @@ impl<A: RawAdc, C: NanoClock> StrainGaugeSet<A, C> {
             calibration,
             clock,
             stale_after_ns: stale_after.as_nanos() as u64,
-            last_n: [0.0; WIRES],
-            last_at_ns: [None; WIRES],
+            last_n: [0.0; N],
+            last_at_ns: [None; N],
         }
     }
 
     /// Replace the calibration of every wire.
-    pub fn set_calibration(&mut self, calibration: [TensionCalibration; WIRES]) {
+    pub fn set_calibration(&mut self, calibration: [TensionCalibration; N]) {
         self.calibration = calibration;
     }
 
     /// Give the ADCs back.
-    pub fn release(self) -> [A; WIRES] {
+    pub fn release(self) -> [A; N] {
         self.adcs
     }
 }
 
-impl<A: RawAdc, C: NanoClock> videt_hal::ErrorType for StrainGaugeSet<A, C> {
+impl<A: RawAdc, C: NanoClock, const N: usize> videt_hal::ErrorType for StrainGaugeSet<A, C, N> {
     type Error = TensionError;
 }
 
-impl<A: RawAdc, C: NanoClock> TensionSensors for StrainGaugeSet<A, C> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIRES]) -> Result<(), TensionError> {
+impl<A: RawAdc, C: NanoClock, const N: usize> TensionSensors<N> for StrainGaugeSet<A, C, N> {
+    fn read_tensions(&mut self, out_n: &mut [f64; N]) -> Result<(), TensionError> {
         self.read_fresh_tensions(out_n).map(|_| ())
     }
 
     /// A wire's sample is fresh when its converter delivered a conversion in this read.
-    fn read_fresh_tensions(
-        &mut self,
-        out_n: &mut [f64; WIRES],
-    ) -> Result<[bool; WIRES], TensionError> {
+    fn read_fresh_tensions(&mut self, out_n: &mut [f64; N]) -> Result<[bool; N], TensionError> {
         let now = self.clock.now_ns();
-        let mut fresh = [false; WIRES];
-        for wire in 0..WIRES {
+        let mut fresh = [false; N];
+        for wire in 0..N {
             match self.adcs[wire].read_raw() {
                 Ok(raw) if raw == FULL_SCALE_POS || raw == FULL_SCALE_NEG => {
                     return Err(TensionError {
@@ -196,6 +193,9 @@ mod tests {
     use embedded_hal_mock::eh1::delay::NoopDelay;
     use embedded_hal_mock::eh1::digital::{Mock as PinMock, State, Transaction as T};
     use std::rc::Rc;
+
+    /// The WireMan's wire count, for the tests of the three-sensor set.
+    const WIRES: usize = 3;
 
     #[derive(Clone)]
     struct FakeClock(Rc<Cell<u64>>);
@@ -320,5 +320,48 @@ mod tests {
         for m in [&mut s0, &mut d0, &mut s1, &mut d1, &mut s2, &mut d2] {
             m.done();
         }
+    }
+
+    #[test]
+    fn one_and_four_wire_sets_read_every_wire_and_name_the_failing_one() {
+        let t = Rc::new(Cell::new(0));
+        let stale_after = core::time::Duration::from_millis(100);
+        let mut one = StrainGaugeSet::new(
+            [Script(vec![Some(6000), None])],
+            [cal()],
+            FakeClock(t.clone()),
+            stale_after,
+        );
+        let mut out1 = [0.0; 1];
+        assert_eq!(one.read_fresh_tensions(&mut out1), Ok([true]));
+        assert_eq!(out1, [5.0]);
+        assert_eq!(one.read_fresh_tensions(&mut out1), Ok([false]));
+        assert_eq!(out1, [5.0]);
+
+        let mut four = StrainGaugeSet::new(
+            [
+                Script(vec![Some(1000), None]),
+                Script(vec![Some(3000), Some(5000)]),
+                Script(vec![Some(11000), None]),
+                Script(vec![Some(21000), Some(FULL_SCALE_NEG)]),
+            ],
+            [cal(); 4],
+            FakeClock(t.clone()),
+            stale_after,
+        );
+        let mut out4 = [0.0; 4];
+        assert_eq!(four.read_fresh_tensions(&mut out4), Ok([true; 4]));
+        assert_eq!(out4, [0.0, 2.0, 10.0, 20.0]);
+        t.set(10_000_000);
+        let e = four.read_fresh_tensions(&mut out4).unwrap_err();
+        assert_eq!(
+            e,
+            TensionError {
+                wire: 3,
+                fault: TensionFault::Saturated
+            }
+        );
+        // Wires before the failing one were read.
+        assert_eq!(out4[..3], [0.0, 4.0, 10.0]);
     }
 }

@@ -5,8 +5,6 @@
 
 use core::sync::atomic::{AtomicU64, Ordering};
 
-use videt_hal::WIRES;
-
 /// One wire's newest analog input sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct AnalogSample {
@@ -30,24 +28,37 @@ impl AnalogSample {
     }
 }
 
-/// The newest analog input of each wire's drive, shared between the drive set and its readers.
-/// Wait-free: value and counter of a wire are one atomic word, so a reader never sees the value
-/// of one sample with the counter of another. One writer (the drive set).
-#[derive(Debug, Default)]
-pub struct DriveAnalogInputs {
-    slots: [AtomicU64; WIRES],
+/// The newest analog input of each of the `N` wires' drives, shared between the drive set and
+/// its readers. Wait-free: value and counter of a wire are one atomic word, so a reader never
+/// sees the value of one sample with the counter of another. One writer (the drive set).
+#[derive(Debug)]
+pub struct DriveAnalogInputs<const N: usize> {
+    slots: [AtomicU64; N],
 }
 
-impl DriveAnalogInputs {
+impl<const N: usize> Default for DriveAnalogInputs<N> {
+    fn default() -> Self {
+        DriveAnalogInputs {
+            slots: core::array::from_fn(|_| AtomicU64::new(0)),
+        }
+    }
+}
+
+impl<const N: usize> DriveAnalogInputs<N> {
     /// No sample yet on any wire.
-    pub fn new() -> DriveAnalogInputs {
+    pub fn new() -> DriveAnalogInputs<N> {
         DriveAnalogInputs::default()
+    }
+
+    /// The number of wires, `N`.
+    pub const fn wires(&self) -> usize {
+        N
     }
 
     /// Record a new sample `value` of wire `wire` (counter + 1). **RT**.
     ///
     /// # Panics
-    /// If `wire >= WIRES`.
+    /// If `wire >= N`.
     pub fn publish(&self, wire: usize, value: i16) {
         let slot = &self.slots[wire];
         let count = match AnalogSample::unpack(slot.load(Ordering::Relaxed)).count {
@@ -60,7 +71,7 @@ impl DriveAnalogInputs {
     /// The newest sample of wire `wire`. **RT**.
     ///
     /// # Panics
-    /// If `wire >= WIRES`.
+    /// If `wire >= N`.
     pub fn latest(&self, wire: usize) -> AnalogSample {
         AnalogSample::unpack(self.slots[wire].load(Ordering::Acquire))
     }
@@ -72,7 +83,7 @@ mod tests {
 
     #[test]
     fn each_wire_keeps_its_newest_value_and_counts_its_samples() {
-        let a = DriveAnalogInputs::new();
+        let a = DriveAnalogInputs::<3>::new();
         assert_eq!(a.latest(1), AnalogSample::default());
         a.publish(1, -32768);
         a.publish(1, 1234);
@@ -96,7 +107,7 @@ mod tests {
 
     #[test]
     fn the_counter_wraps_past_zero() {
-        let a = DriveAnalogInputs::new();
+        let a = DriveAnalogInputs::<1>::new();
         a.slots[0].store(
             AnalogSample {
                 value: 7,
@@ -113,5 +124,26 @@ mod tests {
                 count: 1
             }
         );
+    }
+
+    #[test]
+    fn any_wire_count_has_its_own_slots() {
+        let a = DriveAnalogInputs::<4>::default();
+        assert_eq!(a.wires(), 4);
+        a.publish(3, 44);
+        assert_eq!(
+            a.latest(3),
+            AnalogSample {
+                value: 44,
+                count: 1
+            }
+        );
+        assert!((0..3).all(|w| a.latest(w).count == 0));
+    }
+
+    #[test]
+    #[should_panic]
+    fn a_wire_beyond_the_count_panics() {
+        DriveAnalogInputs::<2>::new().publish(2, 1);
     }
 }

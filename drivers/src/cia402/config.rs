@@ -1,18 +1,25 @@
-//! Configuration of a set of three CiA 402 wire drives, validated with errors that name the
-//! field, its value and the allowed range.
+//! Configuration of a set of `N` CiA 402 wire drives (one per wire of the device), validated
+//! with errors that name the field, its value and the allowed range.
 
 use core::time::Duration;
 
-use videt_hal::{Transmission, WIRES};
+use videt_hal::Transmission;
 
 use super::pdo::AnalogInputObject;
 use super::resolution::TorqueUnit;
 
-/// Settings of the drive set. Build with [`DriveSetConfig::new`] and adjust fields.
+/// Settings of a set of `N` drives, one per wire. Build with [`DriveSetConfig::new`] (which
+/// takes `N` from the length of its node-id array) and adjust fields.
+///
+/// The wire count is a const generic rather than a run-time length: the configuration of an
+/// `N`-wire device can only build a [`Cia402DriveSet`](super::Cia402DriveSet) of `N` drives, so
+/// no length can mismatch at run time and the set keeps its per-wire state in fixed arrays
+/// (nothing allocated per control period). A caller holding the node ids in a slice converts it
+/// with `<[u8; N]>::try_from`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct DriveSetConfig {
-    /// CANopen node id of each wire's drive (1..=127, distinct).
-    pub node_ids: [u8; WIRES],
+pub struct DriveSetConfig<const N: usize> {
+    /// CANopen node id of each wire's drive, in wire order (1..=127, distinct; at least one).
+    pub node_ids: [u8; N],
     /// Node id of the host's own heartbeat (1..=127, not a drive's).
     pub host_node_id: u8,
     /// Encoder, gear and pulley of every wire.
@@ -84,15 +91,15 @@ pub struct ConfigError {
     pub allowed: &'static str,
 }
 
-impl DriveSetConfig {
-    /// Defaults for the paper's actuation module with the given node ids, control period,
-    /// rated torque and maximum tension.
+impl<const N: usize> DriveSetConfig<N> {
+    /// Defaults for the paper's actuation module with the given node ids (one per wire: their
+    /// count is the wire count `N`), control period, rated torque and maximum tension.
     pub fn new(
-        node_ids: [u8; WIRES],
+        node_ids: [u8; N],
         control_period: Duration,
         rated_torque_nm: f64,
         t_max_n: f64,
-    ) -> DriveSetConfig {
+    ) -> DriveSetConfig<N> {
         DriveSetConfig {
             node_ids,
             host_node_id: 0x7F,
@@ -129,7 +136,7 @@ impl DriveSetConfig {
     pub fn bus_traffic(&self) -> (Vec<u8>, Vec<(u8, f64)>) {
         let mut cyclic = vec![0u8];
         let mut timed = vec![(1u8, f64::from(self.host_heartbeat_ms) / 1000.0)];
-        for _ in 0..WIRES {
+        for _ in 0..N {
             cyclic.extend_from_slice(&super::pdo::CYCLIC_DATA_LENGTHS);
             timed.push((1, f64::from(self.drive_heartbeat_ms) / 1000.0));
             timed.push((4, f64::from(self.status_event_timer_ms) / 1000.0));
@@ -145,6 +152,9 @@ impl DriveSetConfig {
                 value: value.to_string(),
                 allowed,
             }
+        }
+        if N == 0 {
+            return Err(err("node_ids", "[]", "at least one drive"));
         }
         for (i, id) in self.node_ids.iter().enumerate() {
             if !(1..=127).contains(id) {
@@ -311,7 +321,7 @@ impl DriveSetConfig {
 mod tests {
     use super::*;
 
-    fn cfg() -> DriveSetConfig {
+    fn cfg() -> DriveSetConfig<3> {
         DriveSetConfig::new([1, 2, 3], Duration::from_millis(1), 0.1, 40.0)
     }
 
@@ -373,5 +383,30 @@ mod tests {
             subindex: 0,
         });
         c.validate().unwrap();
+    }
+
+    #[test]
+    fn the_wire_count_is_the_node_id_count() {
+        let one = DriveSetConfig::new([5], Duration::from_millis(1), 0.1, 40.0);
+        one.validate().unwrap();
+        let four = DriveSetConfig::new([1, 2, 3, 4], Duration::from_millis(1), 0.1, 40.0);
+        four.validate().unwrap();
+        let mut bad = four.clone();
+        bad.host_node_id = 4;
+        assert_eq!(bad.validate().unwrap_err().field, "host_node_id");
+        let none = DriveSetConfig::new([], Duration::from_millis(1), 0.1, 40.0);
+        let e = none.validate().unwrap_err();
+        assert_eq!((e.field, e.allowed), ("node_ids", "at least one drive"));
+        // Per period: the SYNC and each drive's cyclic PDOs; on timers: the host's heartbeat
+        // and each drive's heartbeat and status.
+        let per_drive = super::super::pdo::CYCLIC_DATA_LENGTHS.len();
+        for (cyclic, timed, n) in [
+            (one.bus_traffic().0, one.bus_traffic().1, 1),
+            (cfg().bus_traffic().0, cfg().bus_traffic().1, 3),
+            (four.bus_traffic().0, four.bus_traffic().1, 4),
+        ] {
+            assert_eq!(cyclic.len(), 1 + n * per_drive);
+            assert_eq!(timed.len(), 1 + 2 * n);
+        }
     }
 }

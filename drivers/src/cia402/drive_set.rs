@@ -1,5 +1,6 @@
-//! The three wire drives on one CAN bus, driven through CiA 402 cyclic synchronous torque
-//! mode: `impl WireDrives + Lifecycle` over any [`CanPort`].
+//! The wire drives on one CAN bus, one per wire of an `N`-wire device, driven through CiA 402
+//! cyclic synchronous torque mode: `impl WireDrives<N> + Lifecycle` over any [`CanPort`], for
+//! every wire count `N` (the count comes from the configuration's node ids).
 //!
 //! Per control cycle ([`WireDrives::read_drives`] then [`WireDrives::write_torques`]):
 //! stale frames are drained, SYNC is sent, the TPDOs of every drive are awaited until
@@ -21,7 +22,7 @@ use canopen_rs::nmt::NmtCommand;
 use canopen_rs::sdo::{SdoEvent, SdoPayload};
 use canopen_rs::{Address, DataType, EmergencyMessage, NodeId, SdoClient, Value};
 use embedded_can::{Frame, Id, StandardId};
-use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives, WIRES};
+use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives};
 
 use super::analog::DriveAnalogInputs;
 use super::config::{ConfigError, DriveSetConfig};
@@ -31,8 +32,15 @@ use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
 use crate::can::CanPort;
 use crate::canopen::cob::{self, classify, CobKind};
 
-/// Most frames handled in one cycle (bounds the receive loop).
-const MAX_FRAMES_PER_CYCLE: usize = 64;
+/// Most frames handled in one cycle (bounds the receive loop): 64, and 16 per drive beyond
+/// four drives.
+const fn max_frames_per_cycle(drives: usize) -> usize {
+    if drives > 4 {
+        16 * drives
+    } else {
+        64
+    }
+}
 /// Fault-reset edges tried when enabling a faulted drive.
 const MAX_FAULT_RESETS: u32 = 3;
 /// SDO abort "object does not exist in the object dictionary".
@@ -134,12 +142,14 @@ impl NodeLink {
     }
 }
 
-/// Three CiA 402 wire drives on one CAN port.
+/// `N` CiA 402 wire drives on one CAN port, wire `i` being the drive of node
+/// `config().node_ids[i]`. Build with [`Cia402DriveSet::new`], which takes `N` from the
+/// [`DriveSetConfig<N>`]; the per-wire state lives in fixed `[_; N]` arrays.
 #[derive(Debug)]
-pub struct Cia402DriveSet<P: CanPort> {
+pub struct Cia402DriveSet<P: CanPort, const N: usize> {
     port: P,
-    cfg: DriveSetConfig,
-    nodes: [NodeLink; WIRES],
+    cfg: DriveSetConfig<N>,
+    nodes: [NodeLink; N],
     lifecycle: LifecycleState,
     latched: Option<DriveError>,
     host_heartbeat_due: Instant,
@@ -148,7 +158,7 @@ pub struct Cia402DriveSet<P: CanPort> {
     /// the next SYNC goes out).
     sync_sent_at: Instant,
     epoch: Instant,
-    analog: Option<Arc<DriveAnalogInputs>>,
+    analog: Option<Arc<DriveAnalogInputs<N>>>,
     /// Where each latched error is pushed for a non-RT reader to report, once one asked.
     fault_reports: Option<rtrb::Producer<DriveError>>,
 }
@@ -156,17 +166,14 @@ pub struct Cia402DriveSet<P: CanPort> {
 /// Latched errors a [`Cia402DriveSet`] holds for its reader before it drops newer ones.
 pub const FAULT_REPORTS_CAPACITY: usize = 8;
 
-impl<P: CanPort> Cia402DriveSet<P> {
-    /// Take the port and a validated configuration. Nothing is sent yet (`Unconfigured`).
-    pub fn new(port: P, cfg: DriveSetConfig) -> Result<Self, ConfigError> {
+impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
+    /// Take the port and a validated configuration of `N` drives (`N` is the length of
+    /// [`DriveSetConfig::node_ids`]). Nothing is sent yet (`Unconfigured`).
+    pub fn new(port: P, cfg: DriveSetConfig<N>) -> Result<Self, ConfigError> {
         cfg.validate()?;
         let analog = cfg.analog_input.map(|_| Arc::new(DriveAnalogInputs::new()));
         let now = Instant::now();
-        let nodes = [
-            NodeLink::new(cfg.node_ids[0], now),
-            NodeLink::new(cfg.node_ids[1], now),
-            NodeLink::new(cfg.node_ids[2], now),
-        ];
+        let nodes = core::array::from_fn(|i| NodeLink::new(cfg.node_ids[i], now));
         Ok(Cia402DriveSet {
             port,
             cfg,
@@ -199,14 +206,14 @@ impl<P: CanPort> Cia402DriveSet<P> {
     }
 
     /// The configuration.
-    pub fn config(&self) -> &DriveSetConfig {
+    pub fn config(&self) -> &DriveSetConfig<N> {
         &self.cfg
     }
 
     /// The drives' analog inputs, updated by every cycle, when
     /// [`DriveSetConfig::analog_input`] is set (`None` otherwise). Each wire's sample counter
     /// advances only for a TPDO1 that answered the current cycle's SYNC.
-    pub fn analog_inputs(&self) -> Option<Arc<DriveAnalogInputs>> {
+    pub fn analog_inputs(&self) -> Option<Arc<DriveAnalogInputs<N>>> {
         self.analog.clone()
     }
 
@@ -227,12 +234,8 @@ impl<P: CanPort> Cia402DriveSet<P> {
     }
 
     /// The decoded power state of each drive (from the last statusword).
-    pub fn power_states(&self) -> [PowerState; WIRES] {
-        [
-            self.nodes[0].power_state(),
-            self.nodes[1].power_state(),
-            self.nodes[2].power_state(),
-        ]
+    pub fn power_states(&self) -> [PowerState; N] {
+        core::array::from_fn(|i| self.nodes[i].power_state())
     }
 
     // ----- frame I/O -------------------------------------------------------------------
@@ -336,7 +339,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
     /// SYNC, collect the TPDOs, check the drives. **RT**.
     fn exchange(&mut self, strict_faults: bool) -> Result<(), DriveError> {
         // Frames still queued belong to earlier cycles (late or unsolicited).
-        for _ in 0..MAX_FRAMES_PER_CYCLE {
+        for _ in 0..max_frames_per_cycle(N) {
             match self.receive(Duration::ZERO)? {
                 Some(f) => self.absorb(&f, false, Instant::now()),
                 None => break,
@@ -357,7 +360,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
         }
         let deadline = start + self.cfg.pdo_timeout;
         let status_every_sync = self.cfg.analog_input.is_some();
-        for _ in 0..MAX_FRAMES_PER_CYCLE {
+        for _ in 0..max_frames_per_cycle(N) {
             if self
                 .nodes
                 .iter()
@@ -458,7 +461,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             target_torque_permille: 0,
         }
         .encode();
-        for i in 0..WIRES {
+        for i in 0..N {
             let cob = cob::RPDO_BASE[0] + u16::from(self.nodes[i].id);
             let _ = self.send(cob, &off);
         }
@@ -590,12 +593,12 @@ impl<P: CanPort> Cia402DriveSet<P> {
         self.operational_expected = false;
         self.latched = None;
         let now = Instant::now();
-        for i in 0..WIRES {
+        for i in 0..N {
             self.nodes[i] = NodeLink::new(self.cfg.node_ids[i], now);
         }
         // Drain whatever is queued, then reset communication so every drive boots afresh.
         while self.receive(Duration::ZERO)?.is_some() {}
-        for i in 0..WIRES {
+        for i in 0..N {
             self.nmt(NmtCommand::ResetCommunication, self.nodes[i].id)?;
         }
         let start = Instant::now();
@@ -620,7 +623,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
             .torque_to_permille(self.cfg.max_torque_nm())
             .unsigned_abs()
             .max(1);
-        for i in 0..WIRES {
+        for i in 0..N {
             if self.cfg.verify_rated_torque {
                 match self.sdo_read(i, Address::new(0x6076, 0), DataType::Unsigned32) {
                     Ok(Value::Unsigned32(v)) if v == rated => {}
@@ -679,7 +682,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
         }
         // Host heartbeat first, so the drives' consumers start on a live host.
         self.host_heartbeat_due = Instant::now();
-        for i in 0..WIRES {
+        for i in 0..N {
             self.nmt(NmtCommand::StartRemoteNode, self.nodes[i].id)?;
         }
         // Cycle until every drive is operational and answers SYNC.
@@ -735,7 +738,7 @@ impl<P: CanPort> Cia402DriveSet<P> {
         let t0 = Instant::now();
         let now_ns = |t: Instant| t.duration_since(t0).as_nanos() as u64;
         let timeout_ns = self.cfg.power_timeout.as_nanos() as u64;
-        let mut seq = [PowerSequencer::new(goal, 0, timeout_ns, MAX_FAULT_RESETS); WIRES];
+        let mut seq = [PowerSequencer::new(goal, 0, timeout_ns, MAX_FAULT_RESETS); N];
         for n in &mut self.nodes {
             n.emcy = None;
         }
@@ -765,14 +768,14 @@ impl<P: CanPort> Cia402DriveSet<P> {
     }
 }
 
-impl<P: CanPort> videt_hal::ErrorType for Cia402DriveSet<P> {
+impl<P: CanPort, const N: usize> videt_hal::ErrorType for Cia402DriveSet<P, N> {
     type Error = DriveError;
 }
 
-impl<P: CanPort> Lifecycle for Cia402DriveSet<P> {
+impl<P: CanPort, const N: usize> Lifecycle for Cia402DriveSet<P, N> {
     /// Reset the drives' communication, wait for their boot-up, configure them over SDO
     /// (CST mode, PDO mapping, heartbeats, communication-loss reaction), start them and wait
-    /// until all three answer SYNC. Ends `Inactive`.
+    /// until every drive answers SYNC. Ends `Inactive`.
     fn configure(&mut self) -> Result<(), DriveError> {
         if self.lifecycle == LifecycleState::Active {
             return Err(DriveError::NotReady {
@@ -828,7 +831,7 @@ impl<P: CanPort> Lifecycle for Cia402DriveSet<P> {
     }
 }
 
-impl<P: CanPort> WireDrives for Cia402DriveSet<P> {
+impl<P: CanPort, const N: usize> WireDrives<N> for Cia402DriveSet<P, N> {
     fn enable(&mut self) -> Result<(), DriveError> {
         self.activate()
     }
@@ -841,7 +844,7 @@ impl<P: CanPort> WireDrives for Cia402DriveSet<P> {
         Ok(())
     }
 
-    fn read_drives(&mut self, out: &mut [DriveSample; WIRES]) -> Result<(), DriveError> {
+    fn read_drives(&mut self, out: &mut [DriveSample; N]) -> Result<(), DriveError> {
         match self.lifecycle {
             LifecycleState::Unconfigured => {
                 return Err(DriveError::NotReady {
@@ -868,7 +871,7 @@ impl<P: CanPort> WireDrives for Cia402DriveSet<P> {
         r.map_err(|e| self.fail(e))
     }
 
-    fn write_torques(&mut self, torque_nm: &[f64; WIRES]) -> Result<(), DriveError> {
+    fn write_torques(&mut self, torque_nm: &[f64; N]) -> Result<(), DriveError> {
         if self.lifecycle != LifecycleState::Active {
             if self.lifecycle == LifecycleState::Faulted {
                 self.send_safe_commands();
@@ -880,8 +883,8 @@ impl<P: CanPort> WireDrives for Cia402DriveSet<P> {
                 state: self.lifecycle,
             });
         }
-        let mut permille = [0i16; WIRES];
-        for i in 0..WIRES {
+        let mut permille = [0i16; N];
+        for i in 0..N {
             match self.limited_torque(i, torque_nm[i]) {
                 Ok(t) => permille[i] = self.cfg.torque_to_permille(t),
                 Err(e) => return Err(self.fail(e)),
@@ -901,7 +904,7 @@ impl<P: CanPort> WireDrives for Cia402DriveSet<P> {
     }
 }
 
-impl<P: CanPort> Cia402DriveSet<P> {
+impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
     /// Seconds since the set was created (for logs).
     pub fn uptime_s(&self) -> f64 {
         self.epoch.elapsed().as_secs_f64()

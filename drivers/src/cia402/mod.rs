@@ -1,7 +1,7 @@
 //! CiA 402 wire drives: the power state machine ([`state`]), the process data ([`pdo`]),
-//! configuration ([`config`]), errors ([`error`]), the three-drive set implementing the
-//! HAL ([`drive_set`]), the drives' analog inputs it receives ([`analog`]) and the drive's
-//! units read from its device description ([`resolution`]).
+//! configuration ([`config`]), errors ([`error`]), the set of one drive per wire implementing
+//! the HAL for any wire count ([`drive_set`]), the drives' analog inputs it receives
+//! ([`analog`]) and the drive's units read from its device description ([`resolution`]).
 
 pub mod analog;
 pub mod compat;

@@ -1,32 +1,41 @@
 //! The drive set against a scripted drive on a recording port: the frames it puts on the bus,
-//! frame by frame (SDO setup, NMT, fault-reset edge, controlwords), and the position unwrap.
+//! frame by frame (SDO setup, NMT, fault-reset edge, controlwords), and the position unwrap;
+//! for the WireMan's three wires and for other wire counts.
 
 use std::collections::VecDeque;
 use std::time::Duration;
 
 use embedded_can::{Frame, Id};
-use videt_hal::{DriveSample, Lifecycle, WireDrives, WIRES};
+use videt_hal::{DriveSample, Lifecycle, WireDrives};
 use videt_sim::can_bus::{BusError, SimFrame};
 
 use super::pdo::{Command, Motion, Status};
-use super::{Cia402DriveSet, DriveSetConfig};
+use super::{Cia402DriveSet, DriveSetConfig, PowerState};
 use crate::can::CanPort;
 
-/// A minimal scripted CiA 402 drive per node: boots on reset, acknowledges every SDO write,
-/// answers 0x6076 with 100 mN·m, and answers SYNC with a scripted position and, when it changed
-/// since it was last sent (the event-driven TPDO2), its statusword.
-struct ScriptedDrives {
+/// The WireMan's wire count.
+const WIRES: usize = 3;
+
+/// A minimal scripted CiA 402 drive per node (nodes 1..=N): boots on reset, acknowledges every
+/// SDO write, answers 0x6076 with 100 mN·m, and answers SYNC with a scripted position and, when
+/// it changed since it was last sent (the event-driven TPDO2), its statusword.
+struct ScriptedDrives<const N: usize> {
     sent: Vec<(u16, Vec<u8>)>,
     inbox: VecDeque<SimFrame>,
-    statusword: [u16; WIRES],
-    error_code: [u16; WIRES],
+    statusword: [u16; N],
+    error_code: [u16; N],
     positions: VecDeque<i32>,
     velocity: i32,
-    last_cw: [u16; WIRES],
-    status_sent: [Option<(u16, u16)>; WIRES],
+    last_cw: [u16; N],
+    status_sent: [Option<(u16, u16)>; N],
 }
 
-impl ScriptedDrives {
+impl<const N: usize> ScriptedDrives<N> {
+    /// Whether `cob` is `base + node` of one of the nodes.
+    fn of_node(cob: u16, base: u16) -> bool {
+        cob > base && cob <= base + N as u16
+    }
+
     fn push(&mut self, cob: u16, data: &[u8]) {
         self.inbox.push_back(SimFrame::standard(cob, data).unwrap());
     }
@@ -41,7 +50,7 @@ impl ScriptedDrives {
                 } else {
                     self.positions.front().copied().unwrap_or(0)
                 };
-                for n in 1..=WIRES as u16 {
+                for n in 1..=N as u16 {
                     let i = n as usize - 1;
                     let m = Motion {
                         position: pos,
@@ -60,7 +69,7 @@ impl ScriptedDrives {
                     self.push(0x700 + n, &[0x05]);
                 }
             }
-            0x601..=0x603 => {
+            c if Self::of_node(c, 0x600) => {
                 let mut r = [0u8; 8];
                 r[1..4].copy_from_slice(&data[1..4]);
                 if data[0] == 0x40 {
@@ -71,7 +80,7 @@ impl ScriptedDrives {
                 }
                 self.push(cob - 0x600 + 0x580, &r);
             }
-            0x201..=0x203 => {
+            c if Self::of_node(c, 0x200) => {
                 let i = usize::from(cob - 0x201);
                 let cw = Command::decode(data).unwrap().controlword;
                 let edge = cw & 0x80 != 0 && self.last_cw[i] & 0x80 == 0;
@@ -94,7 +103,7 @@ impl ScriptedDrives {
     }
 }
 
-impl embedded_can::blocking::Can for ScriptedDrives {
+impl<const N: usize> embedded_can::blocking::Can for ScriptedDrives<N> {
     type Frame = SimFrame;
     type Error = BusError;
     fn transmit(&mut self, f: &SimFrame) -> Result<(), BusError> {
@@ -110,28 +119,43 @@ impl embedded_can::blocking::Can for ScriptedDrives {
     }
 }
 
-impl CanPort for ScriptedDrives {
+impl<const N: usize> CanPort for ScriptedDrives<N> {
     fn receive_timeout(&mut self, _t: Duration) -> Result<Option<SimFrame>, BusError> {
         Ok(self.inbox.pop_front())
     }
 }
 
-fn drives(positions: &[i32]) -> ScriptedDrives {
+fn drives(positions: &[i32]) -> ScriptedDrives<WIRES> {
+    drives_for(positions)
+}
+
+/// `N` scripted drives, nodes 1..=N.
+fn drives_for<const N: usize>(positions: &[i32]) -> ScriptedDrives<N> {
+    // Node 1 boots into fault, as in the recorded trace (statusword 0x0218).
+    let mut statusword = [0x0250; N];
+    let mut error_code = [0; N];
+    statusword[0] = 0x0218;
+    error_code[0] = 0x81B0;
     ScriptedDrives {
         sent: vec![],
         inbox: VecDeque::new(),
-        // Node 1 boots into fault, as in the recorded trace (statusword 0x0218).
-        statusword: [0x0218, 0x0250, 0x0250],
-        error_code: [0x81B0, 0, 0],
+        statusword,
+        error_code,
         positions: positions.iter().copied().collect(),
         velocity: 0,
-        last_cw: [0; WIRES],
-        status_sent: [None; WIRES],
+        last_cw: [0; N],
+        status_sent: [None; N],
     }
 }
 
-fn config() -> DriveSetConfig {
-    let mut c = DriveSetConfig::new([1, 2, 3], Duration::from_millis(1), 0.1, 40.0);
+fn config() -> DriveSetConfig<WIRES> {
+    config_for()
+}
+
+/// The configuration of drives on nodes 1..=N.
+fn config_for<const N: usize>() -> DriveSetConfig<N> {
+    let node_ids = core::array::from_fn(|i| i as u8 + 1);
+    let mut c = DriveSetConfig::new(node_ids, Duration::from_millis(1), 0.1, 40.0);
     c.drive_heartbeat_timeout = Duration::from_secs(1);
     c
 }
@@ -288,4 +312,105 @@ fn a_single_fast_sample_between_normal_ones_does_not_trip() {
         set.write_torques(&[0.01; WIRES]).unwrap();
     }
     assert_eq!(set.lifecycle_state(), videt_hal::LifecycleState::Active);
+}
+
+/// Boot, set up and enable `N` scripted drives, then run cycles: every node is reset, set up
+/// and started, the faulted first one reset, and each wire's torque goes to its own node.
+fn boot_enable_and_command<const N: usize>() {
+    let mut script = vec![0; 64];
+    script.extend([100, 250]);
+    let mut set = Cia402DriveSet::new(drives_for::<N>(&script), config_for::<N>()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    assert_eq!(set.power_states(), [PowerState::OperationEnabled; N]);
+    let mut out = [DriveSample::default(); N];
+    for _ in 0..70 {
+        set.read_drives(&mut out).unwrap();
+    }
+    assert!(out.iter().all(|s| s.position_counts == 250), "{out:?}");
+    assert!(out
+        .iter()
+        .all(|s| s.state == videt_hal::DriveState::Enabled));
+    // Wire i: (i + 1) per mille of the 0.1 N·m rated torque, alternating in sign.
+    let torque: [f64; N] =
+        core::array::from_fn(|i| (i as f64 + 1.0) * 1e-4 * if i % 2 == 0 { 1.0 } else { -1.0 });
+    set.write_torques(&torque).unwrap();
+    let port = set.release();
+    let sent = &port.sent;
+    for node in 1..=N as u16 {
+        assert!(
+            sent.contains(&(0x000, vec![0x82, node as u8])),
+            "reset of node {node}"
+        );
+        assert!(
+            sent.contains(&(0x000, vec![0x01, node as u8])),
+            "start of node {node}"
+        );
+        assert!(
+            sent.iter().any(|(c, _)| *c == 0x600 + node),
+            "SDO to {node}"
+        );
+        let last = sent.iter().rev().find(|(c, _)| *c == 0x200 + node).unwrap();
+        let cmd = Command::decode(&last.1).unwrap();
+        let i = i16::try_from(node).unwrap();
+        assert_eq!(
+            cmd.target_torque_permille,
+            if i % 2 == 1 { i } else { -i },
+            "node {node}"
+        );
+        assert_eq!(cmd.controlword, 0x0F);
+    }
+    // Only node 1 booted in fault: it alone got the fault-reset edge.
+    let resets: Vec<u16> = sent
+        .iter()
+        .filter(|(c, d)| {
+            (0x201..0x280).contains(c) && Command::decode(d).unwrap().controlword == 0x80
+        })
+        .map(|(c, _)| c - 0x200)
+        .collect();
+    assert_eq!(resets, vec![1]);
+    // Nothing addressed a node beyond the N configured.
+    let beyond = N as u16 + 1;
+    assert!(!sent.iter().any(|(c, d)| *c == 0x200 + beyond
+        || *c == 0x600 + beyond
+        || (*c == 0 && d[1] == beyond as u8)));
+}
+
+#[test]
+fn one_two_and_four_scripted_drives_boot_enable_and_take_their_torques() {
+    boot_enable_and_command::<1>();
+    boot_enable_and_command::<2>();
+    boot_enable_and_command::<WIRES>();
+    boot_enable_and_command::<4>();
+}
+
+#[test]
+fn a_two_wire_set_trips_on_overspeed_and_stops_both_drives() {
+    let t = videt_hal::Transmission::PAPER;
+    let two_m_per_s = (2.0 / t.metres_per_count()) as i32;
+    let mut set = Cia402DriveSet::new(drives_for::<2>(&[]), config_for::<2>()).unwrap();
+    set.configure().unwrap();
+    set.activate().unwrap();
+    set.port_mut().velocity = two_m_per_s;
+    let mut out = [DriveSample::default(); 2];
+    let mut result = Ok(());
+    for _ in 0..3 {
+        set.read_drives(&mut out).unwrap();
+        // Both wires wind at 2 m/s: the third cycle in a row trips, on the first wire.
+        result = set.write_torques(&[0.01, 0.01]);
+    }
+    let e = result.unwrap_err();
+    assert!(
+        matches!(e, super::DriveError::OverSpeed { wire: 0, .. }),
+        "{e}"
+    );
+    assert_eq!(set.lifecycle_state(), videt_hal::LifecycleState::Faulted);
+    // Both drives got the safe command.
+    for cob in [0x201, 0x202] {
+        let last = set.port().sent.iter().rev().find(|(c, _)| *c == cob);
+        assert_eq!(
+            Command::decode(&last.unwrap().1).unwrap(),
+            Command::default()
+        );
+    }
 }

@@ -1,10 +1,11 @@
 //! The whole drive driver against three simulated CiA 402 nodes on the twin's userspace CAN
-//! bus: boot, enable, cyclic torque, every injected fault, recovery.
+//! bus: boot, enable, cyclic torque, every injected fault, recovery; and against one, two and
+//! four nodes (the set is generic over the wire count).
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use videt_hal::{DriveSample, DriveState, Lifecycle, LifecycleState, WireDrives, WIRES};
+use videt_hal::{DriveSample, DriveState, Lifecycle, LifecycleState, WireDrives};
 use videt_sim::can_bus::udp::{UdpEndpoint, UdpHub};
 use videt_sim::can_bus::{
     BusError, BusFaults, BusStats, InProcessBus, InProcessEndpoint, SimFrame,
@@ -36,9 +37,16 @@ impl CanPort for UdpEndpoint {
 /// wakes a thread two periods late (the fault-detection bounds are counted in periods).
 const PERIOD: Duration = Duration::from_millis(10);
 const RATED_MNM: u32 = 100;
+/// The WireMan's wire count, of most tests here.
+const WIRES: usize = 3;
 
 fn specs() -> Vec<SimDriveSpec> {
-    (0..WIRES)
+    specs_for(WIRES)
+}
+
+/// Simulated drives on nodes 1..=wires, node `i + 1` on axis `i`.
+fn specs_for(wires: usize) -> Vec<SimDriveSpec> {
+    (0..wires)
         .map(|i| SimDriveSpec {
             node_id: i as u8 + 1,
             axis: i,
@@ -48,8 +56,14 @@ fn specs() -> Vec<SimDriveSpec> {
         .collect()
 }
 
-fn config() -> DriveSetConfig {
-    let mut c = DriveSetConfig::new([1, 2, 3], PERIOD, RATED_MNM as f64 / 1000.0, 40.0);
+fn config() -> DriveSetConfig<WIRES> {
+    config_for()
+}
+
+/// The configuration of drives on nodes 1..=N.
+fn config_for<const N: usize>() -> DriveSetConfig<N> {
+    let node_ids = core::array::from_fn(|i| i as u8 + 1);
+    let mut c = DriveSetConfig::new(node_ids, PERIOD, RATED_MNM as f64 / 1000.0, 40.0);
     c.boot_timeout = Duration::from_millis(800);
     // Heartbeat times scaled to the 10 ms period (the defaults suit 1 ms).
     c.drive_heartbeat_timeout = Duration::from_millis(60);
@@ -62,21 +76,21 @@ type Plant = Arc<Mutex<FreeMotorPlant>>;
 /// The rigs run one at a time: each has a drive thread with millisecond deadlines.
 static SERIAL: Mutex<()> = Mutex::new(());
 
-struct Rig {
+struct Rig<const N: usize = WIRES> {
     _serial: std::sync::MutexGuard<'static, ()>,
-    set: Cia402DriveSet<InProcessEndpoint>,
+    set: Cia402DriveSet<InProcessEndpoint, N>,
     bank: SimDriveBank,
     bus: Arc<BusFaults>,
     plant: Plant,
     stats: Option<Arc<BusStats>>,
 }
 
-fn rig_with(cfg: DriveSetConfig, damping: f64) -> Rig {
+fn rig_with<const N: usize>(cfg: DriveSetConfig<N>, damping: f64) -> Rig<N> {
     rig_on(cfg, damping, None)
 }
 
-/// A rig on an ideal bus (`bitrate` `None`) or on a timed bus of `bitrate` bit/s.
-fn rig_on(cfg: DriveSetConfig, damping: f64, bitrate: Option<u32>) -> Rig {
+/// A rig of `N` drives on an ideal bus (`bitrate` `None`) or on a timed bus of `bitrate` bit/s.
+fn rig_on<const N: usize>(cfg: DriveSetConfig<N>, damping: f64, bitrate: Option<u32>) -> Rig<N> {
     let serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let bus = Arc::new(BusFaults::new(11));
     let (mut eps, stats) = match bitrate {
@@ -88,10 +102,8 @@ fn rig_on(cfg: DriveSetConfig, damping: f64, bitrate: Option<u32>) -> Rig {
     };
     let drives = eps.pop().unwrap();
     let host = eps.pop().unwrap();
-    let plant = Arc::new(Mutex::new(FreeMotorPlant::new(
-        WIRES, 1e-5, damping, 2000.0,
-    )));
-    let bank = SimDriveBank::spawn(drives, &specs(), plant.clone());
+    let plant = Arc::new(Mutex::new(FreeMotorPlant::new(N, 1e-5, damping, 2000.0)));
+    let bank = SimDriveBank::spawn(drives, &specs_for(N), plant.clone());
     let set = Cia402DriveSet::new(host, cfg).unwrap();
     Rig {
         _serial: serial,
@@ -108,8 +120,13 @@ fn rig() -> Rig {
 }
 
 /// For tests that are not about fault detection: ride out a few late answers.
-fn tolerant() -> DriveSetConfig {
-    let mut c = config();
+fn tolerant() -> DriveSetConfig<WIRES> {
+    tolerant_for()
+}
+
+/// [`tolerant`] for drives on nodes 1..=N.
+fn tolerant_for<const N: usize>() -> DriveSetConfig<N> {
+    let mut c = config_for();
     c.max_missed_cycles = 5;
     c.drive_heartbeat_timeout = Duration::from_millis(200);
     c.host_silence_timeout_ms = 300;
@@ -124,10 +141,10 @@ fn active_rig() -> Rig {
 }
 
 /// One control cycle at the period: read, write, sleep to the next period boundary.
-fn cycle(
-    set: &mut Cia402DriveSet<impl CanPort>,
-    torque: [f64; WIRES],
-    out: &mut [DriveSample; WIRES],
+fn cycle<const N: usize>(
+    set: &mut Cia402DriveSet<impl CanPort, N>,
+    torque: [f64; N],
+    out: &mut [DriveSample; N],
 ) -> Result<(), DriveError> {
     let start = Instant::now();
     let r = set
@@ -141,14 +158,17 @@ fn cycle(
 }
 
 /// Run healthy cycles, inject, and count cycles until the first error (at most 40).
-fn cycles_to_error(r: &mut Rig, inject: impl FnOnce(&Rig)) -> (u32, DriveError) {
-    let mut out = [DriveSample::default(); WIRES];
+fn cycles_to_error<const N: usize>(
+    r: &mut Rig<N>,
+    inject: impl FnOnce(&Rig<N>),
+) -> (u32, DriveError) {
+    let mut out = [DriveSample::default(); N];
     for _ in 0..10 {
-        cycle(&mut r.set, [0.005; WIRES], &mut out).unwrap();
+        cycle(&mut r.set, [0.005; N], &mut out).unwrap();
     }
     inject(r);
     for n in 1..=40 {
-        if let Err(e) = cycle(&mut r.set, [0.005; WIRES], &mut out) {
+        if let Err(e) = cycle(&mut r.set, [0.005; N], &mut out) {
             return (n, e);
         }
     }
@@ -172,7 +192,7 @@ fn all_drives_off(bank: &SimDriveBank) -> bool {
         .all(|v| v.applied_torque_nm == 0.0 && v.power != DrivePower::OperationEnabled)
 }
 
-fn assert_safe_state(r: &Rig) {
+fn assert_safe_state<const N: usize>(r: &Rig<N>) {
     assert_eq!(r.set.lifecycle_state(), LifecycleState::Faulted);
     assert!(
         wait_for(|| all_drives_off(&r.bank), Duration::from_millis(400)),
@@ -551,7 +571,7 @@ fn back_to_back_cycles_against_inline_nodes_stay_healthy() {
     assert!(out.iter().all(|s| s.state == DriveState::Enabled));
 }
 
-fn with_analog_input(mut c: DriveSetConfig) -> DriveSetConfig {
+fn with_analog_input<const N: usize>(mut c: DriveSetConfig<N>) -> DriveSetConfig<N> {
     c.analog_input = Some(super::AnalogInputObject::default());
     c
 }
@@ -787,4 +807,88 @@ fn with_the_analog_inputs_the_velocity_is_derived_from_the_positions() {
         "{v:?} against {}",
         -truth
     );
+}
+
+/// `N` simulated drives: boot, enable, follow cyclic torque (each wire its own), stop.
+fn boots_enables_and_follows_torque_with<const N: usize>() {
+    let mut r = rig_with(tolerant_for::<N>(), 1e-4);
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    assert_eq!(
+        r.set.power_states(),
+        [super::PowerState::OperationEnabled; N]
+    );
+    // Wire i winds for even i and unwinds for odd i, each with its own torque.
+    let torque: [f64; N] =
+        core::array::from_fn(|i| (i as f64 + 1.0) * 0.002 * if i % 2 == 0 { 1.0 } else { -1.0 });
+    let mut out = [DriveSample::default(); N];
+    for _ in 0..40 {
+        cycle(&mut r.set, torque, &mut out).unwrap();
+    }
+    assert!(
+        out.iter().all(|s| s.state == DriveState::Enabled),
+        "{out:?}"
+    );
+    let views = r.bank.views();
+    assert_eq!(views.len(), N);
+    for i in 0..N {
+        assert!(
+            (views[i].applied_torque_nm - torque[i]).abs() < 1e-4,
+            "wire {i}: {views:?}"
+        );
+        let moved = out[i].position_counts as f64 * torque[i].signum();
+        assert!(moved > 100.0, "wire {i} moves with its torque: {out:?}");
+    }
+    r.set.deactivate().unwrap();
+    assert!(wait_for(
+        || all_drives_off(&r.bank),
+        Duration::from_millis(50)
+    ));
+}
+
+#[test]
+fn one_and_four_drive_sets_boot_enable_and_follow_cyclic_torque() {
+    boots_enables_and_follows_torque_with::<1>();
+    boots_enables_and_follows_torque_with::<4>();
+}
+
+#[test]
+fn a_two_drive_set_with_analog_inputs_feeds_a_two_wire_tension_set_and_faults_safely() {
+    use crate::adc::calibration::TensionCalibration;
+    use crate::adc::drive_input::DriveInputAdc;
+    use crate::adc::tension_set::{MonotonicClock, StrainGaugeSet};
+    use videt_hal::TensionSensors;
+
+    let mut r = rig_with(with_analog_input(tolerant_for::<2>()), 1e-4);
+    {
+        let mut p = r.plant.lock().unwrap();
+        p.set_analog_input(0, 1100);
+        p.set_analog_input(1, -900);
+    }
+    let inputs = r.set.analog_inputs().expect("analog input configured");
+    let cal = TensionCalibration {
+        offset_counts: 100.0,
+        newtons_per_count: 0.01,
+    };
+    let mut tensions = StrainGaugeSet::new(
+        DriveInputAdc::for_each_wire(&inputs),
+        [cal; 2],
+        MonotonicClock::default(),
+        5 * PERIOD,
+    );
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    let mut out = [DriveSample::default(); 2];
+    let mut n = [0.0; 2];
+    for _ in 0..20 {
+        cycle(&mut r.set, [0.005, -0.005], &mut out).unwrap();
+        tensions.read_tensions(&mut n).unwrap();
+    }
+    assert_eq!(n, [10.0, -10.0]);
+    // The velocity is derived from the positions, in each wire's direction.
+    assert!(out[0].velocity_counts_per_s > 0.0 && out[1].velocity_counts_per_s < 0.0);
+    // A fault of the second drive stops both.
+    let (_, e) = cycles_to_error(&mut r, |r| r.bank.faults(1).raise_fault(0x2310));
+    assert!(matches!(e, DriveError::Emergency { node: 2, .. }), "{e}");
+    assert_safe_state(&r);
 }
