@@ -344,6 +344,7 @@ impl<const N: usize, T: TwinDevice<N>> CanTwin<N, T> {
             bus: Some(Arc::clone(&self.bus_faults)),
             drives,
             vision_stall: None,
+            wires: N,
         }
     }
 

@@ -220,33 +220,28 @@ macro_rules! can_twin_service_hardware {
 can_twin_service_hardware!(2, PlanarDevice);
 can_twin_service_hardware!(1, PolarDevice);
 
-impl ServiceHardware<2> for crate::twin_rt::RealTimeTwin<2, PlanarDevice> {
-    fn is_twin(&self) -> bool {
-        true
-    }
-    fn sim_faults(&mut self) -> Option<crate::sim_faults::SimFaultPort> {
-        Some(crate::sim_faults::SimFaultPort {
-            twin: self.twin().fault_inbox(),
-            bus: None,
-            drives: Vec::new(),
-            vision_stall: None,
-        })
-    }
+/// The [`ServiceHardware`] of the twin of a device without procedures.
+macro_rules! twin_service_hardware {
+    ($n:literal, $device:ty) => {
+        impl ServiceHardware<$n> for crate::twin_rt::RealTimeTwin<$n, $device> {
+            fn is_twin(&self) -> bool {
+                true
+            }
+            fn sim_faults(&mut self) -> Option<crate::sim_faults::SimFaultPort> {
+                Some(crate::sim_faults::SimFaultPort {
+                    twin: self.twin().fault_inbox(),
+                    bus: None,
+                    drives: Vec::new(),
+                    vision_stall: None,
+                    wires: $n,
+                })
+            }
+        }
+    };
 }
 
-impl ServiceHardware<1> for crate::twin_rt::RealTimeTwin<1, PolarDevice> {
-    fn is_twin(&self) -> bool {
-        true
-    }
-    fn sim_faults(&mut self) -> Option<crate::sim_faults::SimFaultPort> {
-        Some(crate::sim_faults::SimFaultPort {
-            twin: self.twin().fault_inbox(),
-            bus: None,
-            drives: Vec::new(),
-            vision_stall: None,
-        })
-    }
-}
+twin_service_hardware!(2, PlanarDevice);
+twin_service_hardware!(1, PolarDevice);
 
 #[cfg(test)]
 mod tests {

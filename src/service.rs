@@ -257,7 +257,14 @@ where
     };
     let shared = Arc::new(ServerShared {
         wires: N,
-        status: Mutex::new(StatusReport::from_snapshot(&StatusSnapshot::default(), 0)),
+        status: Mutex::new(StatusReport::from_snapshot(
+            &StatusSnapshot {
+                wires: N,
+                device: D::KIND.name(),
+                ..StatusSnapshot::default()
+            },
+            0,
+        )),
         commands: Mutex::new(command_tx),
         procedures: procedure_port,
         sim_faults: hw.sim_faults().map(|port| crate::sim_faults::SimFaultPort {

@@ -2,7 +2,6 @@
 //! (`{"cmd":"sim-fault","fault":"..."}`, `videt service sim-fault ...`): the soak and a
 //! technician rehearsing a fault use it. Only a twin offers them; the device refuses.
 
-use crate::WIREMAN_WIRES;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -24,6 +23,8 @@ pub struct SimFaultPort {
     pub drives: Vec<Arc<NodeFaults>>,
     /// The scene's vision thread publishes nothing while set (`None`: no live scene).
     pub vision_stall: Option<Arc<AtomicBool>>,
+    /// Wires of the twin's device (faults name wires 0 to `wires - 1`).
+    pub wires: usize,
 }
 
 /// The faults `SimFaultPort::apply` knows, for errors and help.
@@ -39,8 +40,14 @@ impl SimFaultPort {
         let wire = |s: &str| {
             s.parse::<usize>()
                 .ok()
-                .filter(|w| *w < WIREMAN_WIRES)
-                .ok_or_else(|| format!("fault {spec:?}: wire {s:?} must be 0, 1 or 2"))
+                .filter(|w| *w < self.wires)
+                .ok_or_else(|| {
+                    let wires: Vec<String> = (0..self.wires).map(|w| w.to_string()).collect();
+                    format!(
+                        "fault {spec:?}: wire {s:?} must be one of the device's wires ({})",
+                        wires.join(", ")
+                    )
+                })
         };
         let post = |f: InboxFault, what: String| {
             self.twin
@@ -136,6 +143,7 @@ impl SimFaultPort {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::WIREMAN_WIRES;
 
     #[test]
     fn faults_reach_their_handles_and_bad_ones_are_named() {
@@ -146,6 +154,7 @@ mod tests {
                 .map(|_| Arc::new(NodeFaults::default()))
                 .collect(),
             vision_stall: Some(Arc::new(AtomicBool::new(false))),
+            wires: WIREMAN_WIRES,
         };
         assert!(port.apply("sensor:1").unwrap().contains("sensor 1"));
         port.apply("bus-off").unwrap();
@@ -161,6 +170,12 @@ mod tests {
             let e = port.apply(bad).unwrap_err();
             assert!(e.contains(bad) || e.contains("unknown fault"), "{bad}: {e}");
         }
+        let two_wires = SimFaultPort {
+            wires: 2,
+            ..port.clone()
+        };
+        let e = two_wires.apply("break:2").unwrap_err();
+        assert!(e.contains("wires (0, 1)"), "{e}");
         let hal_twin = SimFaultPort {
             bus: None,
             drives: Vec::new(),

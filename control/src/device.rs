@@ -15,9 +15,7 @@
 
 use nalgebra::SVector;
 
-use crate::distribution::{
-    clamp_tension, minimum_tension, project, Algorithm, Distribution, ForceLimits,
-};
+use crate::distribution::{clamp_tension, project, Algorithm, Distribution, ForceLimits};
 use crate::field::{field_force, free_space_force, ForceField};
 use crate::kinematics::{ForwardSolution, Rig3};
 use crate::planar::{RigPlanar, Vec2};
@@ -180,14 +178,26 @@ pub trait WireDevice<const N: usize>:
         [0.0; 2]
     }
 
-    /// The nearest position the device's thimble can reach (the planar device confines it to
-    /// its plane; others return it unchanged).
+    /// The projection onto the directions the device's thimble moves in: the planar device's
+    /// linkage holds it in the x-z plane (`y` dropped); other devices return the vector
+    /// unchanged. Linear, so it applies to positions, velocities and forces alike (the twin
+    /// uses it on all three).
     fn constrain(&self, position_m: &Vec3) -> Vec3 {
         *position_m
     }
 
     /// The unit direction along which wire `wire` pulls the thimble at `position_m`.
     fn pull_direction(&self, position_m: &Vec3, wire: usize) -> Vec3;
+
+    /// The straight wire `wire` from its guide to `position_m`: its direction away from the
+    /// guide and its length, metres (one square root: what a plant integrating at tens of kHz
+    /// asks for each wire).
+    fn wire_from_guide(&self, position_m: &Vec3, wire: usize) -> (Vec3, f64) {
+        (
+            -self.pull_direction(position_m, wire),
+            self.inverse(position_m)[wire],
+        )
+    }
 
     /// The force of tensions `tensions_n` at `position_m`.
     fn force_of(&self, position_m: &Vec3, tensions_n: &[f64; N]) -> Vec3 {
@@ -209,6 +219,16 @@ pub trait WireDevice<const N: usize>:
         scale: f64,
         settings: &ForceSettings,
     ) -> Option<DeviceForces<N>>;
+}
+
+/// The unit vector along `d` (`+z` for a zero or non-finite vector) and its length.
+pub(crate) fn unit_and_length(d: Vec3) -> (Vec3, f64) {
+    let n = d.norm();
+    if n > 1e-12 && n.is_finite() {
+        (d / n, n)
+    } else {
+        (Vec3::z(), n)
+    }
 }
 
 /// Field, target and projection on a device whose wires span its force space (`N` wires in
@@ -259,13 +279,11 @@ impl WireDevice<3> for Rig3 {
     }
 
     fn pull_direction(&self, position_m: &Vec3, wire: usize) -> Vec3 {
-        let d = position_m - self.guides_m()[wire];
-        let n = d.norm();
-        if n > 1e-12 {
-            -d / n
-        } else {
-            -Vec3::z()
-        }
+        -self.wire_from_guide(position_m, wire).0
+    }
+
+    fn wire_from_guide(&self, position_m: &Vec3, wire: usize) -> (Vec3, f64) {
+        unit_and_length(position_m - self.guides_m()[wire])
     }
 
     fn force_of(&self, position_m: &Vec3, tensions_n: &[f64; 3]) -> Vec3 {
@@ -369,6 +387,11 @@ impl WireDevice<2> for PlanarDevice {
     fn pull_direction(&self, position_m: &Vec3, wire: usize) -> Vec3 {
         let d = self.rig.wire_directions(&in_plane(position_m));
         from_plane(&-d.column(wire).into_owned())
+    }
+
+    fn wire_from_guide(&self, position_m: &Vec3, wire: usize) -> (Vec3, f64) {
+        let g = self.rig.guides_x_m()[wire];
+        unit_and_length(Vec3::new(position_m.x - g, 0.0, position_m.z))
     }
 
     fn forces(
@@ -503,6 +526,10 @@ impl WireDevice<1> for PolarDevice {
         }
     }
 
+    fn wire_from_guide(&self, position_m: &Vec3, _wire: usize) -> (Vec3, f64) {
+        unit_and_length(position_m - self.guide_m)
+    }
+
     fn forces(
         &self,
         position_m: &Vec3,
@@ -565,14 +592,12 @@ pub fn minimum_tensions<const N: usize, D: WireDevice<N>>(
     position_m: &Vec3,
     limits: &ForceLimits,
 ) -> WireTensions<N> {
-    let d = minimum_tension::<N>(None, limits);
-    let t = clamp_tension(limits.t_min_n, limits);
-    let tensions_n = [t; N];
+    let tensions_n = [clamp_tension(limits.t_min_n, limits); N];
     WireTensions {
         tensions_n,
         rendered_n: device.force_of(position_m, &tensions_n),
         saturated: false,
-        projected: d.projected,
+        projected: true,
     }
 }
 
@@ -620,6 +645,33 @@ mod tests {
         let polar = PolarDevice::new(Vec3::new(0.1, 0.2, 0.0)).unwrap();
         round_trip(&polar, Vec3::new(0.15, -0.1, 0.4));
         round_trip(&Rig4::paper_frame(), Vec3::new(0.2, 0.15, 0.3));
+    }
+
+    #[test]
+    fn each_wire_from_its_guide_agrees_with_the_kinematics() {
+        fn check<const N: usize, D: WireDevice<N>>(device: &D, p: Vec3) {
+            let lengths = device.inverse(&p);
+            for i in 0..N {
+                let (unit, length) = device.wire_from_guide(&p, i);
+                assert!(
+                    (length - lengths[i]).abs() < 1e-12,
+                    "{:?} wire {i}",
+                    D::KIND
+                );
+                assert!((unit + device.pull_direction(&p, i)).norm() < 1e-12);
+                assert!((unit.norm() - 1.0).abs() < 1e-12);
+            }
+        }
+        let rig3 = Rig3::new([
+            Vec3::zeros(),
+            Vec3::new(0.37, 0.0, 0.0),
+            Vec3::new(0.185, 0.30, 0.0),
+        ])
+        .unwrap();
+        check(&rig3, Vec3::new(0.2, 0.1, 0.3));
+        check(&PlanarDevice::paper_prototype(), Vec3::new(0.3, 0.0, 0.2));
+        check(&PolarDevice::at_origin(), Vec3::new(0.1, -0.2, 0.35));
+        check(&Rig4::paper_frame(), Vec3::new(0.2, 0.15, 0.3));
     }
 
     #[test]

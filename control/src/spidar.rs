@@ -210,7 +210,11 @@ impl WireDevice<4> for Rig4 {
     }
 
     fn pull_direction(&self, position_m: &Vec3, wire: usize) -> Vec3 {
-        -self.wire_directions(position_m).column(wire).into_owned()
+        -self.wire_from_guide(position_m, wire).0
+    }
+
+    fn wire_from_guide(&self, position_m: &Vec3, wire: usize) -> (Vec3, f64) {
+        crate::device::unit_and_length(position_m - self.guides_m[wire])
     }
 
     fn forces(

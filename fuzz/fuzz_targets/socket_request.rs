@@ -25,6 +25,7 @@ fn server() -> &'static Server {
                 commands: Mutex::new(producer),
                 procedures: None,
                 sim_faults: None,
+                wires: 3,
             },
             commands: Mutex::new(consumer),
         }

@@ -304,9 +304,9 @@ impl<const N: usize, D: WireDevice<N>> Plant<N, D> {
     /// The free wire (outside the ring) and the inside wire stretch in series. A wire wound
     /// past its end (free length <= 0) has its end against the guide ring: attached, it holds the
     /// thimble at the ring like a stiff spring; detached, only the inside wire carries tension.
-    fn wire_tension(&self, i: usize, length: f64, free_length_m: f64) -> (f64, Vec3) {
+    fn wire_tension(&self, i: usize, free_length_m: f64) -> (f64, Vec3) {
         // From the guide to the thimble.
-        let unit = -self.params.device.pull_direction(&self.position_m, i);
+        let (unit, length) = self.params.device.wire_from_guide(&self.position_m, i);
         let d = unit * length;
         let m = &self.modules;
         let inside = m.inside_length_m[i];
@@ -353,10 +353,9 @@ impl<const N: usize, D: WireDevice<N>> Plant<N, D> {
         let h = self.params.step_s;
         let tr = self.params.transmission;
         let free = self.free_length_m();
-        let lengths = self.params.device.inverse(&self.position_m);
         let mut wire_force = Vec3::zeros();
         for (i, free_i) in free.iter().enumerate() {
-            let (t, force) = self.wire_tension(i, lengths[i], *free_i);
+            let (t, force) = self.wire_tension(i, *free_i);
             self.tension_n[i] = t;
             wire_force += force;
         }

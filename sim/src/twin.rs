@@ -303,8 +303,19 @@ impl<const N: usize, D: WireDevice<N>> Twin<N, D> {
         }
     }
 
-    /// Make `fault` happen now.
+    /// Make `fault` happen now. A fault on a wire the device does not have does nothing.
     pub fn inject(&mut self, fault: TwinFault) {
+        let wire = match fault {
+            TwinFault::BreakWire(w)
+            | TwinFault::FailTensionSensor(w)
+            | TwinFault::FaultDrive(w)
+            | TwinFault::DetachWire(w)
+            | TwinFault::SlipWire(w, _) => Some(w),
+            TwinFault::PressEStop => None,
+        };
+        if wire.is_some_and(|w| w >= N) {
+            return;
+        }
         match fault {
             TwinFault::BreakWire(w) => self.plant.break_wire(w),
             TwinFault::PressEStop => self.set_estop_button(true),
@@ -628,6 +639,33 @@ mod tests {
         t.set_estop_button(false);
         t.reset().unwrap();
         assert!(!t.is_pressed().unwrap());
+    }
+
+    #[test]
+    fn a_fault_on_a_wire_the_device_lacks_does_nothing() {
+        let start = Vec3::new(0.26, 0.0, 0.3);
+        let mut t = Twin::new(
+            PlantParams::for_device(videt_control::PlanarDevice::paper_prototype()),
+            start,
+            VirtualOperator::holding(start),
+            SensorModel::<2>::ideal(),
+        );
+        for f in [
+            TwinFault::BreakWire(2),
+            TwinFault::SlipWire(3, 10),
+            TwinFault::DetachWire(2),
+            TwinFault::FailTensionSensor(2),
+            TwinFault::FaultDrive(7),
+        ] {
+            t.inject(f);
+        }
+        assert!(t.plant().wire_intact(0) && t.plant().wire_intact(1));
+        let mut tensions = [0.0; 2];
+        t.read_tensions(&mut tensions).unwrap();
+        let mut samples = [DriveSample::default(); 2];
+        t.read_drives(&mut samples).unwrap();
+        t.inject(TwinFault::BreakWire(1));
+        assert!(!t.plant().wire_intact(1));
     }
 
     #[test]

@@ -66,6 +66,7 @@ pub trait ProcedureDevice: InitHardware {
             bus: None,
             drives: Vec::new(),
             vision_stall: None,
+            wires: WIREMAN_WIRES,
         })
     }
 }
