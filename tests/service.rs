@@ -393,7 +393,14 @@ fn a_drive_fault_is_logged_with_its_cause() {
             std::thread::sleep(Duration::from_millis(50));
         }
     };
-    assert_eq!(status(Duration::from_secs(15)).safety, "normal");
+    let before = status(Duration::from_secs(15));
+    assert_eq!(
+        before.safety,
+        "normal",
+        "{:?}: {}",
+        before.fault,
+        std::fs::read_to_string(&stderr).unwrap_or_default()
+    );
     let injected = request(
         &socket,
         &Request::SimFault {
