@@ -502,10 +502,12 @@ fn run_over_hub(hub: &UdpHub) {
     std::thread::sleep(Duration::from_millis(50)); // both registered before the nodes boot
     let plant = Arc::new(Mutex::new(FreeMotorPlant::new(WIRES, 1e-5, 1e-4, 2000.0)));
     let bank = SimDriveBank::spawn(drives, &specs(), plant);
-    // Four UDP hops through the hub per exchange on a shared test machine: this test is about
-    // the transport, so it tolerates late answers (the fault tests above check the limits).
+    // Four UDP hops through the hub per exchange on a shared test machine, whose threads run at
+    // ordinary priority beside the crate's other tests: this test is about the transport, so it
+    // tolerates late answers up to a second (a 210 ms stall was seen on a loaded machine; the
+    // fault tests above check the limits).
     let mut cfg = config();
-    cfg.max_missed_cycles = 20;
+    cfg.max_missed_cycles = 100;
     cfg.drive_heartbeat_timeout = Duration::from_millis(300);
     cfg.host_silence_timeout_ms = 500;
     let mut set = Cia402DriveSet::new(host, cfg).unwrap();
