@@ -115,6 +115,26 @@ fn stats<const N: usize>(
     path_stats(profile, samples.iter())
 }
 
+/// Every side at least 80 % touched, the path within `max_distance_m` of the profile and
+/// within 5 mm RMS.
+fn assert_follows(s: &PathStats, max_distance_m: f64) {
+    assert!(
+        s.segment_coverage.iter().all(|&c| c >= 0.8),
+        "sides touched: {:?}",
+        s.segment_coverage
+    );
+    assert!(
+        s.max_distance_m <= max_distance_m,
+        "max distance {:.4} m",
+        s.max_distance_m
+    );
+    assert!(
+        s.rms_distance_m <= 0.005,
+        "RMS distance {:.4} m",
+        s.rms_distance_m
+    );
+}
+
 fn assert_safe_throughout(records: &[CycleRecord], what: &str) {
     let unsafe_state = records.iter().find(|r| r.safety.reason().is_some());
     assert!(unsafe_state.is_none(), "{what}: {unsafe_state:?}");
@@ -134,21 +154,7 @@ fn fig18_the_planar_prototype_follows_the_profile_through_the_services_cycle() {
     let s = stats::<2>(&profile, &records, traversal_s);
     // "The profile is followed without major problems": every side followed, within a
     // fingertip of it.
-    assert!(
-        s.segment_coverage.iter().all(|&c| c >= 0.8),
-        "sides touched: {:?}",
-        s.segment_coverage
-    );
-    assert!(
-        s.max_distance_m <= 0.010,
-        "max distance {:.4} m",
-        s.max_distance_m
-    );
-    assert!(
-        s.rms_distance_m <= 0.005,
-        "RMS distance {:.4} m",
-        s.rms_distance_m
-    );
+    assert_follows(&s, 0.010);
     assert!(
         s.contact_fraction >= 0.8,
         "in contact {:.2}",
@@ -180,21 +186,7 @@ fn fig23_the_one_wire_device_explores_the_contour_through_the_services_cycle() {
     }
     let s = stats::<1>(&contour, &records, traversal_s);
     // "Explored very well": every side, within a fingertip.
-    assert!(
-        s.segment_coverage.iter().all(|&c| c >= 0.8),
-        "sides explored: {:?}",
-        s.segment_coverage
-    );
-    assert!(
-        s.max_distance_m <= 0.008,
-        "max distance {:.4} m",
-        s.max_distance_m
-    );
-    assert!(
-        s.rms_distance_m <= 0.005,
-        "RMS distance {:.4} m",
-        s.rms_distance_m
-    );
+    assert_follows(&s, 0.008);
 }
 
 /// The operator alone, to check the test's premise: without forces the hand goes through the

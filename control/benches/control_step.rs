@@ -64,7 +64,7 @@ fn bench_control_step(c: &mut Criterion) {
     bench_device(c, rig, p);
     bench_device(c, PlanarDevice::paper_prototype(), p);
     bench_device(c, PolarDevice::at_origin(), p);
-    bench_device(c, Rig4::paper_frame(), p);
+    bench_device(c, Rig4::cube_frame(), p);
 }
 
 /// The projections alone over 256 mixed cases (positions over and beside the guide triangle,

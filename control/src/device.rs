@@ -615,6 +615,16 @@ mod tests {
         }
     }
 
+    /// The WireMan on the paper's 370 mm x 300 mm frame.
+    fn paper_rig3() -> Rig3 {
+        Rig3::new([
+            Vec3::zeros(),
+            Vec3::new(0.37, 0.0, 0.0),
+            Vec3::new(0.185, 0.30, 0.0),
+        ])
+        .unwrap()
+    }
+
     fn round_trip<const N: usize, D: WireDevice<N>>(device: &D, p: Vec3) {
         let sensed = Sensed {
             lengths_m: device.inverse(&p),
@@ -633,18 +643,13 @@ mod tests {
 
     #[test]
     fn every_device_inverts_its_kinematics() {
-        let rig3 = Rig3::new([
-            Vec3::zeros(),
-            Vec3::new(0.37, 0.0, 0.0),
-            Vec3::new(0.185, 0.30, 0.0),
-        ])
-        .unwrap();
+        let rig3 = paper_rig3();
         round_trip(&rig3, Vec3::new(0.2, 0.1, 0.3));
         round_trip(&PlanarDevice::paper_prototype(), Vec3::new(0.3, 0.0, 0.2));
         round_trip(&PolarDevice::at_origin(), Vec3::new(0.1, -0.2, 0.35));
         let polar = PolarDevice::new(Vec3::new(0.1, 0.2, 0.0)).unwrap();
         round_trip(&polar, Vec3::new(0.15, -0.1, 0.4));
-        round_trip(&Rig4::paper_frame(), Vec3::new(0.2, 0.15, 0.3));
+        round_trip(&Rig4::cube_frame(), Vec3::new(0.2, 0.15, 0.3));
     }
 
     #[test]
@@ -662,16 +667,11 @@ mod tests {
                 assert!((unit.norm() - 1.0).abs() < 1e-12);
             }
         }
-        let rig3 = Rig3::new([
-            Vec3::zeros(),
-            Vec3::new(0.37, 0.0, 0.0),
-            Vec3::new(0.185, 0.30, 0.0),
-        ])
-        .unwrap();
+        let rig3 = paper_rig3();
         check(&rig3, Vec3::new(0.2, 0.1, 0.3));
         check(&PlanarDevice::paper_prototype(), Vec3::new(0.3, 0.0, 0.2));
         check(&PolarDevice::at_origin(), Vec3::new(0.1, -0.2, 0.35));
-        check(&Rig4::paper_frame(), Vec3::new(0.2, 0.15, 0.3));
+        check(&Rig4::cube_frame(), Vec3::new(0.2, 0.15, 0.3));
     }
 
     #[test]
@@ -701,7 +701,7 @@ mod tests {
             Vec3::new(0.1, -0.2, 0.05),
         );
         check(
-            &Rig4::paper_frame(),
+            &Rig4::cube_frame(),
             Vec3::new(0.2, 0.15, 0.3),
             Vec3::new(0.1, -0.2, 0.05),
         );

@@ -54,7 +54,7 @@ impl Rig4 {
     /// Four alternating corners of a 0.6 m cube around the WireMan's workspace (x from -0.1 to
     /// 0.5, y from -0.15 to 0.45, z from 0 to 0.6 m): two guides on the body's plane, two in
     /// front of the hand.
-    pub fn paper_frame() -> Rig4 {
+    pub fn cube_frame() -> Rig4 {
         Rig4::new([
             Vec3::new(-0.1, -0.15, 0.0),
             Vec3::new(0.5, 0.45, 0.0),
@@ -258,7 +258,7 @@ mod tests {
 
     #[test]
     fn every_direction_is_rendered_at_the_centre() {
-        let rig = Rig4::paper_frame();
+        let rig = Rig4::cube_frame();
         let p = Vec3::new(0.2, 0.15, 0.3);
         let limits = ForceLimits::default();
         for k in 0..24 {
@@ -277,7 +277,7 @@ mod tests {
 
     #[test]
     fn the_least_tension_solution_is_chosen() {
-        let rig = Rig4::paper_frame();
+        let rig = Rig4::cube_frame();
         let p = Vec3::new(0.2, 0.15, 0.3);
         let limits = ForceLimits::default();
         let f = Vec3::new(0.0, 0.0, -2.0);
@@ -319,7 +319,7 @@ mod tests {
 
     #[test]
     fn too_large_a_force_is_scaled_along_its_direction() {
-        let rig = Rig4::paper_frame();
+        let rig = Rig4::cube_frame();
         let p = Vec3::new(0.2, 0.15, 0.3);
         let f = Vec3::new(0.0, 0.0, 200.0);
         let t = rig.tensions(&p, &f, &ForceLimits::default()).unwrap();
@@ -346,7 +346,7 @@ mod tests {
             x in -0.05f64..0.45, y in -0.1f64..0.4, z in 0.05f64..0.55,
             fx in -30.0f64..30.0, fy in -30.0f64..30.0, fz in -30.0f64..30.0,
         ) {
-            let rig = Rig4::paper_frame();
+            let rig = Rig4::cube_frame();
             let limits = ForceLimits::default();
             if let Some(t) = rig.tensions(&Vec3::new(x, y, z), &Vec3::new(fx, fy, fz), &limits) {
                 for v in t.tensions_n {

@@ -96,7 +96,7 @@ fn control_step_does_not_allocate_on_any_device() {
             steps_without_allocating(PlanarDevice::paper_prototype()),
         ),
         ("polar1", steps_without_allocating(PolarDevice::at_origin())),
-        ("spidar4", steps_without_allocating(Rig4::paper_frame())),
+        ("spidar4", steps_without_allocating(Rig4::cube_frame())),
     ] {
         assert!(
             contacts > 100,
