@@ -222,6 +222,8 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig<WIREMAN_WIRES> {
     c.drive_heartbeat_ms = d.heartbeat_ms;
     c.drive_heartbeat_timeout = Duration::from_millis(u64::from(d.heartbeat_timeout_ms));
     c.max_missed_cycles = d.max_missed_cycles;
+    c.pdo_timeout = period.mul_f64(d.pdo_wait_fraction);
+    c.power_timeout = Duration::from_millis(u64::from(d.power_timeout_ms));
     if let Some(desc) = &d.description {
         c.rated_torque_unit = desc.torque_unit();
         let counts_per_rev = f64::from(config.transmission.counts_per_motor_rev);
@@ -513,8 +515,11 @@ mod tests {
         config.drives.heartbeat_ms = 20;
         config.drives.heartbeat_timeout_ms = 70;
         config.control.rate_hz = 2000;
+        config.drives.pdo_wait_fraction = 0.9;
         let c = drive_set_config(&config);
         assert_eq!(c.node_ids, [4, 5, 6]);
+        assert_eq!(c.pdo_timeout, Duration::from_micros(450));
+        assert_eq!(c.power_timeout, Duration::from_millis(500));
         assert_eq!(c.rated_torque_nm, 0.08);
         assert_eq!(c.drive_heartbeat_ms, 20);
         assert_eq!(c.drive_heartbeat_timeout, Duration::from_millis(70));

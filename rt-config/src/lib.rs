@@ -262,6 +262,16 @@ pub struct DrivesConfig {
     /// first missing period is). With 1 the drives power off within two periods of a drive
     /// going silent; a bus or computer that delays answers now and then needs more.
     pub max_missed_cycles: u32,
+    /// Part of the control period the host waits after SYNC for the drives' process data
+    /// (0.1..=0.95); the rest of the period is the control step's and the set-points'. Data
+    /// that comes later counts as missing that period (`max_missed_cycles`). Drives slow to
+    /// answer, or a bus whose answers take long (`videtd` logs how long one period's process
+    /// data takes on the bus), need more.
+    pub pdo_wait_fraction: f64,
+    /// Time each drive's power state machine is given to reach its goal (enabled when the
+    /// service starts, disabled when it stops), milliseconds (10..=10000). Drives that charge
+    /// a large DC link or release a brake first need more.
+    pub power_timeout_ms: u32,
     /// Bit rate of the CAN bus, bit/s: one of CiA 301's 10000, 20000, 50000, 125000, 250000,
     /// 500000, 800000, 1000000.
     pub bitrate: u32,
@@ -421,6 +431,8 @@ impl Default for DrivesConfig {
             heartbeat_ms: 10,
             heartbeat_timeout_ms: 50,
             max_missed_cycles: 1,
+            pdo_wait_fraction: 0.6,
+            power_timeout_ms: 500,
             bitrate: 1_000_000,
             max_bus_load: 0.8,
         }

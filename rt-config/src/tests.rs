@@ -124,6 +124,14 @@ fn every_section_is_validated() {
             "[drives]\nmax_missed_cycles = 101\n",
             "drives.max_missed_cycles",
         ),
+        (
+            "[drives]\npdo_wait_fraction = 1.0\n",
+            "drives.pdo_wait_fraction",
+        ),
+        (
+            "[drives]\npower_timeout_ms = 0\n",
+            "drives.power_timeout_ms",
+        ),
         ("[drives]\nbitrate = 2000000\n", "drives.bitrate"),
         (
             "[sensors]\nadc = \"hx711\"\nhx711_clock_lines = [5, 6, 13]\nhx711_data_lines = [16, 20, 21]\n",

@@ -209,6 +209,13 @@ impl Config {
             0.0,
             100.0,
         )?;
+        in_range("drives.pdo_wait_fraction", d.pdo_wait_fraction, 0.1, 0.95)?;
+        in_range(
+            "drives.power_timeout_ms",
+            f64::from(d.power_timeout_ms),
+            10.0,
+            10000.0,
+        )?;
         if !CAN_BITRATES.contains(&d.bitrate) {
             return Err(ConfigError::Invalid {
                 field: "drives.bitrate".into(),

@@ -26,6 +26,12 @@ use videt_sim::twin_plant::{AnalogScale, RealTimeTwinPlant};
 use super::ToolResult;
 use crate::{rt, setup};
 
+/// How often the physics thread brings the twin up to the wall clock and publishes its
+/// encoders and strain gauges to the drives (the twin integrates at its own 20 kHz step
+/// within). Half a control period at 1 kHz: what a drive reports at SYNC is at most this old,
+/// as a real drive's encoder latch is, and an emulated CPU is not woken 5000 times a second.
+const PHYSICS_PERIOD: Duration = Duration::from_micros(500);
+
 /// The EMCY error code of the injected drive fault: over-current (CiA 301 0x2310).
 const OVER_CURRENT: u16 = 0x2310;
 
@@ -43,9 +49,15 @@ pub struct SimRigArgs {
     /// this file, as `videt init` would measure it, once the drives listen.
     #[arg(long)]
     pub calibration_out: Option<PathBuf>,
-    /// SCHED_FIFO priority of the drives' thread (0: normal scheduling).
+    /// SCHED_FIFO priority of the drives' thread, the physics thread one below (0: normal
+    /// scheduling).
     #[arg(long, default_value_t = 0)]
     pub priority: u8,
+    /// Pin the drives' thread to this CPU: give the control thread's (`realtime.control_cpu`),
+    /// so that each period's SYNC and answers are handed over on one CPU, whatever load stalls
+    /// the others, as hardware answers whatever the host does.
+    #[arg(long)]
+    pub cpu: Option<usize>,
     /// Stop after this many seconds (default: until SIGTERM or Ctrl-C).
     #[arg(long)]
     pub seconds: Option<f64>,
@@ -88,10 +100,12 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         zero_counts: s.zero_counts[i],
         newtons_per_count: s.newtons_per_count[i],
     });
-    // The physics runs on a thread of its own at normal priority and hands encoders, analog
-    // inputs and torques to the drives through wait-free mailboxes: the drives answer every
-    // SYNC at once whatever the physics costs (on a slow machine the twin then moves in slow
-    // motion rather than the bus falling silent).
+    // The physics runs on a thread of its own and hands encoders, analog inputs and torques to
+    // the drives through wait-free mailboxes: the drives answer every SYNC at once whatever the
+    // physics costs (on a slow machine the twin then moves in slow motion rather than the bus
+    // falling silent). With `--priority` it runs just below the drives: a physics thread
+    // starved by the machine's ordinary work would catch up in bursts, and a burst of motion
+    // between two SYNCs reads as a spike of wire speed.
     let mut plant = RealTimeTwinPlant::new(scene.twin, scales);
     let motors = Arc::new(SharedMotors::new(WIREMAN_WIRES));
     publish(&plant, &motors);
@@ -104,6 +118,15 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         })
         .collect();
     let priority = args.priority;
+    let cpu = args.cpu;
+    if let Some(cpu) = cpu {
+        let available = rt::cpus_available();
+        if cpu >= available {
+            return Err(
+                format!("--cpu {cpu}: this machine has CPUs 0 to {}", available - 1).into(),
+            );
+        }
+    }
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop))?;
@@ -118,18 +141,27 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
                 eprintln!("videt sim-rig: the drives stay SCHED_OTHER: {e}");
             }
         }
+        if let Some(cpu) = cpu {
+            if let Err(e) = rt::pin_to_cpu(cpu) {
+                eprintln!("videt sim-rig: the drives are not pinned to CPU {cpu}: {e}");
+            }
+        }
     });
     let physics_stop = Arc::clone(&stop);
     let physics_motors = Arc::clone(&motors);
     let physics = std::thread::Builder::new()
         .name("sim-rig-physics".into())
         .spawn(move || {
-            while !physics_stop.load(Ordering::Relaxed) {
-                for axis in 0..WIREMAN_WIRES {
-                    plant.apply_torque(axis, physics_motors.torque_nm(axis));
+            if priority > 1 {
+                if let Err(e) = rt::set_fifo(priority - 1) {
+                    eprintln!("videt sim-rig: the physics stays SCHED_OTHER: {e}");
                 }
+            }
+            while !physics_stop.load(Ordering::Relaxed) {
+                let torques = core::array::from_fn(|axis| physics_motors.torque_nm(axis));
+                plant.apply_torques(&torques);
                 publish(&plant, &physics_motors);
-                std::thread::sleep(Duration::from_micros(200));
+                std::thread::sleep(PHYSICS_PERIOD);
             }
         })?;
     // Written once the drives listen: a service started when the file appears finds them.

@@ -30,6 +30,10 @@ impl SimPort for crate::can_bus::udp::UdpEndpoint {
     }
 }
 
+/// Frames a [`SimDriveBank`] takes off its port before it looks at the time: more than a
+/// period's traffic of many drives, so a thread woken late catches up with the bus at once.
+const MAX_FRAMES_TAKEN_AT_ONCE: usize = 64;
+
 /// Simulated drives answering inline, without a thread: frames sent to the bus reach the nodes
 /// at once and their answers wait in a preallocated queue. Deterministic, for tests on the
 /// twin's simulated clock (the threaded [`SimDriveBank`] is the real-time variant).
@@ -178,6 +182,20 @@ impl SimDriveBank {
                 on_start();
                 let mut outbox: Vec<SimFrame> = Vec::with_capacity(64);
                 while !stop_t.load(Ordering::Relaxed) {
+                    // What arrived while this thread was not running is taken first: a real
+                    // drive's controller takes frames off the bus as they come, so its
+                    // heartbeat consumer never finds the host silent while the host's
+                    // heartbeat waits in a queue.
+                    for _ in 0..MAX_FRAMES_TAKEN_AT_ONCE {
+                        match port.receive_frame(Duration::ZERO) {
+                            Ok(Some(frame)) => {
+                                for n in nodes.iter_mut() {
+                                    n.on_frame(&frame, &mut plant, &mut |f| outbox.push(f));
+                                }
+                            }
+                            _ => break,
+                        }
+                    }
                     let now = Instant::now();
                     let mut next = now + Duration::from_millis(5);
                     for n in nodes.iter_mut() {
