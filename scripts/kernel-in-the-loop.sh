@@ -199,13 +199,16 @@ EOF
 
 # --- booting ----------------------------------------------------------------------------------
 # qemu ACCEL MODE TIMEOUT: boot the guest; its console goes to $OUT/console-MODE.log.
+# tsc=reliable: the emulated vCPUs' TSCs fail the kernel's synchronisation check, and it would
+# then clock itself on the HPET, which makes every clock_gettime() a system call and an emulated
+# device read; the TSC that QEMU emulates follows the host's one clock, so it is monotonic.
 qemu() {
   local accel=$1 mode=$2 limit=$3 cpu=max
   [ "$accel" = kvm ] && cpu=host
   local console=$OUT/console-$mode.log
   local args=(-accel "$accel" -cpu "$cpu" -smp 2 -m 4096 -nographic -no-reboot
     -kernel "$KROOT/boot/vmlinuz-$KVER" -initrd "$INITRD"
-    -append "console=ttyS0 quiet panic=-1 kil.mode=$mode kil.repo=$REPO kil.out=$OUT kil.modroot=$KROOT kil.accel=$accel"
+    -append "console=ttyS0 quiet panic=-1 tsc=reliable kil.mode=$mode kil.repo=$REPO kil.out=$OUT kil.modroot=$KROOT kil.accel=$accel"
     -virtfs "local,path=/,mount_tag=hostroot,security_model=none,readonly=on,multidevs=remap"
     -virtfs "local,path=$OUT,mount_tag=kilout,security_model=none,multidevs=remap")
   if [ "$mode" = shell ]; then
