@@ -227,6 +227,26 @@ fn wire_replacement_and_tension_calibration_from_the_terminal() {
 }
 
 #[test]
+fn sim_rig_refuses_a_cpu_the_machine_lacks() {
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
+    let out = videt(&[
+        "sim-rig",
+        "--config",
+        example,
+        "--can",
+        "vcan-absent",
+        "--cpu",
+        "4096",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("--cpu 4096: this machine has CPUs 0 to"),
+        "{err}"
+    );
+}
+
+#[test]
 fn every_subcommand_has_help() {
     for args in [
         &["init", "--help"][..],

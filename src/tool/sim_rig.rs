@@ -53,9 +53,9 @@ pub struct SimRigArgs {
     /// scheduling).
     #[arg(long, default_value_t = 0)]
     pub priority: u8,
-    /// Pin the drives' thread to this CPU: give the control thread's (`realtime.control_cpu`),
-    /// so that each period's SYNC and answers are handed over on one CPU, whatever load stalls
-    /// the others, as hardware answers whatever the host does.
+    /// Pin the drives' thread to this CPU. Give it the control thread's
+    /// (`realtime.control_cpu`): each period's SYNC and answers are then handed over on one
+    /// CPU, whatever load stalls the others, as hardware answers whatever the host does.
     #[arg(long)]
     pub cpu: Option<usize>,
     /// Stop after this many seconds (default: until SIGTERM or Ctrl-C).
@@ -88,6 +88,14 @@ pub fn true_calibration(
 /// Run `videt sim-rig`.
 pub fn run(args: &SimRigArgs) -> ToolResult {
     let config = Config::load(&args.config)?;
+    if let Some(cpu) = args.cpu {
+        let available = rt::cpus_available();
+        if cpu >= available {
+            return Err(
+                format!("--cpu {cpu}: this machine has CPUs 0 to {}", available - 1).into(),
+            );
+        }
+    }
     let interface = args
         .can
         .clone()
@@ -119,14 +127,6 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         .collect();
     let priority = args.priority;
     let cpu = args.cpu;
-    if let Some(cpu) = cpu {
-        let available = rt::cpus_available();
-        if cpu >= available {
-            return Err(
-                format!("--cpu {cpu}: this machine has CPUs 0 to {}", available - 1).into(),
-            );
-        }
-    }
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop))?;
