@@ -280,21 +280,22 @@ fn socket_path(dir: &Path) -> PathBuf {
 }
 
 /// The twin served as a rig on `can` (and its true calibration written beside the config),
-/// its drives on the control thread's CPU (`realtime.control_cpu` of the example) as the CAN
-/// twin's are: the emulated CPU the cameras and the tests load does not delay their answers.
+/// its drives on the control thread's CPU (`realtime.control_cpu`) as the CAN twin's are: the
+/// emulated CPU the cameras and the tests load does not delay their answers.
 fn start_rig(config: &Path, can: &str) -> Process {
     let dir = config.parent().unwrap();
-    let child = Command::new(videt_bin())
-        .args([
-            "sim-rig",
-            "--priority",
-            "70",
-            "--cpu",
-            "1",
-            "--can",
-            can,
-            "--config",
-        ])
+    let control_cpu = videt_rt_config::Config::load(config)
+        .unwrap()
+        .realtime
+        .control_cpu;
+    let mut rig = Command::new(videt_bin());
+    rig.args(["sim-rig", "--priority", "70", "--can", can]);
+    // -1: the control thread is not pinned, nor are the drives.
+    if control_cpu >= 0 {
+        rig.args(["--cpu", &control_cpu.to_string()]);
+    }
+    let child = rig
+        .arg("--config")
         .arg(config)
         .arg("--calibration-out")
         .arg(dir.join("calibration.toml"))

@@ -13,28 +13,13 @@ use videt::control_loop::{
 use videt::cycle::{CycleRecord, WireZero};
 use videt::runtime_device::RuntimeDevice;
 use videt::setup;
-use videt::snapshot::{SurfaceFeed, SurfaceView};
+use videt::snapshot::FixedSurface;
 use videt_control::profile::Profile;
 use videt_control::Vec3;
 use videt_experiments::geometry::{path_stats, PathStats};
 use videt_experiments::Sample;
 use videt_rt_config::Config;
 use videt_sim::VirtualOperator;
-
-/// The profile as the cycle's surface.
-struct ProfileFeed(Profile);
-
-impl SurfaceFeed for ProfileFeed {
-    type Surface = Profile;
-    fn current(&mut self) -> SurfaceView<'_, Profile> {
-        SurfaceView {
-            surface: &self.0,
-            version: 0,
-            live: false,
-            frame_age_ns: None,
-        }
-    }
-}
 
 /// Every period's record, kept (capacity reserved before the loop).
 struct Records(Vec<CycleRecord>);
@@ -69,7 +54,7 @@ fn run_through_the_cycle<const N: usize, D: RuntimeDevice<N>>(
     let mut records = Records(Vec::with_capacity((seconds * 1000.0) as usize + 100));
     run_control_loop(
         &mut twin,
-        &mut ProfileFeed(profile),
+        &mut FixedSurface(profile),
         &mut cycle,
         &settings,
         &mut LoopControl::stop_flag(&stop),

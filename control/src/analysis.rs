@@ -328,12 +328,7 @@ mod tests {
 
     #[test]
     fn spatial_sweep_covers_the_sphere() {
-        let rig = Rig3::new([
-            Vec3::zeros(),
-            Vec3::new(0.37, 0.0, 0.0),
-            Vec3::new(0.185, 0.30, 0.0),
-        ])
-        .unwrap();
+        let rig = Rig3::paper_frame();
         let map = rig.wire_map(&Vec3::new(0.18, 0.1, 0.3)).unwrap();
         let mut count = 0;
         let mut straight_down = 0.0;

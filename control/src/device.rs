@@ -617,12 +617,7 @@ mod tests {
 
     /// The WireMan on the paper's 370 mm x 300 mm frame.
     fn paper_rig3() -> Rig3 {
-        Rig3::new([
-            Vec3::zeros(),
-            Vec3::new(0.37, 0.0, 0.0),
-            Vec3::new(0.185, 0.30, 0.0),
-        ])
-        .unwrap()
+        Rig3::paper_frame()
     }
 
     fn round_trip<const N: usize, D: WireDevice<N>>(device: &D, p: Vec3) {

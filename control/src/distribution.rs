@@ -677,12 +677,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn rig() -> Rig3 {
-        Rig3::new([
-            Vec3::zeros(),
-            Vec3::new(0.37, 0.0, 0.0),
-            Vec3::new(0.185, 0.30, 0.0),
-        ])
-        .unwrap()
+        Rig3::paper_frame()
     }
 
     fn no_floor() -> ForceLimits {

@@ -71,6 +71,17 @@ pub struct Rig3 {
 }
 
 impl Rig3 {
+    /// The paper's WireMan frame: its three guides at the corners of a 370 mm x 300 mm base
+    /// triangle in z = 0.
+    pub fn paper_frame() -> Rig3 {
+        Rig3::new([
+            Vec3::zeros(),
+            Vec3::new(0.37, 0.0, 0.0),
+            Vec3::new(0.185, 0.30, 0.0),
+        ])
+        .expect("the paper's frame is a valid rig")
+    }
+
     /// Build a rig from three guide points (metres, `z = 0`).
     pub fn new(guides_m: [Vec3; 3]) -> Result<Rig3, RigError> {
         if guides_m
@@ -247,12 +258,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn paper_rig() -> Rig3 {
-        Rig3::new([
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(0.37, 0.0, 0.0),
-            Vec3::new(0.185, 0.30, 0.0),
-        ])
-        .unwrap()
+        Rig3::paper_frame()
     }
 
     #[test]

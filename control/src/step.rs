@@ -260,12 +260,7 @@ mod tests {
     const WIRES: usize = 3;
 
     fn step(algorithm: Algorithm) -> ControlStep<3, Rig3> {
-        let rig = Rig3::new([
-            Vec3::zeros(),
-            Vec3::new(0.37, 0.0, 0.0),
-            Vec3::new(0.185, 0.30, 0.0),
-        ])
-        .unwrap();
+        let rig = Rig3::paper_frame();
         let mut params =
             ControlParams::paper_defaults(TensionPiGains::pi_only(0.0008, 0.0005, 0.02, 0.02));
         params.algorithm = algorithm;

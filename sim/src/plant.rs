@@ -37,14 +37,7 @@ pub struct PlantParams<const N: usize, D: WireDevice<N>> {
 impl PlantParams<3, Rig3> {
     /// The paper's device on a frame of the paper's size (370 mm x 300 mm).
     pub fn paper_default() -> PlantParams<3, Rig3> {
-        PlantParams::for_device(
-            Rig3::new([
-                Vec3::new(0.0, 0.0, 0.0),
-                Vec3::new(0.37, 0.0, 0.0),
-                Vec3::new(0.185, 0.30, 0.0),
-            ])
-            .expect("the paper's frame is a valid rig"),
-        )
+        PlantParams::for_device(Rig3::paper_frame())
     }
 }
 

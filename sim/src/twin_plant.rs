@@ -124,9 +124,9 @@ impl<const N: usize, D: WireDevice<N>> MotorPlant for RealTimeTwinPlant<N, D> {
         if axis >= N {
             return;
         }
-        self.sample();
-        self.torque_nm[axis] = torque_nm;
-        let _ = self.twin.write_torques(&self.torque_nm);
+        let mut torques = self.torque_nm;
+        torques[axis] = torque_nm;
+        self.apply_torques(&torques);
     }
 
     fn encoder(&self, axis: usize) -> (i64, f64) {

@@ -226,6 +226,14 @@ impl RecordSurface for Plane {
     }
 }
 
+/// A polygonal profile (the paper's experiments) is not recorded: a session on one is not
+/// replayed.
+impl<const CAP: usize> RecordSurface for videt_control::profile::Profile<CAP> {
+    fn recorded(&self) -> Option<RecordedSurface> {
+        None
+    }
+}
+
 /// How a surface feed's surfaces reach the session log.
 #[derive(Default, Clone)]
 pub struct FeedRecording {

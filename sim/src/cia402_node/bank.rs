@@ -34,6 +34,18 @@ impl SimPort for crate::can_bus::udp::UdpEndpoint {
 /// period's traffic of many drives, so a thread woken late catches up with the bus at once.
 const MAX_FRAMES_TAKEN_AT_ONCE: usize = 64;
 
+/// `frame` heard by every node of a [`SimDriveBank`], their answers queued in `outbox`.
+fn hear<M: MotorPlant>(
+    nodes: &mut [SimDriveNode],
+    frame: &SimFrame,
+    plant: &mut M,
+    outbox: &mut Vec<SimFrame>,
+) {
+    for n in nodes.iter_mut() {
+        n.on_frame(frame, plant, &mut |f| outbox.push(f));
+    }
+}
+
 /// Simulated drives answering inline, without a thread: frames sent to the bus reach the nodes
 /// at once and their answers wait in a preallocated queue. Deterministic, for tests on the
 /// twin's simulated clock (the threaded [`SimDriveBank`] is the real-time variant).
@@ -188,11 +200,7 @@ impl SimDriveBank {
                     // heartbeat waits in a queue.
                     for _ in 0..MAX_FRAMES_TAKEN_AT_ONCE {
                         match port.receive_frame(Duration::ZERO) {
-                            Ok(Some(frame)) => {
-                                for n in nodes.iter_mut() {
-                                    n.on_frame(&frame, &mut plant, &mut |f| outbox.push(f));
-                                }
-                            }
+                            Ok(Some(frame)) => hear(&mut nodes, &frame, &mut plant, &mut outbox),
                             _ => break,
                         }
                     }
@@ -207,9 +215,7 @@ impl SimDriveBank {
                     let wait = next.saturating_duration_since(Instant::now());
                     match port.receive_frame(wait) {
                         Ok(Some(frame)) => {
-                            for n in nodes.iter_mut() {
-                                n.on_frame(&frame, &mut plant, &mut |f| outbox.push(f));
-                            }
+                            hear(&mut nodes, &frame, &mut plant, &mut outbox);
                             for f in outbox.drain(..) {
                                 let _ = port.send_frame(&f);
                             }
