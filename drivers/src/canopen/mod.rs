@@ -5,4 +5,5 @@
 pub mod cob;
 pub mod codes;
 pub mod eds;
+pub mod objects;
 pub mod trace;

@@ -2,6 +2,7 @@
 
 use super::pdo::{AnalogInputObject, DriveSetup, SYNC_EVERY_CYCLE};
 use crate::canopen::eds::Eds;
+use crate::canopen::objects::is_optional;
 
 /// An object the driver needs that a data sheet lacks or does not allow.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -16,10 +17,6 @@ pub struct MissingObject {
 
 /// The objects read over PDO (must be mappable), besides the SDO-written setup objects.
 const PDO_OBJECTS: [u16; 6] = [0x6040, 0x6071, 0x6041, 0x6064, 0x606C, 0x603F];
-/// Objects (all subindices, or one) whose absence the driver tolerates: the drive-side torque
-/// limit (the host-side limit still applies) and the status event timer (the status is then
-/// sent on change only).
-const OPTIONAL: [(u16, Option<u8>); 2] = [(0x6072, None), (0x1801, Some(5))];
 
 /// Every object of the driver's setup and process data that `eds` lacks or forbids.
 pub fn missing_objects(eds: &Eds) -> Vec<MissingObject> {
@@ -46,9 +43,7 @@ pub fn missing_objects_with(
     let mut out = Vec::new();
     let mut seen = std::collections::BTreeSet::new();
     for (addr, _) in setup.sdo_writes() {
-        let optional = OPTIONAL
-            .iter()
-            .any(|&(i, sub)| i == addr.index && sub.is_none_or(|s| s == addr.subindex));
+        let optional = is_optional(addr.index, addr.subindex);
         if optional || !seen.insert((addr.index, addr.subindex)) {
             continue;
         }

@@ -27,10 +27,12 @@ use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives
 use super::analog::DriveAnalogInputs;
 use super::config::{ConfigError, DriveSetConfig};
 use super::error::DriveError;
+use super::identity::{DriveIdentity, StartupNote};
 use super::pdo::{Command, DriveSetup, Motion, MotionWithAnalog, Status};
 use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
 use crate::can::CanPort;
 use crate::canopen::cob::{self, classify, CobKind};
+use crate::canopen::objects::{is_optional, is_pdo_mapping, means_absent};
 
 /// Most frames handled in one cycle (bounds the receive loop): 64, and 16 per drive beyond
 /// four drives.
@@ -43,8 +45,8 @@ const fn max_frames_per_cycle(drives: usize) -> usize {
 }
 /// Fault-reset edges tried when enabling a faulted drive.
 const MAX_FAULT_RESETS: u32 = 3;
-/// SDO abort "object does not exist in the object dictionary".
-const ABORT_NO_OBJECT: u32 = 0x0602_0000;
+/// Bit of cyclic synchronous torque mode (10) in the supported drive modes (0x6502).
+const CYCLIC_SYNCHRONOUS_TORQUE_BIT: u32 = 1 << 9;
 /// NMT state byte of "operational".
 const NMT_OPERATIONAL: u8 = 0x05;
 
@@ -57,6 +59,8 @@ pub fn wire_length_m(t: &Transmission, length_at_zero_m: f64, position_counts: i
 #[derive(Debug, Clone, Copy)]
 struct NodeLink {
     id: u8,
+    /// The wire this drive moves (its index in the configuration's node ids).
+    wire: u8,
     last_heard: Instant,
     nmt_state: u8,
     booted: bool,
@@ -80,9 +84,10 @@ struct NodeLink {
 }
 
 impl NodeLink {
-    fn new(id: u8, now: Instant) -> NodeLink {
+    fn new(id: u8, wire: usize, now: Instant) -> NodeLink {
         NodeLink {
             id,
+            wire: wire as u8,
             last_heard: now,
             nmt_state: 0xFF,
             booted: false,
@@ -161,6 +166,10 @@ pub struct Cia402DriveSet<P: CanPort, const N: usize> {
     analog: Option<Arc<DriveAnalogInputs<N>>>,
     /// Where each latched error is pushed for a non-RT reader to report, once one asked.
     fault_reports: Option<rtrb::Producer<DriveError>>,
+    /// Each drive's identity, read by the last configuration.
+    identities: [Option<DriveIdentity>; N],
+    /// The optional objects the drives lack, found by the last configuration.
+    notes: Vec<StartupNote>,
 }
 
 /// Latched errors a [`Cia402DriveSet`] holds for its reader before it drops newer ones.
@@ -173,7 +182,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         cfg.validate()?;
         let analog = cfg.analog_input.map(|_| Arc::new(DriveAnalogInputs::new()));
         let now = Instant::now();
-        let nodes = core::array::from_fn(|i| NodeLink::new(cfg.node_ids[i], now));
+        let nodes = core::array::from_fn(|i| NodeLink::new(cfg.node_ids[i], i, now));
         Ok(Cia402DriveSet {
             port,
             cfg,
@@ -186,6 +195,8 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             epoch: now,
             analog,
             fault_reports: None,
+            identities: [None; N],
+            notes: Vec::new(),
         })
     }
 
@@ -226,6 +237,18 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         let (producer, consumer) = rtrb::RingBuffer::new(FAULT_REPORTS_CAPACITY);
         self.fault_reports = Some(producer);
         consumer
+    }
+
+    /// Each drive's identity (device type, vendor, product, revision, serial), read when the
+    /// set was last configured (`None` before, or for a drive the configuration did not reach).
+    pub fn identities(&self) -> [Option<DriveIdentity>; N] {
+        self.identities
+    }
+
+    /// The optional objects the drives lack, found when the set was last configured: each
+    /// says what the service does without it.
+    pub fn startup_notes(&self) -> &[StartupNote] {
+        &self.notes
     }
 
     /// The error that put the set into its safe state, if any.
@@ -394,6 +417,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         for node in &mut self.nodes {
             if node.rebooted {
                 return Err(DriveError::NotOperational {
+                    wire: node.wire,
                     node: node.id,
                     nmt_state: 0,
                 });
@@ -401,6 +425,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             if strict_faults {
                 if let Some((code, register)) = node.emcy {
                     return Err(DriveError::Emergency {
+                        wire: node.wire,
                         node: node.id,
                         code,
                         register,
@@ -410,12 +435,14 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             let silent = now.saturating_duration_since(node.last_heard);
             if silent > hb_timeout {
                 return Err(DriveError::HeartbeatLost {
+                    wire: node.wire,
                     node: node.id,
                     silent_ms: silent.as_millis() as u64,
                 });
             }
             if node.nmt_state != NMT_OPERATIONAL {
                 return Err(DriveError::NotOperational {
+                    wire: node.wire,
                     node: node.id,
                     nmt_state: node.nmt_state,
                 });
@@ -426,6 +453,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 node.missed += 1;
                 if node.missed > max_missed {
                     return Err(DriveError::PdoTimeout {
+                        wire: node.wire,
                         node: node.id,
                         missed_cycles: node.missed,
                     });
@@ -433,6 +461,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             }
             if strict_faults && node.power_state() == PowerState::Fault {
                 return Err(DriveError::DriveFault {
+                    wire: node.wire,
                     node: node.id,
                     error_code: node.status.error_code,
                 });
@@ -537,6 +566,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 let now = Instant::now();
                 if now >= deadline {
                     return Err(DriveError::SdoTimeout {
+                        wire: i as u8,
                         node,
                         index: addr.index,
                         subindex: addr.subindex,
@@ -559,6 +589,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 SdoEvent::Complete(v) => return Ok(v),
                 SdoEvent::Aborted(code) => {
                     return Err(DriveError::SdoAbort {
+                        wire: i as u8,
                         node,
                         index: addr.index,
                         subindex: addr.subindex,
@@ -580,6 +611,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         let first = client.read(addr, ty);
         self.sdo(i, &mut client, first, addr)?
             .ok_or(DriveError::SdoUnexpectedValue {
+                wire: i as u8,
                 node: self.nodes[i].id,
                 index: addr.index,
             })
@@ -592,9 +624,11 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
     fn configure_inner(&mut self) -> Result<(), DriveError> {
         self.operational_expected = false;
         self.latched = None;
+        self.notes.clear();
+        self.identities = [None; N];
         let now = Instant::now();
         for i in 0..N {
-            self.nodes[i] = NodeLink::new(self.cfg.node_ids[i], now);
+            self.nodes[i] = NodeLink::new(self.cfg.node_ids[i], i, now);
         }
         // Drain whatever is queued, then reset communication so every drive boots afresh.
         while self.receive(Duration::ZERO)?.is_some() {}
@@ -606,9 +640,10 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         while !self.nodes.iter().all(|n| n.booted) {
             let now = Instant::now();
             if now >= deadline {
-                let missing = self.nodes.iter().find(|n| !n.booted).map_or(0, |n| n.id);
+                let missing = self.nodes.iter().find(|n| !n.booted);
                 return Err(DriveError::NeverBooted {
-                    node: missing,
+                    wire: missing.map_or(0, |n| n.wire),
+                    node: missing.map_or(0, |n| n.id),
                     waited_ms: (now - start).as_millis() as u64,
                 });
             }
@@ -616,38 +651,15 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 self.absorb(&f, false, Instant::now());
             }
         }
-        let unit = self.cfg.rated_torque_unit;
-        let rated = unit.raw(self.cfg.rated_torque_nm);
         let max_permille = self
             .cfg
             .torque_to_permille(self.cfg.max_torque_nm())
             .unsigned_abs()
             .max(1);
         for i in 0..N {
+            self.identify(i)?;
             if self.cfg.verify_rated_torque {
-                match self.sdo_read(i, Address::new(0x6076, 0), DataType::Unsigned32) {
-                    Ok(Value::Unsigned32(v)) if v == rated => {}
-                    Ok(Value::Unsigned32(v)) => {
-                        return Err(DriveError::RatedTorqueMismatch {
-                            node: self.nodes[i].id,
-                            drive_value: v,
-                            configured_value: rated,
-                            unit,
-                        })
-                    }
-                    Ok(_) => {
-                        return Err(DriveError::SdoUnexpectedValue {
-                            node: self.nodes[i].id,
-                            index: 0x6076,
-                        })
-                    }
-                    // A drive without 0x6076 cannot be checked: the configuration rules.
-                    Err(DriveError::SdoAbort {
-                        code: ABORT_NO_OBJECT,
-                        ..
-                    }) => {}
-                    Err(e) => return Err(e),
-                }
+                self.check_rated_torque(i)?;
             }
             let setup = DriveSetup {
                 node_id: self.nodes[i].id,
@@ -661,21 +673,36 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             };
             for (addr, value) in setup.sdo_writes() {
                 match self.sdo_write(i, addr, value) {
-                    // The drive-side torque limit is optional (e.g. EPOS4 has no 0x6072);
-                    // the host-side clamp still applies.
+                    // An object the driver can do without (the drive-side torque limit, the
+                    // status event timer, the communication-loss reaction): told, not fatal.
                     Err(DriveError::SdoAbort {
-                        index: 0x6072,
-                        code: ABORT_NO_OBJECT,
+                        index,
+                        subindex,
+                        code,
                         ..
-                    }) => {}
-                    // So is the event timer of the event-driven status (the EPOS4 has none:
-                    // it sends the status on change only).
+                    }) if means_absent(code) && is_optional(index, subindex) => {
+                        self.note(i, index, subindex, code)
+                    }
+                    // A refused mapping entry names the object it was to carry.
                     Err(DriveError::SdoAbort {
-                        index: 0x1801,
-                        subindex: 5,
-                        code: ABORT_NO_OBJECT,
+                        index,
+                        subindex,
+                        code,
                         ..
-                    }) => {}
+                    }) if is_pdo_mapping(index) && subindex >= 1 => {
+                        let entry = match value {
+                            Value::Unsigned32(e) => e,
+                            _ => 0,
+                        };
+                        return Err(DriveError::MappingRefused {
+                            wire: i as u8,
+                            node: self.nodes[i].id,
+                            index,
+                            subindex,
+                            entry,
+                            code,
+                        });
+                    }
                     r => r?,
                 }
             }
@@ -690,6 +717,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             n.status_heard = None;
         }
         let start = Instant::now();
+        let status_every_sync = self.cfg.analog_input.is_some();
         let mut last_err;
         loop {
             let cycle_start = Instant::now();
@@ -702,7 +730,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                     if self
                         .nodes
                         .iter()
-                        .all(|n| n.has_cycle_data(self.cfg.analog_input.is_some())) =>
+                        .all(|n| n.has_cycle_data(status_every_sync)) =>
                 {
                     break
                 }
@@ -710,19 +738,124 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 Err(e) => last_err = Some(e),
             }
             if cycle_start - start > self.cfg.boot_timeout {
-                return Err(last_err.unwrap_or(DriveError::PdoTimeout {
-                    node: self
-                        .nodes
-                        .iter()
-                        .find(|n| !n.has_cycle_data(self.cfg.analog_input.is_some()))
-                        .map_or(0, |n| n.id),
-                    missed_cycles: 0,
+                let silent = self
+                    .nodes
+                    .iter()
+                    .find(|n| !n.has_cycle_data(status_every_sync));
+                return Err(last_err.unwrap_or(DriveError::NoProcessData {
+                    wire: silent.map_or(0, |n| n.wire),
+                    node: silent.map_or(0, |n| n.id),
+                    waited_ms: (cycle_start - start).as_millis() as u64,
+                    motion: silent.is_some_and(|n| n.got_motion),
+                    status: silent.is_some_and(|n| n.status_heard.is_some()),
                 }));
             }
             self.sleep_rest_of_cycle(cycle_start);
         }
         self.operational_expected = true;
         Ok(())
+    }
+
+    /// Remember that drive `i` lacks the optional object `index:subindex`.
+    fn note(&mut self, i: usize, index: u16, subindex: u8, code: u32) {
+        self.notes.push(StartupNote {
+            wire: i as u8,
+            node: self.nodes[i].id,
+            index,
+            subindex,
+            code,
+        });
+    }
+
+    /// Read an optional `u32` object of drive `i`: `None` (and a note) when the drive lacks it.
+    fn read_optional_u32(
+        &mut self,
+        i: usize,
+        index: u16,
+        subindex: u8,
+    ) -> Result<Option<u32>, DriveError> {
+        match self.sdo_read(i, Address::new(index, subindex), DataType::Unsigned32) {
+            Ok(Value::Unsigned32(v)) => Ok(Some(v)),
+            Ok(_) => Err(DriveError::SdoUnexpectedValue {
+                wire: i as u8,
+                node: self.nodes[i].id,
+                index,
+            }),
+            Err(DriveError::SdoAbort { code, .. }) if means_absent(code) => {
+                self.note(i, index, subindex, code);
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Read drive `i`'s device type and identity; refuse a drive that is not a CiA 402 one or
+    /// does not offer cyclic synchronous torque mode.
+    fn identify(&mut self, i: usize) -> Result<(), DriveError> {
+        let (wire, node) = (i as u8, self.nodes[i].id);
+        let device_type = match self.sdo_read(i, Address::new(0x1000, 0), DataType::Unsigned32)? {
+            Value::Unsigned32(v) => v,
+            _ => {
+                return Err(DriveError::SdoUnexpectedValue {
+                    wire,
+                    node,
+                    index: 0x1000,
+                })
+            }
+        };
+        let mut identity = DriveIdentity {
+            device_type,
+            ..DriveIdentity::default()
+        };
+        if !identity.is_cia402() {
+            return Err(DriveError::NotCia402 {
+                wire,
+                node,
+                device_type,
+            });
+        }
+        identity.vendor_id = self.read_optional_u32(i, 0x1018, 1)?;
+        identity.product_code = self.read_optional_u32(i, 0x1018, 2)?;
+        identity.revision = self.read_optional_u32(i, 0x1018, 3)?;
+        identity.serial = self.read_optional_u32(i, 0x1018, 4)?;
+        self.identities[i] = Some(identity);
+        if let Some(modes) = self.read_optional_u32(i, 0x6502, 0)? {
+            if modes & CYCLIC_SYNCHRONOUS_TORQUE_BIT == 0 {
+                return Err(DriveError::NoCyclicTorque {
+                    wire,
+                    node,
+                    supported_modes: modes,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Compare drive `i`'s rated torque (0x6076) with the configuration's; a drive without
+    /// 0x6076 cannot be checked: the configuration rules.
+    fn check_rated_torque(&mut self, i: usize) -> Result<(), DriveError> {
+        let unit = self.cfg.rated_torque_unit;
+        let rated = unit.raw(self.cfg.rated_torque_nm);
+        match self.read_optional_u32(i, 0x6076, 0)? {
+            Some(v) if v != rated => Err(DriveError::RatedTorqueMismatch {
+                wire: i as u8,
+                node: self.nodes[i].id,
+                drive_value: v,
+                configured_value: rated,
+                unit,
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// After a refused start: every drive commanded off with zero torque and back to
+    /// pre-operational, so nothing is left enabled or exchanging process data. Errors of the
+    /// bus are ignored: it may be why the start failed.
+    fn leave_drives_off(&mut self) {
+        self.send_safe_commands();
+        for i in 0..N {
+            let _ = self.nmt(NmtCommand::EnterPreOperational, self.nodes[i].id);
+        }
     }
 
     fn sleep_rest_of_cycle(&self, cycle_start: Instant) {
@@ -750,7 +883,12 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 let step = sequencer
                     .step(self.nodes[i].status.statusword, now_ns(Instant::now()))
                     .map_err(|e| {
-                        DriveError::from_power(self.nodes[i].id, e, self.nodes[i].status.error_code)
+                        DriveError::from_power(
+                            i as u8,
+                            self.nodes[i].id,
+                            e,
+                            self.nodes[i].status.error_code,
+                        )
                     })?;
                 all &= step.reached;
                 let cmd = Command {
@@ -788,6 +926,7 @@ impl<P: CanPort, const N: usize> Lifecycle for Cia402DriveSet<P, N> {
                 Ok(())
             }
             Err(e) => {
+                self.leave_drives_off();
                 self.lifecycle = LifecycleState::Unconfigured;
                 Err(e)
             }

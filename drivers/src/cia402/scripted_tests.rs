@@ -17,7 +17,9 @@ use crate::can::CanPort;
 const WIRES: usize = 3;
 
 /// A minimal scripted CiA 402 drive per node (nodes 1..=N): boots on reset, acknowledges every
-/// SDO write, answers 0x6076 with 100 mN·m, and answers SYNC with a scripted position and, when
+/// SDO write, answers the device type 0x1000 as a CiA 402 drive's, the supported modes 0x6502
+/// with cyclic synchronous torque, 0x6076 with 100 mN·m (and any other read with 100), and
+/// answers SYNC with a scripted position and, when
 /// it changed since it was last sent (the event-driven TPDO2), its statusword.
 struct ScriptedDrives<const N: usize> {
     sent: Vec<(u16, Vec<u8>)>,
@@ -74,7 +76,12 @@ impl<const N: usize> ScriptedDrives<N> {
                 r[1..4].copy_from_slice(&data[1..4]);
                 if data[0] == 0x40 {
                     r[0] = 0x43;
-                    r[4] = 100; // 0x6076 = 100 mN·m
+                    let value: u32 = match u16::from_le_bytes([data[1], data[2]]) {
+                        0x1000 => 0x0002_0192,
+                        0x6502 => 0x0000_0380,
+                        _ => 100, // 0x6076 = 100 mN·m
+                    };
+                    r[4..].copy_from_slice(&value.to_le_bytes());
                 } else {
                     r[0] = 0x60;
                 }
@@ -165,18 +172,42 @@ fn boot_setup_and_enable_put_the_expected_frames_on_the_bus() {
     let mut set = Cia402DriveSet::new(drives(&[]), config()).unwrap();
     set.configure().unwrap();
     set.activate().unwrap();
+    let identities = set.identities();
     let port = set.release();
     let sent = &port.sent;
     // Reset communication of each node first.
     assert_eq!(sent[0], (0x000, vec![0x82, 1]));
     assert_eq!(sent[2], (0x000, vec![0x82, 3]));
-    // Node 1's SDO setup: rated-torque read, then CST mode among the writes.
+    // Node 1's SDO setup: device type and identity reads, the supported modes, the rated
+    // torque, then CST mode among the writes.
     let sdo1: Vec<&Vec<u8>> = sent
         .iter()
         .filter(|(c, _)| *c == 0x601)
         .map(|(_, d)| d)
         .collect();
-    assert_eq!(sdo1[0], &vec![0x40, 0x76, 0x60, 0, 0, 0, 0, 0]);
+    let read = |index: u16, sub: u8| {
+        let [lo, hi] = index.to_le_bytes();
+        vec![0x40, lo, hi, sub, 0, 0, 0, 0]
+    };
+    let reads: Vec<_> = [
+        (0x1000, 0),
+        (0x1018, 1),
+        (0x1018, 2),
+        (0x1018, 3),
+        (0x1018, 4),
+        (0x6502, 0),
+        (0x6076, 0),
+    ]
+    .into_iter()
+    .map(|(i, s)| read(i, s))
+    .collect();
+    assert_eq!(
+        sdo1[..7].iter().map(|d| (*d).clone()).collect::<Vec<_>>(),
+        reads
+    );
+    let id = identities[0].expect("identity read");
+    assert!(id.is_cia402(), "{id}");
+    assert_eq!((id.device_type, id.vendor_id), (0x0002_0192, Some(100)));
     assert!(sdo1.contains(&&vec![0x2F, 0x60, 0x60, 0x00, 10, 0, 0, 0]));
     assert!(sdo1.contains(&&vec![0x23, 0x16, 0x10, 0x01, 50, 0, 0x7F, 0]));
     // NMT start after the setup, then SYNC.

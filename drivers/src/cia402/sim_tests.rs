@@ -315,6 +315,7 @@ fn an_emergency_ends_in_its_readable_error_and_recovery_works() {
     assert_eq!(
         e,
         DriveError::Emergency {
+            wire: 0,
             node: 1,
             code: 0x2310,
             register: 0x01
@@ -327,6 +328,7 @@ fn an_emergency_ends_in_its_readable_error_and_recovery_works() {
     assert_eq!(
         err,
         DriveError::FaultPersists {
+            wire: 0,
             node: 1,
             error_code: 0x2310
         }
@@ -391,6 +393,7 @@ fn a_drive_that_stops_answering_sync_ends_in_pdo_timeout() {
     assert_eq!(
         e,
         DriveError::PdoTimeout {
+            wire: 2,
             node: 3,
             missed_cycles: 2
         }
@@ -416,6 +419,7 @@ fn a_wrong_rated_torque_is_refused_at_configuration() {
     assert_eq!(
         e,
         DriveError::RatedTorqueMismatch {
+            wire: 0,
             node: 1,
             drive_value: 100,
             configured_value: 200,
@@ -434,7 +438,9 @@ fn the_rated_torque_is_compared_in_the_drives_unit() {
     let e = r.set.configure().unwrap_err();
     assert_eq!(
         e.to_string(),
-        "drive 1: motor rated torque (0x6076) is 100 µN·m but the configuration says 100000 µN·m"
+        "drive of wire 0 (node 1): 0x6076:00 (motor rated torque) is 100 µN·m but the \
+         configuration says 100000 µN·m; set drives.rated_torque_nm to the motor's, or name the \
+         drive's file in drives.device_description"
     );
 }
 
@@ -703,12 +709,22 @@ fn an_analog_input_the_drive_cannot_map_is_named_at_configuration() {
     let e = r.set.configure().unwrap_err();
     assert_eq!(
         e,
-        DriveError::SdoAbort {
+        DriveError::MappingRefused {
+            wire: 0,
             node: 1,
             index: 0x1A00,
             subindex: 3,
+            entry: 0x6401_0210,
             code: 0x0604_0041
         }
+    );
+    assert_eq!(
+        e.to_string(),
+        "drive of wire 0 (node 1): 0x1a00:03 (TPDO1 mapping) entry 3 refused 0x6401:02 (read \
+         analog input 16-bit) (16 bits): object cannot be mapped to the PDO (0x06040041); the \
+         service needs it: the wire's tension from the load-cell amplifier, in TPDO1 \
+         (sensors.adc = \"drive\"); set sensors.drive_analog_index and \
+         sensors.drive_analog_subindex to the drive's analog input object"
     );
     assert_eq!(r.set.lifecycle_state(), LifecycleState::Unconfigured);
 }
@@ -766,6 +782,7 @@ fn an_overloaded_bus_delivers_late_process_data_and_the_set_stops_the_drives() {
         matches!(
             e,
             DriveError::PdoTimeout { .. }
+                | DriveError::NoProcessData { .. }
                 | DriveError::HeartbeatLost { .. }
                 | DriveError::Bus(_)
                 | DriveError::NotOperational { .. }

@@ -67,6 +67,16 @@ impl<M: MotorPlant> core::fmt::Debug for SteppedDriveBus<M> {
 impl<M: MotorPlant> SteppedDriveBus<M> {
     /// The drives `specs`, their motors in `plant`.
     pub fn new(specs: &[SimDriveSpec], plant: M) -> Self {
+        Self::described(specs, None, plant)
+    }
+
+    /// As [`SteppedDriveBus::new`], every drive with `dictionary` (the part's description)
+    /// instead of the generic profile when given.
+    pub fn described(
+        specs: &[SimDriveSpec],
+        dictionary: Option<Arc<DriveDictionary>>,
+        plant: M,
+    ) -> Self {
         let faults: Vec<Arc<NodeFaults>> = specs
             .iter()
             .map(|_| Arc::new(NodeFaults::default()))
@@ -74,7 +84,7 @@ impl<M: MotorPlant> SteppedDriveBus<M> {
         let nodes = specs
             .iter()
             .zip(&faults)
-            .map(|(s, f)| SimDriveNode::new(*s, f.clone()))
+            .map(|(s, f)| SimDriveNode::with_dictionary(*s, f.clone(), dictionary.clone()))
             .collect();
         SteppedDriveBus {
             nodes,
@@ -162,8 +172,20 @@ impl SimDriveBank {
     /// As [`SimDriveBank::spawn`], running `on_start` first on the new thread (e.g. to raise
     /// its scheduling priority).
     pub fn spawn_with<P: SimPort + 'static, M: MotorPlant + 'static>(
+        port: P,
+        specs: &[SimDriveSpec],
+        plant: M,
+        on_start: impl FnOnce() + Send + 'static,
+    ) -> SimDriveBank {
+        Self::spawn_described(port, specs, None, plant, on_start)
+    }
+
+    /// As [`SimDriveBank::spawn_with`], every drive with `dictionary` (the part's
+    /// description) instead of the generic profile when given.
+    pub fn spawn_described<P: SimPort + 'static, M: MotorPlant + 'static>(
         mut port: P,
         specs: &[SimDriveSpec],
+        dictionary: Option<Arc<DriveDictionary>>,
         mut plant: M,
         on_start: impl FnOnce() + Send + 'static,
     ) -> SimDriveBank {
@@ -174,7 +196,7 @@ impl SimDriveBank {
         let mut nodes: Vec<SimDriveNode> = specs
             .iter()
             .zip(&faults)
-            .map(|(s, f)| SimDriveNode::new(*s, f.clone()))
+            .map(|(s, f)| SimDriveNode::with_dictionary(*s, f.clone(), dictionary.clone()))
             .collect();
         let stop = Arc::new(AtomicBool::new(false));
         let views = Arc::new(Mutex::new(

@@ -21,13 +21,15 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use canopen_rs::nmt::NmtState;
-use canopen_rs::{Address, Entry, ErrorRegister, Node, NodeId, ObjectDictionary, Value};
+use canopen_rs::{Address, ErrorRegister, Node, NodeId, Value};
 use embedded_can::{Frame, Id};
 
 use crate::can_bus::{BusError, InProcessEndpoint, SimFrame};
 
 mod bank;
 pub use bank::{NodeView, SimDriveBank, SimPort, SteppedDriveBus};
+pub mod dictionary;
+pub use dictionary::{DriveDictionary, OD_CAPACITY};
 mod motors;
 pub use motors::{FreeMotorPlant, MotorPlant, SharedMotors};
 
@@ -154,131 +156,37 @@ pub struct SimDriveSpec {
     pub boot_delay: Duration,
 }
 
-/// Object dictionary capacity of the simulated drive.
-pub const OD_CAPACITY: usize = 96;
-
-fn build_od(spec: &SimDriveSpec) -> ObjectDictionary<OD_CAPACITY> {
-    use Value::*;
-    let n = u32::from(spec.node_id);
-    let mut od = ObjectDictionary::<OD_CAPACITY>::new();
-    let a = Address::new;
-    let mut put = |addr: Address, e: Entry| {
-        od.insert(addr, e)
-            .expect("OD_CAPACITY covers the dictionary");
-    };
-    put(a(0x1000, 0), Entry::constant(Unsigned32(0x0002_0192)));
-    put(a(0x1001, 0), Entry::ro(Unsigned8(0)));
-    put(a(0x1003, 0), Entry::rw(Unsigned8(0)));
-    for s in 1..=4 {
-        put(a(0x1003, s), Entry::ro(Unsigned32(0)));
-    }
-    put(a(0x1016, 0), Entry::constant(Unsigned8(1)));
-    put(a(0x1016, 1), Entry::rw(Unsigned32(0)));
-    put(a(0x1017, 0), Entry::rw(Unsigned16(0)));
-    put(a(0x1018, 0), Entry::constant(Unsigned8(4)));
-    put(a(0x1018, 1), Entry::constant(Unsigned32(0x0000_0F1D)));
-    put(a(0x1018, 2), Entry::constant(Unsigned32(0x0402_0001)));
-    put(a(0x1018, 3), Entry::constant(Unsigned32(0x0001_0000)));
-    put(a(0x1018, 4), Entry::constant(Unsigned32(n)));
-    // PDO communication and mapping parameters: RPDO1, TPDO1, TPDO2 (CiA 301 defaults:
-    // predefined COB-IDs, TPDOs disabled until mapped, asynchronous).
-    for (comm, map, cob) in [
-        (0x1400u16, 0x1600u16, 0x200 + n),
-        (0x1800, 0x1A00, 0x8000_0180 + n),
-        (0x1801, 0x1A01, 0x8000_0280 + n),
-    ] {
-        let is_tpdo = comm >= 0x1800;
-        put(
-            a(comm, 0),
-            Entry::constant(Unsigned8(if is_tpdo { 3 } else { 2 })),
-        );
-        put(a(comm, 1), Entry::rw(Unsigned32(cob)));
-        put(a(comm, 2), Entry::rw(Unsigned8(0xFF)));
-        if is_tpdo {
-            // Inhibit time (100 µs units) of event-driven TPDOs. Like the EPOS4, no event
-            // timer (sub 5): an event-driven TPDO is sent when its data changes.
-            put(a(comm, 3), Entry::rw(Unsigned16(0)));
-        }
-        put(a(map, 0), Entry::rw(Unsigned8(0)));
-        for s in 1..=4 {
-            put(a(map, s), Entry::rw(Unsigned32(0)));
-        }
-    }
-    put(a(0x603F, 0), Entry::ro(Unsigned16(0)));
-    put(a(0x6007, 0), Entry::rw(Integer16(1)));
-    put(a(0x6040, 0), Entry::rw(Unsigned16(0)));
-    put(
-        a(0x6041, 0),
-        Entry::ro(Unsigned16(DrivePower::SwitchOnDisabled.statusword())),
-    );
-    put(a(0x6060, 0), Entry::rw(Integer8(0)));
-    put(a(0x6061, 0), Entry::ro(Integer8(0)));
-    put(a(0x6064, 0), Entry::ro(Integer32(0)));
-    put(a(0x606C, 0), Entry::ro(Integer32(0)));
-    put(a(0x6071, 0), Entry::rw(Integer16(0)));
-    put(a(0x6072, 0), Entry::rw(Unsigned16(3000)));
-    put(a(0x6076, 0), Entry::rw(Unsigned32(spec.rated_torque_mnm)));
-    put(a(0x6077, 0), Entry::ro(Integer16(0)));
-    put(a(0x6502, 0), Entry::constant(Unsigned32(0x0000_0380)));
-    // The analog input, at its CiA 401 place and at the EPOS4's (input 2 is unwired).
-    put(a(ANALOG_INPUT_CIA401, 0), Entry::constant(Unsigned8(1)));
-    put(a(ANALOG_INPUT_CIA401, 1), Entry::ro(Integer16(0)));
-    put(a(ANALOG_INPUT_EPOS4, 0), Entry::constant(Unsigned8(2)));
-    put(a(ANALOG_INPUT_EPOS4, 1), Entry::ro(Integer16(0)));
-    put(a(ANALOG_INPUT_EPOS4, 2), Entry::ro(Integer16(0)));
-    od
-}
-
-/// CiA 401 "read analog input 16-bit" (sub 1: the analog input).
-const ANALOG_INPUT_CIA401: u16 = 0x6401;
-/// The EPOS4's "analog input properties" (sub 1: analog input 1 voltage).
-const ANALOG_INPUT_EPOS4: u16 = 0x3160;
-/// SDO abort "object cannot be mapped to the PDO".
-const ABORT_NOT_MAPPABLE: u32 = 0x0604_0041;
-
-/// The object a PDO mapping download names, when `data` is an expedited SDO download of a
-/// non-zero entry into a mapping parameter (0x1600..=0x17FF, 0x1A00..=0x1BFF, sub 1..=64):
-/// `(mapping address, mapped address, length in bits)`.
-fn mapping_download(data: &[u8]) -> Option<(Address, Address, u8)> {
-    let d: &[u8; 8] = data.try_into().ok()?;
-    // Initiate download (ccs 1), expedited with size indicated, 4 data bytes.
-    if d[0] != 0x23 {
-        return None;
-    }
-    let index = u16::from_le_bytes([d[1], d[2]]);
-    let sub = d[3];
-    let is_mapping = (0x1600..=0x17FF).contains(&index) || (0x1A00..=0x1BFF).contains(&index);
-    if !is_mapping || !(1..=64).contains(&sub) {
-        return None;
-    }
-    let entry = u32::from_le_bytes([d[4], d[5], d[6], d[7]]);
-    (entry != 0).then(|| {
-        (
-            Address::new(index, sub),
-            Address::new((entry >> 16) as u16, (entry >> 8) as u8),
-            entry as u8,
-        )
+/// An integer object of the node's dictionary, whatever its integer type.
+fn od_number(node: &Node<OD_CAPACITY>, index: u16, sub: u8) -> Option<i64> {
+    Some(match node.od().entry(Address::new(index, sub))?.value {
+        Value::Boolean(v) => i64::from(v),
+        Value::Integer8(v) => i64::from(v),
+        Value::Integer16(v) => i64::from(v),
+        Value::Integer32(v) => i64::from(v),
+        Value::Integer64(v) => v,
+        Value::Unsigned8(v) => i64::from(v),
+        Value::Unsigned16(v) => i64::from(v),
+        Value::Unsigned32(v) => i64::from(v),
+        Value::Unsigned64(v) => v as i64,
+        _ => return None,
     })
 }
 
 fn od_u16(node: &Node<OD_CAPACITY>, index: u16, sub: u8) -> u16 {
-    match node.od().read(Address::new(index, sub)) {
-        Ok(Value::Unsigned16(v)) => v,
-        _ => 0,
-    }
+    od_number(node, index, sub).unwrap_or(0) as u16
 }
 
 fn od_i16(node: &Node<OD_CAPACITY>, index: u16) -> i16 {
-    match node.od().read(Address::new(index, 0)) {
-        Ok(Value::Integer16(v)) => v,
-        _ => 0,
-    }
+    od_number(node, index, 0).unwrap_or(0) as i16
 }
 
 /// One simulated CiA 402 drive.
 #[derive(Debug)]
 pub struct SimDriveNode {
     spec: SimDriveSpec,
+    /// What the drive's dictionary holds and allows (its part's description, or the generic
+    /// profile).
+    dictionary: Arc<DriveDictionary>,
     node: Node<OD_CAPACITY>,
     power: DrivePower,
     last_controlword: u16,
@@ -303,13 +211,27 @@ struct EventTpdo {
 }
 
 impl SimDriveNode {
-    /// A drive that powers up now (boot-up after `spec.boot_delay`).
+    /// A drive of the generic CiA 402 profile that powers up now (boot-up after
+    /// `spec.boot_delay`), rated torque `spec.rated_torque_mnm`.
     pub fn new(spec: SimDriveSpec, faults: Arc<NodeFaults>) -> SimDriveNode {
+        Self::with_dictionary(spec, faults, None)
+    }
+
+    /// A drive whose dictionary is `dictionary` (a part's description; the generic profile
+    /// when `None`) that powers up now.
+    pub fn with_dictionary(
+        spec: SimDriveSpec,
+        faults: Arc<NodeFaults>,
+        dictionary: Option<Arc<DriveDictionary>>,
+    ) -> SimDriveNode {
         let node_id = NodeId::new(spec.node_id).unwrap_or(NodeId::new(1).expect("1 is valid"));
+        let dictionary =
+            dictionary.unwrap_or_else(|| Arc::new(DriveDictionary::generic(spec.rated_torque_mnm)));
         let now = Instant::now();
         SimDriveNode {
             spec,
-            node: Node::new(node_id, build_od(&spec)),
+            node: Node::new(node_id, dictionary.build(spec.node_id)),
+            dictionary,
             power: DrivePower::SwitchOnDisabled,
             last_controlword: 0,
             faults,
@@ -346,30 +268,50 @@ impl SimDriveNode {
             .map(|e| e.value)
     }
 
-    /// Every object address of the dictionary.
+    /// Every object address the dictionary holds.
     pub fn object_addresses(&self) -> Vec<(u16, u8)> {
-        let mut v = Vec::new();
-        for index in 0x1000..=0x6FFFu16 {
-            for sub in 0..=8u8 {
-                if self.node.od().entry(Address::new(index, sub)).is_some() {
-                    v.push((index, sub));
-                }
-            }
-        }
-        v
+        self.dictionary
+            .objects
+            .iter()
+            .map(|o| (o.index, o.subindex))
+            .filter(|&(i, s)| self.node.od().entry(Address::new(i, s)).is_some())
+            .collect()
     }
 
-    fn set(&mut self, index: u16, value: Value) {
-        let _ = self.node.od_mut().set(Address::new(index, 0), value);
+    /// The dictionary the drive was built from.
+    pub fn dictionary(&self) -> &DriveDictionary {
+        &self.dictionary
+    }
+
+    /// Set an integer object from the drive side, in the object's own integer type (a part's
+    /// description decides it); an object the drive lacks is left alone.
+    fn set(&mut self, index: u16, sub: u8, v: i64) {
+        let addr = Address::new(index, sub);
+        let Some(entry) = self.node.od().entry(addr) else {
+            return;
+        };
+        let value = match entry.value {
+            Value::Boolean(_) => Value::Boolean(v != 0),
+            Value::Integer8(_) => Value::Integer8(v as i8),
+            Value::Integer16(_) => Value::Integer16(v as i16),
+            Value::Integer32(_) => Value::Integer32(v as i32),
+            Value::Integer64(_) => Value::Integer64(v),
+            Value::Unsigned8(_) => Value::Unsigned8(v as u8),
+            Value::Unsigned16(_) => Value::Unsigned16(v as u16),
+            Value::Unsigned32(_) => Value::Unsigned32(v as u32),
+            Value::Unsigned64(_) => Value::Unsigned64(v as u64),
+            _ => return,
+        };
+        let _ = self.node.od_mut().set(addr, value);
     }
 
     fn publish_status(&mut self) {
         let sw = self.power.statusword();
-        self.set(0x6041, Value::Unsigned16(sw));
+        self.set(0x6041, 0, i64::from(sw));
         if self.power != DrivePower::Fault {
             self.error_code = 0;
         }
-        self.set(0x603F, Value::Unsigned16(self.error_code));
+        self.set(0x603F, 0, i64::from(self.error_code));
     }
 
     fn enter_fault(&mut self, code: u16, out: &mut impl FnMut(SimFrame)) {
@@ -385,12 +327,14 @@ impl SimDriveNode {
         self.publish_status();
     }
 
+    /// The torque the target torque (per mille of the rated torque 0x6076, in the
+    /// dictionary's unit; the spec's when the drive has no 0x6076) asks for, N·m.
     fn torque_nm(&self) -> f64 {
-        let rated = match self.node.od().read(Address::new(0x6076, 0)) {
-            Ok(Value::Unsigned32(v)) => f64::from(v) / 1000.0,
-            _ => 0.0,
+        let rated_nm = match od_number(&self.node, 0x6076, 0) {
+            Some(raw) => raw as f64 * self.dictionary.torque_unit_nm,
+            None => f64::from(self.spec.rated_torque_mnm) / 1000.0,
         };
-        f64::from(od_i16(&self.node, 0x6071)) / 1000.0 * rated
+        f64::from(od_i16(&self.node, 0x6071)) / 1000.0 * rated_nm
     }
 
     /// Handle one received frame; frames to transmit go to `out`.
@@ -420,23 +364,15 @@ impl SimDriveNode {
             NmtState::PreOperational | NmtState::Operational
         );
         if sdo_active && cob == 0x600 + u16::from(self.spec.node_id) {
-            if let Some((at, mapped, bits)) = mapping_download(frame.data()) {
-                let fits = self
-                    .node
-                    .od()
-                    .entry(mapped)
-                    .is_some_and(|e| e.value.data_type().size() * 8 == usize::from(bits));
-                if !fits {
-                    let mut abort = [0x80, 0, 0, at.subindex, 0, 0, 0, 0];
-                    abort[1..3].copy_from_slice(&at.index.to_le_bytes());
-                    abort[4..].copy_from_slice(&ABORT_NOT_MAPPABLE.to_le_bytes());
-                    if let Some(fr) =
-                        SimFrame::standard(0x580 + u16::from(self.spec.node_id), &abort)
-                    {
-                        out(fr);
-                    }
-                    return;
+            // What the part's dictionary refuses, it refuses with CiA 301's code for the case.
+            let data = frame.data();
+            if let Some(code) = self.dictionary.check_sdo(data, self.node.od()) {
+                let index = u16::from_le_bytes([data[1], data[2]]);
+                let abort = dictionary::abort_frame(index, data[3], code);
+                if let Some(fr) = SimFrame::standard(0x580 + u16::from(self.spec.node_id), &abort) {
+                    out(fr);
                 }
+                return;
             }
         }
         let before = self.node.state();
@@ -451,11 +387,8 @@ impl SimDriveNode {
                 self.node.configure_pdos_from_od();
             }
             if addr.index == 0x6060 {
-                let m = match self.node.od().read(addr) {
-                    Ok(Value::Integer8(m)) => m,
-                    _ => 0,
-                };
-                self.set(0x6061, Value::Integer8(m));
+                let m = od_number(&self.node, 0x6060, 0).unwrap_or(0);
+                self.set(0x6061, 0, m);
             }
             if addr.index == 0x1016 {
                 self.host_heard = None;
@@ -491,7 +424,7 @@ impl SimDriveNode {
         self.event_tpdos = [EventTpdo::default(); EVENT_TPDO_SLOTS];
         let keep_fault = self.power == DrivePower::Fault;
         let node_id = self.node.node_id();
-        self.node = Node::new(node_id, build_od(&self.spec));
+        self.node = Node::new(node_id, self.dictionary.build(self.spec.node_id));
         self.power = if keep_fault {
             DrivePower::Fault
         } else {
@@ -528,10 +461,7 @@ impl SimDriveNode {
                 out(fr);
             }
         }
-        let cst = matches!(
-            self.node.od().read(Address::new(0x6060, 0)),
-            Ok(Value::Integer8(10))
-        );
+        let cst = od_number(&self.node, 0x6060, 0) == Some(10);
         let torque = if self.power == DrivePower::OperationEnabled && cst {
             self.torque_nm()
         } else {
@@ -539,18 +469,22 @@ impl SimDriveNode {
         };
         self.applied_torque_nm = torque;
         plant.apply_torque(self.spec.axis, torque);
+        // Position and velocity in the dictionary's units (increments and increments/s by
+        // CiA 402; e.g. rev/min on a drive whose description says so).
         let (counts, cps) = plant.encoder(self.spec.axis);
-        self.set(0x6064, Value::Integer32(counts as i32));
-        self.set(0x606C, Value::Integer32(cps.round() as i32));
+        let position = counts as f64 / self.dictionary.counts_per_position_unit;
+        let velocity = cps / self.dictionary.counts_per_s_per_velocity_unit;
+        self.set(0x6064, 0, i64::from(position.round() as i32));
+        self.set(0x606C, 0, i64::from(velocity.round() as i32));
         let t_permille = if self.power == DrivePower::OperationEnabled {
             od_i16(&self.node, 0x6071)
         } else {
             0
         };
-        self.set(0x6077, Value::Integer16(t_permille));
-        let analog = Value::Integer16(plant.analog_input(self.spec.axis));
-        for index in [ANALOG_INPUT_CIA401, ANALOG_INPUT_EPOS4] {
-            let _ = self.node.od_mut().set(Address::new(index, 1), analog);
+        self.set(0x6077, 0, i64::from(t_permille));
+        let analog = i64::from(plant.analog_input(self.spec.axis));
+        for (index, sub) in dictionary::ANALOG_INPUTS {
+            self.set(index, sub, analog);
         }
         self.publish_status();
         if self.faults.ignore_sync.load(Ordering::Relaxed) {
