@@ -7,9 +7,11 @@
 //! twin's motors; `sleep_until` advances the twin's physics and publishes its encoders to the
 //! nodes. The hand-over is wait-free ([`SharedMotors`]).
 //!
-//! The simulated drives are CiA 402 drives with the configured motor: their rated torque
-//! (0x6076, mN·m) is the configured drive's ([`setup::twin_rated_torque_mnm`]), so the torque
-//! reaches the twin's motors in the configured drive's per-mille steps.
+//! The simulated drives are the configured part: with `drives.device_description` their
+//! dictionary is the file's ([`crate::drive_dictionary`]: its objects, answers, rated torque and
+//! units); without one they are generic CiA 402 drives whose rated torque (0x6076, mN·m) is the
+//! configured drive's ([`setup::twin_rated_torque_mnm`]). Either way the torque reaches the
+//! twin's motors in the configured drive's per-mille steps.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -24,7 +26,9 @@ use videt_hal::{
 use videt_sim::can_bus::{
     BusError, BusFaults, BusStats, InProcessBus, InProcessEndpoint, SimFrame,
 };
-use videt_sim::cia402_node::{NodeView, SharedMotors, SimDriveBank, SimDriveSpec, SteppedDriveBus};
+use videt_sim::cia402_node::{
+    DriveDictionary, NodeView, SharedMotors, SimDriveBank, SimDriveSpec, SteppedDriveBus,
+};
 use videt_sim::{Twin, TwinError};
 
 use crate::setup;
@@ -160,17 +164,29 @@ fn twin_err(e: videt_sim::TwinError) -> CanTwinError {
     CanTwinError::Twin(videt_hal::Error::kind(&e))
 }
 
-/// The drive-set configuration for the simulated drives, from the daemon's configuration: the
+/// The drive-set configuration for the simulated drives, from the daemon's configuration.
+/// With `drives.device_description`, the drives are that part ([`crate::drive_dictionary`]):
+/// the configured rated torque and the file's units, as in device mode. Without one, the
 /// configured drive's rated torque to the nearest mN·m ([`setup::twin_rated_torque_mnm`]),
-/// which the simulated drives report in 0x6076 (mN·m, CiA 402).
+/// which the generic simulated drives report in 0x6076 (mN·m, CiA 402).
 pub fn drive_config<const N: usize>(config: &Config) -> DriveSetConfig<N> {
     let period = Duration::from_nanos(1_000_000_000 / u64::from(config.control.rate_hz.max(1)));
+    let rated_torque_nm = match &config.drives.description {
+        Some(_) => config.drives.rated_torque_nm,
+        None => f64::from(setup::twin_rated_torque_mnm(config)) / 1000.0,
+    };
     let mut c = DriveSetConfig::new(
         core::array::from_fn(|i| NODE_IDS[i]),
         period,
-        f64::from(setup::twin_rated_torque_mnm(config)) / 1000.0,
+        rated_torque_nm,
         config.control.t_max_n,
     );
+    if config.drives.description.is_some() {
+        let device = crate::hardware::drive_set_config(config);
+        c.rated_torque_unit = device.rated_torque_unit;
+        c.counts_per_position_unit = device.counts_per_position_unit;
+        c.counts_per_s_per_velocity_unit = device.counts_per_s_per_velocity_unit;
+    }
     c.transmission = setup::transmission(config);
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
     // The simulated drives share the host's CPUs: on a kernel without PREEMPT_RT their thread
@@ -217,14 +233,18 @@ impl<const N: usize, D: WireDevice<N>> CanTwin<N, Twin<N, D>> {
     /// The twin on its simulated clock, its drives answering inline: deterministic and faster
     /// than real time (whole-stack tests). The drives' rated torque is `drive_config`'s; they
     /// apply torque in its per-mille steps (the twin's own step model is switched off).
+    /// `dictionary` is the drives' part (the generic CiA 402 profile when `None`;
+    /// [`crate::drive_dictionary::for_config`]).
     pub fn stepped(
         mut twin: Twin<N, D>,
         drive_config: DriveSetConfig<N>,
+        dictionary: Option<Arc<DriveDictionary>>,
     ) -> Result<CanTwin<N, Twin<N, D>>, String> {
         twin.set_clock_mode(videt_sim::ClockMode::Simulated);
         twin.set_torque_step_nm(None);
         let motors = Arc::new(SharedMotors::new(N));
-        let bus = SteppedDriveBus::new(&node_specs(&drive_config), motors.clone());
+        let bus =
+            SteppedDriveBus::described(&node_specs(&drive_config), dictionary, motors.clone());
         let drives = Cia402DriveSet::new(SimCanPort::Stepped(Box::new(bus)), drive_config)
             .map_err(|e| e.to_string())?;
         let mut can_twin = CanTwin {
@@ -248,10 +268,12 @@ impl<const N: usize, D: WireDevice<N>> CanTwin<N, RealTimeTwin<N, D>> {
     /// `drive_priority` when given and pinned to `drive_cpu` when given (they stand for
     /// hardware that answers SYNC whatever the host's load: use the control thread's priority
     /// and CPU). The drives' rated torque is `drive_config`'s; they apply
-    /// torque in its per-mille steps (the twin's own step model is switched off).
+    /// torque in its per-mille steps (the twin's own step model is switched off). `dictionary`
+    /// is the drives' part (the generic CiA 402 profile when `None`).
     pub fn new(
         mut twin: Twin<N, D>,
         drive_config: DriveSetConfig<N>,
+        dictionary: Option<Arc<DriveDictionary>>,
         bitrate: u32,
         drive_priority: Option<u8>,
         drive_cpu: Option<usize>,
@@ -285,8 +307,13 @@ impl<const N: usize, D: WireDevice<N>> CanTwin<N, RealTimeTwin<N, D>> {
         let host_side = eps.pop().ok_or("bus without endpoints")?;
         let motors = Arc::new(SharedMotors::new(N));
         let specs = node_specs(&drive_config);
-        let bank =
-            SimDriveBank::spawn_with(node_side, &specs, motors.clone(), move || raise("drives"));
+        let bank = SimDriveBank::spawn_described(
+            node_side,
+            &specs,
+            dictionary,
+            motors.clone(),
+            move || raise("drives"),
+        );
         let drives = Cia402DriveSet::new(SimCanPort::Threaded(host_side), drive_config)
             .map_err(|e| e.to_string())?;
         let mut can_twin = CanTwin {
@@ -352,6 +379,12 @@ impl<const N: usize, T: TwinDevice<N>> CanTwin<N, T> {
     /// ([`Cia402DriveSet::fault_reports`]).
     pub fn fault_reports(&mut self) -> rtrb::Consumer<DriveError> {
         self.drives.fault_reports()
+    }
+
+    /// The drives' identities and missing optional objects as of their last configuration
+    /// ([`Cia402DriveSet::startup_report`]).
+    pub fn startup_report(&self) -> videt_drivers::cia402::SharedStartupReport {
+        self.drives.startup_report()
     }
 
     /// The error that put the drives into their safe state, if any.

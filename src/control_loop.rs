@@ -137,7 +137,7 @@ impl StartError {
         StartError {
             stage,
             kind: e.kind(),
-            detail: format!("{e:?}"),
+            detail: e.to_string(),
         }
     }
 }

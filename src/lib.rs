@@ -29,6 +29,8 @@ pub mod can_twin;
 pub mod colour_thread;
 pub mod control_loop;
 pub mod cycle;
+pub mod drive_dictionary;
+pub mod drive_report;
 pub mod haptic_bench;
 pub mod hardware;
 pub mod histogram;

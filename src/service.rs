@@ -89,6 +89,9 @@ pub struct ServiceExtras {
     /// not yet told (already formatted, off the control thread), `None` when there is none.
     /// The supervisor logs each beside the safe state it explains.
     pub fault_causes: Option<FaultCauses>,
+    /// The drives' start-up report (identities, missing optional objects): logged once per
+    /// configuration and carried in the status reply.
+    pub drives_report: Option<videt_drivers::cia402::SharedStartupReport>,
 }
 
 /// The hardware's fault causes, one per call ([`ServiceExtras::fault_causes`]).
@@ -176,7 +179,9 @@ where
         status_suffix,
         vision_stall,
         mut fault_causes,
+        drives_report,
     } = extras;
+    let mut drives_report = drives_report.map(crate::drive_report::DriveReportWatch::new);
     let extra_text = move || status_suffix.as_ref().map_or_else(String::new, |f| f());
     install_panic_hook();
     let config = &options.config;
@@ -511,6 +516,9 @@ where
             status.fault = fault_cause
                 .clone()
                 .filter(|_| record.safety.reason().is_some());
+            if let Some(watch) = drives_report.as_mut() {
+                status.drives = watch.poll(config).to_vec();
+            }
         }
         if options.status_lines && running && last_status_line.elapsed() >= Duration::from_secs(1) {
             last_status_line = Instant::now();

@@ -251,6 +251,10 @@ pub struct StatusReport {
     /// (`drives: drive 3: emergency 0x8611 ...`), if it told one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fault: Option<String>,
+    /// Each drive's identity read at start-up (device type, vendor, product, revision, serial;
+    /// empty on hardware without CANopen drives).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub drives: Vec<crate::drive_report::DriveStatus>,
 }
 
 fn wireman() -> String {
@@ -323,6 +327,7 @@ impl StatusReport {
             procedure: None,
             tension_loop_gain_scale: s.tension_loop_degraded,
             fault: None,
+            drives: Vec::new(),
         }
     }
 }

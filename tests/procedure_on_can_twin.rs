@@ -34,7 +34,7 @@ fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     };
     let mut drives = drive_config(&config);
     drives.drive_heartbeat_timeout = std::time::Duration::from_secs(5);
-    let mut hw = CanTwin::stepped(scene.twin, drives).unwrap();
+    let mut hw = CanTwin::stepped(scene.twin, drives, None).unwrap();
     start_hardware(&mut hw).unwrap();
     let stop = AtomicBool::new(false);
 

@@ -121,7 +121,12 @@ fn can_twin(config: &Config) -> CanTwin<3, Twin> {
     // heartbeat tolerance accordingly.
     let mut drives = drive_config(config);
     drives.drive_heartbeat_timeout = std::time::Duration::from_secs(5);
-    CanTwin::stepped(setup::demo_scene(config, 42).twin, drives).unwrap()
+    CanTwin::stepped(
+        setup::demo_scene(config, 42).twin,
+        drives,
+        videt::drive_dictionary::for_config(config).unwrap(),
+    )
+    .unwrap()
 }
 
 /// The operator presses into the check wall through the CAN twin; the penetration is the one
@@ -158,7 +163,8 @@ fn render_the_wall(config: &Config, resolution_m: f64) {
     // heartbeat tolerance accordingly.
     let mut drives = drive_config(&config);
     drives.drive_heartbeat_timeout = std::time::Duration::from_secs(5);
-    let mut hw = CanTwin::stepped(scene.twin, drives).unwrap();
+    let dictionary = videt::drive_dictionary::for_config(&config).unwrap();
+    let mut hw = CanTwin::stepped(scene.twin, drives, dictionary).unwrap();
     assert_eq!(hw.twin().torque_step_nm(), None, "the drives quantize");
     start_hardware(&mut hw).unwrap();
     assert!(hw

@@ -40,8 +40,9 @@ impl core::fmt::Display for ErrorKind {
     }
 }
 
-/// A device error: anything `Debug` that can say what kind of failure it is.
-pub trait Error: Debug {
+/// A device error: anything that can say what kind of failure it is, and tell it in words a
+/// technician can act on (`Display`; `Debug` is for developers).
+pub trait Error: Debug + core::fmt::Display {
     /// The kind of failure, for the caller's reaction (safe state, retry, report).
     fn kind(&self) -> ErrorKind;
 }

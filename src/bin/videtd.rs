@@ -327,9 +327,17 @@ fn main() -> ExitCode {
                 &mut options,
                 "digital twin behind CiA 402 drives on a userspace CAN bus: a virtual wall, a virtual operator touching it and sliding along it",
             );
+            let dictionary = match videt::drive_dictionary::for_config(&config) {
+                Ok(d) => d,
+                Err(e) => {
+                    error!("simulated CAN drives: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
             let mut hw = match CanTwin::new(
                 scene.twin,
                 can_twin::drive_config(&config),
+                dictionary,
                 config.drives.bitrate,
                 Some(config.realtime.control_priority),
                 usize::try_from(config.realtime.control_cpu).ok(),
@@ -343,6 +351,7 @@ fn main() -> ExitCode {
             let bus = hw.bus_stats();
             let extras = videt::service::ServiceExtras {
                 fault_causes: Some(videt::hardware::drive_fault_causes(hw.fault_reports())),
+                drives_report: Some(hw.startup_report()),
                 ..Default::default()
             };
             let code = run_service_with(hw, FixedSurface(scene.wall), cycle, &options, extras);
@@ -407,10 +416,12 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
         "device opened"
     );
     let fault_causes = videt::hardware::drive_fault_causes(hw.drives_mut().fault_reports());
+    let drives_report = hw.drives_mut().startup_report();
     match device_camera_feed(config) {
         Ok(mut camera) => {
             options.colour = camera.colour;
             camera.extras.fault_causes = Some(fault_causes);
+            camera.extras.drives_report = Some(drives_report);
             run_with_tension_correction(hw, camera.feed, cycle, options, &path, camera.extras)
         }
         Err(why) => {
@@ -426,6 +437,7 @@ fn run_on_device(config: &Config, args: &Args, options: &mut ServiceOptions) -> 
                 &path,
                 videt::service::ServiceExtras {
                     fault_causes: Some(fault_causes),
+                    drives_report: Some(drives_report),
                     ..Default::default()
                 },
             )
@@ -570,6 +582,7 @@ where
         vision_stall: None,
         thimble: Some(thimble_publisher),
         fault_causes: None,
+        drives_report: None,
         status_suffix: Some(Box::new(move || stats.status_text())),
     };
     Ok(CameraFeed {
@@ -744,9 +757,17 @@ where
         ),
         SimMode::Can => {
             options.what = format!("{} (drives on a simulated CAN bus)", options.what);
+            let dictionary = match videt::drive_dictionary::for_config(config) {
+                Ok(d) => d,
+                Err(e) => {
+                    error!("simulated CAN drives: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
             match CanTwin::new(
                 scene.twin,
                 can_twin::drive_config::<N>(config),
+                dictionary,
                 config.drives.bitrate,
                 Some(config.realtime.control_priority),
                 usize::try_from(config.realtime.control_cpu).ok(),
@@ -754,6 +775,7 @@ where
                 Ok(mut hw) => {
                     let extras = videt::service::ServiceExtras {
                         fault_causes: Some(videt::hardware::drive_fault_causes(hw.fault_reports())),
+                        drives_report: Some(hw.startup_report()),
                         ..Default::default()
                     };
                     run_service_with(hw, FixedSurface(scene.wall), cycle, options, extras)
@@ -885,9 +907,17 @@ fn run_relief_demo(
         ),
         SimMode::Can => {
             options.what = format!("{} (drives on a simulated CAN bus)", options.what);
+            let dictionary = match videt::drive_dictionary::for_config(config) {
+                Ok(d) => d,
+                Err(e) => {
+                    error!("simulated CAN drives: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
             match CanTwin::new(
                 scene.twin,
                 can_twin::drive_config(config),
+                dictionary,
                 config.drives.bitrate,
                 Some(config.realtime.control_priority),
                 usize::try_from(config.realtime.control_cpu).ok(),
@@ -895,6 +925,7 @@ fn run_relief_demo(
                 Ok(mut hw) => {
                     let extras = videt::service::ServiceExtras {
                         fault_causes: Some(videt::hardware::drive_fault_causes(hw.fault_reports())),
+                        drives_report: Some(hw.startup_report()),
                         ..extras()
                     };
                     run_service_with(hw, feed, cycle, &options, extras)
@@ -999,6 +1030,7 @@ fn run_stereo_relief_demo(
         thimble: Some(thimble_publisher),
         status_suffix: Some(Box::new(move || stats.status_text())),
         fault_causes: None,
+        drives_report: None,
     };
     let mut options = options.clone();
     options.what = format!(

@@ -136,7 +136,8 @@ pub fn run(experiment: &Experiment) -> Result<Trace, String> {
             // host's heartbeat tolerance accordingly.
             let mut drives = drive_config(config);
             drives.drive_heartbeat_timeout = std::time::Duration::from_secs(3600);
-            let hw = CanTwin::stepped(scene.twin, drives)?;
+            let dictionary = crate::drive_dictionary::for_config(config)?;
+            let hw = CanTwin::stepped(scene.twin, drives, dictionary)?;
             run_probed(hw, experiment, &mut cycle, &settings, periods)?
         }
         Parts::Ideal => {
@@ -166,7 +167,7 @@ fn run_probed<H: HasTwin>(
         start: None,
         measured_n: [0.0; WIREMAN_WIRES],
     };
-    start_hardware(&mut probe).map_err(|e| format!("the twin did not start: {e:?}"))?;
+    start_hardware(&mut probe).map_err(|e| format!("the twin did not start: {e}"))?;
     let stop = AtomicBool::new(false);
     let report = run_control_loop(
         &mut probe,

@@ -61,6 +61,11 @@ pub struct SimRigArgs {
     /// Stop after this many seconds (default: until SIGTERM or Ctrl-C).
     #[arg(long)]
     pub seconds: Option<f64>,
+    /// The drives' EDS or DCF: the simulated drives hold the objects, access, PDO mappability
+    /// and defaults it gives and answer as CiA 301 says for each refused request (default: the
+    /// configuration's `drives.device_description`, else the generic CiA 402 profile).
+    #[arg(long)]
+    pub drive_description: Option<PathBuf>,
 }
 
 /// The twin's true calibration record for `config`'s rig.
@@ -135,18 +140,27 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     let clear = Arc::new(AtomicBool::new(false));
     signal_hook::flag::register(signal_hook::consts::SIGUSR1, Arc::clone(&raise))?;
     signal_hook::flag::register(signal_hook::consts::SIGUSR2, Arc::clone(&clear))?;
-    let bank = SimDriveBank::spawn_with(port, &specs, Arc::clone(&motors), move || {
-        if priority > 0 {
-            if let Err(e) = rt::set_fifo(priority) {
-                eprintln!("videt sim-rig: the drives stay SCHED_OTHER: {e}");
+    let dictionary = match &args.drive_description {
+        Some(path) => Some(Arc::new(crate::drive_dictionary::for_file(path, &config)?)),
+        None => crate::drive_dictionary::for_config(&config)?,
+    };
+    let part = dictionary.as_ref().map_or_else(
+        || "the generic CiA 402 profile".to_string(),
+        |d| d.source.clone(),
+    );
+    let bank =
+        SimDriveBank::spawn_described(port, &specs, dictionary, Arc::clone(&motors), move || {
+            if priority > 0 {
+                if let Err(e) = rt::set_fifo(priority) {
+                    eprintln!("videt sim-rig: the drives stay SCHED_OTHER: {e}");
+                }
             }
-        }
-        if let Some(cpu) = cpu {
-            if let Err(e) = rt::pin_to_cpu(cpu) {
-                eprintln!("videt sim-rig: the drives are not pinned to CPU {cpu}: {e}");
+            if let Some(cpu) = cpu {
+                if let Err(e) = rt::pin_to_cpu(cpu) {
+                    eprintln!("videt sim-rig: the drives are not pinned to CPU {cpu}: {e}");
+                }
             }
-        }
-    });
+        });
     let physics_stop = Arc::clone(&stop);
     let physics_motors = Arc::clone(&motors);
     let physics = std::thread::Builder::new()
@@ -173,19 +187,9 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         );
     }
     eprintln!(
-        "videt sim-rig: drives {:?} on {interface} (rated torque {} mN·m), the twin's wires and operator behind them",
+        "videt sim-rig: drives {:?} on {interface} ({part}), the twin's wires and operator behind them",
         config.drives.node_ids,
-        setup::twin_rated_torque_mnm(&config)
     );
-    let differences = units_unlike_the_simulated_drives(&config);
-    if !differences.is_empty() {
-        eprintln!(
-            "videt sim-rig: warning: the simulated drives speak CiA 402's units (0x6076 in mN·m, \
-             positions in increments, velocities in increments/s), but drives.device_description \
-             gives {}: a videtd with this configuration will refuse or misread them",
-            differences.join(", ")
-        );
-    }
     let started = std::time::Instant::now();
     while !stop.load(Ordering::Relaxed) {
         if args
@@ -209,32 +213,6 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     stop.store(true, Ordering::Relaxed);
     let _ = physics.join();
     Ok(ExitCode::SUCCESS)
-}
-
-/// The units of the drives `config`'s device description describes that the simulated drives
-/// (CiA 402's units) do not share.
-fn units_unlike_the_simulated_drives(config: &Config) -> Vec<String> {
-    let Some(desc) = &config.drives.description else {
-        return Vec::new();
-    };
-    let mut differences = Vec::new();
-    let unit = desc.torque_unit();
-    if unit != videt_drivers::cia402::TorqueUnit::MilliNewtonMetre {
-        differences.push(format!("0x6076 in {}", unit.symbol()));
-    }
-    let r = &desc.resolution;
-    let counts_per_rev = f64::from(config.transmission.counts_per_motor_rev);
-    if let Some(p) = &r.position_unit {
-        if desc.counts_per_position_unit(counts_per_rev) != Some(1.0) {
-            differences.push(format!("positions in {}", p.value));
-        }
-    }
-    if let Some(v) = &r.velocity_unit {
-        if desc.counts_per_s_per_velocity_unit(counts_per_rev) != Some(1.0) {
-            differences.push(format!("velocities in {}", v.value));
-        }
-    }
-    differences
 }
 
 /// The twin's encoders and strain-gauge readings, as the drives report them.

@@ -65,6 +65,9 @@ pub struct Eds {
     /// `[DeviceInfo] VendorNumber` (the CiA-assigned vendor id, as in 0x1018 sub 1), when
     /// given and a number.
     pub vendor_number: Option<u32>,
+    /// `[DeviceInfo] ProductNumber` (the product code, as in 0x1018 sub 2), when given and a
+    /// number.
+    pub product_number: Option<u32>,
 }
 
 /// Parse a numeric EDS value: decimal (optionally negative), `0x` hex, octal with a leading
@@ -192,6 +195,11 @@ impl Eds {
                     "vendorname" => eds.vendor_name = Some(value.to_string()),
                     "vendornumber" => {
                         eds.vendor_number = parse_value(value, 0)
+                            .ok()
+                            .and_then(|v| u32::try_from(v).ok())
+                    }
+                    "productnumber" => {
+                        eds.product_number = parse_value(value, 0)
                             .ok()
                             .and_then(|v| u32::try_from(v).ok())
                     }

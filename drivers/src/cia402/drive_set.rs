@@ -27,7 +27,7 @@ use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives
 use super::analog::DriveAnalogInputs;
 use super::config::{ConfigError, DriveSetConfig};
 use super::error::DriveError;
-use super::identity::{DriveIdentity, StartupNote};
+use super::identity::{DriveIdentity, SharedStartupReport, StartupNote};
 use super::pdo::{Command, DriveSetup, Motion, MotionWithAnalog, Status};
 use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
 use crate::can::CanPort;
@@ -170,6 +170,8 @@ pub struct Cia402DriveSet<P: CanPort, const N: usize> {
     identities: [Option<DriveIdentity>; N],
     /// The optional objects the drives lack, found by the last configuration.
     notes: Vec<StartupNote>,
+    /// The identities and notes of the last configuration, for readers off the control thread.
+    report: SharedStartupReport,
 }
 
 /// Latched errors a [`Cia402DriveSet`] holds for its reader before it drops newer ones.
@@ -197,6 +199,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             fault_reports: None,
             identities: [None; N],
             notes: Vec::new(),
+            report: SharedStartupReport::default(),
         })
     }
 
@@ -249,6 +252,23 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
     /// says what the service does without it.
     pub fn startup_notes(&self) -> &[StartupNote] {
         &self.notes
+    }
+
+    /// The drives' identities and the optional objects they lack, as of the last
+    /// configuration, shared: a service's supervisor logs them and puts them in its status.
+    /// Updated by every configuration (not on the real-time path).
+    pub fn startup_report(&self) -> SharedStartupReport {
+        SharedStartupReport::clone(&self.report)
+    }
+
+    fn publish_startup_report(&mut self) {
+        if let Ok(mut r) = self.report.lock() {
+            r.generation += 1;
+            r.drives = (0..N)
+                .filter_map(|i| self.identities[i].map(|id| (i as u8, self.nodes[i].id, id)))
+                .collect();
+            r.notes = self.notes.clone();
+        }
     }
 
     /// The error that put the set into its safe state, if any.
@@ -920,7 +940,9 @@ impl<P: CanPort, const N: usize> Lifecycle for Cia402DriveSet<P, N> {
                 state: self.lifecycle,
             });
         }
-        match self.configure_inner() {
+        let outcome = self.configure_inner();
+        self.publish_startup_report();
+        match outcome {
             Ok(()) => {
                 self.lifecycle = LifecycleState::Inactive;
                 Ok(())

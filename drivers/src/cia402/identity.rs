@@ -97,6 +97,21 @@ impl core::fmt::Display for StartupNote {
     }
 }
 
+/// What the drives told of themselves at their last configuration, shared with a reader off
+/// the control thread ([`Cia402DriveSet::startup_report`](super::Cia402DriveSet::startup_report)).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StartupReport {
+    /// Configurations reported so far: a reader tells a new report by it.
+    pub generation: u64,
+    /// `(wire, node, identity)` of each drive identified, in wire order.
+    pub drives: Vec<(u8, u8, DriveIdentity)>,
+    /// The optional objects the drives lack.
+    pub notes: Vec<StartupNote>,
+}
+
+/// A [`StartupReport`] shared between the drive set and its readers.
+pub type SharedStartupReport = std::sync::Arc<std::sync::Mutex<StartupReport>>;
+
 #[cfg(test)]
 mod tests {
     use super::*;

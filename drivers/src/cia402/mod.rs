@@ -22,7 +22,7 @@ pub use analog::{AnalogSample, DriveAnalogInputs};
 pub use config::{ConfigError, DriveSetConfig};
 pub use drive_set::{wire_length_m, Cia402DriveSet};
 pub use error::DriveError;
-pub use identity::{DriveIdentity, StartupNote};
+pub use identity::{DriveIdentity, SharedStartupReport, StartupNote, StartupReport};
 pub use pdo::AnalogInputObject;
 pub use resolution::{DriveResolution, Origin, Sourced, TorqueUnit};
 pub use state::{PowerGoal, PowerSequencer, PowerState};

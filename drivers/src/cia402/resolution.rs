@@ -280,6 +280,8 @@ pub struct DriveResolution {
     pub vendor_id: Option<u32>,
     /// `[DeviceInfo] ProductName`, when given.
     pub product_name: Option<String>,
+    /// The product code (`[DeviceInfo] ProductNumber`, else 0x1018 sub2), when given.
+    pub product_code: Option<u32>,
     /// The unit of 0x6076 on this drive.
     pub torque_unit: TorqueUnit,
     /// Motor rated torque, N·m (target torque 0x6071 is per mille of it).
@@ -359,6 +361,10 @@ impl DriveResolution {
             Some(v) => Some(v),
             None => r.unsigned(0x1018, 1, u32_max)?.map(|v| v as u32),
         };
+        let product_code = match eds.product_number.filter(|&v| v != 0) {
+            Some(v) => Some(v),
+            None => r.unsigned(0x1018, 2, u32_max)?.map(|v| v as u32),
+        };
         let maxon = vendor_id == Some(MAXON_VENDOR_ID);
         let torque_unit = TorqueUnit::of_vendor(vendor_id);
 
@@ -433,6 +439,7 @@ impl DriveResolution {
             file: file.to_string(),
             vendor_id,
             product_name: eds.product_name.clone(),
+            product_code,
             torque_unit,
             rated_torque_nm,
             max_torque_permille,

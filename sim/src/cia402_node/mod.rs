@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use canopen_rs::nmt::NmtState;
+pub use canopen_rs::nmt::NmtState;
 use canopen_rs::{Address, ErrorRegister, Node, NodeId, Value};
 use embedded_can::{Frame, Id};
 
