@@ -268,7 +268,16 @@ impl DriveDictionary {
     /// left out of it but still exist for [`DriveDictionary::check_sdo`].
     pub fn build(&self, node_id: u8) -> ObjectDictionary<OD_CAPACITY> {
         let mut od = ObjectDictionary::<OD_CAPACITY>::new();
-        for d in &self.objects {
+        // The dictionary looks objects up in insertion order: the ones every SYNC reads and
+        // writes go first, or a real drive's hundreds of objects would be searched each time.
+        let hot = |d: &&DescribedObject| {
+            HOT_OBJECTS.contains(&d.index)
+                || is_mapping(d.index)
+                || (0x1400..=0x1BFF).contains(&d.index)
+        };
+        let (first, rest): (Vec<&DescribedObject>, Vec<&DescribedObject>) =
+            self.objects.iter().partition(hot);
+        for d in first.into_iter().chain(rest) {
             let Some(value) = initial_value(d, node_id) else {
                 continue;
             };
@@ -431,6 +440,12 @@ impl DriveDictionary {
         (supported & (1 << (mode - 1)) == 0).then_some(abort::INVALID_VALUE)
     }
 }
+
+/// The objects a simulated drive reads or writes at every SYNC or frame.
+const HOT_OBJECTS: [u16; 14] = [
+    0x6040, 0x6041, 0x603F, 0x6060, 0x6061, 0x6064, 0x606C, 0x6071, 0x6076, 0x6077, 0x6401, 0x3160,
+    0x1016, 0x1017,
+];
 
 /// Whether `index` is a PDO mapping parameter.
 fn is_mapping(index: u16) -> bool {
