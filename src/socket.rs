@@ -248,7 +248,7 @@ pub struct StatusReport {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tension_loop_gain_scale: Option<f64>,
     /// In a safe state: the latest cause the hardware told since it left normal operation
-    /// (`drives: drive 3: emergency 0x8611 ...`), if it told one.
+    /// (`drives: drive of wire 2 (node 3): emergency 0x8611 ...`), if it told one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fault: Option<String>,
     /// Each drive's identity read at start-up (device type, vendor, product, revision, serial;

@@ -419,7 +419,10 @@ fn a_drive_fault_is_logged_with_its_cause() {
     // The supervisor tells the cause within its next few ticks, in the log and in the status.
     std::thread::sleep(Duration::from_millis(200));
     let fault = status(Duration::from_secs(5)).fault.unwrap_or_default();
-    assert!(fault.contains("drive 3: emergency 0x8611"), "{fault}");
+    assert!(
+        fault.contains("drive of wire 2 (node 3): emergency 0x8611"),
+        "{fault}"
+    );
     assert!(
         request(&socket, &Request::Stop, Duration::from_secs(2))
             .unwrap()
@@ -433,7 +436,7 @@ fn a_drive_fault_is_logged_with_its_cause() {
         .collect();
     assert_eq!(told.len(), 1, "{log}");
     assert!(
-        told[0].contains("drive 3: emergency 0x8611 (following error)"),
+        told[0].contains("drive of wire 2 (node 3): emergency 0x8611 (following error)"),
         "{}",
         told[0]
     );

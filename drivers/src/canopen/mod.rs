@@ -5,5 +5,6 @@
 pub mod cob;
 pub mod codes;
 pub mod eds;
+pub mod host_trace;
 pub mod objects;
 pub mod trace;

@@ -1,0 +1,369 @@
+//! `videtd` in device mode against drives it did not write: CiA 402 drives served by an
+//! independent CANopen stack (python-canopen's LocalNode, `scripts/canopen-peer/`) on a `vcan`
+//! interface, each shipped drive dictionary loaded from its EDS or DCF. A drive the service can
+//! use is configured, enabled, run for 10 s of SYNC/PDO and shut down; one it cannot is refused
+//! with a text naming the wire, the node, the object and the fix, and is never enabled. The
+//! candump trace of every run is checked for the host's own behaviour: each drive's
+//! communication reset before its SDO configuration, started after it, no SDO to a started
+//! drive, no SYNC before a start; and its SYNC and heartbeat periods are reported (the guest is
+//! emulated: they are judged only against what no emulator can excuse, a heartbeat sent early).
+//!
+//! These tests need root, vcan, gpio-sim and python3 with the `canopen` package: they run in
+//! the kernel-in-the-loop guest (`scripts/kernel-in-the-loop.sh`) and are ignored elsewhere.
+
+mod guest;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use gpiosim::Simpleton;
+use guest::*;
+use videt_drivers::canopen::host_trace::check_host_trace;
+use videt_drivers::canopen::trace::parse_candump;
+use videt_hal::{DriveSample, WireDrives};
+
+const PEER: &str = "needs root, vcan, gpio-sim and python3 with the canopen package: runs in the kernel-in-the-loop guest (scripts/kernel-in-the-loop.sh)";
+
+/// The shipped dictionaries of drives the service can use (the maxon EPOS4's DCFs).
+const USABLE: [&str; 3] = [
+    "epos4_50_15_can_ec90flat_gp52c_mile800_node1.dcf",
+    "epos4_50_15_can_ec90flat_gp52c_mile800_node1_hm.dcf",
+    "epos4_50_15_can_ec90flat_gp52c_mile800_node2.dcf",
+];
+
+/// The shipped dictionaries of drives the service refuses, and what the refusal must say.
+const REFUSED: [(&str, &str); 4] = [
+    (
+        "605.3150.67-A-EK-2-60.eds",
+        "drive of wire 0 (node 1): 0x6502:00 (supported drive modes) is 0x00000025: no cyclic \
+         synchronous torque mode",
+    ),
+    (
+        "605.3150.67-B-EK-2-60.eds",
+        "0x6502:00 (supported drive modes) is 0x00000025",
+    ),
+    (
+        "MD80_DS402.eds",
+        "drive of wire 0 (node 1): 0x6076:00 (motor rated torque) is 0 mN·m",
+    ),
+    ("402.eds", "0x1000:00 (device type) is 0x00000000"),
+];
+
+/// The python3 that has the `canopen` package (`VIDET_PEER_PYTHON`, set by the suite).
+fn python() -> PathBuf {
+    std::env::var_os("VIDET_PEER_PYTHON").map_or_else(|| "python3".into(), PathBuf::from)
+}
+
+fn shipped(name: &str) -> PathBuf {
+    videt_testdata::data_dir("canopen/eds")
+        .expect("the shared drive descriptions")
+        .join(name)
+}
+
+/// `candump -L` of `can` into `file` until dropped.
+fn candump(can: &str, file: &Path) -> Process {
+    let child = Command::new("candump")
+        .args(["-L", can])
+        .stdout(std::fs::File::create(file).unwrap())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    Process(child)
+}
+
+/// Three drives of `description` served by python-canopen on `can`, their motors at
+/// `positions` (the drive's position units); waits for their boot-up.
+fn start_peer(dir: &Path, can: &str, description: &Path, positions: [i64; 3]) -> Process {
+    let ready = dir.join("peer.ready");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/canopen-peer/cia402_peer.py");
+    let child = Command::new(python())
+        .arg(script)
+        .args([
+            "--interface",
+            "socketcan",
+            "--channel",
+            can,
+            "--nodes",
+            "1,2,3",
+        ])
+        .arg("--eds")
+        .arg(description)
+        .arg("--ready-file")
+        .arg(&ready)
+        .arg("--log")
+        .arg(dir.join("peer-events.log"))
+        .arg("--initial-position")
+        .arg(
+            positions
+                .iter()
+                .map(|p| p.to_string())
+                .collect::<Vec<_>>()
+                .join(","),
+        )
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(dir.join("peer.log")).unwrap())
+        .spawn()
+        .unwrap();
+    let mut peer = Process(child);
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !ready.exists() {
+        if let Some(exit) = peer.0.try_wait().unwrap() {
+            panic!(
+                "the CANopen peer exited ({exit}): {}",
+                std::fs::read_to_string(dir.join("peer.log")).unwrap_or_default()
+            );
+        }
+        assert!(Instant::now() < deadline, "the CANopen peer did not boot");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    peer
+}
+
+/// Where the twin's operator holds the thimble, as each drive's position: the encoders of
+/// the twin's wires in the drive's units, so the service finds the thimble in its workspace.
+fn rest_positions(config: &Path) -> [i64; 3] {
+    let config = videt_rt_config::Config::load(config).unwrap();
+    let mut twin = videt::setup::demo_scene(&config, 1).twin;
+    let mut out = [DriveSample::default(); 3];
+    twin.read_drives(&mut out).unwrap();
+    let units = videt::hardware::drive_set_config(&config);
+    core::array::from_fn(|i| {
+        (out[i].position_counts as f64 / units.counts_per_position_unit).round() as i64
+    })
+}
+
+/// The device configuration for drives of `description` on `can`, their analog input (the
+/// tension) at `analog` (index, sub-index).
+fn peer_config(
+    dir: &Path,
+    can: &str,
+    chip: &Path,
+    description: &Path,
+    analog: (u16, u8),
+) -> PathBuf {
+    let path = guest_config(dir, can, chip, ["/dev/null-left", "/dev/null-right"], false);
+    let mut t: toml::Table = std::fs::read_to_string(&path).unwrap().parse().unwrap();
+    let section = |t: &mut toml::Table, s: &str| -> toml::Table {
+        t.get(s)
+            .and_then(|v| v.as_table())
+            .cloned()
+            .unwrap_or_default()
+    };
+    let mut drives = section(&mut t, "drives");
+    drives.insert(
+        "device_description".into(),
+        toml::Value::String(description.display().to_string()),
+    );
+    t.insert("drives".into(), toml::Value::Table(drives));
+    let mut sensors = section(&mut t, "sensors");
+    sensors.insert(
+        "drive_analog_index".into(),
+        toml::Value::Integer(analog.0.into()),
+    );
+    sensors.insert(
+        "drive_analog_subindex".into(),
+        toml::Value::Integer(analog.1.into()),
+    );
+    t.insert("sensors".into(), toml::Value::Table(sensors));
+    // One per mille of the EPOS4's 0.51 N·m motor is 0.667 N on the wire.
+    let mut control = section(&mut t, "control");
+    control.insert("t_min_n".into(), toml::Value::Float(0.7));
+    t.insert("control".into(), toml::Value::Table(control));
+    let mut autoinit = section(&mut t, "autoinit");
+    autoinit.insert("pay_out_tension_n".into(), toml::Value::Float(0.8));
+    t.insert("autoinit".into(), toml::Value::Table(autoinit));
+    std::fs::write(&path, toml::to_string(&t).unwrap()).unwrap();
+    let config = videt_rt_config::Config::load(&path).unwrap();
+    videt::tool::sim_rig::true_calibration(&config)
+        .unwrap()
+        .save(&dir.join("calibration.toml"))
+        .unwrap();
+    path
+}
+
+/// The host's behaviour in the trace `file`: every rule held; the figures printed.
+fn check_trace(file: &Path, what: &str) -> videt_drivers::canopen::host_trace::HostTrace {
+    let text = std::fs::read_to_string(file).unwrap();
+    let frames = parse_candump(&text).unwrap();
+    let t = check_host_trace(&frames, &[1, 2, 3], 0x7F).unwrap_or_else(|e| panic!("{what}: {e}"));
+    eprintln!(
+        "{what}: {} frames; {} SYNCs, median period {:?} s; {} host heartbeats, median period \
+         {:?} s (shortest {:?} s); started nodes {:?}",
+        frames.len(),
+        t.syncs,
+        t.sync_median_period_s,
+        t.heartbeats,
+        t.heartbeat_median_period_s,
+        t.heartbeat_min_period_s,
+        t.started
+    );
+    t
+}
+
+#[test]
+#[ignore = "needs root, vcan, gpio-sim and python3 with the canopen package: runs in the kernel-in-the-loop guest"]
+fn videtd_runs_drives_served_by_an_independent_canopen_stack() {
+    let _ = PEER;
+    for name in USABLE {
+        let dir = test_dir();
+        let can = Vcan::new();
+        let chip = Simpleton::new(32);
+        chip.pullup(ESTOP_LINE).unwrap();
+        let config = peer_config(
+            dir.path(),
+            &can.0,
+            chip.dev_path(),
+            &shipped(name),
+            (0x3160, 1),
+        );
+        let trace = dir.path().join("candump.log");
+        let dump = candump(&can.0, &trace);
+        let _peer = start_peer(dir.path(), &can.0, &shipped(name), rest_positions(&config));
+        let mut videtd = Process(
+            Command::new(std::env::var_os("VIDET_BIN_DIR").map_or_else(
+                || PathBuf::from(env!("CARGO_BIN_EXE_videtd")),
+                |d| Path::new(&d).join("videtd"),
+            ))
+            .arg("--config")
+            .arg(&config)
+            .env("RUST_LOG", "info")
+            .stdout(std::fs::File::create(dir.path().join("videtd.log")).unwrap())
+            .stderr(std::fs::File::create(dir.path().join("videtd.err")).unwrap())
+            .spawn()
+            .unwrap(),
+        );
+        let log = || {
+            format!(
+                "{}{}",
+                std::fs::read_to_string(dir.path().join("videtd.log")).unwrap_or_default(),
+                std::fs::read_to_string(dir.path().join("videtd.err")).unwrap_or_default()
+            )
+        };
+        let socket = socket_path(dir.path());
+        // Configured and enabled: the drives are powered and the loop runs.
+        let deadline = Instant::now() + Duration::from_secs(120);
+        let running = loop {
+            if let Some(s) = status(&socket) {
+                if !s.power_off && s.cycles > 100 {
+                    break s;
+                }
+            }
+            if let Some(exit) = videtd.0.try_wait().unwrap() {
+                panic!("{name}: videtd exited ({exit}): {}", log());
+            }
+            assert!(Instant::now() < deadline, "{name}: not running: {}", log());
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        // The status carries each drive's identity, read from the peer's dictionary.
+        assert_eq!(running.drives.len(), 3, "{name}: {running:?}");
+        assert!(
+            running
+                .drives
+                .iter()
+                .all(|d| d.device_type & 0xFFFF == 402 && d.vendor_id == Some(0xFB)),
+            "{name}: {:?}",
+            running.drives
+        );
+        let cycles_at_start = running.cycles;
+        std::thread::sleep(Duration::from_secs(10));
+        let after = status(&socket).unwrap_or_else(|| panic!("{name}: no status: {}", log()));
+        assert!(
+            !after.power_off && after.safety == "normal",
+            "{name}: after 10 s: {after:?}\n{}",
+            log()
+        );
+        // Shut down: forces ramped out, drives off, exit 0.
+        videtd.signal(libc::SIGTERM);
+        let exit = videtd.wait_exit(60.0).expect("videtd exits on SIGTERM");
+        assert!(
+            exit.success(),
+            "{name}: videtd after SIGTERM: {exit}\n{}",
+            log()
+        );
+        let told = log();
+        assert!(
+            told.contains("forces ramped out, drives off"),
+            "{name}: {told}"
+        );
+        // What the EPOS4 lacks is told once per drive, with what the service does instead.
+        assert!(
+            told.contains(
+                "drive of wire 0 (node 1): 0x1801:05 (TPDO2 event timer): sub-index does not \
+                 exist (0x06090011); the status PDO is then sent on change only"
+            ),
+            "{name}: {told}"
+        );
+        std::thread::sleep(Duration::from_millis(300));
+        drop(dump);
+        let t = check_trace(&trace, name);
+        assert_eq!(t.started, vec![1, 2, 3], "{name}");
+        let periods = after.cycles - cycles_at_start;
+        assert!(
+            t.syncs as u64 >= periods,
+            "{name}: {} SYNCs for {periods} periods",
+            t.syncs
+        );
+        // A heartbeat may be late under emulation, never early.
+        assert!(
+            t.heartbeat_min_period_s.is_some_and(|p| p >= 0.009),
+            "{name}: host heartbeat every {:?} s (shortest), 10 ms configured",
+            t.heartbeat_min_period_s
+        );
+    }
+}
+
+#[test]
+#[ignore = "needs root, vcan, gpio-sim and python3 with the canopen package: runs in the kernel-in-the-loop guest"]
+fn videtd_refuses_drives_it_cannot_use_and_enables_none() {
+    for (name, expected) in REFUSED {
+        let dir = test_dir();
+        let can = Vcan::new();
+        let chip = Simpleton::new(32);
+        chip.pullup(ESTOP_LINE).unwrap();
+        // The configuration does not name these files (their units cannot be used either):
+        // the drives themselves tell the service what they are.
+        let config = guest_config(
+            dir.path(),
+            &can.0,
+            chip.dev_path(),
+            ["/dev/null-left", "/dev/null-right"],
+            false,
+        );
+        let loaded = videt_rt_config::Config::load(&config).unwrap();
+        videt::tool::sim_rig::true_calibration(&loaded)
+            .unwrap()
+            .save(&dir.path().join("calibration.toml"))
+            .unwrap();
+        let trace = dir.path().join("candump.log");
+        let dump = candump(&can.0, &trace);
+        let _peer = start_peer(dir.path(), &can.0, &shipped(name), [0; 3]);
+        let mut videtd = start_videtd(&config);
+        let exit = videtd.wait_exit(120.0).expect("videtd gives up");
+        assert!(!exit.success(), "{name}");
+        let log = std::fs::read_to_string(dir.path().join("videtd.log")).unwrap();
+        assert!(
+            log.contains(expected),
+            "{name}: {expected:?} not in:\n{log}"
+        );
+        assert!(!log.contains("SdoAbort {"), "{name}: a Debug dump:\n{log}");
+        std::thread::sleep(Duration::from_millis(300));
+        drop(dump);
+        let frames = parse_candump(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+        // No drive was started, nor sent a controlword that enables it.
+        for f in &frames {
+            assert!(
+                !(f.cob_id == 0 && f.data.first() == Some(&0x01)),
+                "{name}: NMT start sent (trace line {})",
+                f.line
+            );
+            let rpdo1 = (0x201..=0x203).contains(&f.cob_id);
+            assert!(
+                !(rpdo1 && f.data.len() >= 2 && f.data[0] & 0x0F == 0x0F),
+                "{name}: enable operation sent (trace line {})",
+                f.line
+            );
+        }
+        check_trace(&trace, name);
+    }
+}
