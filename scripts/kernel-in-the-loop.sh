@@ -69,6 +69,13 @@ install_host_tools() {
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null ||
       skip "cannot install ${need[*]}"
   fi
+  # The independent CANopen peer (python-canopen) the drives of videtd-canopen-peer run on.
+  PEER_PYTHON=$(python3 -c 'import sys; print(sys.executable)')
+  if ! "$PEER_PYTHON" -c 'import canopen, can' 2>/dev/null; then
+    log "installing the CANopen peer's packages (scripts/canopen-peer/requirements.txt)"
+    "$PEER_PYTHON" -m pip install -q -r "$REPO/scripts/canopen-peer/requirements.txt" ||
+      skip "cannot install python-canopen"
+  fi
 }
 
 # --- the kernel, its modules and gpio-sim -----------------------------------------------------
@@ -180,6 +187,7 @@ build_workspace() {
   }
   local guest drivers sim
   guest=$(test_executable -p videt --features v4l --test kernel_guest)
+  peer=$(test_executable -p videt --features v4l --test kernel_guest_peer)
   drivers=$(test_executable -p videt-drivers --features v4l --lib)
   sim=$(test_executable -p videt-sim --lib)
   # A stereo calibration of 640x480 cameras for the vivid frames (the shared chessboard rig).
@@ -190,6 +198,8 @@ build_workspace() {
   }
   cat >"$KIL/bins.env" <<EOF
 GUEST_TESTS=$guest
+PEER_TESTS=$peer
+PEER_PYTHON=$PEER_PYTHON
 DRIVERS_TESTS=$drivers
 SIM_TESTS=$sim
 BIN_DIR=$REPO/target/release

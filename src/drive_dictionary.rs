@@ -106,6 +106,14 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_generic_profile_written_as_an_eds_reads_back_as_itself() {
+        let generic = DriveDictionary::generic(40);
+        let text = generic.to_eds("generic");
+        let back = from_eds(&Eds::parse(&text).unwrap(), "generic.eds", 1e-3, 1.0, 1.0);
+        assert_eq!(back.objects, generic.objects, "{text}");
+    }
+
+    #[test]
     fn an_eds_gives_types_access_mappability_and_node_relative_defaults() {
         let eds = Eds::parse(
             "[1000]\nDataType=0x0007\nAccessType=ro\nDefaultValue=0x00020192\n\

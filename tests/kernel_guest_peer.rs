@@ -73,8 +73,15 @@ fn candump(can: &str, file: &Path) -> Process {
 }
 
 /// Three drives of `description` served by python-canopen on `can`, their motors at
-/// `positions` (the drive's position units); waits for their boot-up.
-fn start_peer(dir: &Path, can: &str, description: &Path, positions: [i64; 3]) -> Process {
+/// `positions` (the drive's position units), `extra` arguments to the peer; waits for their
+/// boot-up.
+fn start_peer(
+    dir: &Path,
+    can: &str,
+    description: &Path,
+    positions: [i64; 3],
+    extra: &[&str],
+) -> Process {
     let ready = dir.join("peer.ready");
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/canopen-peer/cia402_peer.py");
     let child = Command::new(python())
@@ -101,6 +108,7 @@ fn start_peer(dir: &Path, can: &str, description: &Path, positions: [i64; 3]) ->
                 .collect::<Vec<_>>()
                 .join(","),
         )
+        .args(extra)
         .stdout(Stdio::null())
         .stderr(std::fs::File::create(dir.join("peer.log")).unwrap())
         .spawn()
@@ -219,7 +227,14 @@ fn videtd_runs_drives_served_by_an_independent_canopen_stack() {
         );
         let trace = dir.path().join("candump.log");
         let dump = candump(&can.0, &trace);
-        let _peer = start_peer(dir.path(), &can.0, &shipped(name), rest_positions(&config));
+        // The EPOS4's motor: 0x6076 = 512871 µN·m.
+        let _peer = start_peer(
+            dir.path(),
+            &can.0,
+            &shipped(name),
+            rest_positions(&config),
+            &["--rated-torque-nm", "0.512871", "--torque-unit", "uNm"],
+        );
         let mut videtd = Process(
             Command::new(std::env::var_os("VIDET_BIN_DIR").map_or_else(
                 || PathBuf::from(env!("CARGO_BIN_EXE_videtd")),
@@ -298,6 +313,14 @@ fn videtd_runs_drives_served_by_an_independent_canopen_stack() {
         drop(dump);
         let t = check_trace(&trace, name);
         assert_eq!(t.started, vec![1, 2, 3], "{name}");
+        // The PDOs the DCF leaves enabled that the service does not use (TPDO3 at every SYNC)
+        // were disabled: the bus carries only the budgeted process data.
+        let frames = parse_candump(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+        let unused = frames
+            .iter()
+            .filter(|f| matches!(f.cob_id, 0x381..=0x3FF | 0x481..=0x4FF))
+            .count();
+        assert_eq!(unused, 0, "{name}: frames of PDOs the service does not use");
         let periods = after.cycles - cycles_at_start;
         assert!(
             t.syncs as u64 >= periods,
@@ -337,7 +360,7 @@ fn videtd_refuses_drives_it_cannot_use_and_enables_none() {
             .unwrap();
         let trace = dir.path().join("candump.log");
         let dump = candump(&can.0, &trace);
-        let _peer = start_peer(dir.path(), &can.0, &shipped(name), [0; 3]);
+        let _peer = start_peer(dir.path(), &can.0, &shipped(name), [0; 3], &[]);
         let mut videtd = start_videtd(&config);
         let exit = videtd.wait_exit(120.0).expect("videtd gives up");
         assert!(!exit.success(), "{name}");
@@ -365,5 +388,29 @@ fn videtd_refuses_drives_it_cannot_use_and_enables_none() {
             );
         }
         check_trace(&trace, name);
+    }
+}
+
+#[test]
+fn the_peers_motors_start_where_the_twins_operator_holds_the_thimble() {
+    // Runs anywhere: the drives' positions the guest's peer starts at, from the configuration.
+    let dir = tempfile::tempdir().unwrap();
+    let config = guest_config(
+        dir.path(),
+        "vcan-none",
+        Path::new("/dev/gpiochip-none"),
+        ["/dev/null-left", "/dev/null-right"],
+        false,
+    );
+    let positions = rest_positions(&config);
+    let loaded = videt_rt_config::Config::load(&config).unwrap();
+    let t = videt::setup::transmission(&loaded);
+    for p in positions {
+        // A wire between 5 cm and 1.5 m long: the thimble in the rig's workspace.
+        let length_m = -(p as f64) * t.metres_per_count();
+        assert!(
+            (0.05..1.5).contains(&length_m),
+            "{positions:?}: {length_m} m"
+        );
     }
 }

@@ -26,9 +26,16 @@ fn the_wall_is_rendered_through_cia402_drives_on_the_can_bus() {
     render_the_wall(&Config::default(), 0.0);
 }
 
-/// A drive of 40 mN·m rated torque and a 2000-count encoder, as its device description says.
-const DRIVE_EDS: &str = "[DeviceInfo]\nVendorName=Example\n[6076]\nDefaultValue=40\n\
-                         [608Fsub1]\nDefaultValue=2000\n[608Fsub2]\nDefaultValue=1\n";
+/// A drive of 40 mN·m rated torque and a 2000-count encoder, as its device description says:
+/// the twin's generic CiA 402 drive with its position encoder resolution (0x608F).
+fn drive_eds() -> String {
+    let generic = videt_sim::cia402_node::DriveDictionary::generic(40).to_eds("Example");
+    format!(
+        "{generic}[608F]\nObjectType=0x9\nSubNumber=3\n\n[608Fsub0]\nDataType=0x0005\n\
+         AccessType=const\nDefaultValue=2\n\n[608Fsub1]\nDataType=0x0007\nAccessType=rw\n\
+         DefaultValue=2000\n\n[608Fsub2]\nDataType=0x0007\nAccessType=rw\nDefaultValue=1\n"
+    )
+}
 
 /// A configuration file beside a device description.
 fn configured_drive(dir: &Path, description: &str, body: &str) -> Config {
@@ -59,7 +66,7 @@ fn applied<H: WireDrives<WIREMAN_WIRES>>(
 #[test]
 fn the_can_twin_s_drives_have_the_rated_torque_of_the_device_description() {
     let dir = tempfile::tempdir().unwrap();
-    let config = configured_drive(dir.path(), DRIVE_EDS, "");
+    let config = configured_drive(dir.path(), &drive_eds(), "");
     assert_eq!(config.drives.rated_torque_nm, 0.04);
     let drives = drive_config::<3>(&config);
     assert_eq!(drives.rated_torque_nm, 0.04);
@@ -105,9 +112,10 @@ fn the_can_twin_renders_the_wall_with_the_epos4_of_a_real_dcf() {
     );
     assert_eq!(config.transmission.gear_ratio, 26.0);
     assert_eq!(config.transmission.counts_per_motor_rev, 3200);
-    // The simulated drives are CiA 402 ones (mN·m) with this motor.
+    // The HAL twin's motors step in whole mN·m; the CAN twin's drives are the DCF's EPOS4:
+    // its rated torque in µN·m.
     assert_eq!(setup::twin_rated_torque_mnm(&config), 513);
-    assert_eq!(drive_config::<3>(&config).rated_torque_nm, 0.513);
+    assert_eq!(drive_config::<3>(&config).rated_torque_nm, 0.512871);
     // Each wire's tension is held to within half a step: the contact force to within 1.5 steps.
     let force_resolution_n = 1.5 * config.torque_step_tension_n();
     render_the_wall(

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import gc
 import logging
 import math
 import os
@@ -21,11 +22,10 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Deque, Dict, List, Optional, Sequence, Tuple
 
-import can
 import canopen
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -62,11 +62,13 @@ class PeerConfig:
     """What the peer serves: which file, which node ids, the model and the timings."""
 
     eds: str
-    nodes: Tuple[int, ...]
+    nodes: tuple[int, ...]
     params: WireParams = WireParams()
     torque_unit: str = "mNm"
     boot_delay_s: float = 0.05
-    ready_file: Optional[str] = None
+    ready_file: str | None = None
+    #: Encoder position (counts) each node starts at, in node order; empty: all at 0.
+    initial_positions: tuple[int, ...] = ()
 
 
 class Peer:
@@ -78,20 +80,24 @@ class Peer:
         self.boot_delay_s = cfg.boot_delay_s
         self.lock = threading.RLock()
         self.network = canopen.Network()
+        self.network.NOTIFIER_CYCLE = 0.1  # the receive thread notices a stop within 0.1 s
         self._bus_kwargs = bus_kwargs
-        self._events: Deque[Tuple[str, Tuple[object, ...]]] = collections.deque()
-        self._routes: Dict[int, List[Tuple[DriveNode, PdoChannel]]] = {}
-        self._watched: set = set()
-        self._sync_ns: List[int] = [0] * SYNC_RING
+        self._events: collections.deque[tuple[str, tuple[object, ...]]] = collections.deque()
+        self._routes: dict[int, list[tuple[DriveNode, PdoChannel]]] = {}
+        self._watched: set[int] = set()
+        self._sync_ns: list[int] = [0] * SYNC_RING
         self._sync_count = 0
         self._ready = False
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._thread = threading.Thread(target=self._housekeeping, name="peer-timers",
                                         daemon=True)
-        self.nodes: Dict[int, DriveNode] = {}
-        for node_id in cfg.nodes:
-            self.nodes[node_id] = DriveNode(node_id, load_od(cfg.eds, node_id), self)
+        self.nodes: dict[int, DriveNode] = {}
+        positions = cfg.initial_positions or (0,) * len(cfg.nodes)
+        if len(positions) != len(cfg.nodes):
+            raise ValueError("one initial position per node")
+        for node_id, position in zip(cfg.nodes, positions):
+            self.nodes[node_id] = DriveNode(node_id, load_od(cfg.eds, node_id), self, position)
 
     # ----- lifecycle ----------------------------------------------------------------------
 
@@ -128,7 +134,7 @@ class Peer:
                        stats["count"], stats["median"], stats["p99"], stats["max"])
         self._flush_events()
 
-    def __enter__(self) -> "Peer":
+    def __enter__(self) -> Peer:
         self.start()
         return self
 
@@ -158,7 +164,7 @@ class Peer:
 
     def routes_changed(self) -> None:
         """Subscribe the COB-IDs of every valid RPDO, and only those."""
-        routes: Dict[int, List[Tuple[DriveNode, PdoChannel]]] = {}
+        routes: dict[int, list[tuple[DriveNode, PdoChannel]]] = {}
         for node in self.nodes.values():
             for ch in node.rpdos:
                 if ch.valid:
@@ -247,7 +253,7 @@ class Peer:
 
     # ----- statistics ---------------------------------------------------------------------
 
-    def sync_stats_us(self) -> Dict[str, float]:
+    def sync_stats_us(self) -> dict[str, float]:
         """Median, p99 and max of the SYNC handling time (µs) over the last SYNCs."""
         n = min(self._sync_count, SYNC_RING)
         if not n:
@@ -262,14 +268,21 @@ class Peer:
         self._sync_count = 0
 
 
-def _node_list(text: str) -> Tuple[int, ...]:
-    ids = tuple(int(part, 0) for part in text.split(",") if part.strip())
+def _int_list(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(part, 0) for part in text.split(",") if part.strip())
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"comma-separated integers: {exc}") from exc
+
+
+def _node_list(text: str) -> tuple[int, ...]:
+    ids = _int_list(text)
     if not ids or any(not 1 <= i <= 127 for i in ids) or len(set(ids)) != len(ids):
         raise argparse.ArgumentTypeError("node ids: distinct, 1..127, comma-separated")
     return ids
 
 
-def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     """The command line."""
     d = WireParams()
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -283,6 +296,8 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     p.add_argument("--boot-delay-ms", type=float, default=50.0)
     p.add_argument("--ready-file", help="written once every node has booted")
     p.add_argument("--log", help="event log file")
+    p.add_argument("--initial-position", type=_int_list, default=(),
+                   help="encoder counts each node starts at: one value, or one per node")
     p.add_argument("--counts-per-rev", type=int, default=d.counts_per_rev)
     p.add_argument("--pulley-radius-m", type=float, default=d.pulley_radius_m)
     p.add_argument("--gear-ratio", type=float, default=d.gear_ratio)
@@ -291,7 +306,10 @@ def parse_args(argv: Optional[Sequence[str]] = None) -> argparse.Namespace:
     p.add_argument("--tension-offset-n", type=float, default=d.tension_offset_n)
     p.add_argument("--inertia-kg-m2", type=float, default=d.inertia_kg_m2)
     p.add_argument("--damping-nm-s-per-rad", type=float, default=d.damping_nm_s_per_rad)
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    if len(args.initial_position) not in (0, 1, len(args.nodes)):
+        p.error("--initial-position: one value, or one per node")
+    return args
 
 
 def config_from_args(args: argparse.Namespace) -> PeerConfig:
@@ -302,12 +320,15 @@ def config_from_args(args: argparse.Namespace) -> PeerConfig:
         tension_offset_n=args.tension_offset_n, inertia_kg_m2=args.inertia_kg_m2,
         damping_nm_s_per_rad=args.damping_nm_s_per_rad, counts_per_rev=args.counts_per_rev,
         rated_torque_nm=args.rated_torque_nm)
+    positions = args.initial_position
+    if len(positions) == 1:
+        positions = positions * len(args.nodes)
     return PeerConfig(eds=args.eds, nodes=args.nodes, params=params,
                       torque_unit=args.torque_unit, boot_delay_s=args.boot_delay_ms / 1000.0,
-                      ready_file=args.ready_file)
+                      ready_file=args.ready_file, initial_positions=positions)
 
 
-def _setup_logging(path: Optional[str]) -> None:
+def _setup_logging(path: str | None) -> None:
     handler: logging.Handler = (logging.FileHandler(path) if path
                                 else logging.StreamHandler(sys.stderr))
     handler.setFormatter(logging.Formatter("%(asctime)s.%(msecs)03d %(message)s", "%H:%M:%S"))
@@ -316,7 +337,7 @@ def _setup_logging(path: Optional[str]) -> None:
     log.propagate = False
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Serve the drives until SIGTERM/SIGINT; 0 on a clean stop, 2 on an unusable EDS."""
     args = parse_args(argv)
     _setup_logging(args.log)
@@ -330,6 +351,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print(f"cia402_peer: cannot import the object dictionary: {exc}", file=sys.stderr)
         return 2
     peer.start()
+    # The object dictionaries are many long-lived objects: keep them out of the collector's
+    # full passes, which would otherwise stall a SYNC now and then.
+    gc.freeze()
     log.info("serving nodes %s of %s on %s %s", ",".join(map(str, args.nodes)), args.eds,
              args.interface, args.channel)
     while not stop.wait(0.2):

@@ -9,7 +9,6 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass
-from typing import Optional
 
 #: Modes of operation (0x6060) value of cyclic synchronous torque mode.
 MODE_CST = 10
@@ -41,7 +40,7 @@ _S = PowerState
 POWERED = frozenset({_S.OPERATION_ENABLED, _S.QUICK_STOP_ACTIVE})
 
 
-def _command_target(state: PowerState, cw: int) -> Optional[PowerState]:
+def _command_target(state: PowerState, cw: int) -> PowerState | None:
     """Where `cw` (a controlword without the fault-reset bit) takes `state`; None: stay."""
     if state is _S.FAULT:
         return None
@@ -140,8 +139,10 @@ class WireParams:
 class WireMotor:
     """Motor-side dynamics J dw/dt = tau - T r / g - b w, T = max(0, k (x - x0)) + offset."""
 
-    def __init__(self, p: WireParams) -> None:
+    def __init__(self, p: WireParams, position_offset_counts: int = 0) -> None:
         self.p = p
+        #: Encoder reading at theta = 0 (where the drive's position starts).
+        self.position_offset_counts = position_offset_counts
         self.theta = 0.0
         self.omega = 0.0
         self.torque_nm = 0.0
@@ -178,7 +179,7 @@ class WireMotor:
 
     def position_counts(self) -> int:
         """Encoder position (0x6064), counts."""
-        return round(self.theta * self._counts_per_rad)
+        return self.position_offset_counts + round(self.theta * self._counts_per_rad)
 
     def velocity_counts_per_s(self) -> int:
         """Encoder velocity (0x606C), counts/s."""

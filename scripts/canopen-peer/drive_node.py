@@ -10,8 +10,9 @@ from __future__ import annotations
 import struct
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable, Dict, List, Optional, Protocol, Tuple
+from typing import Protocol
 
 from canopen import LocalNode
 from canopen import objectdictionary as cod
@@ -35,7 +36,7 @@ EMCY_HEARTBEAT = 0x8130
 INTEGER_TYPES = cod.INTEGER_TYPES
 
 #: (store dict of an index, subindex, struct) of one numeric object.
-Ref = Tuple[Dict[int, bytes], int, struct.Struct]
+Ref = tuple[dict[int, bytes], int, struct.Struct]
 
 
 class PeerLink(Protocol):
@@ -64,7 +65,7 @@ class HeartbeatConsumer:
 
     host: int
     timeout_s: float
-    last_heard: Optional[float] = None
+    last_heard: float | None = None
 
 
 def _int_bytes(value: int, bits: int) -> bytes:
@@ -103,26 +104,28 @@ class _SdoServer(SdoServer):
 class DriveNode(LocalNode):
     """A simulated CiA 402 wire drive on the bus."""
 
-    def __init__(self, node_id: int, od: cod.ObjectDictionary, peer: PeerLink) -> None:
+    def __init__(self, node_id: int, od: cod.ObjectDictionary, peer: PeerLink,
+                 initial_position: int = 0) -> None:
         super().__init__(node_id, od)
         self.sdo = _SdoServer(0x600 + node_id, 0x580 + node_id, self)
         self.peer = peer
+        self._heartbeat_cob = 0x700 + node_id
         self.nmt_state = INITIALISING
         self.booted = False
-        self.boot_due: Optional[float] = None
+        self.boot_due: float | None = None
         self.power = PowerMachine()
-        self.motor = WireMotor(peer.params)
+        self.motor = WireMotor(peer.params, initial_position)
         self.rpdos = [PdoChannel(False, n) for n in range(512) if 0x1400 + n in od]
         self.tpdos = [PdoChannel(True, n) for n in range(512) if 0x1800 + n in od]
-        self.consumers: List[HeartbeatConsumer] = []
-        self._live_tpdos: List[PdoChannel] = []
-        self._sync_rpdos: List[PdoChannel] = []
-        self._outputs: List[Tuple[Dict[int, bytes], int, Callable[[int], bytes],
+        self.consumers: list[HeartbeatConsumer] = []
+        self._live_tpdos: list[PdoChannel] = []
+        self._sync_rpdos: list[PdoChannel] = []
+        self._outputs: list[tuple[dict[int, bytes], int, Callable[[int], bytes],
                                   Callable[[], int]]] = []
-        self._cw: Optional[Ref] = None
-        self._target: Optional[Ref] = None
-        self._mode: Optional[Ref] = None
-        self._last_sync: Optional[float] = None
+        self._cw: Ref | None = None
+        self._target: Ref | None = None
+        self._mode: Ref | None = None
+        self._last_sync: float | None = None
         self._seed_store()
         self._bind()
 
@@ -155,7 +158,7 @@ class DriveNode(LocalNode):
                 except (TypeError, ValueError, struct.error):
                     store[var.subindex] = bytes(len(var) // 8)
 
-    def _ref(self, index: int, sub: int) -> Optional[Ref]:
+    def _ref(self, index: int, sub: int) -> Ref | None:
         var = find_variable(self.object_dictionary, index, sub)
         if var is None or var.data_type not in var.STRUCT_TYPES:
             return None
@@ -190,7 +193,7 @@ class DriveNode(LocalNode):
 
     # ----- object access ------------------------------------------------------------------
 
-    def read_int(self, index: int, subindex: int) -> Optional[int]:
+    def read_int(self, index: int, subindex: int) -> int | None:
         """Current value of a numeric object, None when the OD lacks it."""
         var = find_variable(self.object_dictionary, index, subindex)
         if var is None:
@@ -206,7 +209,7 @@ class DriveNode(LocalNode):
             self.data_store.setdefault(index, {})[subindex] = _int_bytes(value, len(var))
 
     @staticmethod
-    def _get(ref: Optional[Ref]) -> int:
+    def _get(ref: Ref | None) -> int:
         if ref is None:
             return 0
         store, sub, st = ref
@@ -237,15 +240,15 @@ class DriveNode(LocalNode):
         if var.data_type not in INTEGER_TYPES:
             return
         value = int(var.decode_raw(data))
-        if var.max is not None and value > var.max:
-            raise SdoAbortedError(ABORT_TOO_HIGH)
-        if var.min is not None and value < var.min:
-            raise SdoAbortedError(ABORT_TOO_LOW)
         check_write(self, index, subindex, value)
         if index == 0x6060:
             self._check_mode(value)
         elif index == 0x1016 and subindex > 0:
             self._check_consumer(subindex, value)
+        if var.max is not None and value > var.max:
+            raise SdoAbortedError(ABORT_TOO_HIGH)
+        if var.min is not None and value < var.min:
+            raise SdoAbortedError(ABORT_TOO_LOW)
 
     def _check_mode(self, mode: int) -> None:
         supported = self.read_int(0x6502, 0)
@@ -256,7 +259,7 @@ class DriveNode(LocalNode):
         host = (value >> 16) & 0x7F
         if not host or not value & 0xFFFF:
             return
-        for sub in self.object_dictionary[0x1016].subindices:
+        for sub in getattr(self.object_dictionary.get(0x1016), "subindices", {}):
             other = self.read_int(0x1016, sub) if sub not in (0, subindex) else None
             if other and (other >> 16) & 0x7F == host and other & 0xFFFF:
                 raise SdoAbortedError(ABORT_INCOMPATIBLE)
@@ -333,7 +336,7 @@ class DriveNode(LocalNode):
 
     def _boot(self) -> None:
         self.boot_due = None
-        self.peer.send(0x700 + self.id, b"\x00")
+        self.peer.send(self._heartbeat_cob, b"\x00")
         self.booted = True
         self.peer.event("node %d: boot-up", self.id)
         self._set_nmt(PRE_OPERATIONAL)
@@ -451,7 +454,7 @@ class DriveNode(LocalNode):
             self.peer.send(ch.cob_id, data)
             ch.last_data, ch.last_sent = data, now
 
-    def on_rpdo(self, ch: PdoChannel, data: bytes, now: float) -> None:
+    def on_rpdo(self, ch: PdoChannel, data: bytes | bytearray, now: float) -> None:
         """An RPDO frame: kept for the next SYNC, or applied now when event-driven."""
         if self.nmt_state != OPERATIONAL or len(data) < ch.length:
             return

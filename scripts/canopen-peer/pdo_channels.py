@@ -3,7 +3,7 @@ PDO's layout precomputed for the SYNC path (slices to unpack, byte strings to jo
 
 from __future__ import annotations
 
-from typing import Dict, List, Optional, Protocol, Tuple
+from typing import Protocol
 
 from canopen import objectdictionary as cod
 from canopen.sdo import SdoAbortedError
@@ -24,13 +24,13 @@ class ObjectAccess(Protocol):
     """What the PDO rules need of a node: its OD and its current values."""
 
     object_dictionary: cod.ObjectDictionary
-    data_store: Dict[int, Dict[int, bytes]]
+    data_store: dict[int, dict[int, bytes]]
 
-    def read_int(self, index: int, subindex: int) -> Optional[int]:
+    def read_int(self, index: int, subindex: int) -> int | None:
         """The current value of a numeric object, None when the OD lacks it."""
 
 
-def classify(index: int) -> Optional[Tuple[bool, bool, int]]:
+def classify(index: int) -> tuple[bool, bool, int] | None:
     """(is_tpdo, is_mapping, pdo number from 0) of a PDO parameter index, else None."""
     for base, tpdo, mapping in ((RPDO_COMM, False, False), (RPDO_MAP, False, True),
                                 (TPDO_COMM, True, False), (TPDO_MAP, True, True)):
@@ -39,7 +39,7 @@ def classify(index: int) -> Optional[Tuple[bool, bool, int]]:
     return None
 
 
-def find_variable(od: cod.ObjectDictionary, index: int, sub: int) -> Optional[cod.ODVariable]:
+def find_variable(od: cod.ObjectDictionary, index: int, sub: int) -> cod.ODVariable | None:
     """The OD variable at index:sub, None when absent (a plain VAR only has sub 0)."""
     obj = od.get(index)
     if obj is None:
@@ -91,7 +91,7 @@ def check_write(node: ObjectAccess, index: int, sub: int, value: int) -> None:
         check_entry(node.object_dictionary, value, tpdo)
 
 
-def _check_comm_write(sub: int, value: int, cob: Optional[int], tpdo: bool) -> None:
+def _check_comm_write(sub: int, value: int, cob: int | None, tpdo: bool) -> None:
     if sub == 1 and cob is not None and not cob & PDO_INVALID and not value & PDO_INVALID:
         if (value ^ cob) & CAN_ID_MASK:
             raise SdoAbortedError(ABORT_INVALID_VALUE)  # CAN-ID of an existing PDO
@@ -127,13 +127,13 @@ class PdoChannel:
         self.event_s = 0.0
         self.length = 0
         #: TPDO: (store dict of the index, sub) per mapped object, joined in order.
-        self.sources: List[Tuple[Dict[int, bytes], int]] = []
+        self.sources: list[tuple[dict[int, bytes], int]] = []
         #: RPDO: (store dict of the index, sub, start, end) per mapped non-dummy object.
-        self.sinks: List[Tuple[Dict[int, bytes], int, int, int]] = []
+        self.sinks: list[tuple[dict[int, bytes], int, int, int]] = []
         self.sync_count = 0
-        self.last_data: Optional[bytes] = None
+        self.last_data: bytes | None = None
         self.last_sent = 0.0
-        self.pending: Optional[bytes] = None
+        self.pending: bytes | None = None
 
     @property
     def synchronous(self) -> bool:
@@ -156,6 +156,7 @@ class PdoChannel:
                 layout_ok = False
                 break
             store = node.data_store.setdefault(index, {})
+            store.setdefault(esub, bytes(nbytes))
             if self.tpdo:
                 self.sources.append((store, esub))
             elif index >= 0x20:

@@ -18,6 +18,8 @@ mp() { modprobe -d "$KIL_MODROOT" "$@" || fail "modprobe $*"; }
 # SocketCAN: a virtual CAN interface (iproute2's ip: busybox's cannot make one).
 mp can-raw
 mp vcan
+# The CANopen peer's heartbeats are python-can periodic sends: SocketCAN's broadcast manager.
+mp can-bcm
 ip link add dev vcan0 type vcan && ip link set up vcan0 || fail "vcan0"
 
 # GPIO: gpio-sim chips are made through configfs by the tests themselves (gpiosim crate).

@@ -9,7 +9,7 @@
 set -uo pipefail
 cd "$KIL_REPO"
 # shellcheck source=/dev/null
-source "$KIL_OUT/bins.env"   # DRIVERS_TESTS, SIM_TESTS, GUEST_TESTS, BIN_DIR, STEREO_CALIBRATION
+source "$KIL_OUT/bins.env"   # DRIVERS_TESTS, SIM_TESTS, GUEST_TESTS, PEER_TESTS, PEER_PYTHON, BIN_DIR, STEREO_CALIBRATION
 
 summary="$KIL_OUT/summary.txt"
 failed=0
@@ -17,6 +17,7 @@ export VIDET_REQUIRE_DATA=1 VIDET_DATA_DIR="$KIL_REPO/../shared/data"
 export VIDET_KIL_CAMERAS="$KIL_CAMERAS" VIDET_BIN_DIR="$BIN_DIR"
 export VIDET_KIL_STEREO_CALIBRATION="$STEREO_CALIBRATION"
 export RUST_BACKTRACE=1 VIDET_KIL_KEEP="$KIL_OUT/tests"
+export VIDET_PEER_PYTHON="$PEER_PYTHON"
 
 # step NAME TIMEOUT_S COMMAND...: run, time, record PASS/FAIL and the test counts it printed.
 step() {
@@ -47,6 +48,7 @@ fi
 # `kernel-in-the-loop.sh --filter NAME` runs only the device-mode tests named so.
 if [ -f "$KIL_OUT/filter" ]; then
   step videtd-device-mode 2400 "$GUEST_TESTS" --ignored --test-threads=1 "$(cat "$KIL_OUT/filter")"
+  step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1 "$(cat "$KIL_OUT/filter")"
   exit $failed
 fi
 
@@ -55,6 +57,9 @@ step drivers-socketcan-v4l2 600 "$DRIVERS_TESTS" --ignored --test-threads=1
 step sim-socketcan 300 "$SIM_TESTS" --ignored --test-threads=1 socketcan
 # videtd in device mode against the twin served on vcan, with gpio-sim and vivid.
 step videtd-device-mode 2400 "$GUEST_TESTS" --ignored --test-threads=1
+# videtd in device mode against drives served by an independent CANopen stack (python-canopen)
+# with each shipped dictionary.
+step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1
 
 # Timing: meaningful only under KVM. cyclictest first, then the control loop, back to back.
 {

@@ -237,6 +237,51 @@ pub const DRIVER_OBJECTS: &[DriverObject] = &[
         REQUIRED_PDO,
     ),
     obj(
+        0x1401,
+        Some(1),
+        "RPDO2 COB-ID",
+        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
+        Need::Optional {
+            without: "the drive has no such PDO: nothing to disable",
+        },
+    ),
+    obj(
+        0x1402,
+        Some(1),
+        "RPDO3 COB-ID",
+        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
+        Need::Optional {
+            without: "the drive has no such PDO: nothing to disable",
+        },
+    ),
+    obj(
+        0x1403,
+        Some(1),
+        "RPDO4 COB-ID",
+        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
+        Need::Optional {
+            without: "the drive has no such PDO: nothing to disable",
+        },
+    ),
+    obj(
+        0x1802,
+        Some(1),
+        "TPDO3 COB-ID",
+        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
+        Need::Optional {
+            without: "the drive has no such PDO: nothing to disable",
+        },
+    ),
+    obj(
+        0x1803,
+        Some(1),
+        "TPDO4 COB-ID",
+        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
+        Need::Optional {
+            without: "the drive has no such PDO: nothing to disable",
+        },
+    ),
+    obj(
         0x6040,
         Some(0),
         "controlword",
@@ -325,6 +370,10 @@ pub fn is_optional(index: u16, subindex: u8) -> bool {
         Some(Need::Optional { .. })
     )
 }
+
+/// The communication parameters of the PDOs the driver does not use (RPDO2..4, TPDO3..4): a
+/// drive's own configuration may have them enabled; the driver disables them.
+pub const UNUSED_PDOS: [u16; 5] = [0x1401, 0x1402, 0x1403, 0x1802, 0x1803];
 
 /// Whether `index` is a PDO mapping parameter (RPDO 0x1600..=0x17FF, TPDO 0x1A00..=0x1BFF).
 pub const fn is_pdo_mapping(index: u16) -> bool {

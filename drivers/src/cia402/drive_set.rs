@@ -32,7 +32,7 @@ use super::pdo::{Command, DriveSetup, Motion, MotionWithAnalog, Status};
 use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
 use crate::can::CanPort;
 use crate::canopen::cob::{self, classify, CobKind};
-use crate::canopen::objects::{is_optional, is_pdo_mapping, means_absent};
+use crate::canopen::objects::{is_optional, is_pdo_mapping, means_absent, UNUSED_PDOS};
 
 /// Most frames handled in one cycle (bounds the receive loop): 64, and 16 per drive beyond
 /// four drives.
@@ -45,6 +45,8 @@ const fn max_frames_per_cycle(drives: usize) -> usize {
 }
 /// Fault-reset edges tried when enabling a faulted drive.
 const MAX_FAULT_RESETS: u32 = 3;
+/// COB-ID bit 31: the PDO is disabled.
+const PDO_INVALID: u32 = 0x8000_0000;
 /// Bit of cyclic synchronous torque mode (10) in the supported drive modes (0x6502).
 const CYCLIC_SYNCHRONOUS_TORQUE_BIT: u32 = 1 << 9;
 /// NMT state byte of "operational".
@@ -726,6 +728,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                     r => r?,
                 }
             }
+            self.disable_unused_pdos(i)?;
         }
         // Host heartbeat first, so the drives' consumers start on a live host.
         self.host_heartbeat_due = Instant::now();
@@ -773,6 +776,26 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             self.sleep_rest_of_cycle(cycle_start);
         }
         self.operational_expected = true;
+        Ok(())
+    }
+
+    /// Disable every PDO of drive `i` the driver does not use ([`UNUSED_PDOS`]) that its own
+    /// configuration left enabled (a DCF may keep TPDO3 sending at every SYNC): its COB-ID is
+    /// written back with the "invalid" bit set, the CAN-ID unchanged as CiA 301 requires. A
+    /// drive without such a PDO has nothing to disable.
+    fn disable_unused_pdos(&mut self, i: usize) -> Result<(), DriveError> {
+        for comm in UNUSED_PDOS {
+            let addr = Address::new(comm, 1);
+            let cob = match self.sdo_read(i, addr, DataType::Unsigned32) {
+                Ok(Value::Unsigned32(cob)) => cob,
+                Ok(_) => continue,
+                Err(DriveError::SdoAbort { code, .. }) if means_absent(code) => continue,
+                Err(e) => return Err(e),
+            };
+            if cob & PDO_INVALID == 0 {
+                self.sdo_write(i, addr, Value::Unsigned32(cob | PDO_INVALID))?;
+            }
+        }
         Ok(())
     }
 

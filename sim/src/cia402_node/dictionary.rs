@@ -244,6 +244,71 @@ impl DriveDictionary {
         }
     }
 
+    /// The dictionary as an EDS (CiA 306): `[DeviceInfo]`, then every object, a record's
+    /// header before its sub-indices; defaults with `$NODEID+` where they take the node id.
+    /// The generic profile so written is a part any CANopen stack can load.
+    pub fn to_eds(&self, product_name: &str) -> String {
+        use std::fmt::Write;
+        let mut out = String::new();
+        let _ = write!(
+            out,
+            "[DeviceInfo]\nVendorName=VIDET\nProductName={product_name}\nVendorNumber=0\n\
+             ProductNumber=0\nBaudRate_1000=1\nSimpleBootUpSlave=1\nNrOfRXPDO=1\nNrOfTXPDO=2\n\n"
+        );
+        let access = |a: ObjectAccess| match a {
+            ObjectAccess::ReadOnly => "ro",
+            ObjectAccess::WriteOnly => "wo",
+            ObjectAccess::ReadWrite => "rw",
+            ObjectAccess::Const => "const",
+        };
+        let entry = |out: &mut String, header: &str, o: &DescribedObject| {
+            let _ = write!(out, "[{header}]\nParameterName={header}\nObjectType=0x7\n");
+            if let Some(t) = o.data_type {
+                let _ = writeln!(out, "DataType={t:#06x}");
+            }
+            let _ = writeln!(out, "AccessType={}", access(o.access));
+            match (&o.text, o.default) {
+                (Some(text), _) => {
+                    let _ = writeln!(out, "DefaultValue={text}");
+                }
+                (None, Some(d)) if d.plus_node_id => {
+                    let _ = writeln!(out, "DefaultValue=$NODEID+{:#x}", d.value);
+                }
+                (None, Some(d)) if d.value < 0 => {
+                    let _ = writeln!(out, "DefaultValue={}", d.value);
+                }
+                (None, Some(d)) => {
+                    let _ = writeln!(out, "DefaultValue={:#x}", d.value);
+                }
+                (None, None) => {}
+            }
+            let _ = writeln!(out, "PDOMapping={}\n", u8::from(o.pdo_mappable));
+        };
+        let mut i = 0;
+        while i < self.objects.len() {
+            let index = self.objects[i].index;
+            let end = i + self.objects[i..]
+                .iter()
+                .take_while(|o| o.index == index)
+                .count();
+            let subs = &self.objects[i..end];
+            if subs.len() == 1 && subs[0].subindex == 0 {
+                entry(&mut out, &format!("{index:04X}"), &subs[0]);
+            } else {
+                let _ = write!(
+                    out,
+                    "[{index:04X}]\nParameterName={index:04X}\nObjectType=0x9\nSubNumber={}\n\n",
+                    subs.len()
+                );
+                for o in subs {
+                    entry(&mut out, &format!("{index:04X}sub{:X}", o.subindex), o);
+                }
+            }
+            i = end;
+        }
+        out
+    }
+
     /// The object at `index:subindex`.
     pub fn object(&self, index: u16, subindex: u8) -> Option<&DescribedObject> {
         self.objects
