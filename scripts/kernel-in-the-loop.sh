@@ -11,6 +11,8 @@
 #   scripts/kernel-in-the-loop.sh --shell    boot into a shell in the guest instead (debugging)
 #   scripts/kernel-in-the-loop.sh --no-build reuse the binaries built last time
 #   scripts/kernel-in-the-loop.sh --filter S run only the device-mode tests whose name has S
+#   scripts/kernel-in-the-loop.sh --peer-run also run videtd for 10 s against the python-canopen
+#                                            drives under TCG (too slow there to be reliable)
 #   scripts/kernel-in-the-loop.sh --run FILE run the bash script FILE in the guest instead of the
 #                                            suite (after the drivers are loaded; debugging)
 #
@@ -27,13 +29,15 @@ MODE=suite
 BUILD=1
 FILTER=
 RUN=
+PEER_RUN=0
 while [ $# -gt 0 ]; do
   case $1 in
     --shell) MODE=shell ;;
     --no-build) BUILD=0 ;;
     --filter) FILTER=${2:?--filter needs a test name}; shift ;;
+    --peer-run) PEER_RUN=1 ;;
     --run) RUN=$(realpath "${2:?--run needs a script}"); shift ;;
-    *) echo "usage: $0 [--shell] [--no-build] [--filter TEST] [--run SCRIPT]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--shell] [--no-build] [--filter TEST] [--run SCRIPT] [--peer-run]" >&2; exit 2 ;;
   esac
   shift
 done
@@ -259,6 +263,7 @@ main() {
   cp "$KIL/bins.env" "$OUT/bins.env"
   [ -n "$FILTER" ] && echo "$FILTER" >"$OUT/filter"
   [ -n "$RUN" ] && echo "$RUN" >"$OUT/run"
+  [ "$PEER_RUN" = 1 ] && touch "$OUT/peer-run"
   log "binaries ready in $(since "$t_build") s"
   choose_accelerator
   t_boot=$(now)

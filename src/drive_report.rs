@@ -123,6 +123,41 @@ mod tests {
     use videt_drivers::cia402::DriveIdentity;
 
     #[test]
+    fn a_drive_unlike_the_configured_description_is_named_with_both_values() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("drive.eds"),
+            "[DeviceInfo]\nVendorNumber=0x000000FB\nProductNumber=0x65520000\n[6076]\n\
+             DefaultValue=50000\n",
+        )
+        .unwrap();
+        let path = dir.path().join("videt.toml");
+        std::fs::write(&path, "[drives]\ndevice_description = \"drive.eds\"\n").unwrap();
+        let config = Config::load(&path).unwrap();
+        let mut drive = DriveStatus {
+            wire: 1,
+            node: 2,
+            device_type: 0x0002_0192,
+            vendor_id: Some(0xFB),
+            product_code: Some(0x6552_0000),
+            revision: None,
+            serial: None,
+        };
+        assert_eq!(unlike_description(&drive, &config), None);
+        drive.product_code = Some(0x6551_0000);
+        let w = unlike_description(&drive, &config).unwrap();
+        assert!(
+            w.starts_with(
+                "drive of wire 1 (node 2): product 0x65510000 where the file says 0x65520000; \
+                 drives.device_description = \"drive.eds\""
+            ),
+            "{w}"
+        );
+        // Without a description there is nothing to compare.
+        assert_eq!(unlike_description(&drive, &Config::default()), None);
+    }
+
+    #[test]
     fn a_new_report_is_told_once_and_its_drives_kept() {
         let shared = SharedStartupReport::default();
         let mut watch = DriveReportWatch::new(shared.clone());

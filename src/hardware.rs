@@ -221,6 +221,8 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig<WIREMAN_WIRES> {
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
     c.drive_heartbeat_ms = d.heartbeat_ms;
     c.drive_heartbeat_timeout = Duration::from_millis(u64::from(d.heartbeat_timeout_ms));
+    c.host_silence_timeout_ms = d.host_silence_timeout_ms;
+    c.sdo_timeout = Duration::from_millis(u64::from(d.sdo_timeout_ms));
     c.max_missed_cycles = d.max_missed_cycles;
     c.pdo_timeout = period.mul_f64(d.pdo_wait_fraction);
     c.power_timeout = Duration::from_millis(u64::from(d.power_timeout_ms));

@@ -87,6 +87,7 @@ fuzz_target!(|data: &[u8]| {
                 if let Ok(m) = EmergencyMessage::decode(frame) {
                     let _ = emcy_description(m.error_code);
                     let e = DriveError::Emergency {
+                        wire: 0,
                         node: n,
                         code: m.error_code,
                         register: m.error_register.0,
@@ -105,6 +106,7 @@ fuzz_target!(|data: &[u8]| {
                         }
                         SdoEvent::Aborted(code) => {
                             let e = DriveError::SdoAbort {
+                                wire: 0,
                                 node: n,
                                 index: addr.index,
                                 subindex: addr.subindex,
@@ -132,7 +134,7 @@ fuzz_target!(|data: &[u8]| {
                 }
                 Ok(_) => {}
                 Err(e) => {
-                    let _ = DriveError::from_power(1, e, 0).to_string();
+                    let _ = DriveError::from_power(0, 1, e, 0).to_string();
                     sequencer = PowerSequencer::new(goal, now_ns, 200 * MS, 3);
                 }
             }

@@ -258,6 +258,14 @@ pub struct DrivesConfig {
     pub heartbeat_ms: u16,
     /// A drive silent for this long is a fault, milliseconds.
     pub heartbeat_timeout_ms: u16,
+    /// How long each drive tolerates the service's silence before it disables itself (its
+    /// heartbeat consumer, 0x1016), milliseconds (20..=10000; the service's heartbeat is sent
+    /// every 10 ms).
+    pub host_silence_timeout_ms: u16,
+    /// Time each drive is given to answer an SDO request while it is configured,
+    /// milliseconds (10..=5000). Drives that store parameters in flash as they are written
+    /// answer slower.
+    pub sdo_timeout_ms: u32,
     /// Consecutive periods a drive's process data may be missing before it is a fault (0: the
     /// first missing period is). With 1 the drives power off within two periods of a drive
     /// going silent; a bus or computer that delays answers now and then needs more.
@@ -430,6 +438,8 @@ impl Default for DrivesConfig {
             description: None,
             heartbeat_ms: 10,
             heartbeat_timeout_ms: 50,
+            host_silence_timeout_ms: 50,
+            sdo_timeout_ms: 100,
             max_missed_cycles: 1,
             pdo_wait_fraction: 0.6,
             power_timeout_ms: 500,

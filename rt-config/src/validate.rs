@@ -204,6 +204,18 @@ impl Config {
             10000.0,
         )?;
         in_range(
+            "drives.host_silence_timeout_ms",
+            f64::from(d.host_silence_timeout_ms),
+            20.0,
+            10000.0,
+        )?;
+        in_range(
+            "drives.sdo_timeout_ms",
+            f64::from(d.sdo_timeout_ms),
+            10.0,
+            5000.0,
+        )?;
+        in_range(
             "drives.max_missed_cycles",
             f64::from(d.max_missed_cycles),
             0.0,

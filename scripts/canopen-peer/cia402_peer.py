@@ -105,7 +105,9 @@ class Peer:
         """Connect, and boot every node after the boot delay."""
         if self.cfg.ready_file:
             Path(self.cfg.ready_file).unlink(missing_ok=True)
-        self.network.connect(**self._bus_kwargs)
+        kwargs = dict(self._bus_kwargs)
+        kwargs.setdefault("can_filters", self._can_filters())
+        self.network.connect(**kwargs)
         self.network.subscribe(0, self._on_nmt)
         self.network.subscribe(SYNC_COB_ID, self._on_sync)
         now = time.monotonic()
@@ -117,6 +119,20 @@ class Peer:
                 self._check_rated_torque(node)
             self.routes_changed()
         self._thread.start()
+
+    def _can_filters(self) -> list[dict[str, int]]:
+        """What a drive listens to, as the socket's kernel filters: NMT, SYNC, heartbeats, and
+        its own RPDOs and SDO requests; nothing else reaches the (slow) Python side."""
+        exact = 0x7FF
+        filters = [
+            {"can_id": 0x000, "can_mask": exact},
+            {"can_id": SYNC_COB_ID, "can_mask": exact},
+            {"can_id": 0x700, "can_mask": 0x780},
+        ]
+        for n in self.nodes:
+            for base in (0x200, 0x300, 0x400, 0x500, 0x600):
+                filters.append({"can_id": base + n, "can_mask": exact})
+        return filters
 
     def stop(self) -> None:
         """Stop the timers and the heartbeats, shut the bus down, log the SYNC statistics."""

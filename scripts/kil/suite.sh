@@ -17,7 +17,7 @@ export VIDET_REQUIRE_DATA=1 VIDET_DATA_DIR="$KIL_REPO/../shared/data"
 export VIDET_KIL_CAMERAS="$KIL_CAMERAS" VIDET_BIN_DIR="$BIN_DIR"
 export VIDET_KIL_STEREO_CALIBRATION="$STEREO_CALIBRATION"
 export RUST_BACKTRACE=1 VIDET_KIL_KEEP="$KIL_OUT/tests"
-export VIDET_PEER_PYTHON="$PEER_PYTHON"
+export VIDET_PEER_PYTHON="$PEER_PYTHON" VIDET_KIL_ACCEL="$KIL_ACCEL"
 
 # step NAME TIMEOUT_S COMMAND...: run, time, record PASS/FAIL and the test counts it printed.
 step() {
@@ -58,8 +58,16 @@ step sim-socketcan 300 "$SIM_TESTS" --ignored --test-threads=1 socketcan
 # videtd in device mode against the twin served on vcan, with gpio-sim and vivid.
 step videtd-device-mode 2400 "$GUEST_TESTS" --ignored --test-threads=1
 # videtd in device mode against drives served by an independent CANopen stack (python-canopen)
-# with each shipped dictionary.
-step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1
+# with each shipped dictionary. The refusals always; the 10 s run only where the CPU is not
+# emulated or when asked (`kernel-in-the-loop.sh --peer-run`): under TCG the Python stack
+# answers a few tens of SYNCs a second and now and then none for 100 periods, which the
+# service rightly takes for a dead drive (docs/kernel-in-the-loop.md).
+if [ "$KIL_ACCEL" = kvm ] || [ -f "$KIL_OUT/peer-run" ]; then
+  step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1
+else
+  step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1 \
+    --skip videtd_runs_drives_served_by_an_independent_canopen_stack
+fi
 
 # Timing: meaningful only under KVM. cyclictest first, then the control loop, back to back.
 {

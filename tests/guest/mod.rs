@@ -220,13 +220,20 @@ pub fn guest_config(
         "power_timeout_ms",
         toml::Value::Integer(GUEST_POWER_TIMEOUT_MS.into()),
     );
-    // ... and so may their heartbeats ...
-    set(
-        &mut t,
-        "drives",
+    // ... and so may their heartbeats, their reading of the service's and their answers to
+    // SDO requests (a drive stack on the emulated CPU stalls for tens of ms) ...
+    for key in [
         "heartbeat_timeout_ms",
-        toml::Value::Integer(GUEST_HEARTBEAT_TIMEOUT_MS.into()),
-    );
+        "host_silence_timeout_ms",
+        "sdo_timeout_ms",
+    ] {
+        set(
+            &mut t,
+            "drives",
+            key,
+            toml::Value::Integer(GUEST_HEARTBEAT_TIMEOUT_MS.into()),
+        );
+    }
     // ... and the strain-gauge samples they carry (20 ms on the device).
     set(
         &mut t,

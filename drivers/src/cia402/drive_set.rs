@@ -735,12 +735,14 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         for i in 0..N {
             self.nmt(NmtCommand::StartRemoteNode, self.nodes[i].id)?;
         }
-        // Cycle until every drive is operational and answers SYNC.
+        // Cycle until every drive is operational and has answered SYNC (each its own SYNC: a
+        // drive late now and then is the supervision's business, not start-up's).
         for n in &mut self.nodes {
             n.status_heard = None;
         }
         let start = Instant::now();
         let status_every_sync = self.cfg.analog_input.is_some();
+        let mut answered = [false; N];
         let mut last_err;
         loop {
             let cycle_start = Instant::now();
@@ -748,15 +750,12 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 n.missed = 0;
                 n.overspeed_cycles = 0;
             }
-            match self.exchange(false) {
-                Ok(())
-                    if self
-                        .nodes
-                        .iter()
-                        .all(|n| n.has_cycle_data(status_every_sync)) =>
-                {
-                    break
-                }
+            let outcome = self.exchange(false);
+            for (a, n) in answered.iter_mut().zip(&self.nodes) {
+                *a |= n.has_cycle_data(status_every_sync);
+            }
+            match outcome {
+                Ok(()) if answered.iter().all(|&a| a) => break,
                 Ok(()) => last_err = None,
                 Err(e) => last_err = Some(e),
             }
@@ -764,7 +763,9 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 let silent = self
                     .nodes
                     .iter()
-                    .find(|n| !n.has_cycle_data(status_every_sync));
+                    .zip(answered)
+                    .find(|(_, a)| !a)
+                    .map(|(n, _)| n);
                 return Err(last_err.unwrap_or(DriveError::NoProcessData {
                     wire: silent.map_or(0, |n| n.wire),
                     node: silent.map_or(0, |n| n.id),
