@@ -63,9 +63,9 @@ step videtd-device-mode 2400 "$GUEST_TESTS" --ignored --test-threads=1
 # answers a few tens of SYNCs a second and now and then none for 100 periods, which the
 # service rightly takes for a dead drive (docs/kernel-in-the-loop.md).
 if [ "$KIL_ACCEL" = kvm ] || [ -f "$KIL_OUT/peer-run" ]; then
-  step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1
+  step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1 --nocapture
 else
-  step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1 \
+  step videtd-canopen-peer 2400 "$PEER_TESTS" --ignored --test-threads=1 --nocapture \
     --skip videtd_runs_drives_served_by_an_independent_canopen_stack
 fi
 
