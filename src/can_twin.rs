@@ -181,11 +181,12 @@ pub fn drive_config<const N: usize>(config: &Config) -> DriveSetConfig<N> {
         rated_torque_nm,
         config.control.t_max_n,
     );
-    if config.drives.description.is_some() {
-        let device = crate::hardware::drive_set_config(config);
-        c.rated_torque_unit = device.rated_torque_unit;
-        c.counts_per_position_unit = device.counts_per_position_unit;
-        c.counts_per_s_per_velocity_unit = device.counts_per_s_per_velocity_unit;
+    if let Some((torque_unit, per_position, per_velocity)) =
+        crate::drive_dictionary::description_units(config)
+    {
+        c.rated_torque_unit = torque_unit;
+        c.counts_per_position_unit = per_position;
+        c.counts_per_s_per_velocity_unit = per_velocity;
     }
     c.transmission = setup::transmission(config);
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;

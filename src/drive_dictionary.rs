@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use videt_drivers::canopen::eds::{parse_value, Eds};
-use videt_drivers::cia402::resolution::DriveResolution;
+use videt_drivers::cia402::resolution::{DriveResolution, TorqueUnit};
 use videt_rt_config::drive_units::DeviceDescription;
 use videt_rt_config::Config;
 use videt_sim::cia402_node::dictionary::{
@@ -63,6 +63,25 @@ pub fn from_eds(
     }
 }
 
+/// The units the drives of `config` give their values in, from `drives.device_description`
+/// (`None` without one): the unit of their rated torque 0x6076, encoder counts per position
+/// unit and counts per second per velocity unit (1 where the file gives none), with the
+/// configured encoder's counts per revolution.
+pub fn description_units(config: &Config) -> Option<(TorqueUnit, f64, f64)> {
+    let desc = config.drives.description.as_ref()?;
+    Some(units_of(desc, config))
+}
+
+fn units_of(desc: &DeviceDescription, config: &Config) -> (TorqueUnit, f64, f64) {
+    let counts_per_rev = f64::from(config.transmission.counts_per_motor_rev);
+    (
+        desc.torque_unit(),
+        desc.counts_per_position_unit(counts_per_rev).unwrap_or(1.0),
+        desc.counts_per_s_per_velocity_unit(counts_per_rev)
+            .unwrap_or(1.0),
+    )
+}
+
 /// The simulated drives' dictionary for `config`: the file `drives.device_description` names,
 /// in the units the configuration resolved from it; `None` (the generic profile) without one.
 pub fn for_config(config: &Config) -> Result<Option<Arc<DriveDictionary>>, String> {
@@ -90,14 +109,13 @@ pub fn for_file(path: &Path, config: &Config) -> Result<DriveDictionary, String>
         path: path.to_path_buf(),
         resolution,
     };
-    let counts_per_rev = f64::from(config.transmission.counts_per_motor_rev);
+    let (torque_unit, per_position, per_velocity) = units_of(&desc, config);
     Ok(from_eds(
         &eds,
         &name,
-        desc.torque_unit().newton_metres(),
-        desc.counts_per_position_unit(counts_per_rev).unwrap_or(1.0),
-        desc.counts_per_s_per_velocity_unit(counts_per_rev)
-            .unwrap_or(1.0),
+        torque_unit.newton_metres(),
+        per_position,
+        per_velocity,
     ))
 }
 

@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 use tracing::{info, warn};
-use videt_drivers::cia402::{SharedStartupReport, StartupReport};
+use videt_drivers::cia402::{DriveIdentity, SharedStartupReport, StartupReport};
 use videt_rt_config::Config;
 
 /// One drive's identity, as the status reply carries it.
@@ -25,6 +25,19 @@ pub struct DriveStatus {
     pub revision: Option<u32>,
     /// Serial number (0x1018 sub 4), when the drive has it.
     pub serial: Option<u32>,
+}
+
+impl DriveStatus {
+    /// The drive's identity, to print as the service logs it.
+    pub fn identity(&self) -> DriveIdentity {
+        DriveIdentity {
+            device_type: self.device_type,
+            vendor_id: self.vendor_id,
+            product_code: self.product_code,
+            revision: self.revision,
+            serial: self.serial,
+        }
+    }
 }
 
 /// The drives of `report`, as the status reply carries them.
@@ -120,7 +133,6 @@ impl DriveReportWatch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use videt_drivers::cia402::DriveIdentity;
 
     #[test]
     fn a_drive_unlike_the_configured_description_is_named_with_both_values() {

@@ -226,15 +226,12 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig<WIREMAN_WIRES> {
     c.max_missed_cycles = d.max_missed_cycles;
     c.pdo_timeout = period.mul_f64(d.pdo_wait_fraction);
     c.power_timeout = Duration::from_millis(u64::from(d.power_timeout_ms));
-    if let Some(desc) = &d.description {
-        c.rated_torque_unit = desc.torque_unit();
-        let counts_per_rev = f64::from(config.transmission.counts_per_motor_rev);
-        if let Some(p) = desc.counts_per_position_unit(counts_per_rev) {
-            c.counts_per_position_unit = p;
-        }
-        if let Some(v) = desc.counts_per_s_per_velocity_unit(counts_per_rev) {
-            c.counts_per_s_per_velocity_unit = v;
-        }
+    if let Some((torque_unit, per_position, per_velocity)) =
+        crate::drive_dictionary::description_units(config)
+    {
+        c.rated_torque_unit = torque_unit;
+        c.counts_per_position_unit = per_position;
+        c.counts_per_s_per_velocity_unit = per_velocity;
     }
     let s = &config.sensors;
     c.analog_input = (s.adc == TensionAdc::Drive).then_some(AnalogInputObject {

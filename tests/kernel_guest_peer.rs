@@ -203,12 +203,27 @@ fn peer_config(
     autoinit.insert("pay_out_tension_n".into(), toml::Value::Float(0.8));
     t.insert("autoinit".into(), toml::Value::Table(autoinit));
     std::fs::write(&path, toml::to_string(&t).unwrap()).unwrap();
-    let config = videt_rt_config::Config::load(&path).unwrap();
-    videt::tool::sim_rig::true_calibration(&config)
-        .unwrap()
-        .save(&dir.join("calibration.toml"))
-        .unwrap();
+    write_calibration(&path);
     path
+}
+
+/// The rig's calibration beside the configuration `config` (where it names it): the twin's
+/// true geometry, which the peer's motors start in.
+fn write_calibration(config: &Path) {
+    let loaded = videt_rt_config::Config::load(config).unwrap();
+    videt::tool::sim_rig::true_calibration(&loaded)
+        .unwrap()
+        .save(&config.with_file_name("calibration.toml"))
+        .unwrap();
+}
+
+/// A test's own directory, CAN interface and GPIO chip (the e-stop released).
+fn bench() -> (tempfile::TempDir, Vcan, Simpleton) {
+    let dir = test_dir();
+    let can = Vcan::new();
+    let chip = Simpleton::new(32);
+    chip.pullup(ESTOP_LINE).unwrap();
+    (dir, can, chip)
 }
 
 /// The host's behaviour in the trace `file`: every rule held; the figures printed.
@@ -235,10 +250,7 @@ fn check_trace(file: &Path, what: &str) -> videt_drivers::canopen::host_trace::H
 fn videtd_runs_drives_served_by_an_independent_canopen_stack() {
     let _ = PEER;
     for name in USABLE {
-        let dir = test_dir();
-        let can = Vcan::new();
-        let chip = Simpleton::new(32);
-        chip.pullup(ESTOP_LINE).unwrap();
+        let (dir, can, chip) = bench();
         let config = peer_config(
             dir.path(),
             &can.0,
@@ -256,26 +268,8 @@ fn videtd_runs_drives_served_by_an_independent_canopen_stack() {
             rest_positions(&config),
             &peer_motor(&config),
         );
-        let mut videtd = Process(
-            Command::new(std::env::var_os("VIDET_BIN_DIR").map_or_else(
-                || PathBuf::from(env!("CARGO_BIN_EXE_videtd")),
-                |d| Path::new(&d).join("videtd"),
-            ))
-            .arg("--config")
-            .arg(&config)
-            .env("RUST_LOG", "info")
-            .stdout(std::fs::File::create(dir.path().join("videtd.log")).unwrap())
-            .stderr(std::fs::File::create(dir.path().join("videtd.err")).unwrap())
-            .spawn()
-            .unwrap(),
-        );
-        let log = || {
-            format!(
-                "{}{}",
-                std::fs::read_to_string(dir.path().join("videtd.log")).unwrap_or_default(),
-                std::fs::read_to_string(dir.path().join("videtd.err")).unwrap_or_default()
-            )
-        };
+        let mut videtd = start_videtd(&config);
+        let log = || std::fs::read_to_string(dir.path().join("videtd.log")).unwrap_or_default();
         let socket = socket_path(dir.path());
         // Configured, identified and enabled: the loop runs.
         let deadline = Instant::now() + Duration::from_secs(120);
@@ -402,10 +396,7 @@ fn videtd_runs_drives_served_by_an_independent_canopen_stack() {
 #[ignore = "needs root, vcan, gpio-sim and python3 with the canopen package: runs in the kernel-in-the-loop guest"]
 fn videtd_refuses_drives_it_cannot_use_and_enables_none() {
     for (name, expected) in REFUSED {
-        let dir = test_dir();
-        let can = Vcan::new();
-        let chip = Simpleton::new(32);
-        chip.pullup(ESTOP_LINE).unwrap();
+        let (dir, can, chip) = bench();
         // The configuration does not name these files (their units cannot be used either):
         // the drives themselves tell the service what they are.
         let config = guest_config(
@@ -415,11 +406,7 @@ fn videtd_refuses_drives_it_cannot_use_and_enables_none() {
             ["/dev/null-left", "/dev/null-right"],
             false,
         );
-        let loaded = videt_rt_config::Config::load(&config).unwrap();
-        videt::tool::sim_rig::true_calibration(&loaded)
-            .unwrap()
-            .save(&dir.path().join("calibration.toml"))
-            .unwrap();
+        write_calibration(&config);
         let trace = dir.path().join("candump.log");
         let dump = candump(&can.0, &trace);
         let _peer = start_peer(dir.path(), &can.0, &shipped(name), [0; 3], &[]);

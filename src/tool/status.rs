@@ -178,14 +178,12 @@ fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
             None => println!("videtd: not answering on {}", socket.display()),
         }
         for d in service.iter().flat_map(|s| &s.drives) {
-            let id = videt_drivers::cia402::DriveIdentity {
-                device_type: d.device_type,
-                vendor_id: d.vendor_id,
-                product_code: d.product_code,
-                revision: d.revision,
-                serial: d.serial,
-            };
-            println!("  drive of wire {} (node {}): {id}", d.wire, d.node);
+            println!(
+                "  drive of wire {} (node {}): {}",
+                d.wire,
+                d.node,
+                d.identity()
+            );
         }
     }
     Ok(if calibration.is_ok() {

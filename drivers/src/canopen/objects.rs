@@ -66,6 +66,19 @@ const fn obj(
     }
 }
 
+/// A PDO the driver does not use: its COB-ID (sub 1), disabled at configuration.
+const fn unused_pdo(index: u16, name: &'static str) -> DriverObject {
+    obj(
+        index,
+        Some(1),
+        name,
+        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
+        Need::Optional {
+            without: "the drive has no such PDO: nothing to disable",
+        },
+    )
+}
+
 const REQUIRED_PDO: Need = Need::Required {
     fix: "the drive must accept the process-data layout of docs/can-bus.md; use a drive whose \
           PDOs can be configured over SDO",
@@ -236,51 +249,11 @@ pub const DRIVER_OBJECTS: &[DriverObject] = &[
         "TPDO2 carries the statusword and the error code when they change",
         REQUIRED_PDO,
     ),
-    obj(
-        0x1401,
-        Some(1),
-        "RPDO2 COB-ID",
-        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
-        Need::Optional {
-            without: "the drive has no such PDO: nothing to disable",
-        },
-    ),
-    obj(
-        0x1402,
-        Some(1),
-        "RPDO3 COB-ID",
-        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
-        Need::Optional {
-            without: "the drive has no such PDO: nothing to disable",
-        },
-    ),
-    obj(
-        0x1403,
-        Some(1),
-        "RPDO4 COB-ID",
-        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
-        Need::Optional {
-            without: "the drive has no such PDO: nothing to disable",
-        },
-    ),
-    obj(
-        0x1802,
-        Some(1),
-        "TPDO3 COB-ID",
-        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
-        Need::Optional {
-            without: "the drive has no such PDO: nothing to disable",
-        },
-    ),
-    obj(
-        0x1803,
-        Some(1),
-        "TPDO4 COB-ID",
-        "an unused PDO: disabled so that it puts nothing on the bus beyond the period's budget",
-        Need::Optional {
-            without: "the drive has no such PDO: nothing to disable",
-        },
-    ),
+    unused_pdo(0x1401, "RPDO2 COB-ID"),
+    unused_pdo(0x1402, "RPDO3 COB-ID"),
+    unused_pdo(0x1403, "RPDO4 COB-ID"),
+    unused_pdo(0x1802, "TPDO3 COB-ID"),
+    unused_pdo(0x1803, "TPDO4 COB-ID"),
     obj(
         0x6040,
         Some(0),

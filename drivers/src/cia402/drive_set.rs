@@ -27,7 +27,7 @@ use videt_hal::{DriveSample, Lifecycle, LifecycleState, Transmission, WireDrives
 use super::analog::DriveAnalogInputs;
 use super::config::{ConfigError, DriveSetConfig};
 use super::error::DriveError;
-use super::identity::{DriveIdentity, SharedStartupReport, StartupNote};
+use super::identity::{DriveIdentity, SharedStartupReport, StartupNote, StartupReport};
 use super::pdo::{Command, DriveSetup, Motion, MotionWithAnalog, Status};
 use super::state::{controlword, PowerGoal, PowerSequencer, PowerState};
 use crate::can::CanPort;
@@ -168,10 +168,8 @@ pub struct Cia402DriveSet<P: CanPort, const N: usize> {
     analog: Option<Arc<DriveAnalogInputs<N>>>,
     /// Where each latched error is pushed for a non-RT reader to report, once one asked.
     fault_reports: Option<rtrb::Producer<DriveError>>,
-    /// Each drive's identity, read by the last configuration.
-    identities: [Option<DriveIdentity>; N],
-    /// The optional objects the drives lack, found by the last configuration.
-    notes: Vec<StartupNote>,
+    /// The identities and notes the configuration under way gathers.
+    gathering: StartupReport,
     /// The identities and notes of the last configuration, for readers off the control thread.
     report: SharedStartupReport,
 }
@@ -199,8 +197,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
             epoch: now,
             analog,
             fault_reports: None,
-            identities: [None; N],
-            notes: Vec::new(),
+            gathering: StartupReport::default(),
             report: SharedStartupReport::default(),
         })
     }
@@ -244,18 +241,6 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         consumer
     }
 
-    /// Each drive's identity (device type, vendor, product, revision, serial), read when the
-    /// set was last configured (`None` before, or for a drive the configuration did not reach).
-    pub fn identities(&self) -> [Option<DriveIdentity>; N] {
-        self.identities
-    }
-
-    /// The optional objects the drives lack, found when the set was last configured: each
-    /// says what the service does without it.
-    pub fn startup_notes(&self) -> &[StartupNote] {
-        &self.notes
-    }
-
     /// The drives' identities and the optional objects they lack, as of the last
     /// configuration, shared: a service's supervisor logs them and puts them in its status.
     /// Updated by every configuration (not on the real-time path).
@@ -265,11 +250,11 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
 
     fn publish_startup_report(&mut self) {
         if let Ok(mut r) = self.report.lock() {
-            r.generation += 1;
-            r.drives = (0..N)
-                .filter_map(|i| self.identities[i].map(|id| (i as u8, self.nodes[i].id, id)))
-                .collect();
-            r.notes = self.notes.clone();
+            let generation = r.generation + 1;
+            *r = StartupReport {
+                generation,
+                ..core::mem::take(&mut self.gathering)
+            };
         }
     }
 
@@ -646,8 +631,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
     fn configure_inner(&mut self) -> Result<(), DriveError> {
         self.operational_expected = false;
         self.latched = None;
-        self.notes.clear();
-        self.identities = [None; N];
+        self.gathering = StartupReport::default();
         let now = Instant::now();
         for i in 0..N {
             self.nodes[i] = NodeLink::new(self.cfg.node_ids[i], i, now);
@@ -802,7 +786,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
 
     /// Remember that drive `i` lacks the optional object `index:subindex`.
     fn note(&mut self, i: usize, index: u16, subindex: u8, code: u32) {
-        self.notes.push(StartupNote {
+        self.gathering.notes.push(StartupNote {
             wire: i as u8,
             node: self.nodes[i].id,
             index,
@@ -862,7 +846,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
         identity.product_code = self.read_optional_u32(i, 0x1018, 2)?;
         identity.revision = self.read_optional_u32(i, 0x1018, 3)?;
         identity.serial = self.read_optional_u32(i, 0x1018, 4)?;
-        self.identities[i] = Some(identity);
+        self.gathering.drives.push((wire, node, identity));
         if let Some(modes) = self.read_optional_u32(i, 0x6502, 0)? {
             if modes & CYCLIC_SYNCHRONOUS_TORQUE_BIT == 0 {
                 return Err(DriveError::NoCyclicTorque {

@@ -172,7 +172,7 @@ fn boot_setup_and_enable_put_the_expected_frames_on_the_bus() {
     let mut set = Cia402DriveSet::new(drives(&[]), config()).unwrap();
     set.configure().unwrap();
     set.activate().unwrap();
-    let identities = set.identities();
+    let report = set.startup_report();
     let port = set.release();
     let sent = &port.sent;
     // Reset communication of each node first.
@@ -205,7 +205,8 @@ fn boot_setup_and_enable_put_the_expected_frames_on_the_bus() {
         sdo1[..7].iter().map(|d| (*d).clone()).collect::<Vec<_>>(),
         reads
     );
-    let id = identities[0].expect("identity read");
+    let (wire, node, id) = report.lock().unwrap().drives[0];
+    assert_eq!((wire, node), (0, 1));
     assert!(id.is_cia402(), "{id}");
     assert_eq!((id.device_type, id.vendor_id), (0x0002_0192, Some(100)));
     assert!(sdo1.contains(&&vec![0x2F, 0x60, 0x60, 0x00, 10, 0, 0, 0]));
