@@ -28,10 +28,10 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use videt::camera_relief::{CalibratedRig, CameraRelief};
-use videt::relief_scene::ReliefLayout;
-use videt::snapshot::SurfaceFeed;
 use videt_drivers::camera::file_source::FileStereoSource;
+use videt_runtime::snapshot::SurfaceFeed;
+use videt_service::camera_relief::{CalibratedRig, CameraRelief};
+use videt_service::relief_scene::ReliefLayout;
 
 fn median(mut v: Vec<Duration>) -> Duration {
     v.sort_unstable();
@@ -86,7 +86,7 @@ fn scene(c: &mut Criterion, name: &str, images: &Path, rig: CalibratedRig, max_d
         first.build_time
     );
     let (mut writer, mut feed) =
-        videt::relief_feed::relief_channel_for(&config, model).expect("relief channel");
+        videt_service::relief_feed::relief_channel_for(&config, model).expect("relief channel");
     // The finger sweeping across the scene, 2 mm between frames.
     let [cx, cy] = layout.centre_m;
     let positions: Vec<[f64; 3]> = (0..70)

@@ -4,8 +4,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use videt::relief_scene::ReliefLayout;
-use videt::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
+use videt_service::relief_scene::ReliefLayout;
+use videt_service::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
 
 fn bench_stereo_relief(c: &mut Criterion) {
     let config = videt_rt_config::Config::default();

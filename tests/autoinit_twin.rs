@@ -3,14 +3,14 @@
 //! encoder offsets and noisy, offset, gain-erring tension sensors.
 
 use std::sync::atomic::AtomicBool;
-use videt::WiremanTwin as Twin;
+use videt_assembly::WiremanTwin as Twin;
 
-use videt::init::params::procedure_params;
-use videt::init::runner::Runner;
-use videt::init::session::{self, run_settings, FlowContext, InitError, InitOutcome};
-use videt::init::twin::{rest_twin, SimFault, SimTechnician, TwinSetup};
 use videt_control::autoinit::{Failure, Limit, Plan, Procedure, Status};
 use videt_rt_config::Config;
+use videt_service::init::params::procedure_params;
+use videt_service::init::runner::Runner;
+use videt_service::init::session::{self, run_settings, FlowContext, InitError, InitOutcome};
+use videt_service::init::twin::{rest_twin, SimFault, SimTechnician, TwinSetup};
 use videt_sim::{SensorModel, TwinFault, Vec3};
 
 fn setup(guides: [[f64; 2]; 3], seed: u64) -> TwinSetup {
@@ -102,7 +102,7 @@ fn sides_and_guides_match_the_truth_on_rigs_the_test_picks() {
         }
         // The encoder zeros found are the twin's (within 0.1 mm of wire).
         let truth_offsets = twin.encoder_offset_counts();
-        let m = videt::setup::transmission(&config).metres_per_count();
+        let m = videt_runtime::setup::transmission(&config).metres_per_count();
         for i in 0..3 {
             let e = (out.zero_counts[i] - truth_offsets[i]) as f64 * m;
             assert!(e.abs() < 0.1e-3, "rig {k} wire {i}: zero off by {e} m");
@@ -127,7 +127,7 @@ const RIG: [[f64; 2]; 3] = [[0.01, 0.02], [0.39, -0.01], [0.21, 0.33]];
 /// After a failure the motors hold every wire at most at the pay-out (minimum) tension: no
 /// winding force is left (a wire still winding fast gets less, from the speed governor).
 fn assert_minimum_tension(config: &Config, twin: &Twin) {
-    let tr = videt::setup::transmission(config);
+    let tr = videt_runtime::setup::transmission(config);
     let pay_out = tr.torque_for_tension(config.autoinit.pay_out_tension_n);
     for (i, t) in twin.applied_torque_nm().iter().enumerate() {
         assert!(
@@ -142,7 +142,7 @@ fn assert_minimum_tension(config: &Config, twin: &Twin) {
 }
 
 fn slip_counts(config: &Config, mm: f64) -> i64 {
-    (mm * 1e-3 / videt::setup::transmission(config).metres_per_count()).round() as i64
+    (mm * 1e-3 / videt_runtime::setup::transmission(config).metres_per_count()).round() as i64
 }
 
 #[test]
@@ -164,7 +164,7 @@ fn homing_finds_each_detached_wires_encoder_zero() {
         &mut |_, _| {},
     );
     assert_eq!(status, Status::Finished);
-    let m = videt::setup::transmission(&config).metres_per_count();
+    let m = videt_runtime::setup::transmission(&config).metres_per_count();
     let truth = twin.encoder_offset_counts();
     for i in 0..3 {
         let e = (homing.homed_zero_counts()[i] - truth[i]) as f64 * m;
@@ -338,13 +338,13 @@ fn a_replaced_wire_is_homed_checked_and_the_rig_reinitialized() {
 
 /// Calibrate wire 1's sensor with 0.5 kg on a fresh twin, `tech` doing the steps, and check
 /// the offset and gain against the twin's sensor.
-fn calibrate_wire_1<T: videt::init::tension::TensionTechnician<Twin>>(tech: &mut T) {
+fn calibrate_wire_1<T: videt_service::init::tension::TensionTechnician<Twin>>(tech: &mut T) {
     let config = Config::default();
     let s = setup(RIG, 4);
     let mut twin = rest_twin(&config, &s);
     let mut runner = Runner::new(run_settings(&config));
     session::start(&mut twin).unwrap();
-    let p = videt::init::tension::calibrate_tension(
+    let p = videt_service::init::tension::calibrate_tension(
         &mut twin,
         tech,
         &mut runner,
@@ -372,18 +372,22 @@ struct SlowTechnician {
     pulled_out_by_weight_m: f64,
 }
 
-impl videt::init::tension::TensionTechnician<Twin> for SlowTechnician {
+impl videt_service::init::tension::TensionTechnician<Twin> for SlowTechnician {
     fn perform(
         &mut self,
-        _step: videt::init::tension::TensionStep,
+        _step: videt_service::init::tension::TensionStep,
         _hw: &mut Twin,
     ) -> Result<(), Failure> {
         self.polls = 0;
         Ok(())
     }
 
-    fn step_done(&mut self, step: videt::init::tension::TensionStep, hw: &mut Twin) -> bool {
-        use videt::init::tension::TensionStep;
+    fn step_done(
+        &mut self,
+        step: videt_service::init::tension::TensionStep,
+        hw: &mut Twin,
+    ) -> bool {
+        use videt_service::init::tension::TensionStep;
         self.polls += 1;
         let plant = hw.plant_mut();
         if self.polls == 200 {

@@ -8,13 +8,13 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use videt::camera_relief::{
-    spawn_camera_updates, CalibratedRig, CameraRelief, CameraSchedule, CameraStats,
-};
-use videt::relief_scene::ReliefLayout;
-use videt::snapshot::snapshot_channel;
 use videt_drivers::camera::file_source::FileStereoSource;
 use videt_rt_config::Config;
+use videt_runtime::snapshot::snapshot_channel;
+use videt_service::camera_relief::{
+    spawn_camera_updates, CalibratedRig, CameraRelief, CameraSchedule, CameraStats,
+};
+use videt_service::relief_scene::ReliefLayout;
 
 /// The chessboard set and its calibration written into `dir` by the `videt` tool.
 fn calibrated_rig(dir: &Path) -> Option<(PathBuf, PathBuf)> {
@@ -325,7 +325,7 @@ fn videtd_renders_the_relief_of_camera_frames_on_the_twin() {
         .map(|e| e.unwrap().path())
         .next()
         .unwrap();
-    let log = videt::telemetry::read_log(&log_file).unwrap();
+    let log = videt_runtime::telemetry::read_log(&log_file).unwrap();
     let unsafe_state = log.records.iter().find(|r| r.safety.reason().is_some());
     assert!(unsafe_state.is_none(), "{:?}", unsafe_state.map(|r| r.time));
     let contact = log.records.iter().filter(|r| r.in_contact).count();
@@ -336,7 +336,7 @@ fn videtd_renders_the_relief_of_camera_frames_on_the_twin() {
     );
     // Each relief made from a frame is rendered with the frame's age: the frame-to-force
     // latency, as `videt log` reports it.
-    let latency = videt::tool::log::FrameToForce::of(&log.records)
+    let latency = videt_tools::tool::log::FrameToForce::of(&log.records)
         .unwrap_or_else(|| panic!("no frame age in the log: {last}"));
     assert!(latency.frames >= 2, "{latency:?} ({last})");
     assert!(

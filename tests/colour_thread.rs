@@ -4,15 +4,15 @@
 
 use std::time::{Duration, Instant};
 
-use videt::colour_thread::{demo_colour, spawn_colour_thread, ColourHandles};
-use videt::control_loop::{CycleObserver, WindowStats};
-use videt::cycle::CycleRecord;
-use videt::snapshot::{snapshot_channel, thimble_channel};
 use videt_colour::level::Level::{High, Low};
 use videt_colour::{RecordingVibrotactors, SimulatedClock};
 use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::{Clock, MonoTime};
 use videt_rt_config::Config;
+use videt_runtime::control_loop::{CycleObserver, WindowStats};
+use videt_runtime::cycle::CycleRecord;
+use videt_runtime::snapshot::{snapshot_channel, thimble_channel};
+use videt_service::colour_thread::{demo_colour, spawn_colour_thread, ColourHandles};
 
 /// Wait (bounded) until the colour thread shows `want` in its status.
 fn wait_for(handles: &ColourHandles, want: impl Fn(&ColourHandles) -> bool) {
@@ -223,8 +223,8 @@ fn videtd_sim_renders_the_colour_as_the_configuration_says() {
 /// service then runs without colour), and the colour frames a camera publishes reach the thread.
 #[test]
 fn device_vibrotactors_are_named_when_missing_and_camera_frames_reach_the_thread() {
-    use videt::colour_thread::{camera_colour, ColourOutputs, ColourRuntime};
-    use videt::relief_scene::ReliefLayout;
+    use videt_service::colour_thread::{camera_colour, ColourOutputs, ColourRuntime};
+    use videt_service::relief_scene::ReliefLayout;
     let config = Config::default();
     let layout = ReliefLayout::for_config(&config);
     let gpio = ColourOutputs::Gpio {

@@ -9,11 +9,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::control_loop::{CycleObserver, WindowStats};
-use videt::cycle::CycleRecord;
-use videt::telemetry::{self, LogHeader, SessionInfo, SessionRecording};
 use videt_hal::MonoTime;
 use videt_rt_config::calibration::{utc_timestamp, Calibration, WorkspaceRecord, FORMAT_VERSION};
+use videt_runtime::control_loop::{CycleObserver, WindowStats};
+use videt_runtime::cycle::CycleRecord;
+use videt_runtime::telemetry::{self, LogHeader, SessionInfo, SessionRecording};
 
 const CHILD_ENV: &str = "VIDET_CRASH_CHILD";
 const TRIALS: usize = 24;

@@ -8,8 +8,8 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request};
 use videt_rt_config::Config;
+use videt_service::socket::{request, Request};
 
 struct Daemon(Child);
 
@@ -147,7 +147,7 @@ fn the_planar_and_one_wire_devices_run_on_both_twins_from_their_configuration() 
             .unwrap()
             .unwrap()
             .path();
-        let log = videt::telemetry::read_log(&path).unwrap();
+        let log = videt_runtime::telemetry::read_log(&path).unwrap();
         let session = log.session.as_ref().unwrap().as_ref().unwrap();
         assert_eq!(session.config.rig.device, device);
         assert!(log.records.len() > 3000, "{device}: {}", log.records.len());

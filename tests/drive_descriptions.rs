@@ -6,12 +6,11 @@
 use std::path::Path;
 use std::time::Duration;
 
-use videt::can_twin::{drive_config, CanTwin};
-use videt::control_loop::start_hardware;
-use videt::setup;
-use videt::WiremanTwin;
+use videt_assembly::can_twin::{drive_config, CanTwin};
+use videt_assembly::WiremanTwin;
 use videt_hal::{DriveSample, Lifecycle, WireDrives};
 use videt_rt_config::Config;
+use videt_runtime::control_loop::start_hardware;
 use videt_sim::cia402_node::DrivePower;
 
 /// What the driver does with a part.
@@ -116,11 +115,11 @@ fn configured(dir: &Path, name: &str, description: &str) -> (Config, bool) {
 /// Start the CAN twin with drives of `description`; run 200 periods when it starts.
 fn start(dir: &Path, name: &str, description: &str) -> (Result<(), String>, Vec<String>) {
     let (config, units_from_file) = configured(dir, name, description);
-    let dictionary = videt::drive_dictionary::for_file(&dir.join(name), &config).unwrap();
+    let dictionary = videt_assembly::drive_dictionary::for_file(&dir.join(name), &config).unwrap();
     let mut drives = drive_config::<3>(&config);
     drives.drive_heartbeat_timeout = Duration::from_secs(3600);
     drives.verify_rated_torque = units_from_file;
-    let twin: WiremanTwin = setup::demo_scene(&config, 42).twin;
+    let twin: WiremanTwin = videt_assembly::twin_scene::demo_scene(&config, 42).twin;
     let mut hw = CanTwin::stepped(twin, drives, Some(std::sync::Arc::new(dictionary))).unwrap();
     let started = start_hardware(&mut hw).map_err(|e| e.to_string());
     let notes = {
@@ -301,7 +300,12 @@ fn the_generic_profile_runs_and_tells_its_missing_event_timer() {
     let config = Config::default();
     let mut drives = drive_config::<3>(&config);
     drives.drive_heartbeat_timeout = Duration::from_secs(3600);
-    let mut hw = CanTwin::stepped(setup::demo_scene(&config, 42).twin, drives, None).unwrap();
+    let mut hw = CanTwin::stepped(
+        videt_assembly::twin_scene::demo_scene(&config, 42).twin,
+        drives,
+        None,
+    )
+    .unwrap();
     start_hardware(&mut hw).unwrap();
     let report = hw.startup_report();
     let r = report.lock().unwrap();

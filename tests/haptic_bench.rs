@@ -1,9 +1,9 @@
 //! The haptic bench's measurements on the timing-faithful twin: the figures a researcher
 //! quotes must hold for the default configuration (simulated clock, deterministic).
 
-use videt::haptic_bench::rig::Parts;
-use videt::haptic_bench::{judge_wall, stiffness_sweep, BenchPlan, Region};
 use videt_rt_config::Config;
+use videt_tools::haptic_bench::rig::Parts;
+use videt_tools::haptic_bench::{judge_wall, stiffness_sweep, BenchPlan, Region};
 
 #[test]
 fn p2_renders_the_programmed_stiffness_where_the_wires_can_and_nothing_where_they_cannot() {

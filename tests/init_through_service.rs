@@ -16,9 +16,9 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request};
 use videt_rt_config::calibration::{backup_path, Calibration};
 use videt_rt_config::Config;
+use videt_service::socket::{request, Request};
 
 const GUIDES: &str = "-0.05,0.02;0.33,-0.03;0.12,0.29";
 const TRUE_GUIDES: [[f64; 2]; 3] = [[-0.05, 0.02], [0.33, -0.03], [0.12, 0.29]];
@@ -114,7 +114,7 @@ fn videtd_auto_initializes_its_own_twin_for_videt_init_through_the_socket() {
     // previous file kept as its backup.
     let text = String::from_utf8(out.stdout).unwrap();
     let written = Calibration::load(&calibration).unwrap();
-    assert_eq!(text.trim(), videt::tool::init::result_json(&written));
+    assert_eq!(text.trim(), videt_tools::tool::init::result_json(&written));
     let json: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
     assert_eq!(json.as_object().unwrap().len(), 3, "{text}");
     check_against_truth(&json);
@@ -223,7 +223,7 @@ fn videtd_auto_initializes_its_own_twin_for_videt_init_through_the_socket() {
     assert!(out.status.success(), "{text}");
     assert!(text.contains("identical"), "{text}");
     assert!(text.contains("procedure periods"), "{text}");
-    let log = videt::telemetry::read_log(&log).unwrap();
+    let log = videt_runtime::telemetry::read_log(&log).unwrap();
     assert_eq!(log.calibrations.len(), 2, "at start, and the new one");
     assert!(!log.calibrations[0].calibration.calibrated);
     assert!(log.calibrations[1].calibration.calibrated);

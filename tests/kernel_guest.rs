@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use gpiosim::Simpleton;
 use guest::*;
-use videt::socket::{request, Request, StatusReport};
+use videt_service::socket::{request, Request, StatusReport};
 
 /// A running device: its CAN interface, GPIO chip, rig process and service.
 struct Device {

@@ -129,7 +129,7 @@ fn start_peer(
 /// wire: the emulated CPU delivers the service's tension samples late and seldom, and a lively
 /// plant would turn that into oscillations the service's over-tension guard rightly stops.
 fn peer_motor(config: &Path) -> Vec<String> {
-    let t = videt::setup::transmission(&videt_rt_config::Config::load(config).unwrap());
+    let t = videt_runtime::setup::transmission(&videt_rt_config::Config::load(config).unwrap());
     [
         ("--rated-torque-nm", "0.512871".to_string()),
         ("--torque-unit", "uNm".to_string()),
@@ -147,10 +147,10 @@ fn peer_motor(config: &Path) -> Vec<String> {
 /// the twin's wires in the drive's units, so the service finds the thimble in its workspace.
 fn rest_positions(config: &Path) -> [i64; 3] {
     let config = videt_rt_config::Config::load(config).unwrap();
-    let mut twin = videt::setup::demo_scene(&config, 1).twin;
+    let mut twin = videt_assembly::twin_scene::demo_scene(&config, 1).twin;
     let mut out = [DriveSample::default(); 3];
     twin.read_drives(&mut out).unwrap();
-    let units = videt::hardware::drive_set_config(&config);
+    let units = videt_assembly::hardware::drive_set_config(&config);
     core::array::from_fn(|i| {
         (out[i].position_counts as f64 / units.counts_per_position_unit).round() as i64
     })
@@ -211,7 +211,7 @@ fn peer_config(
 /// true geometry, which the peer's motors start in.
 fn write_calibration(config: &Path) {
     let loaded = videt_rt_config::Config::load(config).unwrap();
-    videt::tool::sim_rig::true_calibration(&loaded)
+    videt_tools::tool::sim_rig::true_calibration(&loaded)
         .unwrap()
         .save(&config.with_file_name("calibration.toml"))
         .unwrap();
@@ -453,7 +453,7 @@ fn the_peers_motors_start_where_the_twins_operator_holds_the_thimble() {
     );
     let positions = rest_positions(&config);
     let loaded = videt_rt_config::Config::load(&config).unwrap();
-    let t = videt::setup::transmission(&loaded);
+    let t = videt_runtime::setup::transmission(&loaded);
     for p in positions {
         // A wire between 5 cm and 1.5 m long: the thimble in the rig's workspace.
         let length_m = -(p as f64) * t.metres_per_count();

@@ -6,14 +6,16 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
-use videt::cycle::WireZero;
-use videt::setup;
-use videt::snapshot::{snapshot_channel, thimble_channel};
-use videt::status::status_channel;
-use videt::telemetry::{self, LogHeader};
 use videt_control::{Contact, Surface, Vec3};
 use videt_rt_config::Config;
+use videt_runtime::control_loop::{
+    run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
+};
+use videt_runtime::cycle::WireZero;
+use videt_runtime::setup;
+use videt_runtime::snapshot::{snapshot_channel, thimble_channel};
+use videt_runtime::status::status_channel;
+use videt_runtime::telemetry::{self, LogHeader};
 
 #[global_allocator]
 static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;
@@ -41,7 +43,7 @@ impl Surface for TableWall {
 #[test]
 fn the_control_thread_allocates_and_frees_nothing() {
     let config = Config::default();
-    let scene = setup::demo_scene(&config, 5);
+    let scene = videt_assembly::twin_scene::demo_scene(&config, 5);
     let rig = setup::rig(&config).unwrap();
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let (mut surface_writer, mut surface_reader) = snapshot_channel(TableWall {
@@ -142,9 +144,14 @@ fn the_control_thread_allocates_and_frees_nothing() {
 /// wall on their twins, status and telemetry observed.
 #[test]
 fn every_devices_control_loop_allocates_nothing() {
-    fn run<const N: usize, D: videt::runtime_device::RuntimeDevice<N>>(device: D) {
+    fn run<const N: usize, D: videt_runtime::runtime_device::RuntimeDevice<N>>(device: D) {
         let config = Config::default();
-        let scene = setup::demo_scene_for(&config, device, setup::demo_start(&device), 5);
+        let scene = videt_assembly::twin_scene::demo_scene_for(
+            &config,
+            device,
+            videt_assembly::twin_scene::demo_start(&device),
+            5,
+        );
         let mut cycle = setup::control_cycle_for(&config, device, WireZero::default(), true);
         let (status_publisher, mut status_reader) = status_channel();
         let dir = tempfile::tempdir().unwrap();
@@ -158,7 +165,7 @@ fn every_devices_control_loop_allocates_nothing() {
         )
         .unwrap();
         let mut twin = scene.twin;
-        let mut wall = videt::snapshot::FixedSurface(scene.wall);
+        let mut wall = videt_runtime::snapshot::FixedSurface(scene.wall);
         start_hardware(&mut twin).unwrap();
         let settings = LoopSettings {
             rate_hz: 1000,
@@ -251,14 +258,14 @@ struct ProcedureRun {
 /// Renders a second on the twin, hands the control thread over to an initialisation run at
 /// `wind_speed_m_s`, and counts the control thread's allocations in both parts.
 fn hand_over_and_initialise(wind_speed_m_s: f64) -> ProcedureRun {
-    use videt::control_loop::ControlCommand;
-    use videt::init::remote::{
+    use videt_runtime::control_loop::ControlCommand;
+    use videt_service::init::remote::{
         procedure_channel, run_procedure, saved, ProcedureEvent, ProcedureKind, ProcedureSpec,
     };
 
     let mut config = Config::default();
     config.autoinit.wind_speed_m_s = wind_speed_m_s;
-    let scene = setup::demo_scene(&config, 5);
+    let scene = videt_assembly::twin_scene::demo_scene(&config, 5);
     let rig = setup::rig(&config).unwrap();
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let wall = scene.wall;
@@ -309,7 +316,7 @@ fn hand_over_and_initialise(wind_speed_m_s: f64) -> ProcedureRun {
         let stop = AtomicBool::new(false);
         let (mut tx, mut rx) = rtrb::RingBuffer::new(4);
         let mut stats = LoopStats::default();
-        let mut feed = videt::snapshot::FixedSurface(wall);
+        let mut feed = videt_runtime::snapshot::FixedSurface(wall);
         let mut observer = ();
         // Render a second, then hand over.
         let mut first = LoopSettings {
@@ -381,11 +388,11 @@ fn hand_over_and_initialise(wind_speed_m_s: f64) -> ProcedureRun {
 /// Counts the periods it is shown.
 struct CountingObserver(u64);
 
-impl videt::control_loop::CycleObserver for CountingObserver {
+impl videt_runtime::control_loop::CycleObserver for CountingObserver {
     fn observe(
         &mut self,
-        _record: &videt::cycle::CycleRecord,
-        _window: &videt::control_loop::WindowStats,
+        _record: &videt_runtime::cycle::CycleRecord,
+        _window: &videt_runtime::control_loop::WindowStats,
     ) {
         self.0 += 1;
     }

@@ -4,17 +4,17 @@
 use std::process::ExitCode;
 use std::time::Duration;
 
-use videt::cycle::WireZero;
-use videt::service::{run_service, ServiceOptions, EXIT_PANIC};
-use videt::setup;
-use videt::snapshot::FixedSurface;
 use videt_rt_config::Config;
+use videt_runtime::cycle::WireZero;
+use videt_runtime::setup;
+use videt_runtime::snapshot::FixedSurface;
+use videt_service::service::{run_service, ServiceOptions, EXIT_PANIC};
 
 #[test]
 fn a_panic_in_another_thread_stops_the_loop_safely_with_a_nonzero_exit() {
     let dir = tempfile::tempdir().unwrap();
     let config = Config::default();
-    let scene = setup::demo_scene(&config, 9);
+    let scene = videt_assembly::twin_scene::demo_scene(&config, 9);
     let rig = setup::rig(&config).unwrap();
     let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let mut options = ServiceOptions::from_config(config);
@@ -36,7 +36,7 @@ fn a_panic_in_another_thread_stops_the_loop_safely_with_a_nonzero_exit() {
         .unwrap()
         .unwrap()
         .path();
-    let log = videt::telemetry::read_log(&log_path).unwrap();
+    let log = videt_runtime::telemetry::read_log(&log_path).unwrap();
     let last = log.records.last().unwrap();
     assert_eq!(last.safety.as_str(), "software-fault");
     assert_eq!(last.force_scale, 0.0);

@@ -2,12 +2,12 @@
 
 use std::process::ExitCode;
 
-use videt::cycle::WireZero;
-use videt::service::{run_service, ServiceOptions, EXIT_PANIC};
-use videt::setup;
-use videt::snapshot::{SurfaceFeed, SurfaceView};
 use videt_control::Plane;
 use videt_rt_config::Config;
+use videt_runtime::cycle::WireZero;
+use videt_runtime::setup;
+use videt_runtime::snapshot::{SurfaceFeed, SurfaceView};
+use videt_service::service::{run_service, ServiceOptions, EXIT_PANIC};
 
 /// A surface source that fails after a while.
 struct FailingFeed {
@@ -32,7 +32,7 @@ impl SurfaceFeed for FailingFeed {
 #[test]
 fn a_panic_in_the_control_loop_exits_nonzero() {
     let config = Config::default();
-    let scene = setup::demo_scene(&config, 9);
+    let scene = videt_assembly::twin_scene::demo_scene(&config, 9);
     let rig = setup::rig(&config).unwrap();
     let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let mut options = ServiceOptions::from_config(config);

@@ -6,19 +6,19 @@
 
 use std::sync::atomic::AtomicBool;
 
-use videt::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
-    WindowStats,
-};
-use videt::cycle::{CycleRecord, WireZero};
-use videt::runtime_device::RuntimeDevice;
-use videt::setup;
-use videt::snapshot::FixedSurface;
 use videt_control::profile::Profile;
 use videt_control::Vec3;
 use videt_experiments::geometry::{path_stats, PathStats};
 use videt_experiments::Sample;
 use videt_rt_config::Config;
+use videt_runtime::control_loop::{
+    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
+    WindowStats,
+};
+use videt_runtime::cycle::{CycleRecord, WireZero};
+use videt_runtime::runtime_device::RuntimeDevice;
+use videt_runtime::setup;
+use videt_runtime::snapshot::FixedSurface;
 use videt_sim::VirtualOperator;
 
 /// Every period's record, kept (capacity reserved before the loop).

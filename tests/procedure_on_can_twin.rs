@@ -9,21 +9,21 @@ mod common;
 use common::Recorder;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use videt::can_twin::{drive_config, CanTwin};
-use videt::control_loop::{
-    run_control_loop, start_hardware, ControlCommand, LoopControl, LoopSettings, LoopStats,
-};
-use videt::cycle::WireZero;
-use videt::init::procedure_port::{procedure_channel, saved, ProcedureKind, ProcedureSpec};
-use videt::init::remote::run_procedure;
-use videt::setup;
+use videt_assembly::can_twin::{drive_config, CanTwin};
 use videt_control::safety::SafetyState;
 use videt_rt_config::Config;
+use videt_runtime::control_loop::{
+    run_control_loop, start_hardware, ControlCommand, LoopControl, LoopSettings, LoopStats,
+};
+use videt_runtime::cycle::WireZero;
+use videt_runtime::setup;
+use videt_service::init::procedure_port::{procedure_channel, saved, ProcedureKind, ProcedureSpec};
+use videt_service::init::remote::run_procedure;
 
 #[test]
 fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     let config = Config::default();
-    let scene = setup::demo_scene(&config, 7);
+    let scene = videt_assembly::twin_scene::demo_scene(&config, 7);
     let wall = scene.wall;
     let rig = setup::rig(&config).unwrap();
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
@@ -64,7 +64,7 @@ fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     };
     let report = run_control_loop(
         &mut hw,
-        &mut videt::snapshot::FixedSurface(wall),
+        &mut videt_runtime::snapshot::FixedSurface(wall),
         &mut cycle,
         &first,
         &mut LoopControl::stop_flag(&stop),
@@ -78,7 +78,7 @@ fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     let mut handing = Recorder(Vec::with_capacity(4000));
     let report = run_control_loop(
         &mut hw,
-        &mut videt::snapshot::FixedSurface(wall),
+        &mut videt_runtime::snapshot::FixedSurface(wall),
         &mut cycle,
         &settings,
         &mut LoopControl {
@@ -102,7 +102,7 @@ fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     );
     let mut measured = None;
     while let Some(event) = session.next_event() {
-        if let videt::init::procedure_port::ProcedureEvent::Finished(result) = event {
+        if let videt_service::init::procedure_port::ProcedureEvent::Finished(result) = event {
             measured = Some(result.expect("the procedure measured the rig"));
         }
     }
@@ -125,7 +125,7 @@ fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     let mut after = Recorder(Vec::with_capacity(4000));
     let report = run_control_loop(
         &mut hw,
-        &mut videt::snapshot::FixedSurface(wall),
+        &mut videt_runtime::snapshot::FixedSurface(wall),
         &mut cycle,
         &settings,
         &mut LoopControl::stop_flag(&stop),

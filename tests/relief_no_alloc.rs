@@ -5,11 +5,11 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use videt::relief_feed::relief_channel;
-use videt::relief_scene::{blend_params, box_relief, proxy_params, ReliefLayout};
-use videt::snapshot::SurfaceFeed;
 use videt_control::{Surface, Vec3};
 use videt_rt_config::Config;
+use videt_runtime::snapshot::SurfaceFeed;
+use videt_service::relief_feed::relief_channel;
+use videt_service::relief_scene::{blend_params, box_relief, proxy_params, ReliefLayout};
 
 #[global_allocator]
 static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;

@@ -7,18 +7,21 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use videt::control_loop::{
+use videt_hal::MonoTime;
+use videt_rt_config::Config;
+use videt_runtime::control_loop::{
     run_control_loop, start_hardware, ControlCommand, CycleObserver, LoopControl, LoopSettings,
     LoopStats, WindowStats,
 };
-use videt::cycle::{CycleOp, CycleRecord, WireZero};
-use videt::replay::{replay, ReplayOverrides};
-use videt::snapshot::{FixedSurface, SurfaceFeed};
-use videt::telemetry::{self, CalibrationInForce, LogHeader, SessionInfo, SessionRecording};
-use videt::{relief_scene, setup};
-use videt_hal::MonoTime;
-use videt_rt_config::Config;
+use videt_runtime::cycle::{CycleOp, CycleRecord, WireZero};
+use videt_runtime::setup;
+use videt_runtime::snapshot::{FixedSurface, SurfaceFeed};
+use videt_runtime::telemetry::{
+    self, CalibrationInForce, LogHeader, SessionInfo, SessionRecording,
+};
+use videt_service::relief_scene;
 use videt_sim::TwinFault;
+use videt_tools::replay::{replay, ReplayOverrides};
 
 /// Sends supervisor commands at given periods (as the control socket would).
 struct Commander {
@@ -46,7 +49,7 @@ fn record_session(
     commands: Vec<(u64, ControlCommand)>,
     faults: &[(f64, TwinFault)],
 ) {
-    let mut scene = setup::demo_scene(config, 3);
+    let mut scene = videt_assembly::twin_scene::demo_scene(config, 3);
     for &(t, fault) in faults {
         assert!(scene.twin.schedule_fault(MonoTime((t * 1e9) as u64), fault));
     }
@@ -84,7 +87,8 @@ fn record_session(
     if relief {
         let layout = relief_scene::ReliefLayout::for_config(config);
         let (model, _) = relief_scene::box_relief(&layout, 0.0).unwrap();
-        let (mut writer, mut feed) = videt::relief_feed::relief_channel_for(config, model).unwrap();
+        let (mut writer, mut feed) =
+            videt_service::relief_feed::relief_channel_for(config, model).unwrap();
         let start = session.twin.plant().position_m();
         session
             .twin
@@ -115,8 +119,8 @@ struct Session<'a> {
     path: &'a Path,
     header: LogHeader,
     info: SessionInfo,
-    twin: videt::WiremanTwin,
-    cycle: videt::WiremanCycle,
+    twin: videt_assembly::WiremanTwin,
+    cycle: videt_runtime::WiremanCycle,
     settings: LoopSettings,
 }
 
@@ -150,7 +154,7 @@ impl Session<'_> {
     }
 }
 
-fn assert_identical(log: &telemetry::Log) -> videt::replay::Replay {
+fn assert_identical(log: &telemetry::Log) -> videt_tools::replay::Replay {
     let r = replay(log, &ReplayOverrides::default()).unwrap();
     assert!(r.identical(), "{:?}", r.first_divergence);
     assert_eq!(r.stopped_early, None);

@@ -8,8 +8,8 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request};
 use videt_rt_config::Config;
+use videt_service::socket::{request, Request};
 
 /// `key -> values` of a unit file's `[Service]` (and other) sections, comments dropped.
 fn parse_unit(text: &str) -> HashMap<String, Vec<String>> {
@@ -249,7 +249,7 @@ fn videtd_speaks_the_notify_protocol_and_answers_the_control_socket() {
         recv(&mut messages, &mut buf);
     }
     assert!(!socket.exists(), "the socket file is removed on exit");
-    let log = videt::telemetry::read_log(&only_log(dir.path())).unwrap();
+    let log = videt_runtime::telemetry::read_log(&only_log(dir.path())).unwrap();
     assert!(log.records.len() > 500);
     assert!(
         log.records.windows(2).all(|w| w[1].cycle == w[0].cycle + 1),
@@ -270,7 +270,7 @@ fn sigterm_ramps_the_forces_out_and_exits_zero() {
     );
     let status = wait_exit(&mut daemon, Duration::from_secs(10));
     assert!(status.success(), "{status:?}");
-    let log = videt::telemetry::read_log(&only_log(dir.path())).unwrap();
+    let log = videt_runtime::telemetry::read_log(&only_log(dir.path())).unwrap();
     let last = log.records.last().unwrap();
     assert_eq!(last.force_scale, 0.0, "forces ramped out before exit");
     let ramp: Vec<f64> = log
@@ -319,7 +319,7 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
         };
         let status = wait_exit(&mut daemon, Duration::from_secs(20));
         assert!(status.success(), "--sim {sim}: {status:?}");
-        let log = videt::telemetry::read_log(&only_log(dir.path())).unwrap();
+        let log = videt_runtime::telemetry::read_log(&only_log(dir.path())).unwrap();
         let unsafe_state = log.records.iter().find(|r| r.safety.reason().is_some());
         assert!(
             unsafe_state.is_none(),

@@ -4,18 +4,20 @@
 
 use std::sync::atomic::AtomicBool;
 
-use videt::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
-    WindowStats,
-};
-use videt::cycle::{CycleRecord, WireZero};
-use videt::relief_feed::relief_channel;
-use videt::relief_scene::{blend_params, box_operator, box_relief, proxy_params, ReliefLayout};
-use videt::setup;
-use videt::snapshot::SnapshotWriter;
 use videt_control::safety::SafetyState;
 use videt_control::Surface;
 use videt_rt_config::Config;
+use videt_runtime::control_loop::{
+    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
+    WindowStats,
+};
+use videt_runtime::cycle::{CycleRecord, WireZero};
+use videt_runtime::setup;
+use videt_runtime::snapshot::SnapshotWriter;
+use videt_service::relief_feed::relief_channel;
+use videt_service::relief_scene::{
+    blend_params, box_operator, box_relief, proxy_params, ReliefLayout,
+};
 use videt_sim::Vec3;
 use videt_vision::surface::ReliefModel;
 
@@ -60,7 +62,7 @@ fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
     )
     .unwrap();
 
-    let mut scene = setup::demo_scene(&config, 42);
+    let mut scene = videt_assembly::twin_scene::demo_scene(&config, 42);
     let start = scene.twin.plant().position_m();
     scene.twin.set_operator(box_operator(&layout, start, 5.0));
     let rig = setup::rig(&config).unwrap();

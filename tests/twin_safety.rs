@@ -4,15 +4,17 @@
 mod common;
 use common::Recorder;
 use std::sync::atomic::AtomicBool;
-use videt::WiremanTwin as Twin;
+use videt_assembly::WiremanTwin as Twin;
 
-use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
-use videt::cycle::{CycleRecord, WireZero};
-use videt::setup;
-use videt::snapshot::FixedSurface;
 use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::MonoTime;
 use videt_rt_config::Config;
+use videt_runtime::control_loop::{
+    run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
+};
+use videt_runtime::cycle::{CycleRecord, WireZero};
+use videt_runtime::setup;
+use videt_runtime::snapshot::FixedSurface;
 use videt_sim::{TwinFault, Vec3, VirtualOperator, Waypoint};
 
 /// Run `seconds` of the demo scene with `operator`, after `prepare` has scheduled faults.
@@ -22,7 +24,7 @@ fn run(
     prepare: impl FnOnce(&mut Twin),
 ) -> (Twin, Vec<CycleRecord>) {
     let config = Config::default();
-    let mut scene = setup::demo_scene(&config, 21);
+    let mut scene = videt_assembly::twin_scene::demo_scene(&config, 21);
     let start = scene.twin.plant().position_m();
     scene.twin.set_operator(operator(start, scene.wall_z_m));
     prepare(&mut scene.twin);

@@ -8,18 +8,20 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use videt::control_loop::{
+use videt_control::safety::SafetyState;
+use videt_rt_config::Config;
+use videt_runtime::control_loop::{
     run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
     WindowStats,
 };
-use videt::cycle::{CycleRecord, WireZero};
-use videt::relief_feed::relief_channel;
-use videt::relief_scene::{blend_params, proxy_params, sweep_operator, ReliefLayout, SweepPath};
-use videt::setup;
-use videt::snapshot::SnapshotWriter;
-use videt::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
-use videt_control::safety::SafetyState;
-use videt_rt_config::Config;
+use videt_runtime::cycle::{CycleRecord, WireZero};
+use videt_runtime::setup;
+use videt_runtime::snapshot::SnapshotWriter;
+use videt_service::relief_feed::relief_channel;
+use videt_service::relief_scene::{
+    blend_params, proxy_params, sweep_operator, ReliefLayout, SweepPath,
+};
+use videt_service::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
 use videt_sim::Vec3;
 use videt_vision::surface::ReliefModel;
 
@@ -95,7 +97,7 @@ fn operator_sweeps_a_live_relief_from_a_real_stereo_pair() {
     let (writer, mut feed) =
         relief_channel(model.clone(), proxy_params(), blend, k, period_s).unwrap();
 
-    let mut scene = setup::demo_scene(&config, 7);
+    let mut scene = videt_assembly::twin_scene::demo_scene(&config, 7);
     let start = scene.twin.plant().position_m();
     let path = SweepPath::default();
     let (operator, _) = sweep_operator(&layout, &model, start, &path);

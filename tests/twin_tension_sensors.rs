@@ -10,16 +10,18 @@ mod common;
 use common::Recorder;
 use std::sync::atomic::AtomicBool;
 
-use videt::control_loop::{run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats};
-use videt::cycle::{CycleRecord, WireZero};
-use videt::setup;
-use videt::tension_budget::{plan, TensionLoopPlan};
 use videt_rt_config::{Config, TensionAdc};
+use videt_runtime::control_loop::{
+    run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
+};
+use videt_runtime::cycle::{CycleRecord, WireZero};
+use videt_runtime::setup;
+use videt_runtime::tension_budget::{plan, TensionLoopPlan};
 use videt_sim::{VirtualOperator, Waypoint};
 
 /// Run the loop for `seconds` with the operator pressing 2 cm into the check wall and holding.
 fn press_and_hold(config: &Config, seconds: f64) -> Vec<CycleRecord> {
-    let mut scene = setup::demo_scene(config, 7);
+    let mut scene = videt_assembly::twin_scene::demo_scene(config, 7);
     let start = scene.twin.plant().position_m();
     let mut press = start;
     press.z = scene.wall_z_m + 0.02;
@@ -50,7 +52,7 @@ fn press_and_hold(config: &Config, seconds: f64) -> Vec<CycleRecord> {
     let stop = AtomicBool::new(false);
     run_control_loop(
         &mut twin,
-        &mut videt::snapshot::FixedSurface(scene.wall),
+        &mut videt_runtime::snapshot::FixedSurface(scene.wall),
         &mut cycle,
         &settings,
         &mut LoopControl::stop_flag(&stop),

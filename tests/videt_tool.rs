@@ -8,7 +8,7 @@ mod init_json;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use videt::init::MotorsLock;
+use videt_service::init::MotorsLock;
 
 fn videt(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_videt"))
@@ -303,9 +303,9 @@ fn videtd_renders_forces_after_auto_initializing_its_twin_and_not_without_calibr
                 "videtd did not answer"
             );
             std::thread::sleep(std::time::Duration::from_millis(100));
-            let reply = videt::socket::request(
+            let reply = videt_service::socket::request(
                 &socket,
-                &videt::socket::Request::Status,
+                &videt_service::socket::Request::Status,
                 std::time::Duration::from_secs(2),
             );
             if let Ok(r) = reply {
@@ -316,9 +316,9 @@ fn videtd_renders_forces_after_auto_initializing_its_twin_and_not_without_calibr
             }
         };
         assert_eq!(status.safety, expected, "--sim-calibration {source}");
-        let _ = videt::socket::request(
+        let _ = videt_service::socket::request(
             &socket,
-            &videt::socket::Request::Stop,
+            &videt_service::socket::Request::Stop,
             std::time::Duration::from_secs(2),
         );
         assert!(daemon.wait().unwrap().success());

@@ -4,7 +4,7 @@
 //! mesh and depth image are written and consistent; bad input gets a clear error.
 
 use std::path::PathBuf;
-use videt::tool::vision::{run, VisionArgs};
+use videt_tools::tool::vision::{run, VisionArgs};
 
 fn args(left: PathBuf, right: PathBuf, out: PathBuf, roi: Option<[u32; 4]>) -> VisionArgs {
     VisionArgs {
@@ -215,13 +215,15 @@ fn vision_tool_rectifies_with_a_calibration() {
     };
     let dir = tempfile::tempdir().unwrap();
     let calib = dir.path().join("rig.json");
-    videt::tool::calibrate_stereo::run(&videt::tool::calibrate_stereo::CalibrateStereoArgs {
-        images: rig.clone(),
-        board: videt::tool::calibrate_stereo::parse_board("9x6").unwrap(),
-        square: 0.025,
-        out: calib.clone(),
-        alpha: 1.0,
-    })
+    videt_tools::tool::calibrate_stereo::run(
+        &videt_tools::tool::calibrate_stereo::CalibrateStereoArgs {
+            images: rig.clone(),
+            board: videt_tools::tool::calibrate_stereo::parse_board("9x6").unwrap(),
+            square: 0.025,
+            out: calib.clone(),
+            alpha: 1.0,
+        },
+    )
     .unwrap();
     let mut a = args(
         rig.join("left03.jpg"),

@@ -11,9 +11,9 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request};
 use videt_rt_config::calibration::Calibration;
 use videt_rt_config::Config;
+use videt_service::socket::{request, Request};
 
 const GUIDES: &str = "0.02,-0.01;0.40,0.03;0.17,0.31";
 const TRUE_GUIDES: [[f64; 2]; 3] = [[0.02, -0.01], [0.40, 0.03], [0.17, 0.31]];
@@ -62,7 +62,7 @@ fn videt_wire_replace_runs_in_the_service_and_a_short_yarn_changes_nothing() {
     }
     let written = Calibration::load(&calibration).unwrap();
     let text = String::from_utf8(out.stdout).unwrap();
-    assert_eq!(text.trim(), videt::tool::init::result_json(&written));
+    assert_eq!(text.trim(), videt_tools::tool::init::result_json(&written));
     let t = TRUE_GUIDES;
     let d = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
     let truth = [d(t[0], t[1]), d(t[0], t[2]), d(t[1], t[2])];

@@ -10,8 +10,8 @@
 
 use image::GrayImage;
 use libfuzzer_sys::fuzz_target;
-use videt::relief_scene::ReliefLayout;
-use videt::stereo_relief::{LiveSettings, PairCamera, StereoPair, StereoRelief};
+use videt_service::relief_scene::ReliefLayout;
+use videt_service::stereo_relief::{LiveSettings, PairCamera, StereoPair, StereoRelief};
 use videt_rt_config::Config;
 use videt_vision::io::{decode_gray_image, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX};
 

@@ -7,8 +7,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use videt::replay::{replay, ReplayOverrides};
-use videt::telemetry::{parse_log, HEADER_BYTES};
+use videt_tools::replay::{replay, ReplayOverrides};
+use videt_runtime::telemetry::{parse_log, HEADER_BYTES};
 
 const FRAME_HEAD_BYTES: usize = 8;
 const FRAME_TAIL_BYTES: usize = 4;

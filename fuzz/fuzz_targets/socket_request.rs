@@ -6,9 +6,9 @@
 use std::sync::{Mutex, OnceLock};
 
 use libfuzzer_sys::fuzz_target;
-use videt::control_loop::ControlCommand;
-use videt::socket::{handle, write_line, ClientRequest, Request, ServerShared, StatusReport};
-use videt::status::StatusSnapshot;
+use videt_runtime::control_loop::ControlCommand;
+use videt_service::socket::{handle, write_line, ClientRequest, Request, ServerShared, StatusReport};
+use videt_runtime::status::StatusSnapshot;
 
 struct Server {
     shared: ServerShared,

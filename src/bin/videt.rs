@@ -4,7 +4,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use videt::tool;
+use videt_tools::tool;
 
 /// VIDET tool: calibration, wire replacement, analysis and demos.
 #[derive(Debug, Parser)]

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request, StatusReport};
+use videt_service::socket::{request, Request, StatusReport};
 
 pub struct Daemon {
     child: Child,

@@ -1,7 +1,7 @@
 //! Shared pieces of the whole-stack tests.
 
-use videt::control_loop::{CycleObserver, WindowStats};
-use videt::cycle::CycleRecord;
+use videt_runtime::control_loop::{CycleObserver, WindowStats};
+use videt_runtime::cycle::CycleRecord;
 
 /// Keeps every period's record, up to the capacity it was created with (it never grows on the
 /// control thread).

@@ -11,9 +11,9 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
-use videt::socket::{request, Request, StatusReport};
-use videt::telemetry::read_log;
 use videt_control::safety::SafetyState;
+use videt_runtime::telemetry::read_log;
+use videt_service::socket::{request, Request, StatusReport};
 
 pub const GUEST: &str =
     "needs root, vcan, gpio-sim and vivid: runs in the kernel-in-the-loop guest (scripts/kernel-in-the-loop.sh)";
@@ -362,7 +362,7 @@ pub fn wait_for(
 }
 
 /// The one session log in `dir/logs`, checked to replay bit for bit.
-pub fn session_log(dir: &Path) -> videt::telemetry::Log {
+pub fn session_log(dir: &Path) -> videt_runtime::telemetry::Log {
     let logs: Vec<_> = std::fs::read_dir(dir.join("logs"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -371,7 +371,7 @@ pub fn session_log(dir: &Path) -> videt::telemetry::Log {
     assert_eq!(logs.len(), 1, "{logs:?}");
     let log = read_log(&logs[0]).unwrap();
     // What the drives, sensors and e-stop delivered through the kernel replays bit for bit.
-    let r = videt::replay::replay(&log, &Default::default()).unwrap();
+    let r = videt_tools::replay::replay(&log, &Default::default()).unwrap();
     assert!(
         r.identical() && !r.replayed.is_empty(),
         "replay of {}: {:?} (stopped early: {:?})",
@@ -385,7 +385,11 @@ pub fn session_log(dir: &Path) -> videt::telemetry::Log {
 /// Periods of the log that started after `t_ns` and still rendered forces before the drives
 /// were powered off for `reason` (the fault's reaction time in periods; a fault seen before
 /// `t_ns` gives 0), and whether the log shows that power-off at all.
-pub fn periods_to_power_off(log: &videt::telemetry::Log, t_ns: u64, reason: &str) -> (usize, bool) {
+pub fn periods_to_power_off(
+    log: &videt_runtime::telemetry::Log,
+    t_ns: u64,
+    reason: &str,
+) -> (usize, bool) {
     let normal_after = log
         .records
         .iter()

@@ -1,0 +1,405 @@
+//! Per-cycle telemetry: the control thread pushes every period's record into a wait-free SPSC
+//! ring (`rtrb`); a writer thread drains it into a session log file. A full ring drops the record
+//! (counted) rather than block the control thread.
+//!
+//! The log (`docs/telemetry.md`) records what a replay needs: the session's configuration, the
+//! calibration in force, every surface version once, and per period the inputs the control
+//! cycle read and the outputs it produced. Version 1 logs (outputs only) are still read.
+
+pub mod format;
+pub mod read;
+pub mod session;
+pub mod surfaces;
+
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+pub use format::{LogHeader, FORMAT_VERSION, HEADER_BYTES, MAGIC, PERIOD_BYTES, RECORD_BYTES};
+pub use read::{parse_log, read_log, CalibrationEntry, Damage, Log, LogError, SurfaceEntry};
+pub use session::{CalibrationInForce, SessionInfo};
+pub use surfaces::{FeedRecording, RecordSurface, RecordedSurface, SurfaceTap};
+
+use crate::control_loop::{CycleObserver, WindowStats};
+use crate::cycle::CycleRecord;
+use format::{encode_calibration, encode_header, encode_period, frame, FrameKind};
+
+/// What the control thread sends the writer. The ring's slots are preallocated at the size of
+/// the largest item: boxing the period would allocate on the control thread.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+enum TelemetryItem {
+    /// One period.
+    Period(CycleRecord),
+    /// The calibration in force from the period `from_cycle` on.
+    Calibration(u64, CalibrationInForce),
+}
+
+/// Control-thread side: pushes records, counts drops. Allocation-free.
+pub struct TelemetryProducer {
+    producer: rtrb::Producer<TelemetryItem>,
+    dropped: Arc<AtomicU64>,
+}
+
+impl TelemetryProducer {
+    /// The control cycle starts (or restarts after a re-initialization) with `calibration`
+    /// from period `from_cycle` on. A full ring drops it (counted): a replay then stops there.
+    pub fn calibration(&mut self, from_cycle: u64, calibration: &CalibrationInForce) {
+        if self
+            .producer
+            .push(TelemetryItem::Calibration(from_cycle, *calibration))
+            .is_err()
+        {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+impl CycleObserver for TelemetryProducer {
+    fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
+        if self.producer.push(TelemetryItem::Period(*record)).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// The running writer thread.
+pub struct TelemetryWriter {
+    handle: JoinHandle<io::Result<u64>>,
+    finish: Arc<AtomicBool>,
+    dropped: Arc<AtomicU64>,
+    path: PathBuf,
+}
+
+impl TelemetryWriter {
+    /// Records dropped so far because the ring was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
+    }
+    /// The log file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+    /// Drain what is left, flush, fsync and close; returns the number of period records
+    /// written.
+    pub fn finish(self) -> io::Result<u64> {
+        self.finish.store(true, Ordering::Release);
+        self.handle
+            .join()
+            .map_err(|_| io::Error::other("telemetry writer panicked"))?
+    }
+}
+
+/// What a session log records besides the periods.
+#[derive(Default)]
+pub struct SessionRecording {
+    /// The session (`None`: a log that cannot be replayed).
+    pub session: Option<SessionInfo>,
+    /// The surface feed's surfaces.
+    pub surfaces: FeedRecording,
+}
+
+/// Create a session log at `path` recording periods only, and start the writer thread.
+pub fn start(
+    path: &Path,
+    header: LogHeader,
+    ring_records: usize,
+) -> io::Result<(TelemetryProducer, TelemetryWriter)> {
+    start_session(path, header, SessionRecording::default(), ring_records)
+}
+
+/// Create the session log at `path`, write the session and the initial surface, and start the
+/// writer thread; returns the control thread's producer (ring of `ring_records`) and the
+/// writer.
+pub fn start_session(
+    path: &Path,
+    header: LogHeader,
+    recording: SessionRecording,
+    ring_records: usize,
+) -> io::Result<(TelemetryProducer, TelemetryWriter)> {
+    let file = File::create(path)?;
+    let mut out = BufWriter::with_capacity(1 << 20, file);
+    out.write_all(&encode_header(&header))?;
+    if let Some(session) = &recording.session {
+        let text = session.to_toml().map_err(io::Error::other)?;
+        frame(FrameKind::Session, text.as_bytes(), &mut out)?;
+    }
+    let mut surfaces = SurfaceFrames::default();
+    if let Some(initial) = &recording.surfaces.initial {
+        surfaces.write(0, initial, &mut out)?;
+    }
+    // On disk before the first period: a log killed at once still has its header and session.
+    out.flush()?;
+    let tap = recording.surfaces.tap;
+    if let Some(tap) = &tap {
+        tap.start_recording();
+    }
+    let (producer, mut consumer) = rtrb::RingBuffer::<TelemetryItem>::new(ring_records.max(1));
+    let dropped = Arc::new(AtomicU64::new(0));
+    let finish = Arc::new(AtomicBool::new(false));
+    let writer_finish = Arc::clone(&finish);
+    let handle = std::thread::Builder::new()
+        .name("videt-telemetry".into())
+        .spawn(move || {
+            let mut written = 0u64;
+            let mut buf = [0u8; PERIOD_BYTES];
+            loop {
+                let done = writer_finish.load(Ordering::Acquire);
+                // Surfaces first: a period refers to a surface published before it.
+                if let Some(tap) = &tap {
+                    let drained = tap.drain();
+                    for (version, surface) in &drained.surfaces {
+                        surfaces.write(*version, surface, &mut out)?;
+                    }
+                    for version in drained.lost {
+                        frame(FrameKind::SurfaceLost, &version.to_le_bytes(), &mut out)?;
+                    }
+                }
+                let mut drained = 0;
+                while let Ok(item) = consumer.pop() {
+                    match item {
+                        TelemetryItem::Period(record) => {
+                            encode_period(&record, &mut buf);
+                            frame(FrameKind::Period, &buf, &mut out)?;
+                            written += 1;
+                        }
+                        TelemetryItem::Calibration(from_cycle, c) => {
+                            frame(
+                                FrameKind::Calibration,
+                                &encode_calibration(from_cycle, &c),
+                                &mut out,
+                            )?;
+                        }
+                    }
+                    drained += 1;
+                }
+                if done {
+                    break;
+                }
+                if drained == 0 {
+                    out.flush()?;
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+            }
+            out.flush()?;
+            out.get_ref().sync_all()?;
+            Ok(written)
+        })?;
+    Ok((
+        TelemetryProducer {
+            producer,
+            dropped: Arc::clone(&dropped),
+        },
+        TelemetryWriter {
+            handle,
+            finish,
+            dropped,
+            path: path.to_path_buf(),
+        },
+    ))
+}
+
+/// Writes surface frames, a surface equal to the previous one as a short repeat.
+#[derive(Default)]
+struct SurfaceFrames {
+    last: Option<RecordedSurface>,
+    buf: Vec<u8>,
+}
+
+impl SurfaceFrames {
+    fn write(
+        &mut self,
+        version: u64,
+        surface: &RecordedSurface,
+        out: &mut impl Write,
+    ) -> io::Result<()> {
+        self.buf.clear();
+        self.buf.extend_from_slice(&version.to_le_bytes());
+        if self.last.as_ref() == Some(surface) {
+            self.buf.push(0);
+        } else {
+            self.buf.push(1);
+            surface.encode(&mut self.buf);
+            self.last = Some(surface.clone());
+        }
+        frame(FrameKind::Surface, &self.buf, out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::format::tests::sample;
+    use super::format::{encode_record, FRAME_HEAD_BYTES, FRAME_TAIL_BYTES};
+    use super::*;
+    use videt_control::surface::Plane;
+    use videt_control::Vec3;
+
+    const HEADER: LogHeader = LogHeader {
+        rate_hz: 1000,
+        start_unix_ns: 5,
+    };
+
+    fn plane(z: f64) -> RecordedSurface {
+        RecordedSurface::Plane(Plane::new(Vec3::new(0.0, 0.0, z), -Vec3::z()).unwrap())
+    }
+
+    /// A session of 3000 periods with a calibration, a surface before start, surfaces
+    /// published during it (one a repeat) and the session frame.
+    fn write_session(path: &Path) -> u64 {
+        let tap = Arc::new(SurfaceTap::default());
+        tap.published(1, plane(0.31));
+        let recording = SessionRecording {
+            session: Some(SessionInfo::new("test", videt_rt_config::Config::default())),
+            surfaces: FeedRecording {
+                initial: Some(plane(0.3)),
+                tap: Some(Arc::clone(&tap)),
+            },
+        };
+        let (mut producer, writer) = start_session(path, HEADER, recording, 4096).unwrap();
+        producer.calibration(
+            0,
+            &CalibrationInForce {
+                calibrated: true,
+                ..CalibrationInForce::default()
+            },
+        );
+        for c in 0..3000 {
+            if c == 1000 {
+                tap.published(2, plane(0.32));
+                tap.published(3, plane(0.32));
+            }
+            producer.observe(&sample(c), &WindowStats::default());
+            if c % 500 == 0 {
+                std::thread::sleep(Duration::from_millis(5));
+            }
+        }
+        assert_eq!(writer.dropped(), 0);
+        writer.finish().unwrap()
+    }
+
+    #[test]
+    fn the_writer_records_the_session_surfaces_calibrations_and_every_period() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        assert_eq!(write_session(&path), 3000);
+        let log = read_log(&path).unwrap();
+        assert_eq!((log.header, log.version), (HEADER, 2));
+        assert_eq!(log.records.len(), 3000);
+        assert_eq!(log.records[2999], sample(2999));
+        assert!(log.damage.is_none() && log.truncated_bytes == 0);
+        assert_eq!(log.session.unwrap().unwrap().what, "test");
+        assert_eq!(log.calibrations.len(), 1);
+        assert!(log.calibrations[0].calibration.calibrated);
+        let versions: Vec<u64> = log.surfaces.keys().copied().collect();
+        assert_eq!(versions, vec![0, 1, 2, 3]);
+        assert_eq!(
+            log.surfaces[&3],
+            SurfaceEntry::Recorded(Arc::new(plane(0.32)))
+        );
+        assert_eq!(
+            log.surfaces[&0],
+            SurfaceEntry::Recorded(Arc::new(plane(0.3)))
+        );
+    }
+
+    #[test]
+    fn a_log_cut_anywhere_or_corrupted_reads_up_to_the_damage_and_says_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session(&path);
+        let bytes = std::fs::read(&path).unwrap();
+        let frame_bytes = FRAME_HEAD_BYTES + PERIOD_BYTES + FRAME_TAIL_BYTES;
+        // Cut inside the last period: one record fewer, the cut reported.
+        let cut = &bytes[..bytes.len() - 100];
+        let log = parse_log(cut).unwrap();
+        assert_eq!(log.records.len(), 2999);
+        assert_eq!(log.truncated_bytes, frame_bytes - 100);
+        let note = log.damage_note().unwrap();
+        assert!(
+            note.starts_with("read 2999 records, the rest is damaged"),
+            "{note}"
+        );
+        // Cut at every byte of the first frames, and at random bytes: never a panic, and the
+        // records are a prefix of the whole log's.
+        let whole = parse_log(&bytes).unwrap();
+        let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+        let cuts = (HEADER_BYTES..HEADER_BYTES + 3000).chain((0..200).map(|_| {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            HEADER_BYTES + (rng as usize) % (bytes.len() - HEADER_BYTES)
+        }));
+        for cut in cuts {
+            let log = parse_log(&bytes[..cut]).unwrap();
+            assert_eq!(log.records[..], whole.records[..log.records.len()]);
+            assert_eq!(
+                log.truncated_bytes > 0,
+                log.damage.is_some(),
+                "cut at {cut}"
+            );
+        }
+        // A flipped byte in a period: the records before it are read.
+        let mut corrupt = bytes.clone();
+        let at = bytes.len() - 10 * frame_bytes + 50;
+        corrupt[at] ^= 0x40;
+        let log = parse_log(&corrupt).unwrap();
+        assert_eq!(log.records.len(), 2990);
+        assert!(log.damage.unwrap().what.contains("CRC"));
+        // Another version, and not a log at all.
+        let mut other = bytes.clone();
+        other[8] = 9;
+        let e = parse_log(&other).unwrap_err().to_string();
+        assert!(
+            e.contains("version 9") && e.contains("reads versions 1 and 2"),
+            "{e}"
+        );
+        let e = parse_log(b"#!/bin/sh\necho hello\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not a VIDET session log"), "{e}");
+        assert!(parse_log(&bytes[..10]).is_err());
+    }
+
+    #[test]
+    fn a_version_1_log_still_reads() {
+        let mut bytes = Vec::new();
+        bytes.extend_from_slice(MAGIC);
+        bytes.extend_from_slice(&1u32.to_le_bytes());
+        bytes.extend_from_slice(&256u32.to_le_bytes());
+        bytes.extend_from_slice(&500u32.to_le_bytes());
+        bytes.extend_from_slice(&[0; 4]);
+        bytes.extend_from_slice(&7u64.to_le_bytes());
+        let mut b = [0u8; RECORD_BYTES];
+        for c in 0..10 {
+            encode_record(&sample(c), &mut b);
+            bytes.extend_from_slice(&b);
+        }
+        bytes.truncate(bytes.len() - 3);
+        let log = parse_log(&bytes).unwrap();
+        assert_eq!(log.version, 1);
+        assert_eq!(log.header.rate_hz, 500);
+        assert_eq!(log.records.len(), 9);
+        let mut outputs = sample(8);
+        outputs.inputs = Default::default();
+        assert_eq!(log.records[8], outputs);
+        assert_eq!(log.truncated_bytes, 253);
+        assert!(log.session.is_none());
+    }
+
+    #[test]
+    fn a_full_ring_drops_and_counts_instead_of_blocking() {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut producer, writer) = start(&dir.path().join("d.vlog"), HEADER, 64).unwrap();
+        for c in 0..100_000 {
+            producer.observe(&sample(c), &WindowStats::default());
+        }
+        let dropped = writer.dropped();
+        let written = writer.finish().unwrap();
+        assert!(dropped > 0);
+        assert_eq!(dropped + written, 100_000);
+    }
+}

@@ -1,0 +1,91 @@
+//! What a session log records besides the periods, so that a replay can rebuild the control
+//! cycle: the configuration in force and the calibration (rig geometry, encoder zeros). The
+//! surfaces it records are [`super::surfaces`]'s.
+
+use serde::{Deserialize, Serialize};
+use videt_rt_config::Config;
+
+use crate::cycle::{ControlCycle, WireZero, LOG_WIRE_SLOTS};
+use crate::runtime_device::RuntimeDevice;
+
+/// The session frame: who recorded the log, what ran, and the configuration in force.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SessionInfo {
+    /// Version of the `videtd` that recorded the session.
+    pub videt_version: String,
+    /// What ran (the scene, the device or the twin).
+    pub what: String,
+    /// The configuration in force, as resolved at start-up (drive units applied).
+    pub config: Config,
+}
+
+impl SessionInfo {
+    /// The session of this build running `config`.
+    pub fn new(what: impl Into<String>, config: Config) -> SessionInfo {
+        SessionInfo {
+            videt_version: env!("CARGO_PKG_VERSION").to_string(),
+            what: what.into(),
+            config,
+        }
+    }
+
+    /// TOML text.
+    pub fn to_toml(&self) -> Result<String, String> {
+        toml::to_string(self).map_err(|e| e.to_string())
+    }
+
+    /// Parse and validate TOML text (as recorded: drive units are not looked up again).
+    pub fn from_toml(text: &str) -> Result<SessionInfo, String> {
+        let session: SessionInfo = toml::from_str(text).map_err(|e| e.to_string())?;
+        session.config.validate().map_err(|e| e.to_string())?;
+        Ok(session)
+    }
+}
+
+/// The calibration a control cycle runs with: recorded when the cycle starts and each time a
+/// re-initialization through the control socket replaces it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CalibrationInForce {
+    /// Guide points, metres, one per wire of the device (the remaining slots zero).
+    pub guides_m: [[f64; 3]; LOG_WIRE_SLOTS],
+    /// Wire length at encoder count zero, metres.
+    pub length_at_zero_m: [f64; LOG_WIRE_SLOTS],
+    /// Forces are rendered (the rig was calibrated).
+    pub calibrated: bool,
+}
+
+impl CalibrationInForce {
+    /// The calibration `cycle` computes with.
+    pub fn of<const N: usize, D: RuntimeDevice<N>>(
+        cycle: &ControlCycle<N, D>,
+    ) -> CalibrationInForce {
+        CalibrationInForce {
+            guides_m: cycle.rig().logged_guides_m(),
+            length_at_zero_m: cycle.wire_zero().length_at_zero_m,
+            calibrated: cycle.calibrated(),
+        }
+    }
+
+    /// The device geometry and encoder zeros to build a cycle with.
+    pub fn device<const N: usize, D: RuntimeDevice<N>>(&self) -> Result<(D, WireZero), String> {
+        Ok((
+            D::from_logged_guides(&self.guides_m)?,
+            WireZero {
+                length_at_zero_m: self.length_at_zero_m,
+            },
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_session_round_trips_through_toml() {
+        let s = SessionInfo::new("twin: a wall", Config::default());
+        let text = s.to_toml().unwrap();
+        assert_eq!(SessionInfo::from_toml(&text).unwrap(), s);
+        assert!(SessionInfo::from_toml("what = 3").is_err());
+    }
+}

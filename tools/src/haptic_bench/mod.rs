@@ -1,0 +1,681 @@
+//! The haptic fidelity bench: what the wearer's finger feels, measured on the timing-faithful
+//! twin (the CiA 402 drives' per-mille torque and SYNC timing, the configured strain-gauge
+//! converter's rate, filter and quantization) with the real control cycle.
+//!
+//! - **Stiffness**: the stiffness rendered by P1 and P2 against the programmed one, over
+//!   surface normals in the paper's regions A, B and C (section 5, Figs 14-15).
+//! - **Z-width**: the stiffest wall rendered without sustained oscillation, against damping,
+//!   per control rate and tension sensor.
+//! - **Pop-through**: the penetration at the wearer's pushing force, and the force the device
+//!   can hold before a wire saturates.
+//!
+//! Every experiment is a run of the control loop on the twin's simulated clock: deterministic
+//! (the same configuration gives the same figures) and independent of the machine's load.
+
+pub mod plots;
+pub mod rig;
+
+use serde::Serialize;
+use videt_control::safety::SafetyState;
+use videt_control::surface::Plane;
+use videt_rt_config::{Ads1220Mode, Config, TensionAdc};
+use videt_sim::{Vec3, VirtualOperator, Waypoint};
+
+use rig::{run, start_position, Experiment, Parts, Trace};
+
+/// The paper's sub-regions of the force directions (Figs 10, 12), for the 3-wire device: where
+/// the wires can make the contact force `f_e ∥ n` with non-negative tensions (A), where they
+/// cannot but some wire still pulls along `n` (B), and where no wire has a component along `n`
+/// (C: nothing can push the finger out; the paper's V = 0).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Region {
+    /// All tensions non-negative: the force is made exactly.
+    A,
+    /// Some tension would be negative, but some wire pulls along `n`.
+    B,
+    /// No wire pulls along `n`.
+    C,
+}
+
+/// The region of the force direction `n` at `position_m` for the configured guides.
+pub fn region_of(config: &Config, position_m: Vec3, n: Vec3) -> Region {
+    let g = &config.rig.guides_m;
+    let cols: [Vec3; 3] = core::array::from_fn(|i| {
+        let d = Vec3::new(g[i][0], g[i][1], 0.0) - position_m;
+        d / d.norm()
+    });
+    if cols.iter().all(|u| u.dot(&n) <= 1e-9) {
+        return Region::C;
+    }
+    let u = nalgebra::Matrix3::from_columns(&cols);
+    match u.try_inverse() {
+        Some(inv) if (inv * n).iter().all(|&t| t >= -1e-9) => Region::A,
+        _ => Region::B,
+    }
+}
+
+/// The bench's settings: how much of each sweep to run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BenchPlan {
+    /// Polar angles of the surface normals from the frame's axis (`-z`), degrees.
+    pub polar_deg: &'static [f64],
+    /// Azimuths of the tilted normals, degrees.
+    pub azimuth_deg: &'static [f64],
+    /// Wall damping values of the Z-width sweep, N·s/m.
+    pub damping_n_s_per_m: &'static [f64],
+    /// Bisection steps of the Z-width search.
+    pub zwidth_steps: u32,
+    /// Run the Z-width for every supported tension sensor (else the configured one only).
+    pub all_sensors: bool,
+    /// Run the Z-width at the bus's highest rate too (else at 1 kHz only).
+    pub highest_rate: bool,
+    /// Pushing forces of the pop-through sweep, newtons.
+    pub push_n: &'static [f64],
+}
+
+impl BenchPlan {
+    /// The full bench (a few minutes).
+    pub const FULL: BenchPlan = BenchPlan {
+        polar_deg: &[0.0, 15.0, 30.0, 45.0, 60.0, 90.0, 120.0, 150.0],
+        azimuth_deg: &[0.0, 90.0, 180.0, 270.0],
+        damping_n_s_per_m: &[0.0, 2.0, 5.0, 10.0],
+        zwidth_steps: 7,
+        all_sensors: true,
+        highest_rate: true,
+        push_n: &[1.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0],
+    };
+    /// A few points of each sweep (seconds; tests).
+    pub const QUICK: BenchPlan = BenchPlan {
+        polar_deg: &[0.0, 45.0, 150.0],
+        azimuth_deg: &[0.0],
+        damping_n_s_per_m: &[5.0],
+        zwidth_steps: 4,
+        all_sensors: false,
+        highest_rate: false,
+        push_n: &[2.0, 6.0],
+    };
+}
+
+/// Stiffness rendered against a surface of normal `normal`.
+#[derive(Debug, Clone, Serialize)]
+pub struct StiffnessRow {
+    /// Distribution algorithm.
+    pub algorithm: String,
+    /// Outward surface normal (the direction of the contact force).
+    pub normal: [f64; 3],
+    /// Angle of the normal from the frame's axis, degrees.
+    pub polar_deg: f64,
+    /// Azimuth of the normal, degrees.
+    pub azimuth_deg: f64,
+    /// The normal's region at the thimble's start.
+    pub region: Region,
+    /// Programmed stiffness K, N/m.
+    pub programmed_n_per_m: f64,
+    /// Rendered stiffness along the normal (secant between two pushes), N/m.
+    pub rendered_n_per_m: f64,
+    /// `rendered / programmed`.
+    pub ratio: f64,
+    /// Normal force and penetration at the two pushes (N, mm).
+    pub pushes: [(f64, f64); 2],
+    /// Both pushes settled (the thimble still within 0.2 mm over the window).
+    pub settled: bool,
+    /// Safety state at the end.
+    pub safety: String,
+}
+
+/// Hand stiffness of the bench's operator in the stiffness sweep, N/m.
+const STIFFNESS_HAND_N_PER_M: f64 = 400.0;
+/// How far in front of the thimble every surface starts, metres.
+const SURFACE_GAP_M: f64 = 0.003;
+
+/// A plane `gap` in front of `start` (along `-n`) with outward normal `n`.
+fn surface_ahead(start: Vec3, n: Vec3) -> Plane {
+    Plane::new(start - n * SURFACE_GAP_M, n).expect("a unit normal")
+}
+
+/// The operator pushing along `-n`: the hand target moves to `depths_m[k]` past the surface
+/// over 0.3 s from `times_s[k]` on, and holds there until the next move.
+fn pusher(start: Vec3, n: Vec3, depths_m: &[f64], times_s: &[f64], k_hand: f64) -> VirtualOperator {
+    let mut waypoints = vec![Waypoint {
+        time_s: 0.0,
+        target_m: start,
+    }];
+    let mut held = start;
+    for (&d, &t) in depths_m.iter().zip(times_s) {
+        waypoints.push(Waypoint {
+            time_s: t,
+            target_m: held,
+        });
+        held = start - n * (SURFACE_GAP_M + d);
+        waypoints.push(Waypoint {
+            time_s: t + 0.3,
+            target_m: held,
+        });
+    }
+    VirtualOperator::new(waypoints, k_hand, 4.0)
+}
+
+/// Mean normal force and penetration over `[from, to)`, and the spread of the penetration.
+fn equilibrium(trace: &Trace, plane: &Plane, from_s: f64, to_s: f64) -> (f64, f64, f64) {
+    let n = plane.normal();
+    let (mut f, mut p, mut lo, mut hi, mut count) = (0.0, 0.0, f64::MAX, f64::MIN, 0.0);
+    for s in trace.window(from_s, to_s) {
+        let depth = -plane.signed_distance_m(&s.position_m);
+        f += s.wire_force_n.dot(&n);
+        p += depth;
+        lo = lo.min(depth);
+        hi = hi.max(depth);
+        count += 1.0;
+    }
+    if count == 0.0 {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    (f / count, p / count, hi - lo)
+}
+
+/// The unit normal at `polar_deg` from `-z` and `azimuth_deg` around it.
+fn normal_at(polar_deg: f64, azimuth_deg: f64) -> Vec3 {
+    let (t, a) = (polar_deg.to_radians(), azimuth_deg.to_radians());
+    Vec3::new(t.sin() * a.cos(), t.sin() * a.sin(), -t.cos())
+}
+
+/// Rendered vs programmed stiffness for P1 and P2 over the plan's normals.
+pub fn stiffness_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<StiffnessRow>, String> {
+    let start = start_position(base);
+    let mut normals = Vec::new();
+    for &polar in plan.polar_deg {
+        if polar == 0.0 {
+            normals.push((polar, 0.0));
+        } else {
+            normals.extend(plan.azimuth_deg.iter().map(|&a| (polar, a)));
+        }
+    }
+    let depths = [0.010, 0.025];
+    let times = [0.0, 1.2];
+    let windows = [(0.9, 1.2), (2.1, 2.4)];
+    let mut rows = Vec::new();
+    for algorithm in ["P1", "P2"] {
+        for &(polar, azimuth) in &normals {
+            let n = normal_at(polar, azimuth);
+            let mut config = base.clone();
+            config.control.algorithm = algorithm.into();
+            config.control.field_n = 0.0;
+            let surface = surface_ahead(start, n);
+            let trace = run(&Experiment {
+                config: config.clone(),
+                surface,
+                operator: pusher(start, n, &depths, &times, STIFFNESS_HAND_N_PER_M),
+                duration_s: 2.4,
+                parts: Parts::Faithful,
+            })?;
+            let a = equilibrium(&trace, &surface, windows[0].0, windows[0].1);
+            let b = equilibrium(&trace, &surface, windows[1].0, windows[1].1);
+            let rendered = (b.0 - a.0) / (b.1 - a.1);
+            let k = config.control.stiffness_n_per_m;
+            rows.push(StiffnessRow {
+                algorithm: algorithm.into(),
+                normal: [n.x, n.y, n.z],
+                polar_deg: polar,
+                azimuth_deg: azimuth,
+                region: region_of(&config, start, n),
+                programmed_n_per_m: k,
+                rendered_n_per_m: rendered,
+                ratio: rendered / k,
+                pushes: [(a.0, a.1 * 1e3), (b.0, b.1 * 1e3)],
+                settled: a.2 < 2e-4 && b.2 < 2e-4,
+                safety: safety_name(trace.final_safety),
+            });
+        }
+    }
+    Ok(rows)
+}
+
+fn safety_name(s: SafetyState) -> String {
+    match s {
+        SafetyState::Normal => "normal".into(),
+        other => format!("{other:?}"),
+    }
+}
+
+/// A tension sensor the bench runs the Z-width on.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SensorSetup {
+    /// `sensors.adc`.
+    pub adc: TensionAdc,
+    /// `sensors.sample_rate_sps` (0 for the drive's input).
+    pub sample_rate_sps: u32,
+    /// ADS1220 turbo mode.
+    pub turbo: bool,
+}
+
+impl SensorSetup {
+    /// The supported sensors at their fastest settings.
+    pub const SUPPORTED: [SensorSetup; 4] = [
+        SensorSetup {
+            adc: TensionAdc::Ads1220,
+            sample_rate_sps: 2000,
+            turbo: true,
+        },
+        SensorSetup {
+            adc: TensionAdc::Ads1220,
+            sample_rate_sps: 330,
+            turbo: false,
+        },
+        SensorSetup {
+            adc: TensionAdc::Hx711,
+            sample_rate_sps: 80,
+            turbo: false,
+        },
+        SensorSetup {
+            adc: TensionAdc::Drive,
+            sample_rate_sps: 0,
+            turbo: false,
+        },
+    ];
+
+    /// The configured sensor.
+    pub fn of(config: &Config) -> SensorSetup {
+        let s = &config.sensors;
+        SensorSetup {
+            adc: s.adc,
+            sample_rate_sps: if s.adc == TensionAdc::Drive {
+                0
+            } else {
+                s.sample_rate_sps
+            },
+            turbo: s.ads1220_mode == Ads1220Mode::Turbo,
+        }
+    }
+
+    /// `config` with this sensor (the loop degraded where the sensor needs it, and the staleness
+    /// bound at least two conversion periods).
+    pub fn apply(&self, config: &mut Config) {
+        let s = &mut config.sensors;
+        s.adc = self.adc;
+        if self.sample_rate_sps > 0 {
+            s.sample_rate_sps = self.sample_rate_sps;
+            let two_periods_ms = (2000 / self.sample_rate_sps + 1) as u16;
+            s.stale_after_ms = s.stale_after_ms.max(two_periods_ms);
+        }
+        s.ads1220_mode = if self.turbo {
+            Ads1220Mode::Turbo
+        } else {
+            Ads1220Mode::Normal
+        };
+        config.control.allow_degraded_tension_loop = true;
+    }
+
+    /// A name for tables and plots.
+    pub fn label(&self) -> String {
+        match self.adc {
+            TensionAdc::Drive => "drive input".into(),
+            TensionAdc::Ads1220 if self.turbo => {
+                format!("ADS1220 {} SPS turbo", self.sample_rate_sps)
+            }
+            TensionAdc::Ads1220 => format!("ADS1220 {} SPS", self.sample_rate_sps),
+            TensionAdc::Hx711 => format!("HX711 {} SPS", self.sample_rate_sps),
+        }
+    }
+}
+
+/// How a wall of given stiffness behaved while the operator held a push on it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WallVerdict {
+    /// Wall stiffness, N/m.
+    pub stiffness_n_per_m: f64,
+    /// Half the peak-to-peak penetration over the judged window, mm.
+    pub oscillation_mm: f64,
+    /// RMS thimble speed over the judged window, mm/s.
+    pub rms_speed_mm_s: f64,
+    /// Periods of the judged window out of contact.
+    pub contact_lost: usize,
+    /// The safety supervisor stayed in its normal state.
+    pub safe: bool,
+    /// No sustained oscillation (see [`ZWIDTH_CRITERION`]).
+    pub stable: bool,
+}
+
+/// The Z-width's criterion, as printed with the results.
+pub const ZWIDTH_CRITERION: &str =
+    "the operator (hand 200 N/m) pushes 15 mm past a wall facing the \
+frame (region A, P2) and holds; over the last 0.6 s of a 1.5 s hold the wall is stable when the \
+penetration's half peak-to-peak stays below 0.1 mm, the RMS speed below 5 mm/s, the finger never \
+leaves the wall and the safety supervisor never leaves its normal state";
+
+/// Press on a wall of stiffness `k` with damping `b` and judge it.
+pub fn judge_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallVerdict, String> {
+    let mut config = base.clone();
+    config.control.stiffness_n_per_m = k;
+    config.control.damping_n_s_per_m = b;
+    config.control.algorithm = "P2".into();
+    let start = start_position(&config);
+    let n = Vec3::new(0.0, 0.0, -1.0);
+    let surface = surface_ahead(start, n);
+    let trace = run(&Experiment {
+        config,
+        surface,
+        operator: pusher(start, n, &[0.015], &[0.0], 200.0),
+        duration_s: 1.8,
+        parts,
+    })?;
+    let (from, to) = (1.2, 1.8);
+    let (mut lo, mut hi, mut v2, mut count, mut lost) = (f64::MAX, f64::MIN, 0.0, 0.0f64, 0);
+    for s in trace.window(from, to) {
+        let depth = -surface.signed_distance_m(&s.position_m);
+        lo = lo.min(depth);
+        hi = hi.max(depth);
+        v2 += s.velocity_m_s.norm_squared();
+        count += 1.0;
+        if depth <= 0.0 {
+            lost += 1;
+        }
+    }
+    let oscillation_mm = (hi - lo) * 0.5e3;
+    let rms_speed_mm_s = (v2 / count.max(1.0)).sqrt() * 1e3;
+    let safe = trace.final_safety == SafetyState::Normal && count > 0.0;
+    Ok(WallVerdict {
+        stiffness_n_per_m: k,
+        oscillation_mm,
+        rms_speed_mm_s,
+        contact_lost: lost,
+        safe,
+        stable: safe && lost == 0 && oscillation_mm < 0.1 && rms_speed_mm_s < 5.0,
+    })
+}
+
+/// The Z-width at one rate and sensor, for one damping.
+#[derive(Debug, Clone, Serialize)]
+pub struct ZWidthRow {
+    /// The parts' model (the configured parts' timing, or ideal parts for reference).
+    pub parts: Parts,
+    /// Control rate, Hz.
+    pub rate_hz: u32,
+    /// The tension sensor.
+    pub sensor: String,
+    /// The PI gains' fraction the sensor allows (1 = the configured gains).
+    pub tension_gain_scale: f64,
+    /// Wall damping, N·s/m.
+    pub damping_n_s_per_m: f64,
+    /// Stiffest stable wall found, N/m (`None`: not even the softest one).
+    pub max_stable_n_per_m: Option<f64>,
+    /// Softest unstable wall found, N/m (`None`: stable up to the configuration's bound).
+    pub min_unstable_n_per_m: Option<f64>,
+    /// Every wall tried.
+    pub tried: Vec<WallVerdict>,
+}
+
+/// Softest and stiffest walls the Z-width search considers, N/m (the configuration allows
+/// stiffness up to 20 000 N/m).
+pub const ZWIDTH_RANGE_N_PER_M: (f64, f64) = (100.0, 20_000.0);
+
+/// What a Z-width search found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZWidthSearch {
+    /// Stiffest stable wall, N/m (`None`: not even the softest one).
+    pub max_stable_n_per_m: Option<f64>,
+    /// Softest unstable wall, N/m (`None`: stable up to the configuration's bound).
+    pub min_unstable_n_per_m: Option<f64>,
+    /// Every wall tried, in order.
+    pub tried: Vec<WallVerdict>,
+}
+
+/// Find the largest stable stiffness by bisection on a log scale (stability is taken to be
+/// monotonic in the stiffness, which every tried wall is recorded to check).
+pub fn zwidth(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthSearch, String> {
+    let (lo_k, hi_k) = ZWIDTH_RANGE_N_PER_M;
+    let mut tried = Vec::new();
+    let hi = judge_wall(base, hi_k, b, parts)?;
+    tried.push(hi);
+    if hi.stable {
+        return Ok(ZWidthSearch {
+            max_stable_n_per_m: Some(hi_k),
+            min_unstable_n_per_m: None,
+            tried,
+        });
+    }
+    let lo = judge_wall(base, lo_k, b, parts)?;
+    tried.push(lo);
+    if !lo.stable {
+        return Ok(ZWidthSearch {
+            max_stable_n_per_m: None,
+            min_unstable_n_per_m: Some(lo_k),
+            tried,
+        });
+    }
+    let (mut stable, mut unstable) = (lo_k, hi_k);
+    for _ in 0..steps {
+        let mid = (stable * unstable).sqrt();
+        let v = judge_wall(base, mid, b, parts)?;
+        tried.push(v);
+        if v.stable {
+            stable = mid;
+        } else {
+            unstable = mid;
+        }
+    }
+    Ok(ZWidthSearch {
+        max_stable_n_per_m: Some(stable),
+        min_unstable_n_per_m: Some(unstable),
+        tried,
+    })
+}
+
+/// The Z-width table: every sensor (or the configured one) x rate x damping.
+pub fn zwidth_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<ZWidthRow>, String> {
+    let sensors: Vec<SensorSetup> = if plan.all_sensors {
+        SensorSetup::SUPPORTED.to_vec()
+    } else {
+        vec![SensorSetup::of(base)]
+    };
+    let mut rates = vec![1000u32];
+    if plan.highest_rate {
+        let highest = videt_assembly::bus_budget::max_rate_hz(base).min(10_000);
+        if highest > 1000 {
+            rates.push(highest);
+        }
+    }
+    // The configured sensor on ideal parts first: the reference the parts' timing is judged by.
+    let mut runs = vec![(Parts::Ideal, SensorSetup::of(base), 1000u32)];
+    for sensor in &sensors {
+        for &rate in &rates {
+            runs.push((Parts::Faithful, *sensor, rate));
+        }
+    }
+    let mut rows = Vec::new();
+    for (parts, sensor, rate) in runs {
+        let mut config = base.clone();
+        sensor.apply(&mut config);
+        config.control.rate_hz = rate;
+        let scale = match videt_runtime::tension_budget::plan(&config) {
+            Ok(videt_runtime::tension_budget::TensionLoopPlan::Full(_)) => 1.0,
+            Ok(videt_runtime::tension_budget::TensionLoopPlan::Degraded { scale, .. }) => scale,
+            Err(e) => return Err(format!("{}: {e}", sensor.label())),
+        };
+        for &b in plan.damping_n_s_per_m {
+            let found = zwidth(&config, b, plan.zwidth_steps, parts)?;
+            rows.push(ZWidthRow {
+                parts,
+                rate_hz: rate,
+                sensor: match parts {
+                    Parts::Ideal => "instant".into(),
+                    Parts::Faithful => sensor.label(),
+                },
+                tension_gain_scale: scale,
+                damping_n_s_per_m: b,
+                max_stable_n_per_m: found.max_stable_n_per_m,
+                min_unstable_n_per_m: found.min_unstable_n_per_m,
+                tried: found.tried,
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// Penetration and held force at one pushing force.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PushRow {
+    /// The hand's force at the end of the hold, N.
+    pub push_n: f64,
+    /// Normal force of the wires on the finger, N.
+    pub wall_force_n: f64,
+    /// Penetration, mm.
+    pub penetration_mm: f64,
+    /// Largest wire tension, N.
+    pub max_tension_n: f64,
+    /// Some wire is at its maximum tension: the wall gives way.
+    pub saturated: bool,
+    /// The penetration is deeper than the relief feature the bench asks about.
+    pub popped_through: bool,
+}
+
+/// The pop-through sweep at the configured stiffness.
+#[derive(Debug, Clone, Serialize)]
+pub struct PopThroughReport {
+    /// Wall stiffness, N/m.
+    pub stiffness_n_per_m: f64,
+    /// Depth of the relief feature the finger must not pass through, mm.
+    pub feature_depth_mm: f64,
+    /// The wearer's pushing force (the virtual operator's of the demo scene), N.
+    pub wearer_push_n: f64,
+    /// Penetration at the wearer's pushing force, mm (interpolated).
+    pub wearer_penetration_mm: f64,
+    /// Smallest pushing force tried that pops through the feature, N.
+    pub pop_through_push_n: Option<f64>,
+    /// Every push.
+    pub pushes: Vec<PushRow>,
+}
+
+/// The demo operator's push: a 200 N/m hand 20 mm past the wall.
+pub const WEARER_PUSH_N: f64 = 200.0 * 0.02;
+
+/// Push on the wall facing the frame with each of `push_n` (a soft hand far past the wall:
+/// nearly a constant force) and measure the penetration; `feature_mm`: the relief step the
+/// finger must not pass.
+pub fn pop_through(
+    base: &Config,
+    plan: &BenchPlan,
+    feature_mm: f64,
+) -> Result<PopThroughReport, String> {
+    let mut config = base.clone();
+    config.control.algorithm = "P2".into();
+    let start = start_position(&config);
+    let n = Vec3::new(0.0, 0.0, -1.0);
+    let surface = surface_ahead(start, n);
+    let k_hand = 100.0;
+    let t_max = config.control.t_max_n;
+    let mut pushes = Vec::new();
+    for &push in plan.push_n {
+        let trace = run(&Experiment {
+            config: config.clone(),
+            surface,
+            operator: pusher(start, n, &[push / k_hand], &[0.0], k_hand),
+            duration_s: 2.0,
+            parts: Parts::Faithful,
+        })?;
+        let (force, depth, _) = equilibrium(&trace, &surface, 1.7, 2.0);
+        let last = trace.samples.last().copied();
+        let hand = last.map_or(f64::NAN, |s| -s.hand_force_n.dot(&n));
+        let max_t = trace
+            .window(1.7, 2.0)
+            .map(|s| s.max_tension_n)
+            .fold(0.0, f64::max);
+        pushes.push(PushRow {
+            push_n: hand,
+            wall_force_n: force,
+            penetration_mm: depth * 1e3,
+            max_tension_n: max_t,
+            saturated: max_t >= 0.98 * t_max,
+            popped_through: depth * 1e3 > feature_mm,
+        });
+    }
+    let wearer_penetration_mm = interpolate(
+        &pushes
+            .iter()
+            .map(|p| (p.push_n, p.penetration_mm))
+            .collect::<Vec<_>>(),
+        WEARER_PUSH_N,
+    );
+    Ok(PopThroughReport {
+        stiffness_n_per_m: config.control.stiffness_n_per_m,
+        feature_depth_mm: feature_mm,
+        wearer_push_n: WEARER_PUSH_N,
+        wearer_penetration_mm,
+        pop_through_push_n: pushes.iter().find(|p| p.popped_through).map(|p| p.push_n),
+        pushes,
+    })
+}
+
+/// Linear interpolation of `y(x)` through points sorted by `x` (clamped at the ends).
+fn interpolate(points: &[(f64, f64)], x: f64) -> f64 {
+    let Some(&(first_x, first_y)) = points.first() else {
+        return f64::NAN;
+    };
+    if x <= first_x {
+        return first_y;
+    }
+    for w in points.windows(2) {
+        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+        if x <= x1 {
+            return y0 + (y1 - y0) * (x - x0) / (x1 - x0);
+        }
+    }
+    points[points.len() - 1].1
+}
+
+/// Everything the bench measured, with the configuration it ran on.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchReport {
+    /// The configuration file (or "defaults").
+    pub config_origin: String,
+    /// The configuration's control settings.
+    pub control: videt_rt_config::ControlConfig,
+    /// The configuration's sensor settings.
+    pub sensor: SensorSetup,
+    /// The Z-width criterion.
+    pub zwidth_criterion: String,
+    /// Stiffness rows.
+    pub stiffness: Vec<StiffnessRow>,
+    /// Z-width rows.
+    pub zwidth: Vec<ZWidthRow>,
+    /// Pop-through.
+    pub pop_through: PopThroughReport,
+}
+
+/// Run the whole bench.
+pub fn run_bench(
+    config: &Config,
+    origin: &str,
+    plan: &BenchPlan,
+    feature_mm: f64,
+) -> Result<BenchReport, String> {
+    Ok(BenchReport {
+        config_origin: origin.into(),
+        control: config.control.clone(),
+        sensor: SensorSetup::of(config),
+        zwidth_criterion: ZWIDTH_CRITERION.into(),
+        stiffness: stiffness_sweep(config, plan)?,
+        zwidth: zwidth_sweep(config, plan)?,
+        pop_through: pop_through(config, plan, feature_mm)?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_frame_axis_is_region_a_and_its_opposite_region_c() {
+        let config = Config::default();
+        let start = start_position(&config);
+        assert_eq!(region_of(&config, start, normal_at(0.0, 0.0)), Region::A);
+        assert_eq!(region_of(&config, start, normal_at(180.0, 0.0)), Region::C);
+    }
+
+    #[test]
+    fn interpolation_is_linear_and_clamped() {
+        let p = [(1.0, 10.0), (3.0, 30.0)];
+        assert_eq!(interpolate(&p, 2.0), 20.0);
+        assert_eq!(interpolate(&p, 0.0), 10.0);
+        assert_eq!(interpolate(&p, 9.0), 30.0);
+    }
+}

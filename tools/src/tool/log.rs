@@ -1,0 +1,316 @@
+//! `videt log LOGFILE`: summarise a session log and export it as CSV.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use serde::Serialize;
+
+use videt_runtime::cycle::CycleRecord;
+use videt_runtime::histogram::Histogram;
+use videt_runtime::telemetry::read_log;
+
+use super::ToolResult;
+
+/// Summarise a telemetry session log (`videtd` writes one per run).
+#[derive(Debug, Args)]
+pub struct LogArgs {
+    /// The session log (`videt-<time>.vlog`).
+    pub logfile: PathBuf,
+    /// Also export every record as CSV to this file (`-` for standard output).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the session's figures into this directory (path.png, tensions.png, forces.png,
+    /// timing.png).
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
+    /// The configuration for the tension limits on the plots (default: the one the session
+    /// recorded; for an old log without one, the built-in defaults).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+}
+
+/// The summary of a log.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LogSummary {
+    /// Control rate, Hz.
+    pub rate_hz: u32,
+    /// Records in the file.
+    pub records: usize,
+    /// Seconds covered.
+    pub duration_s: f64,
+    /// Records missing (gaps in the cycle numbers: dropped by a full ring).
+    pub dropped: u64,
+    /// Bytes of a cut-off last record.
+    pub truncated_bytes: usize,
+    /// Wake-up latency percentiles, µs: p50, p99, p99.9, max.
+    pub wake_latency_us: [f64; 4],
+    /// Compute time percentiles, µs: p50, p99, p99.9, max.
+    pub compute_us: [f64; 4],
+    /// Fraction of periods in contact.
+    pub contact_fraction: f64,
+    /// Largest measured tension, N.
+    pub max_tension_n: f64,
+    /// Largest rendered force, N.
+    pub max_force_n: f64,
+    /// Safety transitions: (time in s, new state).
+    pub safety_events: Vec<(f64, String)>,
+    /// Frame to force: from a camera frame's capture to the first period rendering the relief
+    /// built from it (`None` when no rendered surface came from a camera frame).
+    pub frame_to_force: Option<FrameToForce>,
+}
+
+/// Latency from camera frames to the control thread, over the surface versions rendered.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FrameToForce {
+    /// Versions built from a camera frame and rendered.
+    pub frames: usize,
+    /// Median, ms.
+    pub p50_ms: f64,
+    /// 99th percentile, ms (nearest rank).
+    pub p99_ms: f64,
+    /// Largest, ms.
+    pub max_ms: f64,
+}
+
+impl FrameToForce {
+    /// The latency of the periods that first rendered a version made from a camera frame.
+    pub fn of(records: &[CycleRecord]) -> Option<FrameToForce> {
+        let mut ages: Vec<u64> = records
+            .iter()
+            .filter_map(|r| r.inputs.surface_frame_age_ns)
+            .collect();
+        if ages.is_empty() {
+            return None;
+        }
+        ages.sort_unstable();
+        let rank =
+            |q: f64| ages[((q * ages.len() as f64).ceil() as usize).clamp(1, ages.len()) - 1];
+        Some(FrameToForce {
+            frames: ages.len(),
+            p50_ms: rank(0.5) as f64 * 1e-6,
+            p99_ms: rank(0.99) as f64 * 1e-6,
+            max_ms: ages[ages.len() - 1] as f64 * 1e-6,
+        })
+    }
+}
+
+fn percentiles_us(h: &Histogram) -> [f64; 4] {
+    [
+        h.quantile_ns(0.5),
+        h.quantile_ns(0.99),
+        h.quantile_ns(0.999),
+        h.max_ns(),
+    ]
+    .map(|ns| ns as f64 * 1e-3)
+}
+
+/// Summarise `args.logfile`.
+pub fn summarise(
+    args: &LogArgs,
+) -> Result<(LogSummary, videt_runtime::telemetry::Log), super::ToolError> {
+    let log = read_log(&args.logfile)?;
+    let (mut wake, mut compute) = (Histogram::new(), Histogram::new());
+    let mut dropped = 0;
+    let mut contact = 0usize;
+    let (mut max_tension, mut max_force) = (0.0f64, 0.0f64);
+    let mut events = Vec::new();
+    let mut last_state = None;
+    for (i, r) in log.records.iter().enumerate() {
+        if i > 0 {
+            dropped += r
+                .cycle
+                .saturating_sub(log.records[i - 1].cycle.saturating_add(1));
+        }
+        wake.record(r.wake_latency_ns);
+        compute.record(r.compute_ns);
+        contact += usize::from(r.in_contact);
+        max_tension = r
+            .tension_measured_n
+            .iter()
+            .cloned()
+            .fold(max_tension, f64::max);
+        let f = r.rendered_force_n;
+        max_force = max_force.max((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt());
+        if last_state != Some(r.safety) {
+            if last_state.is_some() || r.safety.reason().is_some() {
+                events.push((r.time.as_secs_f64(), r.safety.as_str().to_string()));
+            }
+            last_state = Some(r.safety);
+        }
+    }
+    let duration_s = match (log.records.first(), log.records.last()) {
+        (Some(a), Some(b)) => b.time.nanos_since(a.time) as f64 * 1e-9,
+        _ => 0.0,
+    };
+    let summary = LogSummary {
+        rate_hz: log.header.rate_hz,
+        records: log.records.len(),
+        duration_s,
+        dropped,
+        truncated_bytes: log.truncated_bytes,
+        wake_latency_us: percentiles_us(&wake),
+        compute_us: percentiles_us(&compute),
+        contact_fraction: if log.records.is_empty() {
+            0.0
+        } else {
+            contact as f64 / log.records.len() as f64
+        },
+        max_tension_n: max_tension,
+        max_force_n: max_force,
+        safety_events: events,
+        frame_to_force: FrameToForce::of(&log.records),
+    };
+    Ok((summary, log))
+}
+
+/// Write the records as CSV.
+pub fn write_csv(log: &videt_runtime::telemetry::Log, out: &mut dyn Write) -> std::io::Result<()> {
+    let mut header = String::from("cycle,time_s,wake_latency_us,compute_us");
+    for name in CycleRecord::VECTOR_NAMES {
+        for axis in 0..3 {
+            header.push_str(&format!(",{name}_{axis}"));
+        }
+    }
+    header.push_str(
+        ",contact,depth_m,force_scale,surface_version,surface_stale,safety,released_wire,frame_age_ms",
+    );
+    writeln!(out, "{header}")?;
+    for r in &log.records {
+        write!(
+            out,
+            "{},{:.9},{:.3},{:.3}",
+            r.cycle,
+            r.time.as_secs_f64(),
+            r.wake_latency_ns as f64 * 1e-3,
+            r.compute_ns as f64 * 1e-3
+        )?;
+        for arr in r.vectors() {
+            for v in arr {
+                write!(out, ",{v:.6e}")?;
+            }
+        }
+        write!(
+            out,
+            ",{},{:.6e},{:.4},{},{},{},{},",
+            u8::from(r.in_contact),
+            r.contact_depth_m,
+            r.force_scale,
+            r.surface_version,
+            u8::from(r.surface_stale),
+            r.safety.as_str(),
+            r.released_wire
+        )?;
+        // Empty but on the first period rendering a version made from a camera frame.
+        match r.inputs.surface_frame_age_ns {
+            Some(ns) => writeln!(out, "{:.3}", ns as f64 * 1e-6)?,
+            None => writeln!(out)?,
+        }
+    }
+    Ok(())
+}
+
+/// Run `videt log`.
+pub fn run(args: &LogArgs) -> ToolResult {
+    let (s, log) = summarise(args)?;
+    if let Some(dir) = &args.plot {
+        let config = match (&args.config, &log.session) {
+            (Some(path), _) => videt_rt_config::Config::load(path)?,
+            (None, Some(Ok(session))) => session.config.clone(),
+            (None, _) => videt_rt_config::Config::default(),
+        };
+        let limits = super::log_plots::TensionLimits {
+            t_min_n: config.control.t_min_n,
+            t_max_n: config.control.t_max_n,
+        };
+        for path in super::log_plots::write_all(dir, &log, limits)? {
+            eprintln!("wrote {}", path.display());
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&s)?);
+    } else {
+        println!(
+            "{}: {} records at {} Hz, {:.3} s",
+            args.logfile.display(),
+            s.records,
+            s.rate_hz,
+            s.duration_s
+        );
+        println!("  dropped records: {}", s.dropped);
+        if let Some(note) = log.damage_note() {
+            println!("  {note}");
+        }
+        match &log.session {
+            Some(Ok(session)) => println!(
+                "  session: {} (videtd {}, algorithm {})",
+                session.what, session.videt_version, session.config.control.algorithm
+            ),
+            Some(Err(e)) => println!("  session: {e}"),
+            None => println!("  session: not recorded (format version {})", log.version),
+        }
+        if !log.surfaces.is_empty() {
+            let lost = log
+                .surfaces
+                .values()
+                .filter(|s| matches!(s, videt_runtime::telemetry::SurfaceEntry::Lost))
+                .count();
+            let rendered: std::collections::BTreeSet<u64> =
+                log.records.iter().map(|r| r.surface_version).collect();
+            let recorded = log.surfaces.len() - lost;
+            println!(
+                "  surfaces: {recorded} version{} recorded{}, {} rendered by the periods",
+                if recorded == 1 { "" } else { "s" },
+                if lost > 0 {
+                    format!(" ({lost} lost)")
+                } else {
+                    String::new()
+                },
+                rendered.len()
+            );
+        }
+        let p = |v: [f64; 4]| {
+            format!(
+                "p50 {:.1}  p99 {:.1}  p99.9 {:.1}  max {:.1} µs",
+                v[0], v[1], v[2], v[3]
+            )
+        };
+        println!("  wake-up latency: {}", p(s.wake_latency_us));
+        println!("  compute time:    {}", p(s.compute_us));
+        if let Some(f) = &s.frame_to_force {
+            println!(
+                "  frame to force:  p50 {:.2}  p99 {:.2}  max {:.2} ms over {} camera frames (capture to first render)",
+                f.p50_ms, f.p99_ms, f.max_ms, f.frames
+            );
+        }
+        println!(
+            "  in contact {:.1}% of the time; max tension {:.2} N; max force {:.2} N",
+            100.0 * s.contact_fraction,
+            s.max_tension_n,
+            s.max_force_n
+        );
+        if s.safety_events.is_empty() {
+            println!("  safety: normal throughout");
+        }
+        for (t, state) in &s.safety_events {
+            println!("  safety at {t:.3} s: {state}");
+        }
+    }
+    if let Some(csv) = &args.csv {
+        if csv.as_os_str() == "-" {
+            write_csv(&log, &mut std::io::stdout().lock())?;
+        } else {
+            let mut out = std::io::BufWriter::new(std::fs::File::create(csv)?);
+            write_csv(&log, &mut out)?;
+            out.flush()?;
+            if !args.json {
+                println!("  CSV written to {}", csv.display());
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
