@@ -24,6 +24,7 @@
 #[cfg(any(test, feature = "std"))]
 extern crate std;
 
+mod algorithm;
 pub mod analysis;
 pub mod autoinit;
 pub mod blend;
