@@ -7,7 +7,7 @@
 
 use nalgebra::SVector;
 
-use crate::distribution::{Algorithm, FieldRule};
+use crate::algorithm::{Algorithm, FieldRule};
 use crate::wire_map::WireMap;
 
 /// A force field of constant magnitude.

@@ -24,6 +24,7 @@
 #[cfg(any(test, feature = "std"))]
 extern crate std;
 
+mod algorithm;
 pub mod analysis;
 pub mod autoinit;
 pub mod blend;
@@ -45,6 +46,7 @@ pub mod step;
 pub mod surface;
 pub mod tension_loop;
 pub mod tension_pi;
+mod wire_device;
 pub mod wire_map;
 
 pub use contact::{contact_force, ContactModel};

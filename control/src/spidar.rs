@@ -12,9 +12,11 @@
 
 use nalgebra::{Matrix3, Matrix3x4, Vector4};
 
-use crate::device::{DeviceForces, DeviceKind, Sensed, WireDevice, WireTensions};
 use crate::distribution::{clamp_tension, ForceLimits};
 use crate::kinematics::{ForwardSolution, RigError};
+use crate::wire_device::{
+    unit_and_length, DeviceForces, DeviceKind, ForceSettings, Sensed, WireDevice, WireTensions,
+};
 use crate::Vec3;
 
 /// Smallest volume of the guide tetrahedron accepted, m³.
@@ -214,7 +216,7 @@ impl WireDevice<4> for Rig4 {
     }
 
     fn wire_from_guide(&self, position_m: &Vec3, wire: usize) -> (Vec3, f64) {
-        crate::device::unit_and_length(position_m - self.guides_m[wire])
+        unit_and_length(position_m - self.guides_m[wire])
     }
 
     fn forces(
@@ -223,7 +225,7 @@ impl WireDevice<4> for Rig4 {
         desired_n: &Vec3,
         _in_contact: bool,
         scale: f64,
-        settings: &crate::device::ForceSettings,
+        settings: &ForceSettings,
     ) -> Option<DeviceForces<4>> {
         // Every direction is reachable: a field is only the one configured (F2's bisector has
         // no meaning here and takes the configured direction too); free space needs no pull,

@@ -4,7 +4,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::twin::TwinFault;
+use crate::fault::TwinFault;
 
 /// What can be posted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

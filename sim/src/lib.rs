@@ -33,6 +33,7 @@ pub mod as5048a_encoder;
 pub mod can_bus;
 pub mod cia402_node;
 pub mod converter;
+mod fault;
 pub mod fault_inbox;
 pub mod operator;
 pub mod plant;
@@ -44,10 +45,11 @@ pub use angle_sensors::{
     SharedPosition,
 };
 pub use converter::ConverterModel;
+pub use fault::TwinFault;
 pub use fault_inbox::{FaultInbox, InboxFault};
 pub use operator::{VirtualOperator, Waypoint};
 pub use plant::{Plant, PlantParams, WireModules, GRAVITY_M_S2};
-pub use twin::{quantize_torque, ClockMode, SensorModel, Twin, TwinError, TwinFault};
+pub use twin::{quantize_torque, ClockMode, SensorModel, Twin, TwinError};
 
 /// 3-vector of `f64`.
 pub type Vec3 = nalgebra::Vector3<f64>;

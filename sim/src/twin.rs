@@ -9,6 +9,7 @@ use videt_hal::{
 };
 
 use crate::converter::{ConverterModel, ConverterTwin};
+pub use crate::fault::TwinFault;
 use crate::operator::VirtualOperator;
 use crate::plant::{Plant, PlantParams};
 use crate::Vec3;
@@ -79,24 +80,6 @@ impl<const N: usize> SensorModel<N> {
             converter: None,
         }
     }
-}
-
-/// A fault the twin can be scheduled to suffer (see [`Twin::schedule_fault`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TwinFault {
-    /// Wire N breaks.
-    BreakWire(usize),
-    /// The e-stop button is pressed (and stays pressed).
-    PressEStop,
-    /// Tension sensor N stops answering.
-    FailTensionSensor(usize),
-    /// Drive N latches a fault.
-    FaultDrive(usize),
-    /// Wire N's end comes off the thimble.
-    DetachWire(usize),
-    /// Wire N slips on its pulley by this many encoder counts (the pulley turns, the yarn
-    /// does not).
-    SlipWire(usize, i64),
 }
 
 /// Most faults that can be scheduled at once.

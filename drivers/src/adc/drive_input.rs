@@ -30,8 +30,8 @@ impl<const N: usize> AnalogSource for DriveAnalogInputs<N> {
 ///
 /// One wire's converter, so not generic over the wire count `N` of the inputs it reads: it
 /// holds them as a shared trait object (the wire index checked against `N` when it is made), so
-/// it fits in an enum of converters such as [`LinuxAdc`](super::linux::LinuxAdc) whatever the
-/// device. A read is one dynamic call and one atomic load; nothing is allocated.
+/// one type serves every device and an enum of converters can hold it whatever the wire count.
+/// A read is one dynamic call and one atomic load; nothing is allocated.
 #[derive(Debug, Clone)]
 pub struct DriveInputAdc {
     inputs: Arc<dyn AnalogSource>,

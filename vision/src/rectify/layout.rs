@@ -1,5 +1,5 @@
 //! The compact remap table: the per-pixel reference table regrouped into *shift blocks* that the
-//! inner loop ([`super::kernel`]) can interpolate with whole-vector operations.
+//! inner loop can interpolate with whole-vector operations.
 //!
 //! In a rectified row the source positions follow a smooth curve: x advances by about one
 //! pixel per pixel and y changes slowly. A shift block is a stretch of at most [`BLOCK_LEN`]

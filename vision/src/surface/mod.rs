@@ -16,6 +16,7 @@
 //! [`SceneMap`]: videt_control::SceneMap
 
 mod build;
+mod clip;
 pub mod export;
 mod grid;
 mod input;

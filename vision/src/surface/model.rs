@@ -10,6 +10,7 @@
 use videt_control::relief::{height_field_contact, HeightSample, ReliefSurface, SegmentHit};
 use videt_control::{Contact, Surface, Vec3};
 
+use super::clip::clip_to_rect;
 use super::grid::TriangleGrid;
 use super::input::ReliefParams;
 
@@ -305,7 +306,7 @@ impl ReliefModel {
                 face_normal: -Vec3::z(),
             })
         };
-        let clip = super::build::clip_to_rect([from.x, from.y], [to.x, to.y], self.area);
+        let clip = clip_to_rect([from.x, from.y], [to.x, to.y], self.area);
         let Some((t_in, t_out)) = clip else {
             return plane_hit(0.0, 1.0);
         };

@@ -3,7 +3,7 @@
 //! rebuilt (a full rebuild of a few hundred segments takes well under the vision period; see the
 //! `surface_build` benchmark).
 
-use super::build::clip_to_rect;
+use super::clip::clip_to_rect;
 use super::input::{PinholeCamera, SceneSegment3};
 
 /// The 3D point seen at image fraction `s` along a segment whose endpoints project to `ua`, `ub`
