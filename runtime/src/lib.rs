@@ -21,6 +21,7 @@ pub type WiremanStep = videt_control::ControlStep<WIREMAN_WIRES, WiremanDevice>;
 /// The WireMan's control cycle.
 pub type WiremanCycle = cycle::ControlCycle<WIREMAN_WIRES, WiremanDevice>;
 
+pub mod calibration;
 pub mod control_loop;
 pub mod cycle;
 pub mod drive_train;

@@ -432,7 +432,7 @@ where
     };
     // The control cycle's rig, as a loaded calibration file would give it.
     let result = result.and_then(|m| {
-        super::daemon::rig_from_sides(&m.triangle.sides_m)
+        videt_runtime::calibration::rig_from_sides(&m.triangle.sides_m)
             .map(|rig| (m, rig))
             .map_err(InitError::Unusable)
     });

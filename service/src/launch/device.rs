@@ -20,7 +20,7 @@ pub fn run_on_device(plan: &mut ServicePlan) -> ExitCode {
     let config = &plan.config;
     let options = &mut plan.options;
     let path = plan.calibration_path.clone();
-    let state = match crate::init::daemon::load(config, &path) {
+    let state = match videt_runtime::calibration::load(config, &path) {
         Ok(s) => s,
         Err(e) => {
             error!("calibration: {e}");

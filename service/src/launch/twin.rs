@@ -348,7 +348,7 @@ fn calibrate_twin(
     }
     match crate::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1, &stop)
         .map_err(|e| e.to_string())
-        .and_then(|o| crate::init::daemon::from_calibration(config, &o.calibration))
+        .and_then(|o| videt_runtime::calibration::from_calibration(config, &o.calibration))
     {
         Ok(s) => {
             let c = s
