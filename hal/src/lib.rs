@@ -36,7 +36,7 @@ pub use drive::{DriveSample, DriveState, Transmission, WireDrives};
 pub use error::{Error, ErrorKind, ErrorType};
 pub use estop::EStop;
 pub use lifecycle::{Lifecycle, LifecycleState};
-pub use tension::TensionSensors;
+pub use tension::{ConverterModel, TensionSensors};
 pub use vibro::Vibrotactors;
 
 /// Number of vibrotactors (one per colour channel: red, green, blue).

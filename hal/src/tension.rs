@@ -16,3 +16,33 @@ pub trait TensionSensors<const N: usize>: ErrorType {
         self.read_tensions(out_n).map(|()| [true; N])
     }
 }
+
+/// Conversion timing and resolution of one converter type, as configured: what the service's
+/// tension-loop budget and the twin's simulated converters both go by.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConverterModel {
+    /// Conversions per second.
+    pub sample_rate_sps: f64,
+    /// Order of the digital filter (conversions to settle a step): 0 samples the input at the
+    /// conversion instant (no filter).
+    pub filter_order: u32,
+    /// Newtons per count: the quantization step (0: none).
+    pub newtons_per_count: f64,
+}
+
+impl ConverterModel {
+    /// The conversion period, seconds.
+    pub fn period_s(&self) -> f64 {
+        1.0 / self.sample_rate_sps
+    }
+
+    /// The filter's group delay, seconds: half its span.
+    pub fn group_delay_s(&self) -> f64 {
+        f64::from(self.filter_order) * self.period_s() / 2.0
+    }
+
+    /// Time for a step at the input to be fully in the output, seconds.
+    pub fn settling_s(&self) -> f64 {
+        f64::from(self.filter_order.max(1)) * self.period_s()
+    }
+}

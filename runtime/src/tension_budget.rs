@@ -2,7 +2,7 @@
 //! margins on it, and the refusal (or the explicit degraded mode) of a sensor too slow for the
 //! configured gains.
 //!
-//! Converters (as modelled by the twin, [`videt_sim::converter`]): the HX711 at 10 or 80
+//! Converters (their timing, [`ConverterModel`], is what the twin simulates too): the HX711 at 10 or 80
 //! samples/s settles in 4 conversions (its datasheet: 400 ms / 50 ms); the ADS1220 in normal or
 //! turbo mode, its sinc3 filter settling in 3; a drive's analog input is read at every SYNC (its
 //! own input filter is not modelled). The loop's margins come from
@@ -11,8 +11,8 @@
 use videt_control::tension_loop::{
     loop_delay_s, pi_margins, stable_gain_scale, LoopMargins, MIN_GAIN_MARGIN, MIN_PHASE_MARGIN_DEG,
 };
+use videt_hal::ConverterModel;
 use videt_rt_config::{Ads1220Mode, Config, ConfigError, TensionAdc};
-use videt_sim::ConverterModel;
 
 /// The timing of the configured converters, for the twin and for the checks.
 pub fn converter_model(config: &Config) -> ConverterModel {

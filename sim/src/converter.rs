@@ -9,34 +9,7 @@
 //! converter samples the truth it is given at the twin's read instants and integrates between
 //! them by linear interpolation.
 
-/// Conversion timing and resolution of one converter type, as configured.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ConverterModel {
-    /// Conversions per second.
-    pub sample_rate_sps: f64,
-    /// Order of the digital filter (conversions to settle a step): 0 samples the input at the
-    /// conversion instant (no filter).
-    pub filter_order: u32,
-    /// Newtons per count: the quantization step (0: none).
-    pub newtons_per_count: f64,
-}
-
-impl ConverterModel {
-    /// The conversion period, seconds.
-    pub fn period_s(&self) -> f64 {
-        1.0 / self.sample_rate_sps
-    }
-
-    /// The filter's group delay, seconds: half its span.
-    pub fn group_delay_s(&self) -> f64 {
-        f64::from(self.filter_order) * self.period_s() / 2.0
-    }
-
-    /// Time for a step at the input to be fully in the output, seconds.
-    pub fn settling_s(&self) -> f64 {
-        f64::from(self.filter_order.max(1)) * self.period_s()
-    }
-}
+pub use videt_hal::tension::ConverterModel;
 
 /// Truth samples kept per converter: 0.4 s at 1 kHz (an HX711's span at 10 SPS) and margin.
 pub const HISTORY: usize = 1024;

@@ -108,8 +108,14 @@ where
             warn!("forces will not be rendered (not calibrated): --sim-calibration none");
             false
         }
-        // Refused by the plan: auto-initialization measures the WireMan's base triangle.
-        SimCalibration::Init => unreachable!("the plan refuses init on a device without it"),
+        // The plan refuses it already; refused here too rather than assumed.
+        SimCalibration::Init => {
+            error!(
+                "--sim-calibration init: auto-initialization measures the WireMan's base \
+                 triangle; the {name} device has none (use --sim-calibration config)"
+            );
+            return ExitCode::from(2);
+        }
     };
     let start = videt_assembly::twin_scene::demo_start(&device);
     let scene = videt_assembly::twin_scene::demo_scene_for(config, device, start, 1);
