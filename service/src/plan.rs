@@ -305,12 +305,17 @@ fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDe
         }
     };
     if request.sim_calibration == SimCalibration::Init {
-        return Err(PlanError::refused(format!(
-            "--sim-calibration init: auto-initialization measures the WireMan's base \
-             triangle; the {name} device has none (use --sim-calibration config)"
-        )));
+        return Err(PlanError::refused(init_refused(name)));
     }
     Ok(device)
+}
+
+/// Why `--sim-calibration init` is refused on a device other than the WireMan (`name`).
+pub(crate) fn init_refused(name: &str) -> String {
+    format!(
+        "--sim-calibration init: auto-initialization measures the WireMan's base triangle; \
+         the {name} device has none (use --sim-calibration config)"
+    )
 }
 
 #[cfg(test)]

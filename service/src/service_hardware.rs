@@ -57,12 +57,13 @@ pub trait ServiceHardware<const N: usize>:
     }
 }
 
-/// The [`ServiceHardware`] of a WireMan whose hardware runs the procedures.
+/// The [`ServiceHardware`] of a WireMan whose hardware runs the procedures: `$is_twin` tells
+/// from the hardware whether it is a twin; `[generics]` are the impl's, for a generic wrapper.
 macro_rules! wireman_service_hardware {
-    ($ty:ty, $twin:expr) => {
-        impl ServiceHardware<3> for $ty {
+    ($ty:ty, $is_twin:expr $(, [$($generics:tt)*])?) => {
+        impl $(<$($generics)*>)? ServiceHardware<3> for $ty {
             fn is_twin(&self) -> bool {
-                $twin
+                ($is_twin)(self)
             }
             fn sim_faults(&mut self) -> Option<SimFaultPort> {
                 ProcedureDevice::sim_faults(self)
@@ -93,46 +94,15 @@ macro_rules! wireman_service_hardware {
     };
 }
 
-wireman_service_hardware!(videt_assembly::WiremanTwin, true);
-wireman_service_hardware!(RealTimeTwin<3, Rig3>, true);
+wireman_service_hardware!(videt_assembly::WiremanTwin, |_| true);
+wireman_service_hardware!(RealTimeTwin<3, Rig3>, |_| true);
+wireman_service_hardware!(CanTwin<3, RealTimeTwin<3, Rig3>>, |_| true);
+// Corrected tension readings are the wrapped hardware's, and so is being a twin.
 wireman_service_hardware!(
-    CanTwin<3, RealTimeTwin<3, Rig3>>,
-    true
+    CorrectedTensions<H>,
+    |hw: &CorrectedTensions<H>| hw.inner().is_twin(),
+    [H: ServiceHardware<3> + ProcedureDevice]
 );
-
-impl<H> ServiceHardware<3> for CorrectedTensions<H>
-where
-    H: ServiceHardware<3> + ProcedureDevice,
-{
-    fn is_twin(&self) -> bool {
-        self.inner().is_twin()
-    }
-    fn sim_faults(&mut self) -> Option<SimFaultPort> {
-        ProcedureDevice::sim_faults(self)
-    }
-    fn runs_procedures(&self) -> bool {
-        true
-    }
-    fn run_procedure(
-        &mut self,
-        handle: &mut ProcedureHandle,
-        config: &Config,
-        observer: &mut dyn CycleObserver,
-        first_cycle: u64,
-        wire_zero: WireZero,
-        safety: SafetyState,
-    ) -> Option<ProcedureOutcome> {
-        Some(crate::init::remote::run_procedure(
-            self,
-            handle,
-            config,
-            observer,
-            first_cycle,
-            wire_zero,
-            safety,
-        ))
-    }
-}
 
 /// The [`ServiceHardware`] of the twin of a device without procedures, behind CiA 402 drives
 /// on the simulated CAN bus.
@@ -176,7 +146,7 @@ twin_service_hardware!(2, PlanarDevice);
 twin_service_hardware!(1, PolarDevice);
 
 #[cfg(target_os = "linux")]
-wireman_service_hardware!(videt_assembly::hardware::LinuxDevice, false);
+wireman_service_hardware!(videt_assembly::hardware::LinuxDevice, |_| false);
 
 /// Procedures (`videt init`, wire replacement) run on the device with a real technician.
 impl<D: WireDrives<WIREMAN_WIRES>, T: TensionSensors<WIREMAN_WIRES>, E: EStop> ProcedureDevice

@@ -110,10 +110,7 @@ where
         }
         // The plan refuses it already; refused here too rather than assumed.
         SimCalibration::Init => {
-            error!(
-                "--sim-calibration init: auto-initialization measures the WireMan's base \
-                 triangle; the {name} device has none (use --sim-calibration config)"
-            );
+            error!("{}", crate::plan::init_refused(name));
             return ExitCode::from(2);
         }
     };
