@@ -1,21 +1,26 @@
 #!/usr/bin/env bash
 # Debian package install test: builds the videt .deb with cargo-deb, installs it with dpkg into a
-# clean Debian bookworm root (debootstrap minbase with systemd, as on the backpack computer, but
-# in a chroot where systemd is not running) and checks what the package promises: the user, the
-# files and their owners, the conffile, the service neither enabled nor started, a clean
-# `systemd-analyze verify` of the unit, the binaries running there; then a reinstall keeps an
-# edited configuration, and remove and purge leave nothing of the package behind. A second round
-# installs without systemd-sysusers (the maintainer scripts' fallback to useradd).
+# clean Debian bookworm root (debootstrap minbase with systemd and udev, as on the backpack
+# computer, but in a chroot where systemd is not running) and checks what the package promises:
+# the user, the files and their owners, the conffile, the service neither enabled nor started, a
+# clean `systemd-analyze verify` of the unit, the binaries running there; then a reinstall keeps
+# an edited configuration, and remove and purge leave nothing of the package behind. A second
+# round installs without systemd-sysusers (the maintainer scripts' fallback to useradd). The
+# package under a running systemd is scripts/systemd-in-the-loop.sh.
 #
 #   scripts/deb-install-test.sh              build the package, then test it
-#   scripts/deb-install-test.sh --no-build   test the newest target/debian/videt_*.deb
+#   scripts/deb-install-test.sh --no-build   test the newest target/guest/debian/videt_*.deb
 #   scripts/deb-install-test.sh --keep       keep the root in target/deb-test/root (debugging)
+#   scripts/deb-install-test.sh --root-only  only make the cached bookworm root (the systemd
+#                                            guest's, scripts/systemd-in-the-loop.sh)
 #
 # Needs root (debootstrap, chroot, mount) and the network to a Debian mirror (the first bookworm
 # mirror of this machine's apt sources, or VIDET_DEBIAN_MIRROR); crates.io when cargo-deb has to
-# be installed. The bootstrapped root is cached as target/deb-test/bookworm-minbase-systemd.tar:
-# later runs unpack it instead of bootstrapping (delete it to bootstrap afresh). CARGO names the
-# cargo command to run (default: cargo). Prints PASS/FAIL lines and exits 1 on any FAIL.
+# be installed. The package is built from the guests' binaries, in target/guest (release, with
+# V4L2 capture; scripts/kil/host.sh), and written to target/guest/debian. The bootstrapped root
+# is cached as target/deb-test/bookworm-minbase-systemd-udev-v4l.tar: later runs unpack it
+# instead of bootstrapping (delete it to bootstrap afresh). CARGO names the cargo command to run
+# (default: cargo). Prints PASS/FAIL lines and exits 1 on any FAIL.
 # The checks are shell snippets run inside the root: their $ expand there, not here.
 # shellcheck disable=SC2016
 set -euo pipefail
@@ -24,16 +29,22 @@ REPO=$PWD
 WORK=$REPO/target/deb-test
 ROOT=$WORK/root
 SUITE=bookworm
-INCLUDE=systemd
-CACHE=$WORK/$SUITE-minbase-$INCLUDE.tar
+# systemd and udev, as on the backpack computer (udev makes the device units the service waits
+# for, e.g. sys-subsystem-net-devices-can0.device, and applies the package's device rules);
+# v4l-utils for the systemd guest to set its emulated cameras up.
+INCLUDE=systemd,udev,v4l-utils
+CACHE=$WORK/$SUITE-minbase-systemd-udev-v4l.tar
 CARGO=${CARGO:-cargo}
+export CARGO_TARGET_DIR=$REPO/target/guest
 BUILD=1
 KEEP=0
+ROOT_ONLY=0
 while [ $# -gt 0 ]; do
   case $1 in
     --no-build) BUILD=0 ;;
     --keep) KEEP=1 ;;
-    *) echo "usage: $0 [--no-build] [--keep]" >&2; exit 2 ;;
+    --root-only) ROOT_ONLY=1 ;;
+    *) echo "usage: $0 [--no-build] [--keep] [--root-only]" >&2; exit 2 ;;
   esac
   shift
 done
@@ -80,6 +91,8 @@ need=()
 for tool in debootstrap:debootstrap chroot:coreutils; do
   command -v "${tool%%:*}" >/dev/null 2>&1 || need+=("${tool#*:}")
 done
+# The package's build: bindgen for V4L2 capture.
+[ "$ROOT_ONLY" = 1 ] || dpkg -s libclang-dev >/dev/null 2>&1 || need+=(libclang-dev)
 if [ ${#need[@]} -gt 0 ]; then
   log "installing ${need[*]}"
   apt-get update -qq
@@ -88,7 +101,9 @@ fi
 
 # --- the package ------------------------------------------------------------------------------
 t=$(now)
-if [ "$BUILD" = 1 ]; then
+if [ "$ROOT_ONLY" = 1 ]; then
+  :
+elif [ "$BUILD" = 1 ]; then
   if ! "$CARGO" deb --version >/dev/null 2>&1; then
     log "installing cargo-deb"
     "$CARGO" install cargo-deb --locked
@@ -100,11 +115,13 @@ if [ "$BUILD" = 1 ]; then
   fi
 else
   # shellcheck disable=SC2012 # the newest by time; the names are cargo-deb's
-  DEB=$(ls -t target/debian/videt_*.deb 2>/dev/null | head -n 1) || true
-  [ -n "$DEB" ] || die "no target/debian/videt_*.deb; run without --no-build"
+  DEB=$(ls -t "$CARGO_TARGET_DIR"/debian/videt_*.deb 2>/dev/null | head -n 1) || true
+  [ -n "$DEB" ] || die "no $CARGO_TARGET_DIR/debian/videt_*.deb; run without --no-build"
 fi
-echo "package: $DEB"
-phase_done package "$t"
+if [ "$ROOT_ONLY" = 0 ]; then
+  echo "package: $DEB"
+  phase_done package "$t"
+fi
 
 # --- a clean bookworm root --------------------------------------------------------------------
 # The mirror: the first one this machine's apt takes bookworm from (one-line and deb822 sources).
@@ -146,6 +163,10 @@ if [ ! -f "$CACHE" ]; then
   tar -C "$WORK/bootstrap" -cf "$CACHE.tmp" . && mv "$CACHE.tmp" "$CACHE"
   remove_tree "$WORK/bootstrap"
   phase_done bootstrap "$t"
+fi
+if [ "$ROOT_ONLY" = 1 ]; then
+  echo "root: $CACHE"
+  exit 0
 fi
 t=$(now)
 remove_tree "$ROOT"
@@ -206,11 +227,11 @@ root_processes() {
 export ROOT
 export -f root_processes
 FILES="/usr/bin/videtd /usr/bin/videt /lib/systemd/system/videtd.service \
-  /usr/lib/sysusers.d/videt.conf /etc/videt/videt.toml /usr/share/doc/videt/README.md \
+  /usr/lib/sysusers.d/videt.conf /usr/lib/udev/rules.d/60-videt.rules /etc/videt/videt.toml /usr/share/doc/videt/README.md \
   /usr/share/doc/videt/videt.example.toml /usr/share/doc/videt/copyright"
 USER_CHECK='getent passwd videt | cut -d: -f6,7 | grep -qx "/var/lib/videt:/usr/sbin/nologin"
   groups=" $(id -nG videt) "
-  for g in videt video gpio; do case $groups in *" $g "*) ;; *) echo "videt not in $g:$groups"; exit 1 ;; esac; done'
+  for g in videt video gpio spi; do case $groups in *" $g "*) ;; *) echo "videt not in $g:$groups"; exit 1 ;; esac; done'
 DIRS_CHECK='for d in /var/log/videt /var/lib/videt; do
     s=$(stat -c "%U:%G %a" "$d"); [ "$s" = "videt:videt 755" ] || { echo "$d: $s"; exit 1; }
   done'
@@ -223,7 +244,7 @@ check "dpkg -i installs the package" \
 check_host "postinst says how to configure and start the service" \
   "grep -q 'neither enabled nor started' '$WORK/dpkg-install.log' &&
    grep -q 'systemctl enable --now videtd' '$WORK/dpkg-install.log'"
-check "user videt (home /var/lib/videt, nologin) in groups videt, video, gpio" "$USER_CHECK"
+check "user videt (home /var/lib/videt, nologin) in groups videt, video, gpio, spi" "$USER_CHECK"
 check "files in place" "for f in $FILES; do [ -f \"\$f\" ] || { echo \"missing \$f\"; exit 1; }; done
   [ -x /usr/bin/videtd ] && [ -x /usr/bin/videt ]"
 check_host "docs in /usr/share/doc/videt/docs" \
@@ -247,6 +268,7 @@ check "videt config check /etc/videt/videt.toml (as user videt) succeeds" \
   'setpriv --reuid=videt --regid=videt --init-groups videt config check /etc/videt/videt.toml >/tmp/check.out
    head -n 1 /tmp/check.out | grep -qx "# /etc/videt/videt.toml: valid"'
 check "videt --version" 'videt --version | grep -q "^videt 0\."'
+check "videtd --version: built with V4L2 capture" 'videtd --version | grep -q "with V4L2 capture"'
 check "videtd --help" 'videtd --help | grep -q -- "--config"'
 
 echo "--- reinstall over an edited configuration"
@@ -263,7 +285,7 @@ check "dpkg -r removes the package" 'dpkg -r videt
   [ "$(dpkg-query -W -f="\${Status}" videt)" = "deinstall ok config-files" ]'
 check "binaries, unit and docs gone; the conffile stays" \
   'for f in /usr/bin/videtd /usr/bin/videt /lib/systemd/system/videtd.service \
-     /usr/lib/sysusers.d/videt.conf /usr/share/doc/videt; do [ ! -e "$f" ] || { echo "left: $f"; exit 1; }; done
+     /usr/lib/sysusers.d/videt.conf /usr/lib/udev/rules.d/60-videt.rules /usr/share/doc/videt; do [ ! -e "$f" ] || { echo "left: $f"; exit 1; }; done
    [ -f /etc/videt/videt.toml ]'
 check "dpkg -P purges the package" 'dpkg -P videt
   ! dpkg-query -W -f="\${Status}" videt 2>/dev/null | grep -q ok'
@@ -274,13 +296,13 @@ phase_done "install-checks(sysusers)" "$t"
 
 t=$(now)
 echo "--- install without systemd-sysusers (useradd fallback)"
-check "hide systemd-sysusers, delete user videt and group gpio" \
+check "hide systemd-sysusers, delete user videt and groups gpio, spi" \
   'mv /usr/bin/systemd-sysusers /usr/bin/systemd-sysusers.hidden
-   userdel videt; ! getent group videt || groupdel videt; groupdel gpio'
+   userdel videt; ! getent group videt || groupdel videt; groupdel gpio; groupdel spi'
 install_package "$WORK/dpkg-install-fallback.log"
 check "dpkg -i installs the package" \
   '[ "$(dpkg-query -W -f="\${Status}" videt)" = "install ok installed" ]'
-check "user videt (home /var/lib/videt, nologin) in groups videt, video, gpio" "$USER_CHECK"
+check "user videt (home /var/lib/videt, nologin) in groups videt, video, gpio, spi" "$USER_CHECK"
 check "/var/log/videt and /var/lib/videt owned by videt:videt" "$DIRS_CHECK"
 check "videt config check /etc/videt/videt.toml (as user videt) succeeds" \
   'setpriv --reuid=videt --regid=videt --init-groups videt config check /etc/videt/videt.toml >/dev/null'

@@ -24,6 +24,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 REPO=$PWD
 KIL=$REPO/target/kil
+GUEST_NAME=kernel-in-the-loop
 OUT=$KIL/out
 MODE=suite
 BUILD=1
@@ -42,112 +43,8 @@ while [ $# -gt 0 ]; do
   shift
 done
 
-# The kernel: a pinned version first (reproducible), then whatever the archive offers now (the
-# archive drops old versions). Each entry is "ABI VERSION"; all five packages come from one.
-PINNED_KERNELS=("6.1.0-56 6.1.192-2")
-
-log() { printf '== kil: %s\n' "$*" >&2; }
-now() { date +%s.%N; }
-since() { echo "$(now) - $1" | bc | xargs printf '%.1f'; }
-
-skip() {
-  echo "kernel-in-the-loop: SKIPPED: $*"
-  if [ "${VIDET_REQUIRE_KERNEL:-0}" = 1 ]; then
-    echo "kernel-in-the-loop: VIDET_REQUIRE_KERNEL=1 makes this a failure" >&2
-    exit 1
-  fi
-  exit 0
-}
-
-# --- host tools -------------------------------------------------------------------------------
-install_host_tools() {
-  # The guest runs the host's own userland: these are what the suite uses in there too.
-  local need=() pkg
-  for pkg in qemu-system-x86 busybox-static iproute2 can-utils v4l-utils rt-tests kmod bc \
-    xz-utils cpio make gcc libelf-dev python3 libclang-dev; do
-    dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
-  done
-  if [ ${#need[@]} -gt 0 ]; then
-    log "installing ${need[*]}"
-    apt-get update -qq || true
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null ||
-      skip "cannot install ${need[*]}"
-  fi
-  # The independent CANopen peer (python-canopen) the drives of videtd-canopen-peer run on.
-  PEER_PYTHON=$(python3 -c 'import sys; print(sys.executable)')
-  if ! "$PEER_PYTHON" -c 'import canopen, can' 2>/dev/null; then
-    log "installing the CANopen peer's packages (scripts/canopen-peer/requirements.txt)"
-    "$PEER_PYTHON" -m pip install -q -r "$REPO/scripts/canopen-peer/requirements.txt" ||
-      skip "cannot install python-canopen"
-  fi
-}
-
-# --- the kernel, its modules and gpio-sim -----------------------------------------------------
-# Sets KVER (e.g. 6.1.0-56-rt-amd64) and KROOT (the unpacked packages).
-fetch_kernel() {
-  local candidates=("${PINNED_KERNELS[@]}") meta abi version
-  version=$(apt-cache policy linux-image-rt-amd64 2>/dev/null | awk '/Candidate:/ {print $2}')
-  meta=$(apt-cache depends "linux-image-rt-amd64=$version" 2>/dev/null |
-    sed -n 's/.*Depends: linux-image-\(6\.1\.0-[0-9]*\)-rt-amd64.*/\1/p' | head -1)
-  [ -n "$meta" ] && candidates+=("$meta $version")
-  for c in "${candidates[@]}"; do
-    read -r abi version <<<"$c"
-    KVER=$abi-rt-amd64
-    KROOT=$KIL/kernel-$KVER
-    if [ -f "$KROOT/.unpacked" ]; then
-      return 0
-    fi
-    log "downloading kernel $KVER ($version)"
-    local debs=$KIL/debs
-    rm -rf "$debs" && mkdir -p "$debs"
-    local kbuild=linux-kbuild-6.1=$version
-    # Kbuild's tools are the same across 6.1 stable updates: take the archive's if the pinned
-    # one is gone.
-    apt-cache madison linux-kbuild-6.1 | grep -q " $version " || kbuild=linux-kbuild-6.1
-    if (cd "$debs" && apt-get download -qq "linux-image-$KVER=$version" \
-      "linux-headers-$KVER=$version" "linux-headers-$abi-common-rt=$version" \
-      "$kbuild" "linux-source-6.1=$version" 2>/dev/null); then
-      rm -rf "$KROOT" && mkdir -p "$KROOT"
-      local d
-      for d in "$debs"/linux-image-*.deb "$debs"/linux-headers-*.deb "$debs"/linux-kbuild-*.deb; do
-        dpkg-deb -x "$d" "$KROOT"
-      done
-      # Only three files of the source are needed: gpio-sim, gpiolib.h and irq_sim.
-      mkdir -p "$KROOT/gpio-sim"
-      dpkg-deb --fsys-tarfile "$debs"/linux-source-6.1_*.deb |
-        tar -xO ./usr/src/linux-source-6.1.tar.xz |
-        tar -xJ -C "$KROOT/gpio-sim" --strip-components=3 \
-          linux-source-6.1/drivers/gpio/gpio-sim.c linux-source-6.1/drivers/gpio/gpiolib.h \
-          linux-source-6.1/kernel/irq/irq_sim.c
-      rm -rf "$debs"
-      touch "$KROOT/.unpacked"
-      return 0
-    fi
-    log "kernel $KVER ($version) is not (all) in the archive; trying the next one"
-  done
-  return 1
-}
-
-build_gpio_sim() {
-  local mod=$KROOT/gpio-sim headers=$KROOT/usr/src/linux-headers-$KVER
-  local ko=$KROOT/lib/modules/$KVER/extra/gpio-sim-ko.ko
-  [ -f "$ko" ] && return 0
-  log "building gpio-sim + irq_sim as one out-of-tree module"
-  # irq_to_desc is not exported to modules in 6.1; the sim chip's handler is
-  # handle_simple_irq, which generic_handle_irq calls for it.
-  sed -i 's/handle_simple_irq(irq_to_desc(irqnum));/generic_handle_irq(irqnum);/' "$mod/irq_sim.c"
-  grep -q 'generic_handle_irq(irqnum)' "$mod/irq_sim.c"
-  printf 'obj-m := gpio-sim-ko.o\ngpio-sim-ko-y := gpio-sim.o irq_sim.o\n' >"$mod/Kbuild"
-  # The headers' Makefile includes the common headers by their installed path.
-  echo "include $KROOT/usr/src/linux-headers-${KVER%-rt-amd64}-common-rt/Makefile" >"$headers/Makefile"
-  make -s -C "$headers" M="$mod" modules >"$mod/build.log" 2>&1 || {
-    cat "$mod/build.log" >&2
-    return 1
-  }
-  mkdir -p "$(dirname "$ko")"
-  cp "$mod/gpio-sim-ko.ko" "$ko"
-  depmod -b "$KROOT" "$KVER"
-}
+# shellcheck source=scripts/kil/host.sh
+source "$REPO/scripts/kil/host.sh"
 
 # --- the initramfs ----------------------------------------------------------------------------
 build_initramfs() {
@@ -185,17 +82,14 @@ print(exe[-1])'
 build_workspace() {
   log "building the binaries the guest runs"
   : >"$KIL/build.log"
-  cargo build --release --features v4l --bin videtd --bin videt 2>>"$KIL/build.log" || {
-    tail -30 "$KIL/build.log" >&2
-    return 1
-  }
+  build_guest_binaries
   local guest drivers sim
   guest=$(test_executable -p videt --features v4l --test kernel_guest)
   peer=$(test_executable -p videt --features v4l --test kernel_guest_peer)
   drivers=$(test_executable -p videt-drivers --features v4l --lib)
   sim=$(test_executable -p videt-sim --lib)
   # A stereo calibration of 640x480 cameras for the vivid frames (the shared chessboard rig).
-  "$REPO/target/release/videt" calibrate-stereo --images "$REPO/../shared/data/calib/chessboard" \
+  "$GUEST_BIN_DIR/videt" calibrate-stereo --images "$REPO/../shared/data/calib/chessboard" \
     --board 9x6 --square 0.025 --out "$KIL/stereo.json" >>"$KIL/build.log" 2>&1 || {
     tail -30 "$KIL/build.log" >&2
     return 1
@@ -206,7 +100,7 @@ PEER_TESTS=$peer
 PEER_PYTHON=$PEER_PYTHON
 DRIVERS_TESTS=$drivers
 SIM_TESTS=$sim
-BIN_DIR=$REPO/target/release
+BIN_DIR=$GUEST_BIN_DIR
 STEREO_CALIBRATION=$KIL/stereo.json
 EOF
 }
@@ -234,12 +128,7 @@ qemu() {
 
 choose_accelerator() {
   ACCEL=tcg
-  if [ -w /dev/kvm ]; then
-    log "probing KVM (a guest that does not reach its init in 30 s means no)"
-    if qemu kvm probe 30 && grep -q KIL-PROBE-OK "$OUT/console-probe.log"; then
-      ACCEL=kvm
-    fi
-  fi
+  probe_kvm "$INITRD" && ACCEL=kvm
   log "accelerator: $ACCEL"
 }
 
@@ -260,6 +149,7 @@ main() {
     build_workspace
   fi
   [ -f "$KIL/bins.env" ] || { echo "no binaries: run without --no-build" >&2; exit 1; }
+  check_v4l_build "$(sed -n 's/^BIN_DIR=//p' "$KIL/bins.env")/videtd" || exit 1
   cp "$KIL/bins.env" "$OUT/bins.env"
   [ -n "$FILTER" ] && echo "$FILTER" >"$OUT/filter"
   [ -n "$RUN" ] && echo "$RUN" >"$OUT/run"

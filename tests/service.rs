@@ -234,6 +234,38 @@ fn videtd_speaks_the_notify_protocol_and_answers_the_control_socket() {
             .ok
     );
 
+    // A latched e-stop is a safe state the loop holds, not a hang: the watchdog keeps being
+    // petted, so that systemd does not restart the service (which would clear the latch).
+    assert!(
+        request(
+            &socket,
+            &Request::SimFault {
+                fault: "estop".into()
+            },
+            Duration::from_secs(3)
+        )
+        .unwrap()
+        .ok
+    );
+    let t0 = Instant::now();
+    loop {
+        let s = request(&socket, &Request::Status, Duration::from_secs(3))
+            .unwrap()
+            .status
+            .unwrap();
+        if s.safety == "e-stop" {
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(3), "no e-stop: {s:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let watchdogs_before = messages.iter().filter(|m| m.contains("WATCHDOG=1")).count();
+    let t0 = Instant::now();
+    while messages.iter().filter(|m| m.contains("WATCHDOG=1")).count() < watchdogs_before + 3 {
+        recv(&mut messages, &mut buf);
+    }
+    assert!(t0.elapsed() < Duration::from_secs(3));
+
     // Stop through the socket: ramps out, exits 0, says STOPPING=1.
     assert!(
         request(&socket, &Request::Stop, Duration::from_secs(3))

@@ -285,6 +285,8 @@ pub struct ControlCycle<const N: usize, D: WireDevice<N>> {
     angle_history: [[f64; 2]; ANGLE_RATE_PERIODS],
     angle_history_len: usize,
     ramp: Ramp,
+    /// When the shutdown ramp began (the period before its first, s) and the force scale then.
+    ramp_down_from: Option<(f64, f64)>,
     force_scale: f64,
     cycle: u64,
     powered_off: bool,
@@ -317,6 +319,7 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
             angle_history: [[0.0; 2]; ANGLE_RATE_PERIODS],
             angle_history_len: 0,
             ramp: Ramp::Up,
+            ramp_down_from: None,
             force_scale: 0.0,
             cycle: 0,
             powered_off: false,
@@ -365,6 +368,7 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
     pub fn restart(&mut self) {
         self.pending_ops.push(CycleOp::Restart);
         self.ramp = Ramp::Up;
+        self.ramp_down_from = None;
         self.force_scale = 0.0;
         self.released_wire = None;
         self.step.reset();
@@ -531,7 +535,17 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
             }
             Ramp::Steady => {}
             Ramp::Down => {
-                self.force_scale = (self.force_scale - ramp_step).max(0.0);
+                // By the clock, not by periods: late periods (an overloaded CPU) do not stretch
+                // the stop beyond the ramp time.
+                let now_s = now.as_secs_f64();
+                let (since_s, from) = *self
+                    .ramp_down_from
+                    .get_or_insert((now_s - dt, self.force_scale));
+                self.force_scale = if self.settings.ramp_s > 0.0 {
+                    (from - (now_s - since_s).max(0.0) / self.settings.ramp_s).max(0.0)
+                } else {
+                    0.0
+                };
                 if self.force_scale <= 0.0 {
                     self.ramp = Ramp::Finished;
                 }

@@ -151,8 +151,7 @@ pub fn platform_warnings(control_cpu: Option<usize>) -> Vec<String> {
     let mut warnings = Vec::new();
     let realtime_kernel = std::fs::read_to_string("/sys/kernel/realtime")
         .is_ok_and(|s| s.trim() == "1")
-        || std::fs::read_to_string("/proc/sys/kernel/version")
-            .is_ok_and(|v| v.contains("PREEMPT_RT"));
+        || kernel_version().contains("PREEMPT_RT");
     if !realtime_kernel {
         warnings.push(
             "kernel is not PREEMPT_RT: expect occasional wake-up latencies of milliseconds; use a PREEMPT_RT kernel on the device".to_string(),
@@ -168,6 +167,21 @@ pub fn platform_warnings(control_cpu: Option<usize>) -> Vec<String> {
         }
     }
     warnings
+}
+
+/// The running kernel's version string (`uname -v`), from the system call: the service's
+/// `/proc` may show only its own processes (`ProcSubset=pid`).
+fn kernel_version() -> String {
+    // SAFETY: `uname` fills the zeroed struct it is given; its fields are NUL-terminated.
+    unsafe {
+        let mut names: libc::utsname = std::mem::zeroed();
+        if libc::uname(&mut names) != 0 {
+            return String::new();
+        }
+        std::ffi::CStr::from_ptr(names.version.as_ptr())
+            .to_string_lossy()
+            .into_owned()
+    }
 }
 
 /// Whether a kernel CPU list such as `1,3-5` contains `cpu`.
@@ -235,6 +249,15 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_kernel_version_from_uname_is_the_one_proc_shows() {
+        let version = kernel_version();
+        assert!(!version.is_empty());
+        if let Ok(proc_version) = std::fs::read_to_string("/proc/sys/kernel/version") {
+            assert_eq!(version, proc_version.trim());
+        }
+    }
+
     use super::*;
 
     #[test]

@@ -494,10 +494,10 @@ where
             }
             last_stale = record.surface_stale;
         }
-        // Healthy: periods keep coming and the drives are not powered off by a fault.
-        let healthy = running
-            && last_progress.elapsed() < Duration::from_millis(100)
-            && !record.safety.power_off();
+        // Alive: periods keep coming. A safe state the loop holds (an e-stop, a drive fault) is
+        // supervised, not hung: the watchdog keeps being petted, so that systemd does not
+        // restart the service, which would clear the latch and power the drives on again.
+        let healthy = running && last_progress.elapsed() < Duration::from_millis(100);
         if let Some(interval) = watchdog {
             if healthy && last_watchdog.elapsed() >= interval / 2 {
                 let _ = sd_notify::notify(&[NotifyState::Watchdog]);

@@ -31,9 +31,16 @@ use videt_service::plan::{
     load_config, parse_scene, ServicePlan, ServiceRequest, SimCalibration, SimMode, SimScene,
 };
 
+/// The version `videtd --version` prints, with the optional capabilities it was built with: the
+/// guests and a technician tell a build that can capture cameras from one that cannot.
+#[cfg(feature = "v4l")]
+const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (with V4L2 capture)");
+#[cfg(not(feature = "v4l"))]
+const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (without V4L2 capture)");
+
 /// VIDET service: the real-time control loop of the haptic interface.
 #[derive(Debug, Parser)]
-#[command(name = "videtd", version, about)]
+#[command(name = "videtd", version = VERSION, about)]
 struct Args {
     /// Run on the digital twin instead of the device.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "hal")]

@@ -156,7 +156,9 @@ fn accept_loop(
     }
 }
 
-/// Peer credentials: root, the service's own user, or the socket's group may talk to it.
+/// Peer credentials: root, the service's own user, or a member of the socket's group (its
+/// primary group or one of its supplementary groups: technicians join the group `videt`) may
+/// talk to it.
 fn authorised(stream: &UnixStream, socket_gid: u32) -> bool {
     let mut cred = libc::ucred {
         pid: 0,
@@ -176,7 +178,42 @@ fn authorised(stream: &UnixStream, socket_gid: u32) -> bool {
     };
     // SAFETY: geteuid has no preconditions.
     let me = unsafe { libc::geteuid() };
-    rc == 0 && (cred.uid == 0 || cred.uid == me || cred.gid == socket_gid)
+    rc == 0
+        && (cred.uid == 0
+            || cred.uid == me
+            || cred.gid == socket_gid
+            || peer_groups(stream).contains(&socket_gid))
+}
+
+/// The peer's supplementary groups, as they were when it connected (`SO_PEERGROUPS`); empty
+/// when the kernel cannot tell.
+fn peer_groups(stream: &UnixStream) -> Vec<libc::gid_t> {
+    let mut groups: Vec<libc::gid_t> = vec![0; 64];
+    for _ in 0..2 {
+        let mut len = (groups.len() * std::mem::size_of::<libc::gid_t>()) as libc::socklen_t;
+        // SAFETY: `groups` is valid for writes of `len` bytes; the fd is a live socket.
+        let rc = unsafe {
+            libc::getsockopt(
+                stream.as_raw_fd(),
+                libc::SOL_SOCKET,
+                libc::SO_PEERGROUPS,
+                groups.as_mut_ptr().cast(),
+                &mut len,
+            )
+        };
+        let count = len as usize / std::mem::size_of::<libc::gid_t>();
+        if rc == 0 {
+            groups.truncate(count);
+            return groups;
+        }
+        // ERANGE: `len` says how many there are.
+        if io::Error::last_os_error().raw_os_error() != Some(libc::ERANGE) || count <= groups.len()
+        {
+            break;
+        }
+        groups.resize(count, 0);
+    }
+    Vec::new()
 }
 
 fn serve_client(
@@ -274,6 +311,22 @@ mod tests {
             }),
             consumer,
         )
+    }
+
+    #[test]
+    fn the_peer_groups_are_the_connecting_process_groups() {
+        let (a, _b) = UnixStream::pair().unwrap();
+        let mut own: Vec<libc::gid_t> = vec![0; 256];
+        // SAFETY: `own` has room for 256 groups.
+        let n = unsafe { libc::getgroups(own.len() as i32, own.as_mut_ptr()) };
+        assert!(n >= 0);
+        own.truncate(n as usize);
+        let mut peer = peer_groups(&a);
+        own.sort_unstable();
+        peer.sort_unstable();
+        assert_eq!(peer, own);
+        // The peer (this process) is authorised by its user; a group it is in authorises too.
+        assert!(authorised(&a, u32::MAX));
     }
 
     #[test]

@@ -28,10 +28,12 @@ pub struct ServiceArgs {
 pub fn run(args: &ServiceArgs) -> ToolResult {
     let reply: Response =
         request(&args.socket, &args.command, Duration::from_secs(3)).map_err(|e| {
-            format!(
-                "cannot reach videtd at {}: {e} (is the service running?)",
-                args.socket.display()
-            )
+            let hint = if e.kind() == std::io::ErrorKind::PermissionDenied {
+                "only root and members of the group videt may use it: usermod -aG videt NAME, then log in again"
+            } else {
+                "is the service running?"
+            };
+            format!("cannot reach videtd at {}: {e} ({hint})", args.socket.display())
         })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&reply)?);

@@ -195,7 +195,21 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         config.drives.node_ids,
     );
     let started = std::time::Instant::now();
+    let mut powers = Vec::new();
     while !stop.load(Ordering::Relaxed) {
+        // Every change of the drives' power states, with the torque they apply: the record of
+        // what the motors did while the service started, stopped or died.
+        let views = bank.views();
+        let now: Vec<_> = views.iter().map(|v| v.power).collect();
+        if now != powers {
+            let states: Vec<String> = views
+                .iter()
+                .zip(&config.drives.node_ids)
+                .map(|(v, id)| format!("{id}: {:?} {:.3} N·m", v.power, v.applied_torque_nm))
+                .collect();
+            eprintln!("videt sim-rig: drive power {}", states.join(", "));
+            powers = now;
+        }
         if args
             .seconds
             .is_some_and(|s| started.elapsed().as_secs_f64() >= s)

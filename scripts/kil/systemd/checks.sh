@@ -1,0 +1,408 @@
+#!/bin/bash
+# The checks of the installed service, inside the systemd guest (run by
+# videt-guest-checks.service once the system is up). kil.phase on the kernel command line says
+# which boot this is:
+#   install  the package is installed and configured, the service started and enabled;
+#   boot     the enabled service came up with the system: boot to ready, then the service's
+#            behaviour under systemd, an upgrade and the removal.
+# Each check appends a PASS or FAIL line to /mnt/kil/summary.txt; the guest powers off at the end.
+set -uo pipefail
+OUT=/mnt/kil
+SUMMARY=$OUT/summary.txt
+PHASE=$(sed -n 's/.*kil\.phase=\([a-z]*\).*/\1/p' /proc/cmdline)
+CONFIG=/etc/videt/videt.toml
+export SYSTEMD_PAGER= SYSTEMD_COLORS=0
+exec >>"$OUT/checks-$PHASE.log" 2>&1
+
+mono() { cut -d' ' -f1 /proc/uptime; }
+prop() { systemctl show -p "$2" --value "$1"; }
+# seconds (float) of a monotonic µs property
+prop_s() { awk -v us="$(prop "$1" "$2")" 'BEGIN { printf "%.2f", us / 1e6 }'; }
+report() { # NAME RC SECONDS DETAIL
+  local word=PASS
+  [ "$2" = 0 ] || word=FAIL
+  printf '%s  %-62s %7s s  %s\n' "$word" "$1" "$3" "$4" >>"$SUMMARY"
+  echo "== $word $1 ($3 s): $4"
+}
+# check NAME FUNCTION: runs the function, which sets DETAIL; its status is the check's.
+check() {
+  local t0 rc
+  DETAIL=
+  t0=$(mono)
+  echo "== check: $1"
+  "$2"
+  rc=$?
+  report "$1" "$rc" "$(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }')" "$DETAIL"
+  return 0
+}
+fail() { DETAIL="$*"; return 1; }
+# wait_for SECONDS COMMAND...: until the command succeeds.
+wait_for() {
+  local deadline
+  deadline=$(awk -v t="$(mono)" -v s="$1" 'BEGIN { print t + s }')
+  shift
+  until "$@"; do
+    awk -v t="$(mono)" -v d="$deadline" 'BEGIN { exit !(t > d) }' && return 1
+    sleep 0.2
+  done
+}
+main_pid() { prop videtd MainPID; }
+is_active() { [ "$(systemctl is-active videtd)" = active ]; }
+# The control thread of process $1.
+control_tid() {
+  local t
+  for t in /proc/"$1"/task/*; do
+    [ "$(cat "$t/comm" 2>/dev/null)" = videt-control ] && { basename "$t"; return 0; }
+  done
+  return 1
+}
+# A unit's journal of this boot as "MONOTONIC_S MESSAGE" lines.
+journal() {
+  journalctl -b -u "$1" -o short-monotonic --no-pager | sed -n 's/^\[ *\([0-9.]*\)\] [^:]*: /\1 /p'
+}
+# The first line of the rig's drive power log after $1 (s) with no drive in Operation enabled:
+# "SECONDS LINE", or nothing.
+drives_safe_after() {
+  journal videt-sim-rig | awk -v t="$1" '$1 >= t && /drive power/ && !/OperationEnabled/ { print; exit }'
+}
+newest_log() { ls -t /var/log/videt/*.vlog 2>/dev/null | head -n 1; }
+config_value() { # SECTION KEY
+  awk -v s="[$1]" -v k="$2" '$0 == s { on = 1; next } /^\[/ { on = 0 }
+    on && $1 == k { sub(/^[^=]*= */, ""); print; exit }' "$CONFIG"
+}
+# Wait until videtd is active with a main process other than $1 (after a restart).
+wait_restarted() {
+  wait_for "$2" sh -c "[ \"\$(systemctl is-active videtd)\" = active ] &&
+    [ \"\$(systemctl show -p MainPID --value videtd)\" != '$1' ] &&
+    [ \"\$(systemctl show -p MainPID --value videtd)\" != 0 ]"
+}
+
+# --- boot 1: install -------------------------------------------------------------------------
+install_package() {
+  dpkg -i "$OUT/videt.deb" >"$OUT/dpkg-install.log" 2>&1 ||
+    fail "dpkg -i: $(tail -n 3 "$OUT/dpkg-install.log" | tr '\n' ' ')" || return 1
+  DETAIL="$(dpkg-query -W -f='${Version}' videt); $(videtd --version)"
+  videtd --version | grep -q "with V4L2 capture" || fail "$DETAIL"
+}
+configure_device() {
+  install -m 0644 "$OUT/videt.toml" "$CONFIG"
+  install -m 0644 "$OUT/stereo.json" /etc/videt/stereo.json
+  local out
+  out=$(setpriv --reuid=videt --regid=videt --init-groups videt config check "$CONFIG" 2>&1) ||
+    fail "videt config check: $out" || return 1
+  DETAIL=$(echo "$out" | head -n 1)
+}
+udev_gives_devices() {
+  local gpio lat
+  gpio=$(stat -c '%G %a' /dev/gpiochip0)
+  lat=$(stat -c '%G %a' /dev/cpu_dma_latency)
+  DETAIL="/dev/gpiochip0 $gpio, /dev/cpu_dma_latency $lat"
+  [ "$gpio" = "gpio 660" ] && [ "$lat" = "videt 660" ]
+}
+not_ready_without_drives() {
+  local rc=0 t0
+  t0=$(mono)
+  systemctl start videtd || rc=$?
+  local entered result
+  entered=$(prop videtd ActiveEnterTimestampMonotonic)
+  result=$(prop videtd Result)
+  local why
+  why=$(journalctl -b -u videtd -p err -o cat --no-pager | tail -n 1)
+  systemctl stop videtd
+  systemctl reset-failed videtd 2>/dev/null
+  DETAIL="start failed (exit $rc) after $(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }') s, result $result, never active; journal: $why"
+  [ "$rc" != 0 ] && [ "$entered" = 0 ] && [ -n "$why" ]
+}
+start_rig() {
+  systemctl start videt-sim-rig || fail "videt-sim-rig did not start: $(journalctl -b -u videt-sim-rig -o cat | tail -n 3 | tr '\n' ' ')" || return 1
+  DETAIL=$(journal videt-sim-rig | grep -m1 "drives \[" | cut -d' ' -f2-)
+}
+ready_once_drives_enabled() {
+  local t0 t1
+  t0=$(mono)
+  systemctl enable --now videtd 2>/dev/null || fail "systemctl enable --now videtd failed: $(journalctl -b -u videtd -o cat | tail -n 3 | tr '\n' ' ')" || return 1
+  t1=$(mono)
+  is_active || fail "not active" || return 1
+  sleep 2
+  local ready first log
+  ready=$(prop_s videtd ActiveEnterTimestampMonotonic)
+  log=$(newest_log)
+  # The session log's first period: the control loop running, the drives enabled.
+  videt log "$log" --csv /tmp/session.csv >/dev/null 2>&1
+  first=$(sed -n '2p' /tmp/session.csv | cut -d, -f2)
+  local enabled
+  enabled=$(journal videt-sim-rig | awk '/drive power/ && gsub(/OperationEnabled/, "&") == 3 { print $1; exit }')
+  DETAIL="enable --now took $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }') s; drives enabled (rig) at ${enabled:-?} s, first control period at ${first:-?} s, READY at $ready s"
+  [ -n "$first" ] && [ -n "$enabled" ] &&
+    awk -v f="$first" -v r="$ready" -v e="$enabled" 'BEGIN { exit !(f <= r && e <= r) }'
+}
+enable_rig() {
+  systemctl enable videt-sim-rig 2>/dev/null
+  DETAIL="videtd $(systemctl is-enabled videtd), videt-sim-rig $(systemctl is-enabled videt-sim-rig)"
+  [ "$(systemctl is-enabled videtd)" = enabled ]
+}
+
+# --- boot 2: the service as the system starts it ---------------------------------------------
+boot_to_ready() {
+  wait_for 600 is_active || fail "videtd not active 600 s after boot: $(systemctl is-active videtd)" || return 1
+  local started ready
+  started=$(prop_s videtd ExecMainStartTimestampMonotonic)
+  ready=$(prop_s videtd ActiveEnterTimestampMonotonic)
+  DETAIL="kernel start -> videtd ready $ready s (systemd started it at $started s; start -> ready $(awk -v a="$started" -v b="$ready" 'BEGIN { printf "%.2f", b - a }') s)"
+  echo "$ready" >"$OUT/boot-to-ready.txt"
+}
+realtime_under_limits() {
+  local pid tid policy prio cpus locked limits caps want_prio want_cpu
+  pid=$(main_pid)
+  tid=$(control_tid "$pid") || fail "no videt-control thread in $pid" || return 1
+  policy=$(chrt -p "$tid" | sed -n 's/.*policy: //p')
+  prio=$(chrt -p "$tid" | sed -n 's/.*priority: //p')
+  cpus=$(taskset -cp "$tid" | sed 's/.*: //')
+  locked=$(awk '/^VmLck/ { print $2 }' "/proc/$pid/status")
+  limits=$(awk '/Max realtime priority/ { r = $4 } /Max locked memory/ { m = $4 } END { print r "/" m }' "/proc/$pid/limits")
+  caps=$(awk '/^CapEff/ { print $2 }' "/proc/$pid/status")
+  want_prio=$(config_value realtime control_priority)
+  want_cpu=$(config_value realtime control_cpu)
+  DETAIL="control thread $tid: $policy $prio on CPU $cpus; VmLck $locked kB; limits rtprio/memlock $limits; CapEff $caps"
+  [ "$policy" = SCHED_FIFO ] && [ "$prio" = "$want_prio" ] && [ "$cpus" = "$want_cpu" ] &&
+    [ "${locked:-0}" -gt 1000 ] && [ "$limits" = "90/unlimited" ] && [ "$caps" = 0000000000000000 ]
+}
+devices_open() {
+  local pid fds want missing=
+  pid=$(main_pid)
+  fds=$(ls -l "/proc/$pid/fd" 2>/dev/null | sed -n 's/.* -> //p')
+  for want in /dev/gpiochip0 /dev/video0 /dev/video1 /dev/cpu_dma_latency; do
+    echo "$fds" | grep -qx "$want" || missing="$missing $want"
+  done
+  DETAIL="open: $(echo "$fds" | grep -E '^/dev/' | sort -u | tr '\n' ' ')$(echo "$fds" | grep -c '^socket:') sockets"
+  [ -z "$missing" ] || fail "$DETAIL; missing:$missing"
+}
+group_reaches_socket() {
+  id tech >/dev/null 2>&1 || useradd --no-create-home --groups videt tech
+  id visitor >/dev/null 2>&1 || useradd --no-create-home visitor
+  local ok refused rc=0
+  ok=$(setpriv --reuid=tech --regid=tech --init-groups videt service status 2>&1) ||
+    fail "member of videt: $ok" || return 1
+  refused=$(setpriv --reuid=visitor --regid=visitor --init-groups videt service status 2>&1) && rc=1
+  DETAIL="tech (group videt): $(echo "$ok" | head -n 1 | cut -c1-60); visitor: $(echo "$refused" | head -n 1)"
+  [ "$rc" = 0 ] && echo "$ok" | grep -q safety
+}
+journal_startup_lines() {
+  local j missing=
+  j=$(journalctl -b -u videtd -o cat --no-pager)
+  for line in "control socket ready" "recording every control period" "control loop running, drives enabled"; do
+    echo "$j" | grep -q "$line" || missing="$missing '$line'"
+  done
+  DETAIL="$(echo "$j" | grep -c .) lines this boot"
+  [ -z "$missing" ] || fail "missing$missing"
+}
+gpio_pull() { echo "$1" >"/sys/devices/platform/gpio-sim.0/gpiochip0/sim_gpio17/pull"; }
+estop_latches_under_watchdog() {
+  local pid t0 restarts
+  pid=$(main_pid)
+  restarts=$(prop videtd NRestarts)
+  t0=$(mono)
+  gpio_pull pull-down
+  wait_for 10 sh -c 'videt service status 2>/dev/null | grep -q "^safety: e-stop"' ||
+    fail "no e-stop in the status: $(videt service status 2>&1 | head -n 2)" || { gpio_pull pull-up; return 1; }
+  # Latched: released, still safe; the watchdog (2 s) keeps being petted meanwhile.
+  gpio_pull pull-up
+  sleep 6
+  local status why
+  status=$(videt service status 2>&1 | grep "^safety")
+  why=$(journal videtd | awk -v t="$t0" '$1 >= t && /safe state/ { $1 = ""; print; exit }')
+  DETAIL="journal:$why; 6 s after release: $status; restarts $restarts -> $(prop videtd NRestarts), pid $pid -> $(main_pid)"
+  [ "$(main_pid)" = "$pid" ] && [ "$(prop videtd NRestarts)" = "$restarts" ] &&
+    echo "$status" | grep -q "^safety: e-stop" && [ -n "$why" ]
+}
+restart_by_hand() {
+  local t0
+  t0=$(mono)
+  systemctl restart videtd || fail "restart failed" || return 1
+  local ready
+  ready=$(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }')
+  wait_for 15 sh -c 'videt service status 2>/dev/null | grep -q "^safety: normal"'
+  local rc=$?
+  DETAIL="restart -> ready $ready s; $(videt service status 2>&1 | grep '^safety')"
+  return $rc
+}
+# After a drive fault: the drive may still report it at the first start (the start then fails
+# with the cause named, and Restart=on-failure tries again); ready within 30 s.
+restart_after_fault() {
+  local t0 restarts
+  t0=$(mono)
+  restarts=$(prop videtd NRestarts)
+  systemctl restart videtd
+  wait_for 30 sh -c '[ "$(systemctl is-active videtd)" = active ] &&
+    videt service status 2>/dev/null | grep -q "^safety: normal"'
+  local rc=$?
+  DETAIL="ready after $(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }') s, $(( $(prop videtd NRestarts) - restarts )) automatic restarts; $(videt service status 2>&1 | grep '^safety')"
+  return $rc
+}
+drive_fault_cause_in_journal() {
+  local t0 cause
+  t0=$(mono)
+  kill -USR1 "$(prop videt-sim-rig MainPID)"
+  wait_for 20 sh -c "journalctl -b -u videtd -o short-monotonic --no-pager | sed -n 's/^\[ *\([0-9.]*\)\] [^:]*: /\1 /p' |
+    awk -v t=$t0 '\$1 >= t' | grep -qiE 'over-current|0x2310'"
+  local rc=$?
+  cause=$(journal videtd | awk -v t="$t0" '$1 >= t' | grep -iE -m1 'over-current|0x2310' | cut -d' ' -f2-)
+  kill -USR2 "$(prop videt-sim-rig MainPID)"
+  DETAIL="${cause:-no cause in the journal}"
+  [ "$rc" = 0 ]
+}
+# KILLER: a function that brings the process down; checks the restart and the drives meanwhile.
+restarted_with_forces_safe() {
+  local killer=$1 pid restarts t0 t_ready safe
+  wait_for 10 sh -c "journalctl -b -u videt-sim-rig -o cat | tail -n 1 | grep -q 'OperationEnabled.*OperationEnabled.*OperationEnabled'" ||
+    fail "the drives are not all enabled before: $(journal videt-sim-rig | tail -n 1)" || return 1
+  pid=$(main_pid)
+  restarts=$(prop videtd NRestarts)
+  t0=$(mono)
+  "$killer" "$pid"
+  wait_restarted "$pid" 90 || fail "not restarted within 90 s: $(systemctl is-active videtd), $(journalctl -b -u videtd -o cat | tail -n 2 | tr '\n' ' ')" || return 1
+  t_ready=$(prop_s videtd ActiveEnterTimestampMonotonic)
+  safe=$(drives_safe_after "$t0")
+  local t_safe=${safe%% *}
+  DETAIL="restarts $restarts -> $(prop videtd NRestarts); down at $t0 s, drives off at ${t_safe:-never} s (rig), ready again at $t_ready s"
+  [ "$(prop videtd NRestarts)" -gt "$restarts" ] && [ -n "$safe" ] &&
+    awk -v s="$t_safe" -v r="$t_ready" 'BEGIN { exit !(s <= r) }'
+}
+stop_control_thread() { kill -STOP "$(control_tid "$1")"; }
+watchdog_restarts_a_stopped_loop() {
+  local wd
+  wd=$(prop videtd WatchdogUSec)
+  [ "$wd" = 2s ] || fail "WatchdogUSec=$wd" || return 1
+  restarted_with_forces_safe stop_control_thread || return 1
+  local line
+  line=$(journalctl -b -u videtd -o cat --no-pager | grep -m1 -i "watchdog timeout")
+  DETAIL="WatchdogUSec=$wd; $DETAIL; systemd: $line"
+  [ -n "$line" ]
+}
+kill_main() { kill -KILL "$1"; }
+sigkill_restarts() {
+  restarted_with_forces_safe kill_main || return 1
+  DETAIL="Restart=$(prop videtd Restart) RestartSec=$(prop videtd RestartUSec); $DETAIL"
+}
+stop_ramps_out() {
+  local t0 t1 ramp log
+  t0=$(mono)
+  systemctl stop videtd
+  t1=$(mono)
+  log=$(newest_log)
+  ramp=$(config_value control ramp_down_s)
+  # The ramp: from the last period at full force to the last period of the log.
+  local figures
+  videt log "$log" --csv /tmp/session.csv >/dev/null 2>&1
+  figures=$(awk -F, '
+    NR == 1 { for (i = 1; i <= NF; i++) { if ($i == "time_s") t = i; if ($i == "force_scale") f = i }; next }
+    { if ($f >= 1) { full = $t; after = 0 } else if (full != "") { if (!after) start = $t; after = 1; last = $t; lastf = $f; n++ } }
+    END { printf "%.3f %.3f %s %d", start - full, last - full, lastf, n }' /tmp/session.csv)
+  read -r _ span final periods <<<"$figures"
+  local msg
+  msg=$(journal videtd | awk -v t="$t0" '$1 >= t && /forces ramped out/ { print "yes"; exit }')
+  DETAIL="stop took $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') s; session log: forces from full to ${final:-?} in ${span:-?} s over ${periods:-?} periods (ramp_down_s = $ramp); result $(prop videtd Result)"
+  [ "$(prop videtd Result)" = success ] && [ "$msg" = yes ] && [ "$final" = "0.0000" ] &&
+    awk -v s="$span" -v r="$ramp" 'BEGIN { exit !(s <= r + 0.05) }'
+}
+start_again() {
+  systemctl start videtd && is_active
+  DETAIL="$(systemctl is-active videtd)"
+}
+writes_confined() {
+  local pid bad= ok= d
+  pid=$(main_pid)
+  # As root in the service's mount namespace: ProtectSystem=strict and ProtectHome make
+  # everything but its directories read-only or absent, whoever writes.
+  for d in / /etc /etc/videt /usr /usr/local /var /var/lib /var/cache /opt /srv /root /home /run /dev/shm /dev/mqueue /boot; do
+    if nsenter -t "$pid" -m -- sh -c "touch '$d/.videt-probe' 2>/dev/null"; then
+      bad="$bad $d"
+      nsenter -t "$pid" -m -- rm -f "$d/.videt-probe"
+    fi
+  done
+  # As the service's user: its own directories.
+  for d in /var/lib/videt /var/log/videt /run/videt; do
+    if nsenter -t "$pid" -m -- setpriv --reuid=videt --regid=videt --init-groups sh -c "touch '$d/.videt-probe' && rm '$d/.videt-probe'"; then
+      ok="$ok $d"
+    else
+      bad="$bad (cannot write $d)"
+    fi
+  done
+  # Its /tmp is its own: what it writes there is not the system's.
+  nsenter -t "$pid" -m -- sh -c 'echo x >/tmp/.videt-probe' && [ -e /tmp/.videt-probe ] && bad="$bad /tmp(shared)"
+  DETAIL="writable:$ok; refused elsewhere${bad:+; WRITABLE:$bad}"
+  [ -z "$bad" ]
+}
+upgrade_keeps_conffile_and_service() {
+  local pid restarts out
+  echo "# edited on this device" >>"$CONFIG"
+  pid=$(main_pid)
+  restarts=$(prop videtd NRestarts)
+  out=$(dpkg -i "$OUT/videt-rebuilt.deb" 2>&1) || fail "dpkg -i: $out" || return 1
+  echo "$out" >"$OUT/dpkg-upgrade.log"
+  local version exe
+  version=$(dpkg-query -W -f='${Version}' videt)
+  exe=$(readlink "/proc/$pid/exe")
+  DETAIL="now $version; conffile: $(tail -n 1 "$CONFIG"); videtd pid $pid -> $(main_pid), runs $exe; dpkg: $(echo "$out" | grep -m1 'still runs')"
+  [ "$version" = "$(cat "$OUT/rebuilt-version")" ] && [ "$(tail -n 1 "$CONFIG")" = "# edited on this device" ] &&
+    [ "$(main_pid)" = "$pid" ] && [ "$(prop videtd NRestarts)" = "$restarts" ] && is_active &&
+    echo "$out" | grep -q "still runs the previous version"
+}
+remove_stops_cleanly() {
+  local t0 out left=
+  t0=$(mono)
+  out=$(dpkg -r videt 2>&1) || fail "dpkg -r: $out" || return 1
+  local p
+  for p in /proc/[0-9]*; do
+    [ "$(cat "$p/comm" 2>/dev/null)" = videtd ] && left="$left ${p#/proc/}"
+  done
+  local lines
+  lines=$(journal videtd | awk -v t="$t0" '$1 >= t' | cut -d' ' -f2-)
+  DETAIL="removed in $(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }') s; $(systemctl is-active videtd 2>&1); journal: $(echo "$lines" | grep -E 'ramped out|Deactivated|Stopped' | tr '\n' ';' | cut -c1-160)"
+  [ -z "$left" ] && echo "$lines" | grep -q "forces ramped out" && echo "$lines" | grep -q "Deactivated successfully"
+}
+purge_leaves_no_link() {
+  dpkg -P videt >/dev/null 2>&1
+  DETAIL="$(ls /etc/systemd/system/multi-user.target.wants/ | tr '\n' ' ')"
+  [ ! -e /etc/systemd/system/multi-user.target.wants/videtd.service ] &&
+    [ ! -L /etc/systemd/system/multi-user.target.wants/videtd.service ]
+}
+
+echo "=== phase $PHASE at $(mono) s"
+case $PHASE in
+  install)
+    check "dpkg -i installs the package (built with V4L2 capture)" install_package
+    check "the device configuration passes videt config check" configure_device
+    check "udev gives group gpio the GPIO chip, videt the latency limit" udev_gives_devices
+    check "Type=notify: without drives videtd is never active" not_ready_without_drives
+    check "videt sim-rig serves the drives on can0" start_rig
+    check "Type=notify: active only once the drives are enabled" ready_once_drives_enabled
+    check "videtd and the rig enabled for the next boot" enable_rig
+    ;;
+  boot)
+    check "boot to ready: videtd active with the system" boot_to_ready
+    check "control thread SCHED_FIFO, memory locked, no capabilities" realtime_under_limits
+    check "SocketCAN up; GPIO chip, both cameras, latency limit open" devices_open
+    check "group videt reaches the socket; others are refused" group_reaches_socket
+    check "journald has the start-up lines" journal_startup_lines
+    check "GPIO e-stop: safe state in the journal, latched, no restart" estop_latches_under_watchdog
+    check "systemctl restart: ready again, safety normal" restart_by_hand
+    check "a drive's fault cause reaches the journal" drive_fault_cause_in_journal
+    check "ready again once the fault's cause is gone (restart)" restart_after_fault
+    check "watchdog: a stopped control thread is restarted" watchdog_restarts_a_stopped_loop
+    check "SIGKILL: restarted (Restart=on-failure), drives off meanwhile" sigkill_restarts
+    check "systemctl stop ramps the forces out (session log)" stop_ramps_out
+    check "systemctl start" start_again
+    check "writes only to its state, log and run directories" writes_confined
+    check "upgrade keeps the edited conffile, leaves videtd running" upgrade_keeps_conffile_and_service
+    check "dpkg -r stops videtd cleanly (forces ramped out)" remove_stops_cleanly
+    check "dpkg -P removes the enablement link" purge_leaves_no_link
+    ;;
+  *)
+    report "kil.phase" 1 0 "unknown phase '$PHASE'"
+    ;;
+esac
+journalctl -b --no-pager -o short-monotonic >"$OUT/journal-$PHASE.txt" 2>&1
+echo "$PHASE" >"$OUT/done-$PHASE"
+sync
+systemctl poweroff --no-block
