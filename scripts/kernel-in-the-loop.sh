@@ -47,27 +47,10 @@ done
 source "$REPO/scripts/kil/host.sh"
 
 # --- the initramfs ----------------------------------------------------------------------------
+# The 9p-over-virtio stack: the guest's root is the host's.
 build_initramfs() {
   INITRD=$KIL/initramfs-$KVER.cpio.gz
-  local stamp
-  stamp=$(cat "$REPO/scripts/kil/init" "$0" | sha1sum | cut -c1-12)
-  [ -f "$INITRD" ] && [ "$(cat "$INITRD.stamp" 2>/dev/null)" = "$stamp" ] && return 0
-  log "building the initramfs"
-  local ir=$KIL/initramfs m
-  rm -rf "$ir" && mkdir -p "$ir"/{bin,dev,proc,sys,host,modules}
-  cp /bin/busybox "$ir/bin/busybox"
-  # The 9p-over-virtio stack, in dependency order (numbered: the init loads them sorted).
-  local n=10 ko
-  for ko in $(for m in virtio_pci 9pnet_virtio 9p; do
-    modprobe -d "$KROOT" -S "$KVER" --show-depends "$m" | awk '$1 == "insmod" {print $2}'
-  done | awk '!seen[$0]++'); do
-    cp "$ko" "$ir/modules/$n-$(basename "$ko")"
-    n=$((n + 1))
-  done
-  cp "$REPO/scripts/kil/init" "$ir/init"
-  chmod +x "$ir/init"
-  (cd "$ir" && find . | cpio -o -H newc --quiet | gzip -1) >"$INITRD"
-  echo "$stamp" >"$INITRD.stamp"
+  make_initramfs "$INITRD" "$REPO/scripts/kil/init" virtio_pci 9pnet_virtio 9p
 }
 
 # --- the binaries the guest runs --------------------------------------------------------------

@@ -85,26 +85,10 @@ disk() {
   qemu-img create -q -f qcow2 -b "$base" -F raw "$OVERLAY"
 }
 
-# --- the initramfs: busybox, the disk's and 9p's modules, the init ------------------------------
+# --- the initramfs: the disk's and 9p's modules, the init ------------------------------------
 initramfs() {
   INITRD=$SD/initramfs-$KVER.cpio.gz
-  local stamp
-  stamp=$(cat "$REPO/scripts/kil/systemd-init" "$0" | sha1sum | cut -c1-12)
-  [ -f "$INITRD" ] && [ "$(cat "$INITRD.stamp" 2>/dev/null)" = "$stamp" ] && return 0
-  log "building the initramfs"
-  local ir=$SD/initramfs n=10 ko m
-  rm -rf "$ir" && mkdir -p "$ir"/{bin,dev,proc,sys,modules}
-  cp /bin/busybox "$ir/bin/busybox"
-  for ko in $(for m in virtio_pci virtio_blk ext4 9pnet_virtio 9p; do
-    modprobe -d "$KROOT" -S "$KVER" --show-depends "$m" | awk '$1 == "insmod" {print $2}'
-  done | awk '!seen[$0]++'); do
-    cp "$ko" "$ir/modules/$n-$(basename "$ko")"
-    n=$((n + 1))
-  done
-  cp "$REPO/scripts/kil/systemd-init" "$ir/init"
-  chmod +x "$ir/init"
-  (cd "$ir" && find . | cpio -o -H newc --quiet | gzip -1) >"$INITRD"
-  echo "$stamp" >"$INITRD.stamp"
+  make_initramfs "$INITRD" "$REPO/scripts/kil/systemd-init" virtio_pci virtio_blk ext4 9pnet_virtio 9p
 }
 
 # --- what the guest is given ------------------------------------------------------------------

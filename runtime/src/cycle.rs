@@ -521,6 +521,7 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
         let state = self.safety.update(&input);
 
         // Ramp the rendered force in on start and out on stop.
+        let now_s = now.as_secs_f64();
         let ramp_step = if self.settings.ramp_s > 0.0 {
             dt / self.settings.ramp_s
         } else {
@@ -537,7 +538,6 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
             Ramp::Down => {
                 // By the clock, not by periods: late periods (an overloaded CPU) do not stretch
                 // the stop beyond the ramp time.
-                let now_s = now.as_secs_f64();
                 let (since_s, from) = *self
                     .ramp_down_from
                     .get_or_insert((now_s - dt, self.force_scale));
@@ -554,7 +554,6 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
         }
         // A live surface that stopped changing is stale: fade the forces out (and back in when a
         // new model arrives).
-        let now_s = now.as_secs_f64();
         if view.version != self.surface_version {
             self.surface_version = view.version;
             self.surface_changed_at_s = now_s;

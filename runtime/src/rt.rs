@@ -249,6 +249,8 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn the_kernel_version_from_uname_is_the_one_proc_shows() {
         let version = kernel_version();
@@ -257,8 +259,6 @@ mod tests {
             assert_eq!(version, proc_version.trim());
         }
     }
-
-    use super::*;
 
     #[test]
     fn cpu_lists() {

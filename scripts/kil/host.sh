@@ -113,6 +113,33 @@ build_gpio_sim() {
 }
 
 
+# --- the initramfs ----------------------------------------------------------------------------
+# make_initramfs OUT INIT MODULE...: a busybox initramfs at OUT with INIT as /init and the
+# kernel modules named, with their dependencies, in /modules (numbered in dependency order: the
+# inits load them sorted). Rebuilt only when INIT, this file or the module list change.
+make_initramfs() {
+  local out=$1 init=$2
+  shift 2
+  local stamp
+  stamp=$( (cat "$init" "$REPO/scripts/kil/host.sh"; echo "$KVER $*") | sha1sum | cut -c1-12)
+  [ -f "$out" ] && [ "$(cat "$out.stamp" 2>/dev/null)" = "$stamp" ] && return 0
+  log "building the initramfs"
+  local ir=$out.d n=10 ko m
+  rm -rf "$ir" && mkdir -p "$ir"/{bin,dev,proc,sys,host,modules}
+  cp /bin/busybox "$ir/bin/busybox"
+  for ko in $(for m in "$@"; do
+    modprobe -d "$KROOT" -S "$KVER" --show-depends "$m" | awk '$1 == "insmod" {print $2}'
+  done | awk '!seen[$0]++'); do
+    cp "$ko" "$ir/modules/$n-$(basename "$ko")"
+    n=$((n + 1))
+  done
+  cp "$init" "$ir/init"
+  chmod +x "$ir/init"
+  (cd "$ir" && find . | cpio -o -H newc --quiet | gzip -1) >"$out"
+  rm -rf "$ir"
+  echo "$stamp" >"$out.stamp"
+}
+
 # --- the accelerator --------------------------------------------------------------------------
 # probe_kvm INITRD: whether a KVM guest of this kernel reaches its init (kil.mode=probe makes
 # either init print KIL-PROBE-OK and power off) within 30 s. KVM accepts a VM on these

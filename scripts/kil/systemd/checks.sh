@@ -32,7 +32,7 @@ check() {
   echo "== check: $1"
   "$2"
   rc=$?
-  report "$1" "$rc" "$(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }')" "$DETAIL"
+  report "$1" "$rc" "$(seconds_since "$t0")" "$DETAIL"
   return 0
 }
 fail() { DETAIL="$*"; return 1; }
@@ -70,12 +70,20 @@ config_value() { # SECTION KEY
   awk -v s="[$1]" -v k="$2" '$0 == s { on = 1; next } /^\[/ { on = 0 }
     on && $1 == k { sub(/^[^=]*= */, ""); print; exit }' "$CONFIG"
 }
-# Wait until videtd is active with a main process other than $1 (after a restart).
-wait_restarted() {
-  wait_for "$2" sh -c "[ \"\$(systemctl is-active videtd)\" = active ] &&
-    [ \"\$(systemctl show -p MainPID --value videtd)\" != '$1' ] &&
-    [ \"\$(systemctl show -p MainPID --value videtd)\" != 0 ]"
+# videtd active with a main process other than $1 (after a restart).
+restarted_from() { is_active && [ "$(main_pid)" != "$1" ] && [ "$(main_pid)" != 0 ]; }
+# The service's safety state is $1 (`videt service status`).
+safety_is() { videt service status 2>/dev/null | grep -q "^safety: $1"; }
+safety_line() { videt service status 2>&1 | grep '^safety'; }
+ready_and_normal() { is_active && safety_is normal; }
+# The rig's last power line has all three drives in Operation enabled.
+drives_all_enabled() {
+  journal videt-sim-rig | grep "drive power" | tail -n 1 |
+    grep -q 'OperationEnabled.*OperationEnabled.*OperationEnabled'
 }
+# videtd's journal names the injected over-current fault after $1 (s).
+fault_cause_since() { journal videtd | awk -v t="$1" '$1 >= t' | grep -iE -m1 'over-current|0x2310'; }
+seconds_since() { awk -v a="$1" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }'; }
 
 # --- boot 1: install -------------------------------------------------------------------------
 install_package() {
@@ -107,10 +115,10 @@ not_ready_without_drives() {
   entered=$(prop videtd ActiveEnterTimestampMonotonic)
   result=$(prop videtd Result)
   local why
-  why=$(journalctl -b -u videtd -p err -o cat --no-pager | tail -n 1)
+  why=$(journalctl -b _SYSTEMD_UNIT=videtd.service -p err -o cat --no-pager | tail -n 1)
   systemctl stop videtd
   systemctl reset-failed videtd 2>/dev/null
-  DETAIL="start failed (exit $rc) after $(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }') s, result $result, never active; journal: $why"
+  DETAIL="start failed (exit $rc) after $(seconds_since "$t0") s, result $result, never active; journal: $why"
   [ "$rc" != 0 ] && [ "$entered" = 0 ] && [ -n "$why" ]
 }
 start_rig() {
@@ -203,50 +211,46 @@ estop_latches_under_watchdog() {
   restarts=$(prop videtd NRestarts)
   t0=$(mono)
   gpio_pull pull-down
-  wait_for 10 sh -c 'videt service status 2>/dev/null | grep -q "^safety: e-stop"' ||
+  wait_for 10 safety_is e-stop ||
     fail "no e-stop in the status: $(videt service status 2>&1 | head -n 2)" || { gpio_pull pull-up; return 1; }
   # Latched: released, still safe; the watchdog (2 s) keeps being petted meanwhile.
   gpio_pull pull-up
   sleep 6
   local status why
-  status=$(videt service status 2>&1 | grep "^safety")
+  status=$(safety_line)
   why=$(journal videtd | awk -v t="$t0" '$1 >= t && /safe state/ { $1 = ""; print; exit }')
   DETAIL="journal:$why; 6 s after release: $status; restarts $restarts -> $(prop videtd NRestarts), pid $pid -> $(main_pid)"
   [ "$(main_pid)" = "$pid" ] && [ "$(prop videtd NRestarts)" = "$restarts" ] &&
     echo "$status" | grep -q "^safety: e-stop" && [ -n "$why" ]
 }
-restart_by_hand() {
-  local t0
+# restart_until_normal SECONDS: systemctl restart, then ready with safety normal within SECONDS;
+# sets DETAIL. Its status is the wait's; the restart's own is in RESTART_RC.
+restart_until_normal() {
+  local t0 restarts
   t0=$(mono)
-  systemctl restart videtd || fail "restart failed" || return 1
-  local ready
-  ready=$(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }')
-  wait_for 15 sh -c 'videt service status 2>/dev/null | grep -q "^safety: normal"'
-  local rc=$?
-  DETAIL="restart -> ready $ready s; $(videt service status 2>&1 | grep '^safety')"
+  restarts=$(prop videtd NRestarts)
+  RESTART_RC=0
+  systemctl restart videtd || RESTART_RC=$?
+  local rc=0
+  wait_for "$1" ready_and_normal || rc=$?
+  DETAIL="ready after $(seconds_since "$t0") s, $(($(prop videtd NRestarts) - restarts)) automatic restarts; $(safety_line)"
   return $rc
+}
+restart_by_hand() {
+  restart_until_normal 15 && [ "$RESTART_RC" = 0 ]
 }
 # After a drive fault: the drive may still report it at the first start (the start then fails
 # with the cause named, and Restart=on-failure tries again); ready within 30 s.
 restart_after_fault() {
-  local t0 restarts
-  t0=$(mono)
-  restarts=$(prop videtd NRestarts)
-  systemctl restart videtd
-  wait_for 30 sh -c '[ "$(systemctl is-active videtd)" = active ] &&
-    videt service status 2>/dev/null | grep -q "^safety: normal"'
-  local rc=$?
-  DETAIL="ready after $(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }') s, $(( $(prop videtd NRestarts) - restarts )) automatic restarts; $(videt service status 2>&1 | grep '^safety')"
-  return $rc
+  restart_until_normal 30
 }
 drive_fault_cause_in_journal() {
   local t0 cause
   t0=$(mono)
   kill -USR1 "$(prop videt-sim-rig MainPID)"
-  wait_for 20 sh -c "journalctl -b -u videtd -o short-monotonic --no-pager | sed -n 's/^\[ *\([0-9.]*\)\] [^:]*: /\1 /p' |
-    awk -v t=$t0 '\$1 >= t' | grep -qiE 'over-current|0x2310'"
-  local rc=$?
-  cause=$(journal videtd | awk -v t="$t0" '$1 >= t' | grep -iE -m1 'over-current|0x2310' | cut -d' ' -f2-)
+  local rc=0
+  wait_for 20 fault_cause_since "$t0" >/dev/null || rc=$?
+  cause=$(fault_cause_since "$t0" | cut -d' ' -f2-)
   kill -USR2 "$(prop videt-sim-rig MainPID)"
   DETAIL="${cause:-no cause in the journal}"
   [ "$rc" = 0 ]
@@ -254,13 +258,13 @@ drive_fault_cause_in_journal() {
 # KILLER: a function that brings the process down; checks the restart and the drives meanwhile.
 restarted_with_forces_safe() {
   local killer=$1 pid restarts t0 t_ready safe
-  wait_for 10 sh -c "journalctl -b -u videt-sim-rig -o cat | tail -n 1 | grep -q 'OperationEnabled.*OperationEnabled.*OperationEnabled'" ||
+  wait_for 10 drives_all_enabled ||
     fail "the drives are not all enabled before: $(journal videt-sim-rig | tail -n 1)" || return 1
   pid=$(main_pid)
   restarts=$(prop videtd NRestarts)
   t0=$(mono)
   "$killer" "$pid"
-  wait_restarted "$pid" 90 || fail "not restarted within 90 s: $(systemctl is-active videtd), $(journalctl -b -u videtd -o cat | tail -n 2 | tr '\n' ' ')" || return 1
+  wait_for 90 restarted_from "$pid" || fail "not restarted within 90 s: $(systemctl is-active videtd), $(journalctl -b -u videtd -o cat | tail -n 2 | tr '\n' ' ')" || return 1
   t_ready=$(prop_s videtd ActiveEnterTimestampMonotonic)
   safe=$(drives_safe_after "$t0")
   local t_safe=${safe%% *}
@@ -358,7 +362,7 @@ remove_stops_cleanly() {
   done
   local lines
   lines=$(journal videtd | awk -v t="$t0" '$1 >= t' | cut -d' ' -f2-)
-  DETAIL="removed in $(awk -v a="$t0" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }') s; $(systemctl is-active videtd 2>&1); journal: $(echo "$lines" | grep -E 'ramped out|Deactivated|Stopped' | tr '\n' ';' | cut -c1-160)"
+  DETAIL="removed in $(seconds_since "$t0") s; $(systemctl is-active videtd 2>&1); journal: $(echo "$lines" | grep -E 'ramped out|Deactivated|Stopped' | tr '\n' ';' | cut -c1-160)"
   [ -z "$left" ] && echo "$lines" | grep -q "forces ramped out" && echo "$lines" | grep -q "Deactivated successfully"
 }
 purge_leaves_no_link() {

@@ -179,10 +179,23 @@ fn authorised(stream: &UnixStream, socket_gid: u32) -> bool {
     // SAFETY: geteuid has no preconditions.
     let me = unsafe { libc::geteuid() };
     rc == 0
-        && (cred.uid == 0
-            || cred.uid == me
-            || cred.gid == socket_gid
-            || peer_groups(stream).contains(&socket_gid))
+        && permits(cred.uid, me, socket_gid, || {
+            let mut groups = peer_groups(stream);
+            groups.push(cred.gid);
+            groups
+        })
+}
+
+/// Whether a peer with user `uid` and groups `groups` (primary and supplementary, asked for
+/// only when the user alone does not decide) may talk to a service running as user `me`
+/// whose socket belongs to group `socket_gid`.
+fn permits(
+    uid: libc::uid_t,
+    me: libc::uid_t,
+    socket_gid: libc::gid_t,
+    groups: impl FnOnce() -> Vec<libc::gid_t>,
+) -> bool {
+    uid == 0 || uid == me || groups().contains(&socket_gid)
 }
 
 /// The peer's supplementary groups, as they were when it connected (`SO_PEERGROUPS`); empty
@@ -325,8 +338,23 @@ mod tests {
         own.sort_unstable();
         peer.sort_unstable();
         assert_eq!(peer, own);
-        // The peer (this process) is authorised by its user; a group it is in authorises too.
+        // The peer (this process) is authorised by its user.
         assert!(authorised(&a, u32::MAX));
+    }
+
+    #[test]
+    fn a_member_of_the_socket_group_by_a_supplementary_group_is_permitted() {
+        let (me, videt, tech) = (999, 990, 1000);
+        // Root and the service's own user, whatever their groups.
+        assert!(permits(0, me, videt, Vec::new));
+        assert!(permits(me, me, videt, Vec::new));
+        // A technician whose primary group is their own and who joined videt.
+        assert!(permits(tech, me, videt, || vec![1000, 24, videt]));
+        // ... or whose primary group is videt.
+        assert!(permits(tech, me, videt, || vec![videt]));
+        // Anyone else is refused.
+        assert!(!permits(tech, me, videt, || vec![1000, 24]));
+        assert!(!permits(tech, me, videt, Vec::new));
     }
 
     #[test]
