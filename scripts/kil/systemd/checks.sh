@@ -72,8 +72,12 @@ config_value() { # SECTION KEY
 }
 # videtd active with a main process other than $1 (after a restart).
 restarted_from() { is_active && [ "$(main_pid)" != "$1" ] && [ "$(main_pid)" != 0 ]; }
-# The service's safety state is $1 (`videt service status`).
-safety_is() { videt service status 2>/dev/null | grep -q "^safety: $1"; }
+# The service's safety state is $1 (`videt service status`). Read whole first: under pipefail a
+# grep -q that stops reading fails the writer it leaves behind.
+safety_is() {
+  local status
+  status=$(videt service status 2>/dev/null) && grep -q "^safety: $1" <<<"$status"
+}
 safety_line() { videt service status 2>&1 | grep '^safety'; }
 ready_and_normal() { is_active && safety_is normal; }
 # The rig's last power line has all three drives in Operation enabled.
@@ -82,7 +86,12 @@ drives_all_enabled() {
     grep -q 'OperationEnabled.*OperationEnabled.*OperationEnabled'
 }
 # videtd's journal names the injected over-current fault after $1 (s).
-fault_cause_since() { journal videtd | awk -v t="$1" '$1 >= t' | grep -iE -m1 'over-current|0x2310'; }
+fault_cause_since() {
+  local lines
+  lines=$(journal videtd)
+  awk -v t="$1" '$1 >= t && tolower($0) ~ /over-current|0x2310/ { print; found = 1; exit }
+    END { exit !found }' <<<"$lines"
+}
 seconds_since() { awk -v a="$1" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }'; }
 
 # --- boot 1: install -------------------------------------------------------------------------
@@ -115,7 +124,7 @@ not_ready_without_drives() {
   entered=$(prop videtd ActiveEnterTimestampMonotonic)
   result=$(prop videtd Result)
   local why
-  why=$(journalctl -b _SYSTEMD_UNIT=videtd.service -p err -o cat --no-pager | tail -n 1)
+  why=$(journalctl -b _SYSTEMD_UNIT=videtd.service -o cat --no-pager | grep ERROR | tail -n 1)
   systemctl stop videtd
   systemctl reset-failed videtd 2>/dev/null
   DETAIL="start failed (exit $rc) after $(seconds_since "$t0") s, result $result, never active; journal: $why"
