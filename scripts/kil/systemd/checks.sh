@@ -94,6 +94,16 @@ fault_cause_since() {
 }
 seconds_since() { awk -v a="$1" -v b="$(mono)" 'BEGIN { printf "%.1f", b - a }'; }
 
+# --- both boots --------------------------------------------------------------------------------
+# The guest's stand-ins for the device (videt-guest-devices.service) came up; if not, its journal.
+guest_devices_up() {
+  local state
+  state=$(systemctl is-active videt-guest-devices)
+  DETAIL="videt-guest-devices $state: $(journalctl -b -u videt-guest-devices -o cat --no-pager | tail -n 1)"
+  [ "$state" = active ] && [ -c /dev/gpiochip0 ] && [ -c /dev/video0 ] && [ -c /dev/video1 ] ||
+    fail "$(echo "$DETAIL"; journalctl -b -u videt-guest-devices -o cat --no-pager | tail -n 5 | tr '\n' ' ')"
+}
+
 # --- boot 1: install -------------------------------------------------------------------------
 install_package() {
   dpkg -i "$OUT/videt.deb" >"$OUT/dpkg-install.log" 2>&1 ||
@@ -384,6 +394,7 @@ purge_leaves_no_link() {
 echo "=== phase $PHASE at $(mono) s"
 case $PHASE in
   install)
+    check "the guest's GPIO chip and cameras are up" guest_devices_up
     check "dpkg -i installs the package (built with V4L2 capture)" install_package
     check "the device configuration passes videt config check" configure_device
     check "udev gives group gpio the GPIO chip, videt the latency limit" udev_gives_devices
@@ -393,6 +404,7 @@ case $PHASE in
     check "videtd and the rig enabled for the next boot" enable_rig
     ;;
   boot)
+    check "the guest's GPIO chip and cameras are up" guest_devices_up
     check "boot to ready: videtd active with the system" boot_to_ready
     check "control thread SCHED_FIFO, memory locked, no capabilities" realtime_under_limits
     check "SocketCAN up; GPIO chip, both cameras, latency limit open" devices_open

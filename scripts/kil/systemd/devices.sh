@@ -2,6 +2,10 @@
 # The guest's GPIO chip (gpio-sim through configfs: 32 lines, the e-stop on line 17 pulled up,
 # i.e. released) and a check that the cameras are vivid's capture nodes.
 set -euo pipefail
+# configfs: sys-kernel-config.mount is skipped when it runs before the module is loaded, and
+# is started again later only by chance of ordering; mount it here if it is not yet.
+mountpoint -q /sys/kernel/config || mount -t configfs configfs /sys/kernel/config
+[ -d /sys/kernel/config/gpio-sim ] || { echo "no gpio-sim in configfs: is gpio-sim-ko loaded?"; exit 1; }
 C=/sys/kernel/config/gpio-sim/videt
 if [ ! -d "$C" ]; then
   mkdir "$C" "$C/bank0"
@@ -13,6 +17,12 @@ fi
 chip=$(cat "$C/bank0/chip_name")
 [ "$chip" = gpiochip0 ] || { echo "the simulated chip is $chip, not gpiochip0"; exit 1; }
 echo pull-up >"/sys/devices/platform/$(cat "$C/dev_name")/$chip/sim_gpio17/pull"
+i=0
+until [ -c "/dev/$chip" ]; do
+  [ $i -lt 50 ] || { echo "/dev/$chip did not appear in 5 s"; exit 1; }
+  sleep 0.1
+  i=$((i + 1))
+done
 for dev in video0 video1; do
   name=$(cat "/sys/class/video4linux/$dev/name")
   case $name in *vid-cap*) ;; *) echo "/dev/$dev is '$name', not a vivid capture node"; exit 1 ;; esac
