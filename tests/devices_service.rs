@@ -164,7 +164,7 @@ fn the_planar_and_one_wire_devices_run_on_both_twins_from_their_configuration() 
         let pressing: Vec<_> = log
             .records
             .iter()
-            .filter(|r| r.in_contact && r.force_scale >= 1.0 && r.contact_depth_m > 0.003)
+            .filter(|r| r.in_contact && r.force_scale >= 1.0 && r.contact_depth_m > 0.001)
             .collect();
         assert!(!pressing.is_empty(), "{device}: never pressed the wall");
         for r in &pressing {

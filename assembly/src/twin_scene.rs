@@ -5,7 +5,7 @@ use videt_control::{Plane, Rig3, WireDevice};
 use videt_rt_config::Config;
 use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::setup::{check_wall, rig, transmission, twin_torque_step_nm, CHECK_WALL_Z_M};
-use videt_sim::{PlantParams, SensorModel, VirtualOperator};
+use videt_sim::{PlantParams, SensorModel, VirtualOperator, WireModules};
 
 /// The twin's demonstration scene: a wall in front of the frame, and a virtual operator who
 /// touches it, slides along it and comes back, over and over.
@@ -59,6 +59,7 @@ pub fn demo_scene_for<const N: usize, D: WireDevice<N>>(
 ) -> DemoSceneOf<N, D> {
     let mut params = PlantParams::for_device(device);
     params.transmission = transmission(config);
+    params.wire_ea_n = config.transmission.wire_ea_n;
     let wall_z_m = CHECK_WALL_Z_M;
     let operator =
         VirtualOperator::touch_and_slide(start, wall_z_m, 0.02, 0.08, 6.0).repeating(6.0);
@@ -69,6 +70,11 @@ pub fn demo_scene_for<const N: usize, D: WireDevice<N>>(
     };
     let mut twin = videt_sim::Twin::new(params, start, operator, sensors);
     twin.set_torque_step_nm(Some(twin_torque_step_nm(config)));
+    // The configured modules' inside wire stretches in series with the free wire.
+    twin.plant_mut().set_modules(WireModules {
+        inside_length_m: [config.transmission.inside_wire_m; N],
+        ..WireModules::default()
+    });
     DemoSceneOf {
         twin,
         wall: check_wall(),

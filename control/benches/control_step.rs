@@ -1,13 +1,14 @@
 //! One full control step — forward kinematics, velocity, a plane query, contact force, field,
 //! projection, PI — per device and algorithm, in contact with a wall whose normal is outside the wire cone
-//! (the expensive case: the projection runs), and in free space.
+//! (the expensive case: the projection runs), and in free space; and P2 with the default
+//! rendering's additions (the tension integral's speed gate, the wires' stretch correction).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use videt_control::{
     project, Algorithm, ControlParams, ControlStep, ForceField, ForceLimits, FreeSpace,
     PlanarDevice, Plane, PolarDevice, Projection, Rig3, Rig4, StepInput, StepOutput,
-    TensionPiGains, Vec3, WireDevice, WireMap,
+    TensionPiGains, Vec3, WireDevice, WireMap, WireStretch,
 };
 
 fn bench_device<const N: usize, D: WireDevice<N>>(c: &mut Criterion, device: D, p: Vec3) {
@@ -49,6 +50,24 @@ fn bench_device<const N: usize, D: WireDevice<N>>(c: &mut Criterion, device: D, 
             })
         });
     }
+    // P2 as configured by default: the integral gated by its wire's speed, the stretch corrected
+    // (against plain P2 above: what they cost).
+    let mut params = ControlParams::paper_defaults(TensionPiGains {
+        integral_speed_gate_m_s: 0.003,
+        ..TensionPiGains::pi_only(0.0008, 0.0005, 0.02, 0.02)
+    });
+    params.stretch = WireStretch {
+        axial_stiffness_n: 8000.0,
+        inside_length_m: 0.12,
+    };
+    let mut step = ControlStep::new(device, params);
+    let mut out = StepOutput::default();
+    group.bench_function("contact/P2_gated_stretch", |b| {
+        b.iter(|| {
+            step.update(black_box(&input), black_box(&wall), &mut out);
+            black_box(&out);
+        })
+    });
     group.finish();
 }
 

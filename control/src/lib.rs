@@ -66,7 +66,7 @@ pub use profile::{Profile, ProfileError, SolidSide};
 pub use safety::{SafetyInput, SafetyLimits, SafetyReason, SafetyState, SafetySupervisor};
 pub use scene_map::SceneMap;
 pub use spidar::Rig4;
-pub use step::{ControlParams, ControlStep, StepInput, StepOutput};
+pub use step::{ControlParams, ControlStep, StepInput, StepOutput, WireStretch};
 pub use surface::{Contact, FreeSpace, Plane, Surface};
 pub use tension_pi::{TensionPi, TensionPiGains};
 pub use wire_map::WireMap;

@@ -31,6 +31,40 @@ pub struct ControlParams {
     /// the algorithm has no field (`field.magnitude_n == 0`); raised where needed so every wire
     /// stays at or above `t_min` by itself. 0 = wires simply held at `t_min`.
     pub free_space_field_n: f64,
+    /// The wires' elastic stretch, added to the encoders' lengths at the tensions commanded
+    /// ([`WireStretch::RIGID`]: none).
+    pub stretch: WireStretch,
+}
+
+/// The wires' elastic stretch. An encoder counts the wire paid out; under tension `T` the wire
+/// between the pulley and the thimble is longer by `T (free + inside) / EA`, so the thimble is
+/// that much further from the guide than the encoder says: pushed into a wall, deeper than the
+/// wall is told, which renders the wall softer than programmed by the wires' stiffness in series
+/// (`docs/haptic-bench.md`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WireStretch {
+    /// Axial stiffness `EA` of the wire, newtons (infinite: a rigid wire, no correction).
+    pub axial_stiffness_n: f64,
+    /// Wire inside the module, from the pulley to the guide, metres (it stretches in series).
+    pub inside_length_m: f64,
+}
+
+impl WireStretch {
+    /// Rigid wires: the encoders' lengths are taken as they are.
+    pub const RIGID: WireStretch = WireStretch {
+        axial_stiffness_n: f64::INFINITY,
+        inside_length_m: 0.0,
+    };
+
+    /// The length from the guide to the thimble of a wire with `free_m` paid out past the guide
+    /// and carrying `tension_n`, metres. Non-finite or non-positive tensions stretch nothing.
+    pub fn stretched_length_m(&self, free_m: f64, tension_n: f64) -> f64 {
+        let stretches = tension_n.is_finite() && tension_n > 0.0;
+        if !self.axial_stiffness_n.is_finite() || !stretches {
+            return free_m;
+        }
+        free_m + tension_n * (free_m + self.inside_length_m).max(0.0) / self.axial_stiffness_n
+    }
 }
 
 impl ControlParams {
@@ -46,6 +80,7 @@ impl ControlParams {
             pi,
             field: ForceField::none(),
             free_space_field_n: 0.5,
+            stretch: WireStretch::RIGID,
         }
     }
 }
@@ -134,6 +169,8 @@ pub struct ControlStep<const N: usize, D: WireDevice<N>> {
     device: D,
     params: ControlParams,
     pi: TensionPi<N>,
+    /// The tension set-points of the last period: the wires' stretch this period.
+    last_setpoint_n: [f64; N],
 }
 
 impl<const N: usize, D: WireDevice<N>> ControlStep<N, D> {
@@ -143,6 +180,7 @@ impl<const N: usize, D: WireDevice<N>> ControlStep<N, D> {
             device,
             params,
             pi: TensionPi::new(params.pi),
+            last_setpoint_n: [0.0; N],
         }
     }
 
@@ -168,8 +206,13 @@ impl<const N: usize, D: WireDevice<N>> ControlStep<N, D> {
         surface: &S,
         out: &mut StepOutput<N>,
     ) {
+        // The lengths the wires have under the tensions last commanded (the drives apply them
+        // this period; the measured ones come later, through the converter's filter).
+        let stretch = self.params.stretch;
         let sensed = Sensed {
-            lengths_m: input.lengths_m,
+            lengths_m: core::array::from_fn(|i| {
+                stretch.stretched_length_m(input.lengths_m[i], self.last_setpoint_n[i])
+            }),
             length_rates_m_s: input.length_rates_m_s,
             angles_rad: input.angles_rad,
             angle_rates_rad_s: input.angle_rates_rad_s,
@@ -240,6 +283,7 @@ impl<const N: usize, D: WireDevice<N>> ControlStep<N, D> {
             }
         }
         out.v_index = v_index(&out.distribution.rendered_n, &out.target_force_n);
+        self.last_setpoint_n = out.distribution.tensions_n;
         let winding_speed_m_s: [f64; N] = core::array::from_fn(|i| -input.length_rates_m_s[i]);
         self.pi.update_with_speed(
             &out.distribution.tensions_n,
@@ -339,6 +383,38 @@ mod tests {
         off.render_forces = false;
         s.update(&off, &FreeSpace, &mut out);
         assert_eq!(out.distribution.tensions_n, [0.3; WIRES]);
+    }
+
+    #[test]
+    fn stretch_compensation_finds_the_thimble_where_the_stretched_wires_put_it() {
+        // The wires carry 2 N each, paid out 2 N's stretch short of where the thimble is.
+        let stretch = WireStretch {
+            axial_stiffness_n: 8000.0,
+            inside_length_m: 0.12,
+        };
+        let mut s = step(Algorithm::P2);
+        s.params.stretch = stretch;
+        s.last_setpoint_n = [2.0; WIRES];
+        let p = Vec3::new(0.18, 0.1, 0.3);
+        let true_lengths = s.rig().inverse(&p);
+        let mut input = input_at(&s, p);
+        // free + 2 (free + inside) / EA = true  =>  free = (true - 2 inside / EA) / (1 + 2 / EA)
+        input.lengths_m = core::array::from_fn(|i| {
+            (true_lengths[i] - 2.0 * 0.12 / 8000.0) / (1.0 + 2.0 / 8000.0)
+        });
+        let mut rigid = step(Algorithm::P2);
+        let mut out = StepOutput::default();
+        rigid.update(&input, &FreeSpace, &mut out);
+        let uncorrected = (out.position_m - p).norm();
+        s.update(&input, &FreeSpace, &mut out);
+        assert!(
+            (out.position_m - p).norm() < 1e-9,
+            "{:?}",
+            out.position_m - p
+        );
+        assert!(uncorrected > 5e-5, "{uncorrected}");
+        assert_eq!(stretch.stretched_length_m(0.3, f64::NAN), 0.3);
+        assert_eq!(WireStretch::RIGID.stretched_length_m(0.3, 5.0), 0.3);
     }
 
     #[test]

@@ -26,6 +26,9 @@ pub struct TensionPiGains {
     pub takeup_speed_m_s: f64,
     /// Winding faster than this is braked, m/s.
     pub max_winding_speed_m_s: f64,
+    /// The integral learns while the wire is nearly still: its rate is scaled by
+    /// `1 - |speed| / gate` (none at or above `gate`), m/s. Infinite: it learns at any speed.
+    pub integral_speed_gate_m_s: f64,
 }
 
 impl TensionPiGains {
@@ -45,6 +48,7 @@ impl TensionPiGains {
             slack_tension_n: f64::NEG_INFINITY,
             takeup_speed_m_s: 0.0,
             max_winding_speed_m_s: f64::INFINITY,
+            integral_speed_gate_m_s: f64::INFINITY,
         }
     }
 }
@@ -129,7 +133,13 @@ impl<const N: usize> TensionPi<N> {
                 } else {
                     0.0
                 };
-                let candidate_integral = self.integral_nm[i] + g.ki_nm_per_n_s * error * dt_s;
+                let learning = if g.integral_speed_gate_m_s.is_finite() {
+                    (1.0 - speed.abs() / g.integral_speed_gate_m_s).max(0.0)
+                } else {
+                    1.0
+                };
+                let candidate_integral =
+                    self.integral_nm[i] + g.ki_nm_per_n_s * error * dt_s * learning;
                 let unclamped = ff + g.kp_nm_per_n * error + candidate_integral;
                 let saturating =
                     unclamped.abs() > g.torque_limit_nm && unclamped.signum() == error.signum();
@@ -166,6 +176,7 @@ mod tests {
             slack_tension_n: 0.15,
             takeup_speed_m_s: 0.15,
             max_winding_speed_m_s: 0.6,
+            integral_speed_gate_m_s: f64::INFINITY,
         }
     }
 
@@ -183,6 +194,39 @@ mod tests {
             }
         }
         assert!((measured[0] - 5.0).abs() < 0.01, "{measured:?}");
+    }
+
+    #[test]
+    fn the_speed_gate_learns_at_rest_and_holds_what_it_learnt_in_motion() {
+        let gated = TensionPiGains {
+            integral_speed_gate_m_s: 0.003,
+            ..gains()
+        };
+        let sp = [2.0; N];
+        let measured = [1.0; N];
+        let mut torque = [0.0; N];
+        // At rest it learns as the ungated integral does.
+        let mut pi = TensionPi::new(gated);
+        let mut plain = TensionPi::new(gains());
+        for _ in 0..10 {
+            pi.update_with_speed(&sp, &measured, &[0.0; N], 1e-3, &mut torque);
+            plain.update_with_speed(&sp, &measured, &[0.0; N], 1e-3, &mut torque);
+        }
+        assert_eq!(pi.integral_nm, plain.integral_nm);
+        assert!(pi.integral_nm[0] > 0.0);
+        // Half the gate's speed (either way): half the rate; at the gate and beyond: none, and
+        // what was learnt stays.
+        let learnt = pi.integral_nm;
+        pi.update_with_speed(&sp, &measured, &[0.0015, -0.0015, 0.003], 1e-3, &mut torque);
+        let step = gains().ki_nm_per_n_s * 1.0 * 1e-3;
+        assert!((pi.integral_nm[0] - learnt[0] - 0.5 * step).abs() < 1e-15);
+        assert!((pi.integral_nm[1] - learnt[1] - 0.5 * step).abs() < 1e-15);
+        assert_eq!(pi.integral_nm[2], learnt[2]);
+        let held = pi.integral_nm;
+        for _ in 0..100 {
+            pi.update_with_speed(&sp, &measured, &[0.05; N], 1e-3, &mut torque);
+        }
+        assert_eq!(pi.integral_nm, held);
     }
 
     #[test]

@@ -19,6 +19,7 @@ fn params(algorithm: Algorithm) -> ControlParams {
         slack_tension_n: 0.15,
         takeup_speed_m_s: 0.15,
         max_winding_speed_m_s: 0.6,
+        integral_speed_gate_m_s: f64::INFINITY,
     });
     params.algorithm = algorithm;
     params.damping_n_s_per_m = 2.0;

@@ -46,6 +46,21 @@ impl LoopSettings {
     }
 }
 
+/// The stretch of `plant`'s wires, as the control corrects for it.
+pub fn wire_stretch<const N: usize, D: videt_control::WireDevice<N>>(
+    plant: &videt_sim::Plant<N, D>,
+) -> videt_control::WireStretch {
+    videt_control::WireStretch {
+        axial_stiffness_n: plant.params().wire_ea_n,
+        inside_length_m: plant
+            .modules()
+            .inside_length_m
+            .first()
+            .copied()
+            .unwrap_or(0.0),
+    }
+}
+
 /// One control period as recorded.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample<const N: usize> {

@@ -142,7 +142,12 @@ pub fn fig18_with(script: &Fig18Script) -> Result<Fig18, ExperimentError> {
     let start = operator.target(0.0).0 - Vec3::new(0.0, 0.0, 0.0025);
     let mut twin = twin_for(device, start, operator);
     let config = ControlConfig::EXAMPLE;
-    let params = config.params(&twin.plant().params().transmission, Algorithm::P1, 0.0);
+    let params = config.params(
+        &twin.plant().params().transmission,
+        crate::closed_loop::wire_stretch(twin.plant()),
+        Algorithm::P1,
+        0.0,
+    );
     let mut step = ControlStep::new(device, params);
     let settings = LoopSettings::for_duration(traversal_s.1 + 1.2);
     let run = run_closed_loop(&mut twin, &mut step, &profile, &settings)?;

@@ -193,8 +193,12 @@ pub fn region_c_run(
     let (operator, timeline) = fig22_operator();
     let start = operator.target(0.0).0;
     let mut twin = twin_for(*device, start, operator);
-    let params =
-        ControlConfig::EXAMPLE.params(&twin.plant().params().transmission, algorithm, field_n);
+    let params = ControlConfig::EXAMPLE.params(
+        &twin.plant().params().transmission,
+        crate::closed_loop::wire_stretch(twin.plant()),
+        algorithm,
+        field_n,
+    );
     let mut step = ControlStep::new(*device, params);
     let run = run_closed_loop(
         &mut twin,

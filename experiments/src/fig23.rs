@@ -155,8 +155,12 @@ pub fn fig23_with(script: &Fig23Script) -> Result<Fig23, ExperimentError> {
     let (operator, traversal_s) = fig23_operator(&contour, script);
     let start = operator.target(0.0).0;
     let mut twin = twin_for(device, start, operator);
-    let params =
-        ControlConfig::EXAMPLE.params(&twin.plant().params().transmission, Algorithm::P1, 0.0);
+    let params = ControlConfig::EXAMPLE.params(
+        &twin.plant().params().transmission,
+        crate::closed_loop::wire_stretch(twin.plant()),
+        Algorithm::P1,
+        0.0,
+    );
     let mut step = ControlStep::new(device, params);
     let run = run_closed_loop(
         &mut twin,

@@ -205,10 +205,12 @@ fn region_c_lines(out: &mut String, s: &RegionCSummary) {
 /// The summaries as text: one block per figure, lengths in millimetres.
 pub fn summary_text(f18: &Fig18Summary, f22: &Fig22Summary, f23: &Fig23Summary) -> String {
     let mut out = String::new();
+    let c = crate::ControlConfig::EXAMPLE;
     let _ = writeln!(
         out,
-        "VIDET paper, section 6, on the digital twin (1 kHz loop, example configuration: K = \
-         800 N/m, B = 5 N s/m, t_min = 0.3 N, t_max = 15 N)\n"
+        "VIDET paper, section 6, on the digital twin ({} Hz loop, example configuration: K = {} \
+         N/m, B = {} N s/m, t_min = {} N, t_max = {} N)\n",
+        c.rate_hz, c.stiffness_n_per_m, c.damping_n_s_per_m, c.t_min_n, c.t_max_n
     );
     let _ = writeln!(
         out,

@@ -25,6 +25,10 @@ pub struct ControlConfig {
     pub tension_kp_nm_per_n: f64,
     /// Integral gain of the tension loop, N·m/(N·s).
     pub tension_ki_nm_per_n_s: f64,
+    /// The integral learns below this wire speed only, m/s (0: at any speed).
+    pub tension_integral_speed_gate_m_s: f64,
+    /// Correct the encoders' lengths for the wires' stretch.
+    pub stretch_compensation: bool,
     /// Winding speed of slack take-up, m/s.
     pub slack_takeup_speed_m_s: f64,
     /// Wire-speed loop gain, N·m·s/m.
@@ -38,7 +42,7 @@ impl ControlConfig {
     /// The example configuration's values.
     pub const EXAMPLE: ControlConfig = ControlConfig {
         rate_hz: 1000,
-        stiffness_n_per_m: 800.0,
+        stiffness_n_per_m: 2000.0,
         damping_n_s_per_m: 5.0,
         free_space_field_n: 0.5,
         t_min_n: 0.3,
@@ -46,6 +50,8 @@ impl ControlConfig {
         max_wire_speed_m_s: 0.8,
         tension_kp_nm_per_n: 0.0004,
         tension_ki_nm_per_n_s: 0.04,
+        tension_integral_speed_gate_m_s: 0.003,
+        stretch_compensation: true,
         slack_takeup_speed_m_s: 0.15,
         speed_gain_nm_s_per_m: 0.002,
         drive_rated_torque_nm: 0.05,
@@ -74,14 +80,21 @@ impl ControlConfig {
             slack_tension_n: 0.5 * self.t_min_n,
             takeup_speed_m_s: self.slack_takeup_speed_m_s,
             max_winding_speed_m_s: 0.75 * self.max_wire_speed_m_s,
+            integral_speed_gate_m_s: if self.tension_integral_speed_gate_m_s > 0.0 {
+                self.tension_integral_speed_gate_m_s
+            } else {
+                f64::INFINITY
+            },
         }
     }
 
     /// Control parameters with `algorithm` and a field of `field_n` newtons (0 for the paper's
-    /// P1 and P2). F1's constant field points towards the frame (`-z`).
+    /// P1 and P2), correcting for the wires' `stretch` when the configuration does. F1's
+    /// constant field points towards the frame (`-z`).
     pub fn params(
         &self,
         transmission: &Transmission,
+        stretch: videt_control::WireStretch,
         algorithm: Algorithm,
         field_n: f64,
     ) -> ControlParams {
@@ -96,6 +109,11 @@ impl ControlConfig {
             pi: self.tension_gains(transmission),
             field: ForceField::towards_frame(field_n),
             free_space_field_n: self.free_space_field_n,
+            stretch: if self.stretch_compensation {
+                stretch
+            } else {
+                videt_control::WireStretch::RIGID
+            },
         }
     }
 }

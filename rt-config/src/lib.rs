@@ -545,6 +545,13 @@ pub struct TransmissionConfig {
     pub pulley_radius_m: f64,
     /// Gear efficiency in (0, 1].
     pub efficiency: f64,
+    /// Axial stiffness `EA` of the wire, newtons (Kevlar yarn: about 3 % strain at 250 N, so
+    /// 8000 N). The control corrects the encoders' lengths for the wires' stretch with it, and
+    /// the twin's wires stretch by it.
+    pub wire_ea_n: f64,
+    /// Wire inside each module, from the pulley to the guide ring, metres: it stretches in series
+    /// with the wire outside.
+    pub inside_wire_m: f64,
 }
 
 /// Control loop settings.
@@ -573,8 +580,18 @@ pub struct ControlConfig {
     pub max_wire_speed_m_s: f64,
     /// Tension loop proportional gain, N·m per N.
     pub tension_kp_nm_per_n: f64,
+    /// Correct the encoders' wire lengths for the wires' stretch under the tensions commanded
+    /// (`transmission.wire_ea_n`, `transmission.inside_wire_m`). Off, a wall renders softer
+    /// than programmed by the wires' stiffness in series (6 % at 2000 N/m).
+    pub stretch_compensation: bool,
     /// Tension loop integral gain, N·m per N·s.
     pub tension_ki_nm_per_n_s: f64,
+    /// The tension loop's integral learns the static error while the wire is nearly still: its
+    /// rate falls linearly with the wire's speed and stops at this speed, m/s. Learning at any
+    /// speed, the integral also cancels the transmission's friction and inertia while the finger
+    /// moves, the damping a stiff wall's stability rests on (`docs/haptic-bench.md`, Z-width).
+    /// 0: the integral learns at any speed.
+    pub tension_integral_speed_gate_m_s: f64,
     /// Run the tension loop with reduced gains when the tension sensor is too slow for the
     /// configured ones (`videt config check` says by how much, and the service logs it and
     /// shows it in its status). `false`: such a configuration is refused.
@@ -633,6 +650,8 @@ impl Default for TransmissionConfig {
             gear_ratio: 25.0,
             pulley_radius_m: 0.020,
             efficiency: 1.0,
+            wire_ea_n: 8000.0,
+            inside_wire_m: 0.12,
         }
     }
 }
@@ -641,7 +660,7 @@ impl Default for ControlConfig {
     fn default() -> Self {
         ControlConfig {
             rate_hz: 1000,
-            stiffness_n_per_m: 800.0,
+            stiffness_n_per_m: 2000.0,
             damping_n_s_per_m: 5.0,
             algorithm: "P2".to_string(),
             field_n: 0.0,
@@ -650,7 +669,9 @@ impl Default for ControlConfig {
             t_max_n: 15.0,
             max_wire_speed_m_s: 0.8,
             tension_kp_nm_per_n: 0.0004,
+            stretch_compensation: true,
             tension_ki_nm_per_n_s: 0.04,
+            tension_integral_speed_gate_m_s: 0.003,
             allow_degraded_tension_loop: false,
             ramp_down_s: 0.5,
             slack_takeup_speed_m_s: 0.15,

@@ -66,6 +66,8 @@ impl Config {
             0.2,
         )?;
         in_range("transmission.efficiency", t.efficiency, 0.05, 1.0)?;
+        in_range("transmission.wire_ea_n", t.wire_ea_n, 500.0, 1.0e6)?;
+        in_range("transmission.inside_wire_m", t.inside_wire_m, 0.0, 2.0)?;
         let c = &self.control;
         in_range("control.rate_hz", c.rate_hz as f64, 1000.0, 10000.0)?;
         in_range(
@@ -108,6 +110,12 @@ impl Config {
             c.tension_ki_nm_per_n_s,
             0.0,
             10.0,
+        )?;
+        in_range(
+            "control.tension_integral_speed_gate_m_s",
+            c.tension_integral_speed_gate_m_s,
+            0.0,
+            c.max_wire_speed_m_s,
         )?;
         in_range("control.ramp_down_s", c.ramp_down_s, 0.0, 10.0)?;
         in_range(

@@ -4,7 +4,7 @@
 use videt_control::safety::SafetyLimits;
 use videt_control::{
     Algorithm, ControlParams, ControlStep, ForceField, ForceLimits, PlanarDevice, Plane,
-    PolarDevice, Rig3, Rig4, RigError, RigPlanar, TensionPiGains, WireDevice,
+    PolarDevice, Rig3, Rig4, RigError, RigPlanar, TensionPiGains, WireDevice, WireStretch,
 };
 use videt_rt_config::Config;
 
@@ -78,9 +78,22 @@ pub fn control_step_for<const N: usize, D: WireDevice<N>>(
                 slack_tension_n: 0.5 * c.t_min_n,
                 takeup_speed_m_s: c.slack_takeup_speed_m_s,
                 max_winding_speed_m_s: 0.75 * c.max_wire_speed_m_s,
+                integral_speed_gate_m_s: if c.tension_integral_speed_gate_m_s > 0.0 {
+                    c.tension_integral_speed_gate_m_s
+                } else {
+                    f64::INFINITY
+                },
             },
             field: ForceField::towards_frame(c.field_n),
             free_space_field_n: c.free_space_field_n,
+            stretch: if c.stretch_compensation {
+                WireStretch {
+                    axial_stiffness_n: config.transmission.wire_ea_n,
+                    inside_length_m: config.transmission.inside_wire_m,
+                }
+            } else {
+                WireStretch::RIGID
+            },
         },
     )
 }

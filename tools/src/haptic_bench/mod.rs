@@ -14,6 +14,7 @@
 
 pub mod plots;
 pub mod rig;
+pub mod wall_feel;
 
 use serde::Serialize;
 use videt_control::safety::SafetyState;
@@ -22,6 +23,7 @@ use videt_rt_config::{Ads1220Mode, Config, TensionAdc};
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 use rig::{run, start_position, Experiment, Parts, Trace};
+use wall_feel::{feel_wall, WallFeel};
 
 /// The paper's sub-regions of the force directions (Figs 10, 12), for the 3-wire device: where
 /// the wires can make the contact force `f_e ∥ n` with non-negative tensions (A), where they
@@ -71,6 +73,8 @@ pub struct BenchPlan {
     pub highest_rate: bool,
     /// Pushing forces of the pop-through sweep, newtons.
     pub push_n: &'static [f64],
+    /// Stiffnesses the wall's feel is measured at, N/m (the configured one is added).
+    pub feel_stiffness_n_per_m: &'static [f64],
 }
 
 impl BenchPlan {
@@ -83,6 +87,7 @@ impl BenchPlan {
         all_sensors: true,
         highest_rate: true,
         push_n: &[1.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0],
+        feel_stiffness_n_per_m: &[800.0, 2000.0, 5000.0],
     };
     /// A few points of each sweep (seconds; tests).
     pub const QUICK: BenchPlan = BenchPlan {
@@ -93,6 +98,7 @@ impl BenchPlan {
         all_sensors: false,
         highest_rate: false,
         push_n: &[2.0, 6.0],
+        feel_stiffness_n_per_m: &[],
     };
 }
 
@@ -156,7 +162,7 @@ fn pusher(start: Vec3, n: Vec3, depths_m: &[f64], times_s: &[f64], k_hand: f64) 
 }
 
 /// Mean normal force and penetration over `[from, to)`, and the spread of the penetration.
-fn equilibrium(trace: &Trace, plane: &Plane, from_s: f64, to_s: f64) -> (f64, f64, f64) {
+fn equilibrium(trace: &Trace, plane: &Plane, from_s: f64, to_s: f64) -> Equilibrium {
     let n = plane.normal();
     let (mut f, mut p, mut lo, mut hi, mut count) = (0.0, 0.0, f64::MAX, f64::MIN, 0.0);
     for s in trace.window(from_s, to_s) {
@@ -190,27 +196,13 @@ pub fn stiffness_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<StiffnessR
             normals.extend(plan.azimuth_deg.iter().map(|&a| (polar, a)));
         }
     }
-    let depths = [0.010, 0.025];
-    let times = [0.0, 1.2];
-    let windows = [(0.9, 1.2), (2.1, 2.4)];
     let mut rows = Vec::new();
     for algorithm in ["P1", "P2"] {
         for &(polar, azimuth) in &normals {
             let n = normal_at(polar, azimuth);
             let mut config = base.clone();
             config.control.algorithm = algorithm.into();
-            config.control.field_n = 0.0;
-            let surface = surface_ahead(start, n);
-            let trace = run(&Experiment {
-                config: config.clone(),
-                surface,
-                operator: pusher(start, n, &depths, &times, STIFFNESS_HAND_N_PER_M),
-                duration_s: 2.4,
-                parts: Parts::Faithful,
-            })?;
-            let a = equilibrium(&trace, &surface, windows[0].0, windows[0].1);
-            let b = equilibrium(&trace, &surface, windows[1].0, windows[1].1);
-            let rendered = (b.0 - a.0) / (b.1 - a.1);
+            let (rendered, a, b, final_safety) = secant_stiffness(&config, n)?;
             let k = config.control.stiffness_n_per_m;
             rows.push(StiffnessRow {
                 algorithm: algorithm.into(),
@@ -223,11 +215,39 @@ pub fn stiffness_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<StiffnessR
                 ratio: rendered / k,
                 pushes: [(a.0, a.1 * 1e3), (b.0, b.1 * 1e3)],
                 settled: a.2 < 2e-4 && b.2 < 2e-4,
-                safety: safety_name(trace.final_safety),
+                safety: safety_name(final_safety),
             });
         }
     }
     Ok(rows)
+}
+
+/// Mean normal force, mean penetration and the penetration's spread over a window.
+pub type Equilibrium = (f64, f64, f64);
+
+/// The stiffness `config` renders along `n` (the secant between a 10 and a 25 mm push of a
+/// 400 N/m hand, without a force field), with both equilibria and the safety state at the end.
+pub fn secant_stiffness(
+    config: &Config,
+    n: Vec3,
+) -> Result<(f64, Equilibrium, Equilibrium, SafetyState), String> {
+    let start = start_position(config);
+    let depths = [0.010, 0.025];
+    let times = [0.0, 1.2];
+    let windows = [(0.9, 1.2), (2.1, 2.4)];
+    let mut config = config.clone();
+    config.control.field_n = 0.0;
+    let surface = surface_ahead(start, n);
+    let trace = run(&Experiment {
+        config,
+        surface,
+        operator: pusher(start, n, &depths, &times, STIFFNESS_HAND_N_PER_M),
+        duration_s: 2.4,
+        parts: Parts::Faithful,
+    })?;
+    let a = equilibrium(&trace, &surface, windows[0].0, windows[0].1);
+    let b = equilibrium(&trace, &surface, windows[1].0, windows[1].1);
+    Ok(((b.0 - a.0) / (b.1 - a.1), a, b, trace.final_safety))
 }
 
 fn safety_name(s: SafetyState) -> String {
@@ -394,6 +414,8 @@ pub struct ZWidthRow {
     pub sensor: String,
     /// The PI gains' fraction the sensor allows (1 = the configured gains).
     pub tension_gain_scale: f64,
+    /// The rendering (before, or as configured).
+    pub rendering: Rendering,
     /// Wall damping, N·s/m.
     pub damping_n_s_per_m: f64,
     /// Stiffest stable wall found, N/m (`None`: not even the softest one).
@@ -402,6 +424,8 @@ pub struct ZWidthRow {
     pub min_unstable_n_per_m: Option<f64>,
     /// Every wall tried.
     pub tried: Vec<WallVerdict>,
+    /// The stiffest stable wall's 10 s hold and release (and the stiffer ones that failed it).
+    pub held: Vec<WallFeel>,
 }
 
 /// Softest and stiffest walls the Z-width search considers, N/m (the configuration allows
@@ -417,11 +441,53 @@ pub struct ZWidthSearch {
     pub min_unstable_n_per_m: Option<f64>,
     /// Every wall tried, in order.
     pub tried: Vec<WallVerdict>,
+    /// The long holds tried on the stiffest walls the short criterion passed, in order.
+    pub held: Vec<WallFeel>,
 }
 
-/// Find the largest stable stiffness by bisection on a log scale (stability is taken to be
-/// monotonic in the stiffness, which every tried wall is recorded to check).
+/// How many times the Z-width steps down from the short criterion's stiffest wall when it fails
+/// the 10 s hold and release, and by what factor each time.
+const HOLD_STEPS_DOWN: (u32, f64) = (6, 0.85);
+
+/// The short criterion's stiffest stable wall, confirmed by a 10 s hold and release or stepped
+/// down until one passes.
+fn confirm_by_holding(
+    base: &Config,
+    b: f64,
+    parts: Parts,
+    search: &mut ZWidthSearch,
+) -> Result<(), String> {
+    let Some(mut k) = search.max_stable_n_per_m else {
+        return Ok(());
+    };
+    for _ in 0..=HOLD_STEPS_DOWN.0 {
+        let held = feel_wall(base, k, b, parts)?;
+        search.held.push(held);
+        if held.stable {
+            search.max_stable_n_per_m = Some(k);
+            return Ok(());
+        }
+        search.min_unstable_n_per_m = Some(k);
+        k *= HOLD_STEPS_DOWN.1;
+        if k < ZWIDTH_RANGE_N_PER_M.0 {
+            break;
+        }
+    }
+    search.max_stable_n_per_m = None;
+    Ok(())
+}
+
+/// Find the largest stable stiffness: bisection on a log scale with issue 18's criterion
+/// (stability is taken to be monotonic in the stiffness, which every tried wall is recorded to
+/// check), then the 10 s hold and release on the stiffest wall found, stepping down until one
+/// passes.
 pub fn zwidth(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthSearch, String> {
+    let mut search = zwidth_short(base, b, steps, parts)?;
+    confirm_by_holding(base, b, parts, &mut search)?;
+    Ok(search)
+}
+
+fn zwidth_short(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthSearch, String> {
     let (lo_k, hi_k) = ZWIDTH_RANGE_N_PER_M;
     let mut tried = Vec::new();
     let hi = judge_wall(base, hi_k, b, parts)?;
@@ -431,6 +497,7 @@ pub fn zwidth(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthS
             max_stable_n_per_m: Some(hi_k),
             min_unstable_n_per_m: None,
             tried,
+            held: Vec::new(),
         });
     }
     let lo = judge_wall(base, lo_k, b, parts)?;
@@ -440,6 +507,7 @@ pub fn zwidth(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthS
             max_stable_n_per_m: None,
             min_unstable_n_per_m: Some(lo_k),
             tried,
+            held: Vec::new(),
         });
     }
     let (mut stable, mut unstable) = (lo_k, hi_k);
@@ -457,6 +525,7 @@ pub fn zwidth(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthS
         max_stable_n_per_m: Some(stable),
         min_unstable_n_per_m: Some(unstable),
         tried,
+        held: Vec::new(),
     })
 }
 
@@ -491,20 +560,127 @@ pub fn zwidth_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<ZWidthRow>, S
             Ok(videt_runtime::tension_budget::TensionLoopPlan::Degraded { scale, .. }) => scale,
             Err(e) => return Err(format!("{}: {e}", sensor.label())),
         };
-        for &b in plan.damping_n_s_per_m {
-            let found = zwidth(&config, b, plan.zwidth_steps, parts)?;
-            rows.push(ZWidthRow {
-                parts,
-                rate_hz: rate,
-                sensor: match parts {
-                    Parts::Ideal => "instant".into(),
-                    Parts::Faithful => sensor.label(),
-                },
-                tension_gain_scale: scale,
-                damping_n_s_per_m: b,
-                max_stable_n_per_m: found.max_stable_n_per_m,
-                min_unstable_n_per_m: found.min_unstable_n_per_m,
-                tried: found.tried,
+        for rendering in renderings_compared(base) {
+            rendering.apply(&mut config);
+            for &b in plan.damping_n_s_per_m {
+                let found = zwidth(&config, b, plan.zwidth_steps, parts)?;
+                rows.push(ZWidthRow {
+                    parts,
+                    rate_hz: rate,
+                    sensor: match parts {
+                        Parts::Ideal => "instant".into(),
+                        Parts::Faithful => sensor.label(),
+                    },
+                    tension_gain_scale: scale,
+                    rendering,
+                    damping_n_s_per_m: b,
+                    max_stable_n_per_m: found.max_stable_n_per_m,
+                    min_unstable_n_per_m: found.min_unstable_n_per_m,
+                    tried: found.tried,
+                    held: found.held,
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// How the wall is rendered, as far as the bench compares: the tension integral's speed gate
+/// and the wires' stretch correction.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Rendering {
+    /// `control.tension_integral_speed_gate_m_s` (0: the integral learns at any speed).
+    pub integral_gate_m_s: f64,
+    /// `control.stretch_compensation`.
+    pub stretch_compensation: bool,
+}
+
+impl Rendering {
+    /// The rendering before the gate and the stretch correction.
+    pub const BEFORE: Rendering = Rendering {
+        integral_gate_m_s: 0.0,
+        stretch_compensation: false,
+    };
+
+    /// The configured rendering.
+    pub fn of(config: &Config) -> Rendering {
+        Rendering {
+            integral_gate_m_s: config.control.tension_integral_speed_gate_m_s,
+            stretch_compensation: config.control.stretch_compensation,
+        }
+    }
+
+    /// `config` rendering this way.
+    pub fn apply(&self, config: &mut Config) {
+        config.control.tension_integral_speed_gate_m_s = self.integral_gate_m_s;
+        config.control.stretch_compensation = self.stretch_compensation;
+    }
+
+    /// A name for tables and plots.
+    pub fn label(&self) -> String {
+        let integral = if self.integral_gate_m_s > 0.0 {
+            format!("integral < {:.0} mm/s", self.integral_gate_m_s * 1e3)
+        } else {
+            "integral at any speed".into()
+        };
+        let wires = if self.stretch_compensation {
+            "stretch corrected"
+        } else {
+            "rigid wires"
+        };
+        format!("{integral}, {wires}")
+    }
+}
+
+/// The renderings the bench compares: before the gate and the stretch correction, and the
+/// configured one when it differs.
+pub fn renderings_compared(base: &Config) -> Vec<Rendering> {
+    let configured = Rendering::of(base);
+    if configured == Rendering::BEFORE {
+        vec![configured]
+    } else {
+        vec![Rendering::BEFORE, configured]
+    }
+}
+
+/// The wall as the finger feels it at one stiffness and integral gate.
+#[derive(Debug, Clone, Serialize)]
+pub struct FeelRow {
+    /// The rendering (before, or as configured).
+    pub rendering: Rendering,
+    /// The push, hold and release (onset delay, energy returned, the hold's stability).
+    pub feel: WallFeel,
+    /// Rendered / programmed stiffness along the frame's axis (P2, region A; the secant of the
+    /// stiffness sweep).
+    pub stiffness_ratio: f64,
+}
+
+/// The wall's feel at the plan's stiffnesses and the configured one, before and with the
+/// configured rendering, at the configured damping.
+pub fn feel_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<FeelRow>, String> {
+    let mut stiffnesses = plan.feel_stiffness_n_per_m.to_vec();
+    stiffnesses.push(base.control.stiffness_n_per_m);
+    stiffnesses.sort_by(f64::total_cmp);
+    stiffnesses.dedup();
+    let axis = Vec3::new(0.0, 0.0, -1.0);
+    let mut rows = Vec::new();
+    for rendering in renderings_compared(base) {
+        for &k in &stiffnesses {
+            let mut config = base.clone();
+            rendering.apply(&mut config);
+            config.control.stiffness_n_per_m = k;
+            config.control.algorithm = "P2".into();
+            let feel = feel_wall(
+                &config,
+                k,
+                config.control.damping_n_s_per_m,
+                Parts::Faithful,
+            )?;
+            let (rendered, ..) = secant_stiffness(&config, axis)?;
+            rows.push(FeelRow {
+                rendering,
+                feel,
+                stiffness_ratio: rendered / k,
             });
         }
     }
@@ -637,6 +813,10 @@ pub struct BenchReport {
     pub stiffness: Vec<StiffnessRow>,
     /// Z-width rows.
     pub zwidth: Vec<ZWidthRow>,
+    /// The long hold and release the Z-width's stiffest walls also pass.
+    pub hold_criterion: String,
+    /// The wall's feel before and with the configured rendering.
+    pub feel: Vec<FeelRow>,
     /// Pop-through.
     pub pop_through: PopThroughReport,
 }
@@ -655,6 +835,8 @@ pub fn run_bench(
         zwidth_criterion: ZWIDTH_CRITERION.into(),
         stiffness: stiffness_sweep(config, plan)?,
         zwidth: zwidth_sweep(config, plan)?,
+        hold_criterion: wall_feel::HOLD_CRITERION.into(),
+        feel: feel_sweep(config, plan)?,
         pop_through: pop_through(config, plan, feature_mm)?,
     })
 }

@@ -122,6 +122,10 @@ fn stiffness(path: &Path, report: &BenchReport, setup: &str) -> Result<(), PlotE
     Ok(())
 }
 
+/// A Z-width curve: its name, its colour's index, whether it is the configured rendering, and
+/// its points (damping, stiffness).
+type Curve = (String, usize, bool, Vec<(f64, f64)>);
+
 fn zwidth(path: &Path, report: &BenchReport) -> Result<(), PlotError> {
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(e(path))?;
@@ -133,7 +137,7 @@ fn zwidth(path: &Path, report: &BenchReport) -> Result<(), PlotError> {
         .fold(1.0f64, f64::max);
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            "Z-width: the stiffest wall without sustained oscillation (P2, region A)",
+            "Z-width before (thin) and with (thick) the integral's gate and stretch correction",
             ("sans-serif", 17),
         )
         .margin(15)
@@ -148,27 +152,47 @@ fn zwidth(path: &Path, report: &BenchReport) -> Result<(), PlotError> {
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(e(path))?;
-    let mut curves: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    // One colour per parts, sensor and rate; thin lines before the integral's gate and the
+    // stretch correction, thick ones with the configured rendering.
+    let mut setups: Vec<String> = Vec::new();
+    let mut curves: Vec<Curve> = Vec::new();
     for row in &report.zwidth {
-        let name = match row.parts {
+        let setup = match row.parts {
             super::rig::Parts::Ideal => format!("ideal parts, {} Hz", row.rate_hz),
             super::rig::Parts::Faithful => format!("{}, {} Hz", row.sensor, row.rate_hz),
         };
+        let colour = match setups.iter().position(|s| *s == setup) {
+            Some(i) => i,
+            None => {
+                setups.push(setup.clone());
+                setups.len() - 1
+            }
+        };
+        let gated = row.rendering != super::Rendering::BEFORE;
+        let name = if gated {
+            format!("{setup}, now")
+        } else {
+            format!("{setup}, before")
+        };
         let k = row.max_stable_n_per_m.unwrap_or(k_lo * 0.8);
-        match curves.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, pts)) => pts.push((row.damping_n_s_per_m, k)),
-            None => curves.push((name, vec![(row.damping_n_s_per_m, k)])),
+        match curves.iter_mut().find(|(n, ..)| *n == name) {
+            Some((.., pts)) => pts.push((row.damping_n_s_per_m, k)),
+            None => curves.push((name, colour, gated, vec![(row.damping_n_s_per_m, k)])),
         }
     }
-    for (k, (name, pts)) in curves.into_iter().enumerate() {
-        let colour = PALETTE[k % PALETTE.len()];
+    for (name, colour, gated, pts) in curves {
+        let colour = PALETTE[colour % PALETTE.len()];
+        let width = if gated { 3 } else { 1 };
         chart
-            .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
+            .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(width)))
             .map_err(e(path))?
             .label(name)
-            .legend(line_mark(colour.stroke_width(2)));
+            .legend(line_mark(colour.stroke_width(width)));
         chart
-            .draw_series(pts.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+            .draw_series(
+                pts.iter()
+                    .map(|&p| Circle::new(p, 2 + width, colour.filled())),
+            )
             .map_err(e(path))?;
     }
     draw_legend(&mut chart, SeriesLabelPosition::LowerRight, path)?;

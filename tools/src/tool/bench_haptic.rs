@@ -62,6 +62,15 @@ pub fn run(args: &BenchHapticArgs) -> ToolResult {
     Ok(ExitCode::SUCCESS)
 }
 
+/// "before", or "now" for the configured rendering.
+fn rendering_label(r: &crate::haptic_bench::Rendering) -> &'static str {
+    if *r == crate::haptic_bench::Rendering::BEFORE {
+        "before"
+    } else {
+        "now"
+    }
+}
+
 fn opt_k(k: Option<f64>) -> String {
     k.map_or_else(|| "-".into(), |k| format!("{k:.0}"))
 }
@@ -128,22 +137,63 @@ pub fn render_text(r: &BenchReport) -> String {
         }
     }
     let _ = writeln!(s, "\nZ-width: {}", r.zwidth_criterion);
+    let _ = writeln!(s, "  and then: {}", r.hold_criterion);
+    let now = crate::haptic_bench::Rendering {
+        integral_gate_m_s: c.tension_integral_speed_gate_m_s,
+        stretch_compensation: c.stretch_compensation,
+    };
     let _ = writeln!(
         s,
-        "  parts     sensor                  rate    PI gains  B N·s/m  stable K  unstable K  (N/m)"
+        "  renderings: before = {}; now = {}",
+        crate::haptic_bench::Rendering::BEFORE.label(),
+        now.label()
+    );
+    let _ = writeln!(
+        s,
+        "  parts     sensor                  rate    PI gains  rendering  B N·s/m  stable K  unstable K  (N/m)"
     );
     for row in &r.zwidth {
         let _ = writeln!(
             s,
-            "  {:<9} {:<22} {:>5} Hz  x{:<6.3} {:>7.1}  {:>8}  {:>10}",
+            "  {:<9} {:<22} {:>5} Hz  x{:<6.3} {:<9} {:>7.1}  {:>8}  {:>10}",
             format!("{:?}", row.parts).to_lowercase(),
             row.sensor,
             row.rate_hz,
             row.tension_gain_scale,
+            rendering_label(&row.rendering),
             row.damping_n_s_per_m,
             opt_k(row.max_stable_n_per_m),
             opt_k(row.min_unstable_n_per_m)
         );
+    }
+    if !r.feel.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nthe wall's feel (P2, wall facing the frame, B {} N·s/m): push 15 mm, hold 10 s, release",
+            c.damping_n_s_per_m
+        );
+        let _ = writeln!(
+            s,
+            "  rendering  K N/m  rendered/K  onset ms  returned/in (mJ)       hold ±mm  leaves ms  again  stable"
+        );
+        for row in &r.feel {
+            let f = &row.feel;
+            let _ = writeln!(
+                s,
+                "  {:<9} {:>6.0}  {:>10.3}  {:>8}  {:>5.3} ({:.2}/{:.2})  {:>9.4}  {:>9}  {:>5}  {}",
+                rendering_label(&row.rendering),
+                f.stiffness_n_per_m,
+                row.stiffness_ratio,
+                f.onset_delay_ms.map_or_else(|| "-".into(), |d| format!("{d:.1}")),
+                f.returned_ratio,
+                f.energy_returned_mj,
+                f.energy_in_mj,
+                f.hold_oscillation_mm,
+                f.leaves_after_ms.map_or_else(|| "never".into(), |d| format!("{d:.0}")),
+                f.touches_again,
+                if f.stable { "yes" } else { "no" }
+            );
+        }
     }
     let p = &r.pop_through;
     let _ = writeln!(
