@@ -285,7 +285,7 @@ impl<const N: usize, D: WireDevice<N>> CanTwin<N, RealTimeTwin<N, D>> {
         // on `drive_cpu` (the control thread's), so that what stalls the rest of the machine
         // does not stall them while the control thread runs on, and each period's hand-overs
         // between the control thread, the wire and the drives need no cross-CPU wake-up.
-        let drive_cpu = drive_cpu.filter(|&cpu| cpu < videt_runtime::rt::cpus_available());
+        let drive_cpu = drive_cpu.filter(|&cpu| videt_runtime::rt::cpu_allowed(cpu));
         let raise = move |what: &'static str| {
             if let Some(p) = drive_priority {
                 if let Err(e) = videt_runtime::rt::set_fifo(p) {

@@ -197,10 +197,46 @@ pub fn cpu_list_contains(list: &str, cpu: usize) -> bool {
         })
 }
 
-/// How many CPUs this process may run on (at least 1): a CPU index at or above it cannot take
-/// a pinned thread here.
-pub fn cpus_available() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
+/// The CPUs the calling thread may run on, ascending: its affinity mask, which systemd's
+/// `CPUAffinity=` or `taskset` narrow to some of the CPUs online (`CPUAffinity=1-3` leaves
+/// 1, 2 and 3, not 0 to 2). A thread can be pinned to these only.
+pub fn allowed_cpus() -> Vec<usize> {
+    // SAFETY: cpu_set_t is plain data; sched_getaffinity writes at most its size into it;
+    // CPU_ISSET reads inside it for indices below CPU_SETSIZE.
+    unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        if libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) != 0 {
+            let online = std::thread::available_parallelism().map_or(1, |n| n.get());
+            return (0..online).collect();
+        }
+        (0..libc::CPU_SETSIZE as usize)
+            .filter(|&cpu| libc::CPU_ISSET(cpu, &set))
+            .collect()
+    }
+}
+
+/// Whether the calling thread may run on `cpu` (see [`allowed_cpus`]).
+pub fn cpu_allowed(cpu: usize) -> bool {
+    allowed_cpus().contains(&cpu)
+}
+
+/// `cpus` (ascending) as the kernel writes CPU lists: `0-2,5`.
+pub fn cpu_list(cpus: &[usize]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < cpus.len() {
+        let start = cpus[i];
+        while i + 1 < cpus.len() && cpus[i + 1] == cpus[i] + 1 {
+            i += 1;
+        }
+        parts.push(if cpus[i] == start {
+            start.to_string()
+        } else {
+            format!("{start}-{}", cpus[i])
+        });
+        i += 1;
+    }
+    parts.join(",")
 }
 
 /// Pin the calling thread to `cpu`.
@@ -229,10 +265,11 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
         )),
     }
     if let Some(cpu) = cpu {
-        let online = cpus_available();
-        if cpu >= online {
+        let allowed = allowed_cpus();
+        if !allowed.contains(&cpu) {
             report.warnings.push(format!(
-                "control CPU {cpu} does not exist ({online} CPUs online); not pinned"
+                "control CPU {cpu} is not one this process may run on (CPUs {}: the machine's, or its CPUAffinity=); not pinned",
+                cpu_list(&allowed)
             ));
         } else {
             match pin_to_cpu(cpu) {
@@ -250,6 +287,49 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cpu_lists_are_written_as_the_kernel_writes_them() {
+        assert_eq!(cpu_list(&[0, 1, 2, 5]), "0-2,5");
+        assert_eq!(cpu_list(&[3]), "3");
+        assert_eq!(cpu_list(&[1, 3, 4]), "1,3-4");
+        assert_eq!(cpu_list(&[]), "");
+    }
+
+    /// Under an affinity mask that leaves out CPU 0 (systemd's `CPUAffinity=1-3` on the
+    /// backpack), the control thread is pinned to a CPU of the mask, not refused because the
+    /// mask holds fewer CPUs than that CPU's index.
+    #[test]
+    fn a_cpu_of_the_affinity_mask_is_allowed_whatever_its_index() {
+        let all = allowed_cpus();
+        assert!(!all.is_empty());
+        assert!(!cpu_allowed(libc::CPU_SETSIZE as usize + 1));
+        let Some(&last) = all.iter().rfind(|&&c| c > 0) else {
+            eprintln!("skipped: this process may run on one CPU only ({all:?})");
+            return;
+        };
+        std::thread::spawn(move || {
+            pin_to_cpu(last).unwrap();
+            assert_eq!(allowed_cpus(), vec![last]);
+            assert!(cpu_allowed(last));
+            assert!(!cpu_allowed(0));
+            let report = setup_control_thread(1, Some(last));
+            assert!(report.pinned, "{:?}", report.warnings);
+            let report = setup_control_thread(1, Some(0));
+            assert!(!report.pinned);
+            assert!(
+                report
+                    .warnings
+                    .iter()
+                    .any(|w| w.contains("control CPU 0 is not one")
+                        && w.contains(&format!("CPUs {last}"))),
+                "{:?}",
+                report.warnings
+            );
+        })
+        .join()
+        .unwrap();
+    }
 
     #[test]
     fn the_kernel_version_from_uname_is_the_one_proc_shows() {

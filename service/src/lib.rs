@@ -12,6 +12,7 @@ pub mod colour_thread;
 pub mod drive_report;
 pub mod init;
 pub mod launch;
+pub mod logging;
 pub mod plan;
 pub mod procedure_stream;
 pub mod relief_feed;

@@ -129,12 +129,7 @@ impl Args {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
-        )
-        .with_writer(std::io::stderr)
-        .init();
+    videt_service::logging::init();
     let request = Args::parse().request();
     let plan = load_config(&request).and_then(|config| ServicePlan::new(config, &request));
     match plan {

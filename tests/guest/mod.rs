@@ -33,6 +33,10 @@ pub const GUEST_MISSED_CYCLES: u32 = 100;
 /// are told by their missing process data, as on the device.
 pub const GUEST_HEARTBEAT_TIMEOUT_MS: u32 = 2000;
 
+/// The wall's stiffness in the guest, N/m (`control.stiffness_n_per_m`; 2000 on the device):
+/// the emulated loop's rate holds 800 N/m at the default damping.
+pub const GUEST_STIFFNESS_N_PER_M: f64 = 800.0;
+
 /// Part of the period the service waits for the drives' answers to SYNC in the guest
 /// (`drives.pdo_wait_fraction`; 0.6 on the device, 0.95 the most it allows): the drive process
 /// shares the control thread's emulated CPU and answers in the time the control thread waits,
@@ -240,6 +244,15 @@ pub fn guest_config(
         "sensors",
         "stale_after_ms",
         toml::Value::Integer(GUEST_STALE_AFTER_MS.into()),
+    );
+    // The emulated loop runs at a quarter to a half of its rate (230-450 Hz), and a wall's
+    // Z-width falls with the rate (docs/haptic-bench.md): the default 2000 N/m wall oscillates
+    // there until the speed limit trips. The guest renders a wall its loop holds.
+    set(
+        &mut t,
+        "control",
+        "stiffness_n_per_m",
+        toml::Value::Float(GUEST_STIFFNESS_N_PER_M),
     );
     // An emulated CPU wakes the loop milliseconds late at times: count, do not trip.
     set(

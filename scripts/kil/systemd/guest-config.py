@@ -34,6 +34,9 @@ OVERRIDES = {
         "stale_after_ms": 200,
     },
     "realtime": {"max_consecutive_overruns": 10000},
+    # The emulated loop runs at a quarter to a half of its rate, and a wall's Z-width falls with
+    # the rate: the wall the parts hold there (tests/guest/mod.rs, GUEST_STIFFNESS_N_PER_M).
+    "control": {"stiffness_n_per_m": 800.0},
     "vision": {
         "devices": ["/dev/video0", "/dev/video1"],
         "stereo_calibration": "/etc/videt/stereo.json",

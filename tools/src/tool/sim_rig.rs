@@ -96,11 +96,12 @@ pub fn true_calibration(
 pub fn run(args: &SimRigArgs) -> ToolResult {
     let config = Config::load(&args.config)?;
     if let Some(cpu) = args.cpu {
-        let available = rt::cpus_available();
-        if cpu >= available {
-            return Err(
-                format!("--cpu {cpu}: this machine has CPUs 0 to {}", available - 1).into(),
-            );
+        if !rt::cpu_allowed(cpu) {
+            return Err(format!(
+                "--cpu {cpu}: this process may run on CPUs {}",
+                rt::cpu_list(&rt::allowed_cpus())
+            )
+            .into());
         }
     }
     let interface = args
