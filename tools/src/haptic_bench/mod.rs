@@ -477,7 +477,7 @@ fn confirm_by_holding(
     Ok(())
 }
 
-/// Find the largest stable stiffness: bisection on a log scale with issue 18's criterion
+/// Find the largest stable stiffness: bisection on a log scale with the short criterion
 /// (stability is taken to be monotonic in the stiffness, which every tried wall is recorded to
 /// check), then the 10 s hold and release on the stiffest wall found, stepping down until one
 /// passes.

@@ -1,6 +1,6 @@
 //! The wall as the finger meets it, leans on it and lets it go: a 15 mm push by the bench's
 //! operator (hand 200 N/m), a 10 s hold and a release, on one wall facing the frame (region A,
-//! P2). It judges what issue 18's short criterion cannot see (a limit cycle that builds up over
+//! P2). It judges what the Z-width's short criterion cannot see (a limit cycle that builds up over
 //! seconds, a wall that kicks the finger off or catches it again on release) and measures what
 //! the finger feels of the rendering: how late the force rises when the finger touches, and how
 //! much of the energy the finger put into the wall comes back when it leaves.
@@ -18,7 +18,7 @@ use videt_control::surface::Plane;
 pub const HOLD_S: f64 = 10.0;
 /// How far past the wall the operator's hand pushes, metres.
 const PUSH_M: f64 = 0.015;
-/// The operator's hand stiffness (issue 18's Z-width operator), N/m.
+/// The operator's hand stiffness (the Z-width's operator), N/m.
 const HAND_N_PER_M: f64 = 200.0;
 /// The push and the release each take this long, seconds.
 const MOVE_S: f64 = 0.3;
