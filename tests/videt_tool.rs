@@ -227,7 +227,7 @@ fn wire_replacement_and_tension_calibration_from_the_terminal() {
 }
 
 #[test]
-fn sim_rig_refuses_a_cpu_the_machine_lacks() {
+fn sim_rig_refuses_a_cpu_the_process_may_not_run_on() {
     let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
     let out = videt(&[
         "sim-rig",
@@ -240,8 +240,11 @@ fn sim_rig_refuses_a_cpu_the_machine_lacks() {
     ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
+    let allowed = videt_runtime::rt::cpu_list(&videt_runtime::rt::allowed_cpus());
     assert!(
-        err.contains("--cpu 4096: this machine has CPUs 0 to"),
+        err.contains(&format!(
+            "--cpu 4096: this process may run on CPUs {allowed}"
+        )),
         "{err}"
     );
 }
