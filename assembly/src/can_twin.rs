@@ -354,6 +354,7 @@ impl<const N: usize, T: TwinDevice<N>> CanTwin<N, T> {
                     power: n.power(),
                     nmt: n.nmt_state(),
                     applied_torque_nm: n.applied_torque_nm(),
+                    power_since: None,
                 })
                 .collect(),
             (None, SimCanPort::Threaded(_)) => Vec::new(),

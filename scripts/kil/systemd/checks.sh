@@ -61,10 +61,20 @@ journal() { # UNIT [PRIORITY]: its lines of at least that priority (all without 
   journalctl -b -u "$1" ${2:+-p "$2"} -o short-monotonic --no-pager |
     sed -n 's/^\[ *\([0-9.]*\)\] [^:]*: /\1 /p'
 }
-# The first line of the rig's drive power log after $1 (s) with no drive in Operation enabled:
+# The rig's drive power lines as "SECONDS LINE", SECONDS the monotonic time the drives changed
+# as their own thread saw it ("changed at"; the line reaches the journal later), else the
+# journal's.
+rig_power() {
+  journal videt-sim-rig | awk '/drive power/ {
+    t = $1
+    if (match($0, /changed at [0-9.]+ s/)) t = substr($0, RSTART + 11, RLENGTH - 13)
+    print t, $0
+  }'
+}
+# The first of the rig's drive power changes after $1 (s) with no drive in Operation enabled:
 # "SECONDS LINE", or nothing.
 drives_safe_after() {
-  journal videt-sim-rig | awk -v t="$1" '$1 >= t && /drive power/ && !/OperationEnabled/ { print; exit }'
+  rig_power | awk -v t="$1" '$1 >= t && !/OperationEnabled/ { print; exit }'
 }
 newest_log() { ls -t /var/log/videt/*.vlog 2>/dev/null | head -n 1; }
 config_value() { # SECTION KEY
@@ -160,7 +170,7 @@ ready_once_drives_enabled() {
   videt log "$log" --csv /tmp/session.csv >/dev/null 2>&1
   first=$(sed -n '2p' /tmp/session.csv | cut -d, -f2)
   local enabled
-  enabled=$(journal videt-sim-rig | awk '/drive power/ && gsub(/OperationEnabled/, "&") == 3 { print $1; exit }')
+  enabled=$(rig_power | awk 'gsub(/OperationEnabled/, "&") == 3 { print $1; exit }')
   DETAIL="enable --now took $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }') s; drives enabled (rig) at ${enabled:-?} s, first control period at ${first:-?} s, READY at $ready s"
   [ -n "$first" ] && [ -n "$enabled" ] &&
     awk -v f="$first" -v r="$ready" -v e="$enabled" 'BEGIN { exit !(f <= r && e <= r) }'

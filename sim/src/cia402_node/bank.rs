@@ -141,6 +141,9 @@ pub struct NodeView {
     pub nmt: NmtState,
     /// Torque applied to the motor, N·m.
     pub applied_torque_nm: f64,
+    /// When the drive entered its power state, as its own thread saw it (`None` where the
+    /// drives step with the twin's clock).
+    pub power_since: Option<std::time::Instant>,
 }
 
 /// Several simulated drives sharing one bus station and one plant, run on a thread.
@@ -206,6 +209,7 @@ impl SimDriveBank {
                     power: n.power(),
                     nmt: n.nmt_state(),
                     applied_torque_nm: 0.0,
+                    power_since: Some(Instant::now()),
                 })
                 .collect::<Vec<_>>(),
         ));
@@ -247,10 +251,16 @@ impl SimDriveBank {
                     }
                     if let Ok(mut v) = views_t.lock() {
                         for (view, n) in v.iter_mut().zip(&nodes) {
+                            let power = n.power();
                             *view = NodeView {
-                                power: n.power(),
+                                power,
                                 nmt: n.nmt_state(),
                                 applied_torque_nm: n.applied_torque_nm(),
+                                power_since: if power == view.power {
+                                    view.power_since
+                                } else {
+                                    Some(Instant::now())
+                                },
                             };
                         }
                     }

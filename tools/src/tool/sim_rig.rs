@@ -208,7 +208,13 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
                 .zip(&config.drives.node_ids)
                 .map(|(v, id)| format!("{id}: {:?} {:.3} N·m", v.power, v.applied_torque_nm))
                 .collect();
-            eprintln!("videt sim-rig: drive power {}", states.join(", "));
+            // This loop looks every 5 ms and its line reaches the journal later still: the time
+            // the last of the drives changed, as their own thread saw it, is the record.
+            let changed_at = views.iter().filter_map(|v| v.power_since).max();
+            let at = changed_at.map_or_else(String::new, |t| {
+                format!(" (changed at {:.6} s)", monotonic_s(t))
+            });
+            eprintln!("videt sim-rig: drive power {}{at}", states.join(", "));
             powers = now;
         }
         if args
@@ -232,6 +238,17 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     stop.store(true, Ordering::Relaxed);
     let _ = physics.join();
     Ok(ExitCode::SUCCESS)
+}
+
+/// `at` on the system's monotonic clock (`CLOCK_MONOTONIC`, the journal's and systemd's
+/// monotonic timestamps), seconds.
+fn monotonic_s(at: std::time::Instant) -> f64 {
+    use videt_hal::Clock;
+    let now = videt_runtime::rt::SystemClock.now();
+    now.0 as f64 * 1e-9
+        - std::time::Instant::now()
+            .saturating_duration_since(at)
+            .as_secs_f64()
 }
 
 /// The twin's encoders and strain-gauge readings, as the drives report them.
