@@ -362,8 +362,10 @@ frame (region A, P2) and holds; over the last 0.6 s of a 1.5 s hold the wall is 
 penetration's half peak-to-peak stays below 0.1 mm, the RMS speed below 5 mm/s, the finger never \
 leaves the wall and the safety supervisor never leaves its normal state";
 
-/// Press on a wall of stiffness `k` with damping `b` and judge it.
-pub fn judge_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallVerdict, String> {
+/// The wall facing the frame (region A) rendered by P2 with stiffness `k` and damping `b` on
+/// `base`'s parts: the configuration, where the thimble starts, the wall's outward normal and
+/// the wall (3 mm ahead).
+fn frame_wall(base: &Config, k: f64, b: f64) -> (Config, Vec3, Vec3, Plane) {
     let mut config = base.clone();
     config.control.stiffness_n_per_m = k;
     config.control.damping_n_s_per_m = b;
@@ -371,6 +373,45 @@ pub fn judge_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallVer
     let start = start_position(&config);
     let n = Vec3::new(0.0, 0.0, -1.0);
     let surface = surface_ahead(start, n);
+    (config, start, n, surface)
+}
+
+/// How still the thimble held against `surface` over `[from_s, to_s)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct HoldStats {
+    /// Half the penetration's peak-to-peak, mm.
+    oscillation_mm: f64,
+    /// RMS thimble speed, mm/s.
+    rms_speed_mm_s: f64,
+    /// Periods out of contact.
+    contact_lost: usize,
+    /// Periods in the window.
+    periods: usize,
+}
+
+fn hold_stats(trace: &Trace, surface: &Plane, from_s: f64, to_s: f64) -> HoldStats {
+    let (mut lo, mut hi, mut v2, mut periods, mut lost) = (f64::MAX, f64::MIN, 0.0, 0, 0);
+    for s in trace.window(from_s, to_s) {
+        let depth = -surface.signed_distance_m(&s.position_m);
+        lo = lo.min(depth);
+        hi = hi.max(depth);
+        v2 += s.velocity_m_s.norm_squared();
+        periods += 1;
+        if depth <= 0.0 {
+            lost += 1;
+        }
+    }
+    HoldStats {
+        oscillation_mm: (hi - lo) * 0.5e3,
+        rms_speed_mm_s: (v2 / periods.max(1) as f64).sqrt() * 1e3,
+        contact_lost: lost,
+        periods,
+    }
+}
+
+/// Press on a wall of stiffness `k` with damping `b` and judge it.
+pub fn judge_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallVerdict, String> {
+    let (config, start, n, surface) = frame_wall(base, k, b);
     let trace = run(&Experiment {
         config,
         surface,
@@ -378,28 +419,18 @@ pub fn judge_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallVer
         duration_s: 1.8,
         parts,
     })?;
-    let (from, to) = (1.2, 1.8);
-    let (mut lo, mut hi, mut v2, mut count, mut lost) = (f64::MAX, f64::MIN, 0.0, 0.0f64, 0);
-    for s in trace.window(from, to) {
-        let depth = -surface.signed_distance_m(&s.position_m);
-        lo = lo.min(depth);
-        hi = hi.max(depth);
-        v2 += s.velocity_m_s.norm_squared();
-        count += 1.0;
-        if depth <= 0.0 {
-            lost += 1;
-        }
-    }
-    let oscillation_mm = (hi - lo) * 0.5e3;
-    let rms_speed_mm_s = (v2 / count.max(1.0)).sqrt() * 1e3;
-    let safe = trace.final_safety == SafetyState::Normal && count > 0.0;
+    let hold = hold_stats(&trace, &surface, 1.2, 1.8);
+    let safe = trace.final_safety == SafetyState::Normal && hold.periods > 0;
     Ok(WallVerdict {
         stiffness_n_per_m: k,
-        oscillation_mm,
-        rms_speed_mm_s,
-        contact_lost: lost,
+        oscillation_mm: hold.oscillation_mm,
+        rms_speed_mm_s: hold.rms_speed_mm_s,
+        contact_lost: hold.contact_lost,
         safe,
-        stable: safe && lost == 0 && oscillation_mm < 0.1 && rms_speed_mm_s < 5.0,
+        stable: safe
+            && hold.contact_lost == 0
+            && hold.oscillation_mm < 0.1
+            && hold.rms_speed_mm_s < 5.0,
     })
 }
 
@@ -603,10 +634,10 @@ impl Rendering {
     };
 
     /// The configured rendering.
-    pub fn of(config: &Config) -> Rendering {
+    pub fn of(control: &videt_rt_config::ControlConfig) -> Rendering {
         Rendering {
-            integral_gate_m_s: config.control.tension_integral_speed_gate_m_s,
-            stretch_compensation: config.control.stretch_compensation,
+            integral_gate_m_s: control.tension_integral_speed_gate_m_s,
+            stretch_compensation: control.stretch_compensation,
         }
     }
 
@@ -635,7 +666,7 @@ impl Rendering {
 /// The renderings the bench compares: before the gate and the stretch correction, and the
 /// configured one when it differs.
 pub fn renderings_compared(base: &Config) -> Vec<Rendering> {
-    let configured = Rendering::of(base);
+    let configured = Rendering::of(&base.control);
     if configured == Rendering::BEFORE {
         vec![configured]
     } else {

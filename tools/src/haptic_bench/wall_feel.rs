@@ -10,8 +10,8 @@ use videt_control::safety::SafetyState;
 use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
-use super::rig::{run, start_position, Experiment, Parts, Trace};
-use super::surface_ahead;
+use super::rig::{run, Experiment, Parts, Trace};
+use super::{frame_wall, hold_stats};
 use videt_control::surface::Plane;
 
 /// How long the operator holds the push, seconds.
@@ -111,13 +111,7 @@ fn push_hold_release(script: Script, start: Vec3, n: Vec3, gap_m: f64) -> Virtua
 /// Push, hold and release a wall of stiffness `k` and damping `b` with `base`'s parts and
 /// tension loop, and judge it.
 pub fn feel_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallFeel, String> {
-    let mut config = base.clone();
-    config.control.stiffness_n_per_m = k;
-    config.control.damping_n_s_per_m = b;
-    config.control.algorithm = "P2".into();
-    let start = start_position(&config);
-    let n = Vec3::new(0.0, 0.0, -1.0);
-    let surface = surface_ahead(start, n);
+    let (config, start, n, surface) = frame_wall(base, k, b);
     let script = Script::for_config(&config);
     let trace = run(&Experiment {
         config: config.clone(),
@@ -137,24 +131,12 @@ fn judge(trace: &Trace, surface: &Plane, config: &Config, script: Script) -> Wal
         config.control.stiffness_n_per_m,
         config.control.damping_n_s_per_m,
     );
-    // The hold's last second.
-    let (mut lo, mut hi, mut v2, mut count, mut lost) = (f64::MAX, f64::MIN, 0.0, 0.0f64, 0);
-    for s in trace.window(release_at_s - HOLD_WINDOW_S, release_at_s) {
-        let d = depth(&s.position_m);
-        lo = lo.min(d);
-        hi = hi.max(d);
-        v2 += s.velocity_m_s.norm_squared();
-        count += 1.0;
-        if d <= 0.0 {
-            lost += 1;
-        }
-    }
-    let hold_oscillation_mm = if count > 0.0 {
-        (hi - lo) * 0.5e3
+    let hold = hold_stats(trace, surface, release_at_s - HOLD_WINDOW_S, release_at_s);
+    let hold_oscillation_mm = if hold.periods > 0 {
+        hold.oscillation_mm
     } else {
         f64::NAN
     };
-    let hold_rms_speed_mm_s = (v2 / count.max(1.0)).sqrt() * 1e3;
     // The release: when the finger leaves, and whether it comes back.
     let mut leaves_at = None;
     let mut touches_again = 0;
@@ -186,19 +168,19 @@ fn judge(trace: &Trace, surface: &Plane, config: &Config, script: Script) -> Wal
             energy_in -= power;
         }
     }
-    let safe = trace.final_safety == SafetyState::Normal && count > 0.0;
+    let safe = trace.final_safety == SafetyState::Normal && hold.periods > 0;
     let stable = safe
-        && lost == 0
+        && hold.contact_lost == 0
         && hold_oscillation_mm < 0.1
-        && hold_rms_speed_mm_s < 5.0
+        && hold.rms_speed_mm_s < 5.0
         && leaves_after_ms.is_some_and(|ms| ms <= 500.0)
         && touches_again == 0;
     WallFeel {
         stiffness_n_per_m: k,
         damping_n_s_per_m: b,
         hold_oscillation_mm,
-        hold_rms_speed_mm_s,
-        hold_contact_lost: lost,
+        hold_rms_speed_mm_s: hold.rms_speed_mm_s,
+        hold_contact_lost: hold.contact_lost,
         leaves_after_ms,
         touches_again,
         onset_delay_ms: onset_delay_s(trace, surface, k, b).map(|s| s * 1e3),

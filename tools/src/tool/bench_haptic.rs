@@ -138,10 +138,7 @@ pub fn render_text(r: &BenchReport) -> String {
     }
     let _ = writeln!(s, "\nZ-width: {}", r.zwidth_criterion);
     let _ = writeln!(s, "  and then: {}", r.hold_criterion);
-    let now = crate::haptic_bench::Rendering {
-        integral_gate_m_s: c.tension_integral_speed_gate_m_s,
-        stretch_compensation: c.stretch_compensation,
-    };
+    let now = crate::haptic_bench::Rendering::of(c);
     let _ = writeln!(
         s,
         "  renderings: before = {}; now = {}",
