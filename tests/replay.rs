@@ -1,7 +1,10 @@
 //! Record and replay on the whole stack: twin sessions recorded by the telemetry writer (with
 //! supervisor commands, device faults, and reliefs swapped by a vision thread) replay bit for
-//! bit through the same control cycle; a changed gain is reported at the period where it first
-//! matters; a log cut anywhere replays up to the cut.
+//! bit through the same control cycle; so do `videtd --sim` sessions of every scene (wall, box,
+//! stereo, camera) and every device (wireman3, planar2, polar1) the service runs; a changed gain
+//! is reported at the period where it first matters; a log cut anywhere replays up to the cut; a
+//! log recorded before a configuration key existed names the key and the default it replays
+//! with.
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -410,4 +413,296 @@ fn the_replay_tool_reports_plots_and_refuses_bad_logs_clearly() {
     assert!(err.contains("version 1 log records no inputs"), "{err}");
     let (status, out, _) = videt(&["log".as_ref(), cut.as_os_str()]);
     assert!(status.success() && out.contains("2 records"), "{out}");
+}
+
+/// What `videtd --sim SIM` (`hal` or `can`) ran and recorded for 2 s: the session log, or the
+/// service's refusal (its standard error) when it does not run the combination.
+fn videtd_session(
+    dir: &Path,
+    name: &str,
+    sim: &str,
+    device: &str,
+    scene: &str,
+    extra: &[&std::ffi::OsStr],
+) -> Result<std::path::PathBuf, String> {
+    let mut config = Config::default();
+    config.rig.device = device.into();
+    let config_path = dir.join(format!("{name}.toml"));
+    std::fs::write(&config_path, toml::to_string(&config).unwrap()).unwrap();
+    let logs = dir.join(name);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_videtd"))
+        .args(["--sim", sim, "--config"])
+        .arg(&config_path)
+        .args(["--scene", scene, "--duration", "2", "--no-socket"])
+        .arg("--telemetry-dir")
+        .arg(&logs)
+        .args(extra)
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    if !out.status.success() {
+        return Err(format!("exit {:?}: {stderr}", out.status.code()));
+    }
+    let mut files: Vec<_> = std::fs::read_dir(&logs)
+        .unwrap_or_else(|e| panic!("{}: {e} ({stderr})", logs.display()))
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    Ok(files.pop().unwrap())
+}
+
+/// Replays `log` with its recorded settings: identical outputs and inputs in every period the
+/// control cycle ran, none left out.
+fn assert_replays_every_cycle_period(what: &str, log: &telemetry::Log) {
+    assert!(log.damage.is_none(), "{what}: {:?}", log.damage_note());
+    let cycle_periods = log.records.iter().filter(|r| r.inputs.from_cycle).count();
+    assert!(cycle_periods > 1500, "{what}: {cycle_periods} periods");
+    let r = replay(log, &ReplayOverrides::default()).unwrap();
+    assert!(
+        r.identical(),
+        "{what}: {} of {} periods differ, the first: {}",
+        r.divergent_periods,
+        r.replayed.len(),
+        r.first_divergence.as_ref().unwrap()
+    );
+    assert_eq!(r.stopped_early, None, "{what}");
+    assert_eq!(r.replayed.len(), cycle_periods, "{what}");
+    assert_eq!(
+        r.procedure_periods,
+        log.records.len() - cycle_periods,
+        "{what}"
+    );
+    eprintln!("{what}: {} periods replayed bit for bit", r.replayed.len());
+}
+
+/// The reliefs the session rendered and how many came with a camera frame's age.
+fn surfaces_of(log: &telemetry::Log) -> (usize, usize) {
+    let versions: std::collections::BTreeSet<u64> =
+        log.records.iter().map(|r| r.surface_version).collect();
+    let aged = log
+        .records
+        .iter()
+        .filter(|r| r.inputs.surface_frame_age_ns.is_some())
+        .count();
+    (versions.len(), aged)
+}
+
+/// A device other than the WireMan: its wall session replays bit for bit; the scenes the
+/// service refuses for it are skipped with the service's reason.
+fn device_sessions_replay(device: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    for scene in ["wall", "box", "stereo", "camera:/nonexistent"] {
+        let name = scene.split(':').next().unwrap();
+        match videtd_session(dir.path(), name, "hal", device, scene, &[]) {
+            Ok(path) => {
+                assert_eq!(scene, "wall", "{device} ran the {scene} scene");
+                let log = telemetry::read_log(&path).unwrap();
+                let wires = log
+                    .session
+                    .as_ref()
+                    .unwrap()
+                    .as_ref()
+                    .unwrap()
+                    .config
+                    .rig
+                    .device
+                    .clone();
+                assert_eq!(wires, device);
+                assert_replays_every_cycle_period(&format!("{device} {scene}"), &log);
+            }
+            Err(why) => {
+                assert_ne!(scene, "wall", "{device}: {why}");
+                assert!(
+                    why.contains("rig.device") && why.contains("wall scene"),
+                    "{device} {scene}: {why}"
+                );
+                let reason = why.find("rig.device").map_or(why.as_str(), |at| &why[at..]);
+                eprintln!(
+                    "skipping {device} with --scene {name}: the service refuses it: {}",
+                    reason.lines().next().unwrap_or_default()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_planar2_session_replays_bit_for_bit() {
+    device_sessions_replay("planar2");
+}
+
+#[test]
+fn a_polar1_session_replays_bit_for_bit() {
+    device_sessions_replay("polar1");
+}
+
+#[test]
+fn videtd_wall_and_box_sessions_replay_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    for scene in ["wall", "box"] {
+        let path = videtd_session(dir.path(), scene, "hal", "wireman3", scene, &[]).unwrap();
+        let log = telemetry::read_log(&path).unwrap();
+        assert_replays_every_cycle_period(&format!("wireman3 {scene}"), &log);
+    }
+}
+
+#[test]
+fn videtd_box_session_on_the_can_twin_replays_bit_for_bit() {
+    // The drives behind CiA 402 nodes on the simulated bus: the samples the driver decoded from
+    // the bus are what the replay feeds back.
+    let dir = tempfile::tempdir().unwrap();
+    let path = videtd_session(dir.path(), "box-can", "can", "wireman3", "box", &[]).unwrap();
+    let log = telemetry::read_log(&path).unwrap();
+    assert_replays_every_cycle_period("wireman3 box (CAN twin)", &log);
+}
+
+#[test]
+fn a_videtd_stereo_session_replays_bit_for_bit_with_its_frame_ages() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = videtd_session(dir.path(), "stereo", "hal", "wireman3", "stereo", &[]).unwrap();
+    let log = telemetry::read_log(&path).unwrap();
+    // Reliefs updated around the finger, each first rendered with the age of the frame it was
+    // made from: what the replay must hand back rather than measure again.
+    let (versions, aged) = surfaces_of(&log);
+    assert!(versions >= 3, "{versions} surface versions rendered");
+    assert!(aged >= 1, "no frame age recorded");
+    assert_replays_every_cycle_period("wireman3 stereo", &log);
+}
+
+#[test]
+fn a_videtd_camera_session_replays_bit_for_bit_with_its_frame_ages() {
+    // The twin's camera is a folder of raw pairs played as a free-running camera (the
+    // file camera; V4L2 needs the device): the shared chessboard set's first pair, calibrated
+    // by `videt calibrate-stereo`.
+    let Some(images) = videt_testdata::data_dir("calib/chessboard") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let calibration = dir.path().join("stereo.json");
+    let (status, _, err) = videt(&[
+        "calibrate-stereo".as_ref(),
+        "--images".as_ref(),
+        images.as_os_str(),
+        "--board".as_ref(),
+        "9x6".as_ref(),
+        "--square".as_ref(),
+        "0.025".as_ref(),
+        "--out".as_ref(),
+        calibration.as_os_str(),
+    ]);
+    assert!(status.success(), "{err}");
+    let still = dir.path().join("still");
+    std::fs::create_dir(&still).unwrap();
+    for name in ["left01.jpg", "right01.jpg"] {
+        std::fs::copy(images.join(name), still.join(name)).unwrap();
+    }
+    let scene = format!("camera:{}", still.display());
+    let path = videtd_session(
+        dir.path(),
+        "camera",
+        "hal",
+        "wireman3",
+        &scene,
+        &["--stereo-calibration".as_ref(), calibration.as_os_str()],
+    )
+    .unwrap();
+    let log = telemetry::read_log(&path).unwrap();
+    let (versions, aged) = surfaces_of(&log);
+    assert!(versions >= 3, "{versions} surface versions rendered");
+    assert!(aged >= 2, "{aged} frame ages recorded");
+    assert_replays_every_cycle_period("wireman3 camera", &log);
+    let (status, out, _) = videt(&["replay".as_ref(), path.as_os_str()]);
+    assert!(status.success() && out.contains("identical"), "{out}");
+}
+
+/// `bytes` (a log whose first frame is the session) with the session frame's text passed
+/// through `edit`.
+fn with_session_text(bytes: &[u8], edit: impl Fn(&str) -> String) -> Vec<u8> {
+    let h = telemetry::HEADER_BYTES;
+    let head = telemetry::format::FRAME_HEAD_BYTES;
+    assert_eq!(bytes[h], telemetry::format::FrameKind::Session as u8);
+    let len = u32::from_le_bytes(bytes[h + 4..h + 8].try_into().unwrap()) as usize;
+    let text = std::str::from_utf8(&bytes[h + head..h + head + len]).unwrap();
+    let mut out = bytes[..h].to_vec();
+    telemetry::format::frame(
+        telemetry::format::FrameKind::Session,
+        edit(text).as_bytes(),
+        &mut out,
+    )
+    .unwrap();
+    out.extend_from_slice(&bytes[h + head + len + telemetry::format::FRAME_TAIL_BYTES..]);
+    out
+}
+
+#[test]
+fn a_log_recorded_before_a_configuration_key_existed_names_it() {
+    // A session that ran without the stretch compensation, as a build before the key existed
+    // did; its log then lacks the key, and a replay takes today's default (on).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("o.vlog");
+    let mut config = Config::default();
+    config.control.stretch_compensation = false;
+    record_session(&path, &config, 2.0, false, Vec::new(), &[]);
+    let bytes = std::fs::read(&path).unwrap();
+    assert_identical(&telemetry::parse_log(&bytes).unwrap());
+    let old = with_session_text(&bytes, |text| {
+        let kept: Vec<&str> = text
+            .lines()
+            .filter(|l| !l.starts_with("stretch_compensation "))
+            .collect();
+        assert_eq!(kept.len() + 1, text.lines().count(), "{text}");
+        kept.join("\n")
+    });
+    let old_path = dir.path().join("old.vlog");
+    std::fs::write(&old_path, &old).unwrap();
+    let log = telemetry::parse_log(&old).unwrap();
+    assert!(log.damage.is_none(), "{:?}", log.damage_note());
+    assert!(
+        log.session
+            .as_ref()
+            .unwrap()
+            .as_ref()
+            .unwrap()
+            .config
+            .control
+            .stretch_compensation
+    );
+    let (status, out, err) = videt(&["replay".as_ref(), old_path.as_os_str()]);
+    assert_eq!(status.code(), Some(3), "{out}{err}");
+    assert!(
+        out.contains(
+            "recorded before control.stretch_compensation existed: replayed with today's default true"
+        ),
+        "{out}"
+    );
+    let divergence = out
+        .lines()
+        .find(|l| l.contains("first divergence"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(
+        divergence.contains("control.stretch_compensation = true"),
+        "{divergence}"
+    );
+    // The same log's replay with the key as the session ran it is identical again.
+    let config_path = dir.path().join("as-recorded.toml");
+    std::fs::write(&config_path, toml::to_string(&config).unwrap()).unwrap();
+    let (status, out, err) = videt(&[
+        "replay".as_ref(),
+        old_path.as_os_str(),
+        "--config".as_ref(),
+        config_path.as_os_str(),
+    ]);
+    assert!(status.success(), "{out}{err}");
+    assert!(
+        out.contains("identical") && !out.contains("recorded before"),
+        "{out}"
+    );
+    // The JSON report lists the key too.
+    let (_, out, _) = videt(&["replay".as_ref(), old_path.as_os_str(), "--json".as_ref()]);
+    let report: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(
+        report["unrecorded_config"],
+        serde_json::json!(["control.stretch_compensation = true"])
+    );
 }

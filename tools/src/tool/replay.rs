@@ -9,9 +9,11 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 
-use crate::replay::{replay, Replay, ReplayOverrides};
+use crate::replay::{
+    replay, session_text, unrecorded_config_keys, Replay, ReplayOverrides, UnrecordedKey,
+};
 use videt_runtime::cycle::CycleRecord;
-use videt_runtime::telemetry::{read_log, Log};
+use videt_runtime::telemetry::{parse_log, Log};
 
 use super::ToolResult;
 
@@ -67,9 +69,12 @@ pub struct ReplayReport {
     pub max_force_difference_n: f64,
     /// The algorithm of the replay.
     pub algorithm: String,
+    /// Keys of today's configuration the recorded one lacks (recorded before they existed),
+    /// replayed with today's defaults: `key = default`.
+    pub unrecorded_config: Vec<String>,
 }
 
-fn report(log: &Log, r: &Replay) -> ReplayReport {
+fn report(log: &Log, r: &Replay, unrecorded: &[UnrecordedKey]) -> ReplayReport {
     let (mut sp, mut tq, mut f) = ([0.0f64; 3], [0.0f64; 3], 0.0f64);
     for (i, out) in &r.replayed {
         let rec = &log.records[*i];
@@ -87,14 +92,30 @@ fn report(log: &Log, r: &Replay) -> ReplayReport {
         replayed: r.replayed.len(),
         procedure_periods: r.procedure_periods,
         divergent_periods: r.divergent_periods,
-        first_divergence: r.first_divergence.as_ref().map(|d| d.to_string()),
+        first_divergence: r.first_divergence.as_ref().map(|d| {
+            if unrecorded.is_empty() {
+                d.to_string()
+            } else {
+                format!(
+                    "{d}; the log was recorded before {} existed: replayed with today's default{} {}",
+                    join_keys(unrecorded, |k| k.key.clone()),
+                    if unrecorded.len() == 1 { "" } else { "s" },
+                    join_keys(unrecorded, |k| k.to_string()),
+                )
+            }
+        }),
         stopped_early: r.stopped_early.clone(),
         damage: log.damage_note(),
         max_setpoint_difference_n: sp,
         max_torque_difference_nm: tq,
         max_force_difference_n: f,
         algorithm: r.config.control.algorithm.clone(),
+        unrecorded_config: unrecorded.iter().map(|k| k.to_string()).collect(),
     }
+}
+
+fn join_keys(keys: &[UnrecordedKey], text: impl Fn(&UnrecordedKey) -> String) -> String {
+    keys.iter().map(text).collect::<Vec<_>>().join(", ")
 }
 
 /// The recorded and replayed outputs side by side.
@@ -133,7 +154,9 @@ pub fn side_by_side_csv(log: &Log, r: &Replay) -> String {
 
 /// Run `videt replay`.
 pub fn run(args: &ReplayArgs) -> ToolResult {
-    let log = read_log(&args.logfile).map_err(|e| format!("{}: {e}", args.logfile.display()))?;
+    let bytes =
+        std::fs::read(&args.logfile).map_err(|e| format!("{}: {e}", args.logfile.display()))?;
+    let log = parse_log(&bytes).map_err(|e| format!("{}: {e}", args.logfile.display()))?;
     let overrides = ReplayOverrides {
         config: args
             .config
@@ -143,7 +166,12 @@ pub fn run(args: &ReplayArgs) -> ToolResult {
         algorithm: args.algorithm.clone(),
     };
     let r = replay(&log, &overrides).map_err(|e| format!("{}: {e}", args.logfile.display()))?;
-    let rep = report(&log, &r);
+    // A configuration given in full replaces the recorded one: nothing of it is missing then.
+    let unrecorded = match (&args.config, session_text(&bytes)) {
+        (None, Some(text)) => unrecorded_config_keys(text),
+        _ => Vec::new(),
+    };
+    let rep = report(&log, &r, &unrecorded);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
     } else {
@@ -213,6 +241,17 @@ fn print_report(args: &ReplayArgs, log: &Log, rep: &ReplayReport, overridden: bo
             "  {} procedure periods (auto-initialization) skipped: not the control cycle's",
             rep.procedure_periods
         );
+    }
+    for key in &rep.unrecorded_config {
+        match key.split_once(" = ") {
+            Some((name, default)) if !name.starts_with('[') => println!(
+                "  recorded before {name} existed: replayed with today's default {default}"
+            ),
+            _ => println!(
+                "  recorded before the section {} existed: replayed with today's defaults",
+                key.split(' ').next().unwrap_or(key)
+            ),
+        }
     }
     if let Some(why) = &rep.stopped_early {
         println!("  replay stopped early at {why}");
