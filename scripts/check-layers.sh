@@ -29,7 +29,7 @@ refuse() {
   fi
 }
 
-layers=(videt-runtime videt-assembly videt-service videt-tools)
+layers=(videt-runtime videt-viewers videt-assembly videt-service videt-tools)
 for domain in videt-hal videt-can-timing videt-control videt-vision videt-drivers videt-sim \
   videt-rt-config videt-colour videt-experiments; do
   refuse "$domain" "${layers[@]}"
@@ -38,6 +38,8 @@ done
 # configuration crate reads drive description files with the drivers' EDS reader).
 refuse videt-runtime videt-assembly videt-service videt-tools videt-experiments plotters
 FLAGS="--depth 1" refuse videt-runtime videt-drivers videt-sim
+# The viewers' topics sit on the core: the service serves them live, the tools export them.
+refuse videt-viewers videt-assembly videt-service videt-tools videt-experiments plotters
 refuse videt-assembly videt-service videt-tools videt-experiments plotters
 refuse videt-service videt-tools videt-experiments plotters
 # videtd alone: the service, without the tool's analysis, plots and experiments.

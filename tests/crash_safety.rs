@@ -87,7 +87,7 @@ fn child_main(spec: &str) -> ! {
                 };
                 producer.observe(&record, &WindowStats::default());
                 cycle += 1;
-                if cycle % 4000 == 0 {
+                if cycle.is_multiple_of(4000) {
                     std::thread::sleep(Duration::from_millis(15));
                 }
             }

@@ -1,7 +1,8 @@
 //! The control thread allocates and frees nothing: the real loop runs 10 000 periods on the
 //! twin with surface snapshots arriving from a vision thread, the thimble state going back, the
 //! status published and every period recorded by the telemetry writer — under a global allocator
-//! that counts allocations made on the control thread.
+//! that counts allocations made on the control thread. The live view runs beside it, sampling
+//! its own copy of the status and serving it over the Foxglove WebSocket protocol.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -51,6 +52,25 @@ fn the_control_thread_allocates_and_frees_nothing() {
     });
     let (thimble_publisher, mut thimble_reader) = thimble_channel();
     let (status_publisher, mut status_reader) = status_channel();
+    let (live_publisher, live_status) = status_channel();
+    let live = videt_viewers::live::LiveView::start(
+        &videt_viewers::live::LiveSettings {
+            host: "127.0.0.1".into(),
+            port: 0,
+            rate_hz: 30.0,
+            client_backlog: 64,
+            avoid_cpu: Some(1),
+        },
+        videt_viewers::topics::SceneSetup::new(&config, None),
+        videt_viewers::live::LiveSources {
+            status: live_status,
+            surfaces: videt_runtime::telemetry::FeedRecording::default(),
+            image: None,
+            calibrations: None,
+            config: config.clone(),
+        },
+    )
+    .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let (telemetry_producer, telemetry_writer) = telemetry::start(
         &dir.path().join("a.vlog"),
@@ -73,7 +93,7 @@ fn the_control_thread_allocates_and_frees_nothing() {
             let wall_z = 0.33 + 0.001 * (published % 5) as f64;
             surface_writer.publish_with(|s| {
                 // Sometimes rebuild from scratch (new allocation), sometimes in place.
-                if published % 3 == 0 {
+                if published.is_multiple_of(3) {
                     *s = TableWall {
                         z_by_column: vec![wall_z; 50],
                     };
@@ -99,7 +119,11 @@ fn the_control_thread_allocates_and_frees_nothing() {
         };
         let stop = AtomicBool::new(false);
         let mut stats = LoopStats::default();
-        let mut observers = (status_publisher, thimble_publisher, telemetry_producer);
+        let mut observers = (
+            status_publisher,
+            thimble_publisher,
+            (telemetry_producer, live_publisher),
+        );
         let mut control = LoopControl::stop_flag(&stop);
         let (report, counts) = videt_testkit::count_allocations(|| {
             run_control_loop(
@@ -120,6 +144,7 @@ fn the_control_thread_allocates_and_frees_nothing() {
     let (published, seen_cycle) = vision.join().unwrap();
     drop(observers);
     let written = telemetry_writer.finish().unwrap();
+    let live = live.stop();
 
     assert!(report.cycles >= 10_000, "ran {} periods", report.cycles);
     assert!(
@@ -132,6 +157,11 @@ fn the_control_thread_allocates_and_frees_nothing() {
     );
     assert!(status_reader.latest().record.cycle > 9_000);
     assert!(written > 9_000, "telemetry recorded {written} periods");
+    // The twin runs on simulated time, faster than the wall clock the live view samples by.
+    assert!(
+        live.samples >= 3 && live.samples as f64 >= 0.5 * 30.0 * live.wall_s,
+        "the live view sampled the loop at 30 Hz while it ran: {live:?}"
+    );
     assert_eq!(
         counts,
         videt_testkit::AllocCounts::default(),

@@ -47,10 +47,10 @@ impl CycleObserver for LiveVision {
         if self.records.len() < self.records.capacity() {
             self.records.push(*record);
         }
-        if record.cycle == 0 || record.cycle % self.every_cycles != 0 {
+        if record.cycle == 0 || !record.cycle.is_multiple_of(self.every_cycles) {
             return;
         }
-        if record.cycle % self.full_every_cycles == 0 {
+        if record.cycle.is_multiple_of(self.full_every_cycles) {
             let (model, _) = self.relief.refresh_full().expect("a whole-image run");
             self.writer.publish_with(|slot| slot.clone_from(&model));
             self.models.push(model);

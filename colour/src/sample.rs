@@ -99,7 +99,10 @@ pub fn check_frame(frame: &RgbFrame) -> Result<(), SampleError> {
 impl WindowSampler {
     /// A sampler; allocates its scratch buffer once, here.
     pub fn new(config: SamplerConfig) -> Result<WindowSampler, SampleError> {
-        if config.window_px % 2 == 0 || config.window_px == 0 || config.window_px > MAX_WINDOW_PX {
+        if config.window_px.is_multiple_of(2)
+            || config.window_px == 0
+            || config.window_px > MAX_WINDOW_PX
+        {
             return Err(SampleError::BadWindow {
                 window_px: config.window_px,
             });

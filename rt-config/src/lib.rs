@@ -87,6 +87,8 @@ pub struct Config {
     pub files: FilesConfig,
     /// The colour under the finger, rendered on the three vibrotactors.
     pub colour: ColourConfig,
+    /// The live view for Foxglove (off unless enabled here or by `videtd --live`).
+    pub live: LiveConfig,
 }
 
 /// How the colour window under the finger is combined into one colour.
@@ -499,6 +501,57 @@ impl Default for TelemetryConfig {
             ring_records: 16384,
         }
     }
+}
+
+/// The live view: the device's topics served over the Foxglove WebSocket protocol, read-only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LiveConfig {
+    /// Serve the live view.
+    pub enabled: bool,
+    /// Address and port to listen on. Loopback by default: another machine reaches it only
+    /// when an address of the machine's network is given (or through an SSH tunnel).
+    pub address: String,
+    /// How often the live view samples the control loop and sends, hertz.
+    pub rate_hz: f64,
+    /// Messages queued per client before the oldest are dropped (a slow client loses
+    /// messages; nothing waits for it).
+    pub client_backlog: u32,
+}
+
+impl Default for LiveConfig {
+    fn default() -> Self {
+        LiveConfig {
+            enabled: false,
+            address: "127.0.0.1:8765".into(),
+            rate_hz: 30.0,
+            client_backlog: 256,
+        }
+    }
+}
+
+impl LiveConfig {
+    /// The listening address as host and port, or why `address` is not one.
+    pub fn host_port(&self) -> Result<(String, u16), ConfigError> {
+        parse_host_port(&self.address).ok_or_else(|| ConfigError::Invalid {
+            field: "live.address".into(),
+            value: self.address.clone(),
+            allowed: "HOST:PORT (an IPv4 address, [IPv6] or a host name, and a port 0-65535)"
+                .into(),
+        })
+    }
+}
+
+/// `HOST:PORT`, `[IPv6]:PORT`: the host (brackets removed) and the port.
+fn parse_host_port(text: &str) -> Option<(String, u16)> {
+    let (host, port) = text.rsplit_once(':')?;
+    let port = port.parse().ok()?;
+    let host = match host.strip_prefix('[') {
+        Some(inner) => inner.strip_suffix(']')?,
+        None if host.contains(':') => return None,
+        None => host,
+    };
+    (!host.is_empty() && !host.contains(char::is_whitespace)).then(|| (host.to_string(), port))
 }
 
 impl Default for SocketConfig {

@@ -302,3 +302,40 @@ fn rig_device_is_named_and_checked() {
         .to_string()
         .contains("rig.spidar_guides_m[2].z"));
 }
+
+#[test]
+fn the_live_view_is_off_on_loopback_by_default_and_its_settings_are_checked() {
+    let c = Config::default();
+    assert!(!c.live.enabled);
+    assert_eq!(c.live.host_port().unwrap(), ("127.0.0.1".to_string(), 8765));
+    for (address, expected) in [
+        ("0.0.0.0:9000", Some(("0.0.0.0", 9000))),
+        ("[::1]:8765", Some(("::1", 8765))),
+        ("backpack.local:0", Some(("backpack.local", 0))),
+        ("127.0.0.1", None),
+        ("::1:8765", None),
+        ("127.0.0.1:70000", None),
+        (":8765", None),
+    ] {
+        let mut c = Config::default();
+        c.live.address = address.into();
+        match expected {
+            Some((host, port)) => {
+                assert_eq!(c.live.host_port().unwrap(), (host.to_string(), port));
+                c.validate().unwrap();
+            }
+            None => {
+                let e = c.validate().unwrap_err().to_string();
+                assert!(e.contains("live.address") && e.contains("HOST:PORT"), "{e}");
+            }
+        }
+    }
+    let e = Config::from_toml_str("[live]\nrate_hz = 500\n", "t")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("live.rate_hz") && e.contains("[1, 120]"), "{e}");
+    let e = Config::from_toml_str("[live]\nclient_backlog = 1\n", "t")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("live.client_backlog"), "{e}");
+}

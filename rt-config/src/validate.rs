@@ -326,6 +326,14 @@ impl Config {
             10.0,
             600_000.0,
         )?;
+        self.live.host_port()?;
+        in_range("live.rate_hz", self.live.rate_hz, 1.0, 120.0)?;
+        in_range(
+            "live.client_backlog",
+            f64::from(self.live.client_backlog),
+            8.0,
+            65_536.0,
+        )?;
         Ok(())
     }
 }
@@ -448,7 +456,7 @@ impl Config {
 
     fn validate_colour(&self) -> Result<(), ConfigError> {
         let c = &self.colour;
-        if !(1..=31).contains(&c.window_px) || c.window_px % 2 == 0 {
+        if !(1..=31).contains(&c.window_px) || c.window_px.is_multiple_of(2) {
             return Err(ConfigError::Invalid {
                 field: "colour.window_px".into(),
                 value: c.window_px.to_string(),

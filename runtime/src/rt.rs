@@ -254,6 +254,28 @@ pub fn pin_to_cpu(cpu: usize) -> io::Result<()> {
     }
 }
 
+/// Keep the calling thread off `cpu` (the control thread's): its affinity becomes the CPUs it
+/// may run on now without that one. A thread that does network or file I/O in system calls
+/// then never runs kernel code on the control CPU, where a kernel without full preemption would
+/// hold the control thread's wake-up until the call returns. Nothing changes when `cpu` is the
+/// only CPU allowed; returns whether the mask changed.
+pub fn keep_off_cpu(cpu: usize) -> bool {
+    let others: Vec<usize> = allowed_cpus().into_iter().filter(|&c| c != cpu).collect();
+    if others.is_empty() || !cpu_allowed(cpu) {
+        return false;
+    }
+    // SAFETY: cpu_set_t is plain data; CPU_ZERO/CPU_SET only write inside it for indices below
+    // CPU_SETSIZE (every index came from CPU_ISSET over that range); 0 = this thread.
+    unsafe {
+        let mut set: libc::cpu_set_t = std::mem::zeroed();
+        libc::CPU_ZERO(&mut set);
+        for c in others {
+            libc::CPU_SET(c, &mut set);
+        }
+        libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) == 0
+    }
+}
+
 /// Set the calling (control) thread up for real time: FIFO priority, CPU pinning, a prefaulted
 /// stack. Each failure is a warning, never an error.
 pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
@@ -286,6 +308,28 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_thread_kept_off_a_cpu_runs_on_the_others_only() {
+        std::thread::spawn(|| {
+            let allowed = allowed_cpus();
+            let Some(&control) = allowed.last() else {
+                return;
+            };
+            let changed = keep_off_cpu(control);
+            if allowed.len() == 1 {
+                assert!(!changed, "the only CPU is kept");
+                assert_eq!(allowed_cpus(), allowed);
+            } else {
+                assert!(changed);
+                let now = allowed_cpus();
+                assert!(!now.contains(&control), "{now:?}");
+                assert_eq!(now.len(), allowed.len() - 1);
+            }
+        })
+        .join()
+        .unwrap();
+    }
     use super::*;
 
     #[test]

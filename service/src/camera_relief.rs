@@ -166,6 +166,8 @@ pub struct CameraRelief<C> {
     /// The relief of the last whole-image run, updated around the finger since.
     live: Option<StereoRelief>,
     colour: Option<ColourPublisher>,
+    /// Where the rectified left grey frames go for the live view.
+    live_image: Option<std::sync::Arc<videt_viewers::live::ImageSlot>>,
 }
 
 /// Where the rectified left colour frames go (the colour thread), and the buffers they are
@@ -209,6 +211,7 @@ impl<C: StereoCamera> CameraRelief<C> {
             captured: None,
             live: None,
             colour: None,
+            live_image: None,
         })
     }
 
@@ -221,6 +224,12 @@ impl<C: StereoCamera> CameraRelief<C> {
             rectified: RgbFrame::default(),
             planes: RgbPlanes::default(),
         });
+        self
+    }
+
+    /// Also offer each rectified left grey frame to the live view through `slot`.
+    pub fn with_live_image(mut self, slot: std::sync::Arc<videt_viewers::live::ImageSlot>) -> Self {
+        self.live_image = Some(slot);
         self
     }
 
@@ -264,6 +273,10 @@ impl<C: StereoCamera> CameraRelief<C> {
                 .publish_with(|slot| slot.clone_from(rectified));
         }
         let captured = self.frame.left_stamp.min(self.frame.right_stamp);
+        if let Some(slot) = &self.live_image {
+            let l = &self.left;
+            slot.offer(captured.as_nanos(), l.width, l.height, &l.data);
+        }
         self.captured = Some(captured);
         Ok(captured)
     }

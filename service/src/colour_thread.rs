@@ -319,7 +319,7 @@ where
     let inputs = &handles.inputs;
     let mut tick = 0u64;
     loop {
-        if tick % TICKS_PER_READING == 0 {
+        if tick.is_multiple_of(TICKS_PER_READING) {
             let state = thimble.latest();
             let (version, [x, y, _]) = (state.version, state.value.position_m);
             let frame = &frames.latest().value;

@@ -101,6 +101,9 @@ pub struct ServiceRequest {
     pub lock: Option<PathBuf>,
     /// With `sim`: the twin's true guide points, `"X,Y;X,Y;X,Y"` metres.
     pub sim_guides: Option<String>,
+    /// Serve the live view (`Some(None)`: on `live.address`; `Some(Some(addr))`: on that
+    /// `HOST:PORT`), whatever `live.enabled` says.
+    pub live: Option<Option<String>>,
 }
 
 /// The device the plan runs, built from the configuration (`rig.device`).
@@ -214,6 +217,16 @@ impl ServicePlan {
         }
         if let Some(p) = &request.stereo_calibration {
             config.vision.stereo_calibration = p.display().to_string();
+        }
+        if let Some(address) = &request.live {
+            config.live.enabled = true;
+            if let Some(a) = address {
+                config.live.address = a.clone();
+            }
+            config
+                .live
+                .host_port()
+                .map_err(|e| PlanError::refused(format!("--live: {e}")))?;
         }
         let mut options = ServiceOptions::from_config(config.clone());
         options.duration_s = request.duration_s;
@@ -337,6 +350,7 @@ mod tests {
             sim_calibration: SimCalibration::Config,
             lock: None,
             sim_guides: None,
+            live: None,
         }
     }
 
@@ -345,6 +359,31 @@ mod tests {
             Ok(_) => panic!("{request:?} was accepted"),
             Err(e) => e,
         }
+    }
+
+    #[test]
+    fn live_turns_the_view_on_where_asked_and_refuses_an_unreadable_address() {
+        let plan = ServicePlan::new(Config::default(), &twin_request()).unwrap();
+        assert_eq!(plan.options.live, None, "off by default");
+        let mut request = twin_request();
+        request.live = Some(None);
+        let plan = ServicePlan::new(Config::default(), &request).unwrap();
+        let live = plan.options.live.unwrap();
+        assert_eq!((live.host.as_str(), live.port), ("127.0.0.1", 8765));
+        assert_eq!(live.rate_hz, 30.0);
+        request.live = Some(Some("[::1]:9000".into()));
+        let live = ServicePlan::new(Config::default(), &request)
+            .unwrap()
+            .options
+            .live
+            .unwrap();
+        assert_eq!((live.host.as_str(), live.port), ("::1", 9000));
+        request.live = Some(Some("8765".into()));
+        let e = refused(Config::default(), &request);
+        assert!(
+            e.to_string().contains("--live") && e.to_string().contains("HOST:PORT"),
+            "{e}"
+        );
     }
 
     #[test]

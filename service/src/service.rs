@@ -51,12 +51,19 @@ pub struct ServiceOptions {
     pub calibration_path: Option<PathBuf>,
     /// What runs (the scene, the device or the twin), for the session log.
     pub what: String,
+    /// Serve the live view (`None`: off).
+    pub live: Option<videt_viewers::live::LiveSettings>,
 }
 
 impl ServiceOptions {
     /// Options from the configuration alone.
     pub fn from_config(config: Config) -> ServiceOptions {
         let config_calibration = config.files.calibration.clone();
+        let live = config
+            .live
+            .enabled
+            .then(|| videt_viewers::live::LiveSettings::from_config(&config.live).ok())
+            .flatten();
         let socket_path = Some(PathBuf::from(&config.socket.path));
         let telemetry_dir = config
             .telemetry
@@ -71,6 +78,7 @@ impl ServiceOptions {
             colour: None,
             calibration_path: Some(PathBuf::from(&config_calibration)),
             what: String::new(),
+            live,
         }
     }
 }
@@ -93,6 +101,8 @@ pub struct ServiceExtras {
     /// The drives' start-up report (identities, missing optional objects): logged once per
     /// configuration and carried in the status reply.
     pub drives_report: Option<videt_drivers::cia402::SharedStartupReport>,
+    /// The cameras' rectified left image for the live view (a camera scene sets it).
+    pub live_image: Option<Arc<videt_viewers::live::ImageSlot>>,
 }
 
 pub use videt_assembly::hardware::FaultCauses;
@@ -125,6 +135,10 @@ struct Observers {
     telemetry: Option<TelemetryProducer>,
     thimble: Option<videt_runtime::snapshot::ThimblePublisher>,
     vision_thimble: Option<videt_runtime::snapshot::ThimblePublisher>,
+    /// The live view's copy of the status.
+    live: Option<StatusPublisher>,
+    /// The live view's calibrations (a re-initialization moves the guides it draws).
+    live_calibrations: Option<rtrb::Producer<CalibrationInForce>>,
 }
 
 impl CycleObserver for Observers {
@@ -142,6 +156,59 @@ impl CycleObserver for Observers {
         }
         if let Some(t) = self.vision_thimble.as_mut() {
             t.observe(record, window);
+        }
+        if let Some(t) = self.live.as_mut() {
+            t.observe(record, window);
+        }
+    }
+}
+
+/// Start the live view of `settings` on the status of a publisher it returns for the control
+/// thread's observers. A view that cannot start (its port in use) is logged as an error and
+/// the service runs without it: the device's rendering does not depend on being watched.
+fn start_live_view<const N: usize, D, F>(
+    settings: &videt_viewers::live::LiveSettings,
+    config: &Config,
+    cycle: &ControlCycle<N, D>,
+    feed: &F,
+    image: Option<Arc<videt_viewers::live::ImageSlot>>,
+) -> (
+    Option<StatusPublisher>,
+    Option<rtrb::Producer<CalibrationInForce>>,
+    Option<videt_viewers::live::LiveView>,
+)
+where
+    D: RuntimeDevice<N>,
+    F: SurfaceFeed,
+{
+    use videt_viewers::live::{LiveSources, LiveView};
+    let (mut publisher, status) = status_channel();
+    publisher.set_device(D::KIND.name(), N);
+    let setup =
+        videt_viewers::topics::SceneSetup::new(config, Some(&CalibrationInForce::of(cycle)));
+    let (calibration_tx, calibration_rx) = videt_viewers::live::calibration_channel();
+    let sources = LiveSources {
+        status,
+        surfaces: feed.recording(),
+        image,
+        calibrations: Some(calibration_rx),
+        config: config.clone(),
+    };
+    let mut settings = settings.clone();
+    settings.avoid_cpu = usize::try_from(config.realtime.control_cpu).ok();
+    match LiveView::start(&settings, setup, sources) {
+        Ok(view) => {
+            info!(
+                "live view for Foxglove on ws://{}:{} ({} Hz, read-only)",
+                settings.host,
+                view.port(),
+                settings.rate_hz
+            );
+            (Some(publisher), Some(calibration_tx), Some(view))
+        }
+        Err(e) => {
+            error!("{e}; running without it");
+            (None, None, None)
         }
     }
 }
@@ -180,6 +247,7 @@ where
         vision_stall,
         mut fault_causes,
         drives_report,
+        live_image,
     } = extras;
     let mut drives_report = drives_report.map(crate::drive_report::DriveReportWatch::new);
     let extra_text = move || status_suffix.as_ref().map_or_else(String::new, |f| f());
@@ -327,6 +395,10 @@ where
             .ok()
     });
     let thimble_publisher = colour.is_some().then_some(thimble_publisher);
+    let (live_publisher, live_calibrations, live_view) = match &options.live {
+        Some(settings) => start_live_view::<N, D, F>(settings, config, &cycle, &feed, live_image),
+        None => (None, None, None),
+    };
     let thread_stop = Arc::clone(&stop);
     let thread_config = config.clone();
     let control = std::thread::Builder::new()
@@ -346,6 +418,8 @@ where
                 telemetry: telemetry_producer,
                 thimble: thimble_publisher,
                 vision_thimble,
+                live: live_publisher,
+                live_calibrations,
             };
             let mut stats = LoopStats::default();
             let mut loop_control = LoopControl {
@@ -403,8 +477,12 @@ where
                                 true,
                             );
                             cycle.set_cycle_count(next_cycle);
+                            let calibration = CalibrationInForce::of(&cycle);
                             if let Some(t) = observers.telemetry.as_mut() {
-                                t.calibration(next_cycle, &CalibrationInForce::of(&cycle));
+                                t.calibration(next_cycle, &calibration);
+                            }
+                            if let Some(p) = observers.live_calibrations.as_mut() {
+                                let _ = p.push(calibration);
                             }
                         }
                         None => {
@@ -538,6 +616,16 @@ where
     }
     let _ = sd_notify::notify(&[NotifyState::Stopping]);
     let outcome = control.join();
+    if let Some(view) = live_view {
+        let stats = view.stop();
+        info!(
+            samples = stats.samples,
+            surfaces = stats.surfaces,
+            images = stats.images,
+            cpu_percent = format!("{:.2}", 100.0 * stats.cpu_share()),
+            "live view closed"
+        );
+    }
     // A cause latched in the last periods (the ramp-out, the drives' shutdown).
     let _ = tell_fault_causes(&mut fault_causes);
     if let Some(server) = server {

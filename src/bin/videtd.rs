@@ -105,6 +105,12 @@ struct Args {
         allow_hyphen_values = true
     )]
     sim_guides: Option<String>,
+    /// Serve the live view for Foxglove: the thimble, the wires, the forces, the relief, the
+    /// tensions and the safety state over the Foxglove WebSocket protocol, read-only (open
+    /// `ws://ADDR:PORT` in Foxglove, with docs/foxglove-layout.json). Without a value it
+    /// listens on `live.address` (default 127.0.0.1:8765, loopback only).
+    #[arg(long, value_name = "ADDR:PORT", num_args = 0..=1, default_missing_value = None)]
+    live: Option<Option<String>>,
 }
 
 impl Args {
@@ -124,6 +130,7 @@ impl Args {
             sim_calibration: self.sim_calibration,
             lock: self.lock,
             sim_guides: self.sim_guides,
+            live: self.live,
         }
     }
 }

@@ -377,7 +377,7 @@ impl CannyWorkspace {
         // so that skipping costs no branch per block: the pattern of empty blocks differs in
         // every frame, and a branch on it would often be mispredicted.
         let full_blocks = (w - 2) / NMS_LANES;
-        let blocks = full_blocks + usize::from((w - 2) % NMS_LANES != 0);
+        let blocks = full_blocks + usize::from(!(w - 2).is_multiple_of(NMS_LANES));
         let block_x = |k: usize| {
             if k < full_blocks {
                 1 + k * NMS_LANES

@@ -50,7 +50,7 @@ pub const fn with_parity(word: u16) -> u16 {
 
 /// Whether `frame` has even parity.
 pub const fn parity_ok(frame: u16) -> bool {
-    frame.count_ones() % 2 == 0
+    frame.count_ones().is_multiple_of(2)
 }
 
 /// The command frame reading register `address`.

@@ -174,9 +174,11 @@ pub struct FeedRecording {
 #[derive(Default)]
 struct TapState {
     recording: bool,
-    newest_before: Option<(u64, RecordedSurface)>,
-    queue: VecDeque<(u64, RecordedSurface)>,
+    newest_before: Option<(u64, Arc<RecordedSurface>)>,
+    queue: VecDeque<(u64, Arc<RecordedSurface>)>,
     lost: Vec<u64>,
+    /// The newest version published, recording or not (for a live view).
+    newest: Option<(u64, Arc<RecordedSurface>)>,
 }
 
 /// Surfaces published by a vision thread, waiting for the telemetry writer. The vision thread
@@ -192,7 +194,7 @@ pub struct SurfaceTap {
 #[derive(Debug, Default)]
 pub struct TapDrain {
     /// Published surfaces, in order of version.
-    pub surfaces: Vec<(u64, RecordedSurface)>,
+    pub surfaces: Vec<(u64, Arc<RecordedSurface>)>,
     /// Versions that could not be kept.
     pub lost: Vec<u64>,
 }
@@ -203,7 +205,9 @@ impl SurfaceTap {
 
     /// A version was published (called on the publishing thread).
     pub fn published(&self, version: u64, surface: RecordedSurface) {
+        let surface = Arc::new(surface);
         let mut s = self.state.lock().unwrap_or_else(PoisonError::into_inner);
+        s.newest = Some((version, Arc::clone(&surface)));
         if !s.recording {
             s.newest_before = Some((version, surface));
         } else if s.queue.len() < Self::CAPACITY {
@@ -211,6 +215,13 @@ impl SurfaceTap {
         } else {
             s.lost.push(version);
         }
+    }
+
+    /// The newest version published and its surface (shared, not copied), whether or not a
+    /// log records it; `None` before the first publication.
+    pub fn newest(&self) -> Option<(u64, Arc<RecordedSurface>)> {
+        let s = self.state.lock().unwrap_or_else(PoisonError::into_inner);
+        s.newest.clone()
     }
 
     /// Start recording: from now on every version is kept; the newest one published before
@@ -284,9 +295,11 @@ mod tests {
         let tap = SurfaceTap::default();
         let plane =
             |z: f64| RecordedSurface::Plane(Plane::new(Vec3::new(0.0, 0.0, z), Vec3::z()).unwrap());
+        assert!(tap.newest().is_none());
         tap.published(1, plane(1.0));
         tap.published(2, plane(2.0));
         assert!(tap.drain().surfaces.is_empty());
+        assert_eq!(tap.newest().map(|n| n.0), Some(2));
         tap.start_recording();
         for v in 3..3 + SurfaceTap::CAPACITY as u64 + 2 {
             tap.published(v, plane(v as f64));
@@ -296,5 +309,8 @@ mod tests {
         assert_eq!(versions.first(), Some(&2));
         assert_eq!(versions.len(), SurfaceTap::CAPACITY);
         assert_eq!(d.lost, vec![66, 67, 68]);
+        let (version, newest) = tap.newest().unwrap();
+        assert_eq!(version, 68);
+        assert_eq!(*newest, plane(68.0));
     }
 }

@@ -235,6 +235,36 @@ journal_startup_lines() {
   DETAIL="$(echo "$j" | grep -c .) lines this boot"
   [ -z "$missing" ] || fail "missing$missing"
 }
+# The live view under the hardened unit: a client on loopback, written with bash's /dev/tcp
+# alone (the guest has no Python), completes the Foxglove WebSocket handshake, finds every topic
+# and the camera image advertised, subscribes to the image and receives whole frames.
+live_view_serves_loopback() {
+  local port=8765 got=$OUT/live-view.bin id len sub
+  exec 3<>"/dev/tcp/127.0.0.1/$port" || fail "cannot connect to 127.0.0.1:$port" || return 1
+  printf 'GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n' >&3
+  timeout 5 cat <&3 >"$got.1"
+  id=$(grep -ao '"id":[0-9]*,"schema":"[A-Za-z0-9+/=]*","schemaEncoding":"protobuf","schemaName":"foxglove.RawImage","topic":"/camera/left/rectified"' "$got.1" | sed 's/^"id":\([0-9]*\),.*/\1/')
+  local topics
+  topics=$(grep -ao '"topic":"[^"]*"' "$got.1" | sort -u | sed 's/"topic":"\(.*\)"/\1/' | tr '\n' ' ')
+  DETAIL="$(grep -ac 'HTTP/1.1 101' "$got.1") switch, $(grep -aoi 'sec-websocket-protocol: [a-z.0-9]*' "$got.1" | head -n 1); advertised: $topics"
+  grep -aq 'HTTP/1.1 101' "$got.1" && grep -aqi 'sec-websocket-protocol: foxglove.websocket.v1' "$got.1" &&
+    grep -aq '"op":"serverInfo"' "$got.1" || { exec 3<&-; return 1; }
+  for t in /thimble/pose /scene/wires /scene/forces /scene/relief /tension /safety /timing; do
+    echo " $topics" | grep -q " $t " || { exec 3<&-; fail "$DETAIL; $t not advertised"; return 1; }
+  done
+  [ -n "$id" ] || { exec 3<&-; fail "$DETAIL; no camera image advertised"; return 1; }
+  # A client's frames are masked: a zero mask leaves the text as it is.
+  sub="{\"op\":\"subscribe\",\"subscriptions\":[{\"id\":1,\"channelId\":$id}]}"
+  len=${#sub}
+  printf "\\x81\\x$(printf %02x $((128 + len)))\\x00\\x00\\x00\\x00%s" "$sub" >&3
+  timeout 8 cat <&3 >"$got.2"
+  exec 3<&-
+  local bytes
+  bytes=$(stat -c %s "$got.2")
+  DETAIL="$DETAIL; subscribed to the image (channel $id): $bytes bytes in 8 s"
+  # Whole 640x480 mono8 frames: more than one frame's pixels arrived.
+  [ "$bytes" -gt 307200 ]
+}
 gpio_pull() { echo "$1" >"/sys/devices/platform/gpio-sim.0/gpiochip0/sim_gpio17/pull"; }
 estop_latches_under_watchdog() {
   local pid t0 restarts
@@ -422,6 +452,7 @@ case $PHASE in
     check "SocketCAN up; GPIO chip, both cameras, latency limit open" devices_open
     check "group videt reaches the socket; others are refused" group_reaches_socket
     check "journald has the start-up lines" journal_startup_lines
+    check "the live view serves a Foxglove client on loopback, camera too" live_view_serves_loopback
     check "GPIO e-stop: a warning in the journal, latched, no restart" estop_latches_under_watchdog
     check "systemctl restart: ready again, safety normal" restart_by_hand
     check "a drive's fault cause reaches the journal" drive_fault_cause_in_journal

@@ -43,6 +43,8 @@ OVERRIDES = {
     },
     # The 1.5 kHz vibration thread is a good part of what an emulated CPU can do.
     "colour": {"enabled": False},
+    # The live view on loopback, as a technician turns it on (the unit allows IP there only).
+    "live": {"enabled": True},
 }
 
 

@@ -198,7 +198,7 @@ impl<H: ProcedureDevice, O: CycleObserver + ?Sized> WireDrives<WIREMAN_WIRES>
             self.window_cycles = 0;
         }
         self.observer.observe(&self.record, &self.window);
-        if self.record.cycle % self.progress_every == 0 {
+        if self.record.cycle.is_multiple_of(self.progress_every) {
             let event = ProcedureEvent::Progress {
                 elapsed_s: now.nanos_since(self.started) as f64 * 1e-9,
                 travel_m: self.travel_m(),

@@ -107,6 +107,13 @@ where
     if let Some(writer) = colour_frames {
         relief = relief.with_colour(writer);
     }
+    let live_image = config
+        .live
+        .enabled
+        .then(|| Arc::new(videt_viewers::live::ImageSlot::default()));
+    if let Some(slot) = &live_image {
+        relief = relief.with_live_image(Arc::clone(slot));
+    }
     relief = relief.with_live_settings(crate::stereo_relief::LiveSettings {
         update_period_s: 1.0 / f64::from(config.vision.frame_rate_hz.max(1)),
         ..Default::default()
@@ -149,6 +156,7 @@ where
         fault_causes: None,
         drives_report: None,
         status_suffix: Some(Box::new(move || stats.status_text())),
+        live_image,
     };
     Ok(CameraFeed {
         feed,

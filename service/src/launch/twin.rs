@@ -314,6 +314,7 @@ pub(super) fn run_stereo_relief_demo(
         status_suffix: Some(Box::new(move || stats.status_text())),
         fault_causes: None,
         drives_report: None,
+        live_image: None,
     };
     let mut options = options.clone();
     options.what = format!(

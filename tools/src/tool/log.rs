@@ -1,4 +1,4 @@
-//! `videt log LOGFILE`: summarise a session log and export it as CSV.
+//! `videt log LOGFILE`: summarise a session log and export it as CSV or MCAP.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -32,6 +32,23 @@ pub struct LogArgs {
     /// recorded; for an old log without one, the built-in defaults).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// Export the session to this MCAP file for Foxglove or PlotJuggler (the thimble's pose,
+    /// the wires, forces and relief as 3D scene, tensions, safety, timing; the configuration
+    /// and calibrations attached). Written whole or not at all.
+    #[arg(long, value_name = "OUT.mcap")]
+    pub mcap: Option<PathBuf>,
+    /// Draw a still of what the Foxglove layout (docs/foxglove-layout.json) shows of the
+    /// session into this PNG: the 3-D scene, the tensions, the speed and force, the timing and
+    /// the safety state, at the moment in contact with the largest desired force (or `--at`).
+    #[arg(long, value_name = "OUT.png")]
+    pub view_figure: Option<PathBuf>,
+    /// With --view-figure: the moment to show, seconds from the session's first period.
+    #[arg(long, value_name = "SECONDS", requires = "view_figure")]
+    pub at: Option<f64>,
+    /// With --mcap: export every N-th period only (safety changes and surfaces are all kept).
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "mcap",
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub every: u32,
 }
 
 /// The summary of a log.
@@ -217,12 +234,19 @@ pub fn write_csv(log: &videt_runtime::telemetry::Log, out: &mut dyn Write) -> st
 /// Run `videt log`.
 pub fn run(args: &LogArgs) -> ToolResult {
     let (s, log) = summarise(args)?;
-    if let Some(dir) = &args.plot {
-        let config = match (&args.config, &log.session) {
+    let config = || -> Result<videt_rt_config::Config, super::ToolError> {
+        Ok(match (&args.config, &log.session) {
             (Some(path), _) => videt_rt_config::Config::load(path)?,
             (None, Some(Ok(session))) => session.config.clone(),
             (None, _) => videt_rt_config::Config::default(),
-        };
+        })
+    };
+    if let Some(out) = &args.view_figure {
+        let shown = super::view_figure::write_view_figure(out, &log, &config()?, args.at)?;
+        eprintln!("wrote {} (the session at {shown:.3} s)", out.display());
+    }
+    if let Some(dir) = &args.plot {
+        let config = config()?;
         let limits = super::log_plots::TensionLimits {
             t_min_n: config.control.t_min_n,
             t_max_n: config.control.t_max_n,
@@ -300,6 +324,9 @@ pub fn run(args: &LogArgs) -> ToolResult {
             println!("  safety at {t:.3} s: {state}");
         }
     }
+    if let Some(out) = &args.mcap {
+        export_mcap(args, &log, out)?;
+    }
     if let Some(csv) = &args.csv {
         if csv.as_os_str() == "-" {
             write_csv(&log, &mut std::io::stdout().lock())?;
@@ -313,4 +340,91 @@ pub fn run(args: &LogArgs) -> ToolResult {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Export `log` to `out` as MCAP, with a progress bar on a terminal and a one-line summary.
+fn export_mcap(
+    args: &LogArgs,
+    log: &videt_runtime::telemetry::Log,
+    out: &std::path::Path,
+) -> Result<(), super::ToolError> {
+    use std::io::IsTerminal;
+    use videt_viewers::mcap_export::{export_mcap, ExportOptions};
+
+    let mut bar = std::io::stderr()
+        .is_terminal()
+        .then(|| ProgressBar::new("MCAP"));
+    let summary = export_mcap(
+        log,
+        out,
+        &ExportOptions { every: args.every },
+        |done, total| {
+            if let Some(bar) = &mut bar {
+                bar.show(done, total);
+            }
+        },
+    );
+    if let Some(bar) = &mut bar {
+        bar.clear();
+    }
+    let s = summary?;
+    for note in &s.notes {
+        eprintln!("videt: {}: {note}", out.display());
+    }
+    let line = format!(
+        "MCAP written to {}: {} periods, {} messages, {} surface version{}, {} bytes ({:.1} MiB), {:.3} s of session, converted in {:.2} s",
+        s.path.display(),
+        s.periods,
+        s.messages,
+        s.surfaces,
+        if s.surfaces == 1 { "" } else { "s" },
+        s.bytes,
+        s.bytes as f64 / (1024.0 * 1024.0),
+        s.session_s,
+        s.elapsed_s
+    );
+    // With --json, standard output holds the JSON alone.
+    if args.json {
+        eprintln!("{line}");
+    } else {
+        println!("  {line}");
+    }
+    Ok(())
+}
+
+/// A one-line progress bar on standard error (a terminal), redrawn at most every 1 %.
+struct ProgressBar {
+    label: &'static str,
+    shown: Option<usize>,
+}
+
+impl ProgressBar {
+    const WIDTH: usize = 40;
+
+    fn new(label: &'static str) -> ProgressBar {
+        ProgressBar { label, shown: None }
+    }
+
+    fn show(&mut self, done: usize, total: usize) {
+        let percent = (done * 100).checked_div(total).unwrap_or(100).min(100);
+        if self.shown == Some(percent) {
+            return;
+        }
+        self.shown = Some(percent);
+        let filled = percent * Self::WIDTH / 100;
+        eprint!(
+            "\r{} [{}{}] {percent:3}% {done}/{total}",
+            self.label,
+            "#".repeat(filled),
+            " ".repeat(Self::WIDTH - filled)
+        );
+        let _ = std::io::stderr().flush();
+    }
+
+    fn clear(&mut self) {
+        if self.shown.is_some() {
+            eprint!("\r{}\r", " ".repeat(Self::WIDTH + 40));
+            let _ = std::io::stderr().flush();
+        }
+    }
 }

@@ -9,7 +9,9 @@ use plotters::prelude::*;
 use videt_control::measures::v_index;
 use videt_control::safety::SafetyState;
 
-use crate::plotting::{draw_legend, line_mark, register_font, write_error as e, PlotError};
+use crate::plotting::{
+    draw_legend, line_mark, register_font, write_error as e, PlotError, TimeChart,
+};
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::telemetry::{Log, RecordedSurface, SurfaceEntry};
 
@@ -243,12 +245,6 @@ fn path_plot(
     root.present().map_err(e(path))?;
     Ok(())
 }
-
-type TimeChart<'a> = ChartContext<
-    'a,
-    BitMapBackend<'a>,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
 
 /// A panel with time (s) from the session's start on x, `y` on y, captioned and with its grid.
 fn time_chart<'a>(

@@ -21,6 +21,7 @@ pub mod soak;
 pub mod status;
 pub mod tension_calibrate;
 pub mod through_service;
+pub mod view_figure;
 pub mod vision;
 pub mod wire;
 

@@ -338,7 +338,7 @@ impl Residuals for MonoProblem<'_> {
     }
     fn evaluate_rows(&self, params: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
         let n2 = 2 * self.object.len();
-        if rows.len() != n2 || rows.start % n2 != 0 {
+        if rows.len() != n2 || !rows.start.is_multiple_of(n2) {
             let mut all = vec![0.0; self.num_residuals()];
             self.evaluate(params, &mut all);
             out.copy_from_slice(&all[rows]);

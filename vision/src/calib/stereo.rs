@@ -182,7 +182,7 @@ impl Residuals for StereoProblem<'_> {
     }
     fn evaluate_rows(&self, params: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
         let n4 = 4 * self.object.len();
-        if rows.len() == n4 && rows.start % n4 == 0 {
+        if rows.len() == n4 && rows.start.is_multiple_of(n4) {
             self.evaluate_view(params, rows.start / n4, out);
         } else {
             let mut all = vec![0.0; self.num_residuals()];
