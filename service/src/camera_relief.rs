@@ -139,17 +139,6 @@ impl CameraStats {
     }
 }
 
-/// CPU time of the calling thread (`CLOCK_THREAD_CPUTIME_ID`).
-pub fn thread_cpu_time() -> Duration {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; the clock exists on Linux.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
-}
-
 /// A stereo camera and what turns its frames into reliefs.
 pub struct CameraRelief<C> {
     camera: C,
@@ -464,7 +453,7 @@ pub fn spawn_camera_updates<C: StereoCamera + Send + 'static>(
         .spawn(move || {
             videt_runtime::rt::enter_vision_priority(fifo_priority);
             let mut planner = FramePlanner::new(schedule);
-            let mut cpu_window = (Instant::now(), thread_cpu_time());
+            let mut cpu_window = (Instant::now(), videt_runtime::rt::thread_cpu_time());
             let fail = |stats: &CameraStats, what: &str, e: String| {
                 if stats.failures.fetch_add(1, Ordering::Relaxed) < 10 {
                     tracing::warn!("{what} (the previous relief stays and fades when stale): {e}");
@@ -472,7 +461,7 @@ pub fn spawn_camera_updates<C: StereoCamera + Send + 'static>(
                 std::thread::sleep(schedule.rebuild_period);
             };
             while !stop.load(Ordering::Relaxed) {
-                let (wall, cpu) = (cpu_window.0.elapsed(), thread_cpu_time());
+                let (wall, cpu) = (cpu_window.0.elapsed(), videt_runtime::rt::thread_cpu_time());
                 if wall >= Duration::from_secs(1) {
                     let share = (cpu - cpu_window.1).as_secs_f64() / wall.as_secs_f64();
                     stats

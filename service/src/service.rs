@@ -62,7 +62,7 @@ impl ServiceOptions {
         let live = config
             .live
             .enabled
-            .then(|| videt_viewers::live::LiveSettings::from_config(&config.live).ok())
+            .then(|| videt_viewers::live::LiveSettings::from_config(&config).ok())
             .flatten();
         let socket_path = Some(PathBuf::from(&config.socket.path));
         let telemetry_dir = config
@@ -182,8 +182,7 @@ where
     F: SurfaceFeed,
 {
     use videt_viewers::live::{LiveSources, LiveView};
-    let (mut publisher, status) = status_channel();
-    publisher.set_device(D::KIND.name(), N);
+    let (publisher, status) = status_channel();
     let setup =
         videt_viewers::topics::SceneSetup::new(config, Some(&CalibrationInForce::of(cycle)));
     let (calibration_tx, calibration_rx) = videt_viewers::live::calibration_channel();
@@ -194,9 +193,7 @@ where
         calibrations: Some(calibration_rx),
         config: config.clone(),
     };
-    let mut settings = settings.clone();
-    settings.avoid_cpu = usize::try_from(config.realtime.control_cpu).ok();
-    match LiveView::start(&settings, setup, sources) {
+    match LiveView::start(settings, setup, sources) {
         Ok(view) => {
             info!(
                 "live view for Foxglove on ws://{}:{} ({} Hz, read-only)",

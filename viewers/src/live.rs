@@ -16,14 +16,13 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use foxglove::schemas::{RawImage, Timestamp};
+use foxglove::schemas::RawImage;
 use foxglove::{Channel, Context};
 use videt_rt_config::Config;
-use videt_rt_config::LiveConfig;
 use videt_runtime::status::StatusReader;
 use videt_runtime::telemetry::{CalibrationInForce, FeedRecording, RecordedSurface};
 
-use crate::topics::{SceneSetup, SessionTopics};
+use crate::topics::{timestamp, SceneSetup, SessionTopics};
 use crate::ws_server::WsServer;
 
 /// The topic of the rectified left camera image (`foxglove.RawImage`, `mono8`), when cameras
@@ -51,15 +50,17 @@ pub struct LiveSettings {
 }
 
 impl LiveSettings {
-    /// The settings of a validated `[live]` section.
-    pub fn from_config(config: &LiveConfig) -> Result<LiveSettings, String> {
-        let (host, port) = config.host_port().map_err(|e| e.to_string())?;
+    /// The settings of a validated configuration's `[live]` section; the view keeps off
+    /// `realtime.control_cpu`.
+    pub fn from_config(config: &Config) -> Result<LiveSettings, String> {
+        let live = &config.live;
+        let (host, port) = live.host_port().map_err(|e| e.to_string())?;
         Ok(LiveSettings {
             host,
             port,
-            rate_hz: config.rate_hz,
-            client_backlog: config.client_backlog as usize,
-            avoid_cpu: None,
+            rate_hz: live.rate_hz,
+            client_backlog: live.client_backlog as usize,
+            avoid_cpu: usize::try_from(config.realtime.control_cpu).ok(),
         })
     }
 }
@@ -215,15 +216,18 @@ impl LiveView {
                 if let Some(cpu) = avoid_cpu {
                     videt_runtime::rt::keep_off_cpu(cpu);
                 }
+                let mut sources = sources;
+                let initial = sources.surfaces.initial.take().map(Arc::new);
                 Sampler {
                     topics,
                     image_channel,
-                    sources,
                     stats: LiveStats::default(),
                     last_cycle: None,
                     last_surface: None,
                     last_image: 0,
                     last_state_repeat: Instant::now(),
+                    initial,
+                    sources,
                 }
                 .run(&thread_stop, period)
             })
@@ -287,12 +291,14 @@ struct Sampler {
     last_surface: Option<(u64, Instant)>,
     last_image: u64,
     last_state_repeat: Instant,
+    /// The feed's first surface, shared.
+    initial: Option<Arc<RecordedSurface>>,
 }
 
 impl Sampler {
     fn run(mut self, stop: &AtomicBool, period: Duration) -> LiveStats {
         let started = Instant::now();
-        let cpu_at_start = thread_cpu_s();
+        let cpu_at_start = videt_runtime::rt::thread_cpu_time().as_secs_f64();
         let mut next = Instant::now();
         while !stop.load(Ordering::Acquire) {
             self.sample();
@@ -306,7 +312,7 @@ impl Sampler {
             }
         }
         self.stats.wall_s = started.elapsed().as_secs_f64();
-        self.stats.cpu_s = thread_cpu_s() - cpu_at_start;
+        self.stats.cpu_s = videt_runtime::rt::thread_cpu_time().as_secs_f64() - cpu_at_start;
         self.stats
     }
 
@@ -332,27 +338,22 @@ impl Sampler {
             self.stats.samples += 1;
         }
         let time_ns = record.time.as_nanos();
+        // The newest version published, else the feed's first surface (version 0).
         let newest = self
             .sources
             .surfaces
             .tap
             .as_ref()
-            .and_then(|tap| tap.newest());
-        let due = |last: Option<(u64, Instant)>, version: u64| match last {
-            Some((v, at)) => v != version || at.elapsed() >= REPEAT,
-            None => true,
-        };
-        match newest {
-            Some((version, surface)) if due(self.last_surface, version) => {
-                self.send_surface(version, &surface, time_ns)
+            .and_then(|tap| tap.newest())
+            .or_else(|| self.initial.clone().map(|s| (0, s)));
+        if let Some((version, surface)) = newest {
+            let due = match self.last_surface {
+                Some((v, at)) => v != version || at.elapsed() >= REPEAT,
+                None => true,
+            };
+            if due {
+                self.send_surface(version, &surface, time_ns);
             }
-            None if due(self.last_surface, 0) => {
-                if let Some(initial) = self.sources.surfaces.initial.take() {
-                    self.send_surface(0, &initial, time_ns);
-                    self.sources.surfaces.initial = Some(initial);
-                }
-            }
-            _ => {}
         }
         if let (Some(slot), Some(channel)) = (&self.sources.image, &self.image_channel) {
             let sent = slot.newest_after(self.last_image, |frame| {
@@ -376,31 +377,13 @@ impl Sampler {
 /// A grey frame as a `foxglove.RawImage` (`mono8`) in the left camera's frame.
 fn raw_image(frame: &GreyFrame) -> RawImage {
     RawImage {
-        timestamp: Some(Timestamp::new(
-            (frame.captured_ns / 1_000_000_000) as u32,
-            (frame.captured_ns % 1_000_000_000) as u32,
-        )),
+        timestamp: Some(timestamp(frame.captured_ns)),
         frame_id: "camera_left".into(),
         width: frame.width,
         height: frame.height,
         encoding: "mono8".into(),
         step: frame.width,
         data: frame.pixels.clone().into(),
-    }
-}
-
-/// CPU time of the calling thread, seconds.
-fn thread_cpu_s() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; CLOCK_THREAD_CPUTIME_ID is always supported.
-    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0;
-    if ok {
-        ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
-    } else {
-        0.0
     }
 }
 
@@ -430,6 +413,7 @@ mod tests {
             last_surface: None,
             last_image: 0,
             last_state_repeat: Instant::now(),
+            initial: None,
         };
         let configured = sampler.topics.setup().guides_m.clone();
         sampler.sample();

@@ -439,8 +439,8 @@ impl SessionTopics {
     }
 }
 
-/// The triangle list of a surface.
-fn surface_triangles(surface: &RecordedSurface) -> TriangleListPrimitive {
+/// The triangle list `/scene/relief` draws a surface as.
+pub fn surface_triangles(surface: &RecordedSurface) -> TriangleListPrimitive {
     match surface {
         RecordedSurface::Plane(plane) => {
             let p = plane.point_m();
@@ -594,7 +594,7 @@ fn pose_at(p: [f64; 3]) -> Pose {
 }
 
 /// A monotonic time in ns as a protobuf timestamp.
-fn timestamp(ns: u64) -> Timestamp {
+pub(crate) fn timestamp(ns: u64) -> Timestamp {
     let sec = (ns / 1_000_000_000).min(u64::from(u32::MAX)) as u32;
     Timestamp::new(sec, (ns % 1_000_000_000) as u32)
 }

@@ -168,10 +168,11 @@ struct Shared {
 }
 
 impl Shared {
-    fn clients(&self) -> Vec<Arc<Client>> {
+    /// Run `f` on every connected client (the ones gone are forgotten first).
+    fn each_client(&self, mut f: impl FnMut(&Client)) {
         let mut clients = self.clients.lock().unwrap_or_else(PoisonError::into_inner);
         clients.retain(|c| !c.closed.load(Ordering::Acquire));
-        clients.clone()
+        clients.iter().for_each(|c| f(c));
     }
 }
 
@@ -191,7 +192,7 @@ impl Sink for ServerSink {
     ) -> Result<(), FoxgloveError> {
         let id = u64::from(channel.id());
         let mut payload: Option<Arc<[u8]>> = None;
-        for client in self.0.clients() {
+        self.0.each_client(|client| {
             let sub = client
                 .subscriptions
                 .lock()
@@ -202,7 +203,7 @@ impl Sink for ServerSink {
                 let data = payload.get_or_insert_with(|| Arc::from(msg)).clone();
                 client.push(Outgoing::Data(sub, metadata.log_time, data), self.0.backlog);
             }
-        }
+        });
         Ok(())
     }
 
@@ -221,9 +222,8 @@ impl Sink for ServerSink {
             }
         }
         let text = json!({"op": "advertise", "channels": advertised}).to_string();
-        for client in self.0.clients() {
-            client.push(Outgoing::Text(text.clone()), self.0.backlog);
-        }
+        self.0
+            .each_client(|client| client.push(Outgoing::Text(text.clone()), self.0.backlog));
         Some(channels.iter().map(|c| c.id()).collect())
     }
 
@@ -235,14 +235,14 @@ impl Sink for ServerSink {
             .unwrap_or_else(PoisonError::into_inner)
             .remove(&id);
         let text = json!({"op": "unadvertise", "channelIds": [id]}).to_string();
-        for client in self.0.clients() {
+        self.0.each_client(|client| {
             client
                 .subscriptions
                 .lock()
                 .unwrap_or_else(PoisonError::into_inner)
                 .remove(&id);
             client.push(Outgoing::Text(text.clone()), self.0.backlog);
-        }
+        });
     }
 }
 
@@ -330,23 +330,22 @@ impl WsServer {
 
     /// Clients connected now.
     pub fn clients(&self) -> usize {
-        self.shared.clients().len()
+        let mut n = 0;
+        self.shared.each_client(|_| n += 1);
+        n
     }
 
     /// Message data dropped so far for clients that did not keep up.
     pub fn dropped(&self) -> u64 {
-        self.shared.dropped.load(Ordering::Relaxed)
-            + self
-                .shared
-                .clients()
-                .iter()
-                .map(|c| {
-                    c.queue
-                        .lock()
-                        .unwrap_or_else(PoisonError::into_inner)
-                        .dropped
-                })
-                .sum::<u64>()
+        let mut connected = 0;
+        self.shared.each_client(|c| {
+            connected += c
+                .queue
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .dropped
+        });
+        self.shared.dropped.load(Ordering::Relaxed) + connected
     }
 
     /// Clients served since the start.

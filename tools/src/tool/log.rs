@@ -348,25 +348,24 @@ fn export_mcap(
     log: &videt_runtime::telemetry::Log,
     out: &std::path::Path,
 ) -> Result<(), super::ToolError> {
-    use std::io::IsTerminal;
     use videt_viewers::mcap_export::{export_mcap, ExportOptions};
 
-    let mut bar = std::io::stderr()
-        .is_terminal()
-        .then(|| ProgressBar::new("MCAP"));
+    // On standard error, drawn only when it is a terminal.
+    let bar = indicatif::ProgressBar::new(log.records.len() as u64).with_style(
+        indicatif::ProgressStyle::with_template("MCAP [{bar:40}] {percent:>3}% {pos}/{len}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("#> "),
+    );
     let summary = export_mcap(
         log,
         out,
         &ExportOptions { every: args.every },
         |done, total| {
-            if let Some(bar) = &mut bar {
-                bar.show(done, total);
-            }
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
         },
     );
-    if let Some(bar) = &mut bar {
-        bar.clear();
-    }
+    bar.finish_and_clear();
     let s = summary?;
     for note in &s.notes {
         eprintln!("videt: {}: {note}", out.display());
@@ -390,41 +389,4 @@ fn export_mcap(
         println!("  {line}");
     }
     Ok(())
-}
-
-/// A one-line progress bar on standard error (a terminal), redrawn at most every 1 %.
-struct ProgressBar {
-    label: &'static str,
-    shown: Option<usize>,
-}
-
-impl ProgressBar {
-    const WIDTH: usize = 40;
-
-    fn new(label: &'static str) -> ProgressBar {
-        ProgressBar { label, shown: None }
-    }
-
-    fn show(&mut self, done: usize, total: usize) {
-        let percent = (done * 100).checked_div(total).unwrap_or(100).min(100);
-        if self.shown == Some(percent) {
-            return;
-        }
-        self.shown = Some(percent);
-        let filled = percent * Self::WIDTH / 100;
-        eprint!(
-            "\r{} [{}{}] {percent:3}% {done}/{total}",
-            self.label,
-            "#".repeat(filled),
-            " ".repeat(Self::WIDTH - filled)
-        );
-        let _ = std::io::stderr().flush();
-    }
-
-    fn clear(&mut self) {
-        if self.shown.is_some() {
-            eprint!("\r{}\r", " ".repeat(Self::WIDTH + 40));
-            let _ = std::io::stderr().flush();
-        }
-    }
 }

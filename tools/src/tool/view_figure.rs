@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use videt_control::safety::SafetyState;
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::telemetry::{Log, RecordedSurface, SurfaceEntry};
-use videt_viewers::topics::{tension_colour, SceneSetup, FORCE_ARROW_M_PER_N};
+use videt_viewers::topics::{surface_triangles, tension_colour, SceneSetup, FORCE_ARROW_M_PER_N};
 
 use crate::plotting::{draw_legend, line_mark, register_font, write_error, PlotError, TimeChart};
 
@@ -145,50 +145,18 @@ fn scene_panel(
     let mut points: Vec<[f64; 3]> = setup.guides_m[..wires].to_vec();
     points.push(r.position_m);
     let surface = surface_at(log, r.surface_version);
-    let mut triangles: Vec<[[f64; 3]; 3]> = Vec::new();
-    match surface {
-        Some(RecordedSurface::Relief(m)) => {
-            let v = m.vertices();
-            for t in m.triangles() {
-                triangles.push(t.map(|i| v[i as usize]));
-            }
-        }
-        Some(RecordedSurface::Plane(p)) => {
-            // A square about the point, in the plane (drawn as two triangles).
-            let (c, n) = (p.point_m(), p.normal());
-            let c = [c[0], c[1], c[2]];
-            let n = [n[0], n[1], n[2]];
-            let a = if n[0].abs() < 0.9 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 1.0, 0.0]
-            };
-            let cross = |u: [f64; 3], v: [f64; 3]| {
-                [
-                    u[1] * v[2] - u[2] * v[1],
-                    u[2] * v[0] - u[0] * v[2],
-                    u[0] * v[1] - u[1] * v[0],
-                ]
-            };
-            let unit = |v: [f64; 3]| {
-                let l = norm(v).max(1e-12);
-                v.map(|x| x / l)
-            };
-            let (u, w) = (unit(cross(n, a)), unit(cross(n, unit(cross(n, a)))));
-            let h = 0.2;
-            let corner =
-                |su: f64, sw: f64| core::array::from_fn(|k| c[k] + h * (su * u[k] + sw * w[k]));
-            let q = [
-                corner(-1.0, -1.0),
-                corner(1.0, -1.0),
-                corner(1.0, 1.0),
-                corner(-1.0, 1.0),
-            ];
-            triangles.push([q[0], q[1], q[2]]);
-            triangles.push([q[0], q[2], q[3]]);
-        }
-        None => {}
-    }
+    // The surface as the /scene/relief topic draws it.
+    let triangles: Vec<[[f64; 3]; 3]> = surface.map_or_else(Vec::new, |s| {
+        let mesh = surface_triangles(s);
+        let corner = |i: u32| {
+            let p = &mesh.points[i as usize];
+            [p.x, p.y, p.z]
+        };
+        mesh.indices
+            .chunks_exact(3)
+            .map(|t| [corner(t[0]), corner(t[1]), corner(t[2])])
+            .collect()
+    });
     points.extend(triangles.iter().flatten().copied());
     let projected: Vec<(f64, f64)> = points.iter().map(|p| project(*p)).collect();
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -480,7 +448,6 @@ fn motion_plot(
     t0: f64,
     path: &Path,
 ) -> Result<(), PlotError> {
-    let t = |r: &CycleRecord| r.time.as_secs_f64() - t0;
     let f_max = window
         .iter()
         .map(|r| norm(r.rendered_force_n).max(norm(r.desired_force_n)))
@@ -515,21 +482,37 @@ fn motion_plot(
         ),
         ("desired_force_norm_n |f_e|", RGBColor(51, 204, 77), desired),
     ];
-    for (name, c, value) in series {
+    draw_quantities(&mut chart, window, t0, &series, 2, f64::INFINITY, path)
+}
+
+/// A quantity of a period's record.
+type Quantity = fn(&CycleRecord) -> f64;
+
+/// One labelled line per quantity over `window` (time from `t0`), `width` pixels wide, values
+/// clipped at `clip`, and the legend.
+fn draw_quantities(
+    chart: &mut TimeChart<'_>,
+    window: &[CycleRecord],
+    t0: f64,
+    series: &[(&str, RGBColor, Quantity)],
+    width: u32,
+    clip: f64,
+    path: &Path,
+) -> Result<(), PlotError> {
+    for &(name, c, value) in series {
         chart
             .draw_series(LineSeries::new(
-                window.iter().map(|r| (t(r), value(r))),
-                c.stroke_width(2),
+                window
+                    .iter()
+                    .map(|r| (r.time.as_secs_f64() - t0, value(r).min(clip))),
+                c.stroke_width(width),
             ))
             .map_err(write_error(path))?
             .label(name)
             .legend(line_mark(c.stroke_width(2)));
     }
-    draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, path)
+    draw_legend(chart, SeriesLabelPosition::UpperLeft, path)
 }
-
-/// A quantity of a period's record.
-type Quantity = fn(&CycleRecord) -> f64;
 
 fn timing_plot(
     area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
@@ -537,7 +520,6 @@ fn timing_plot(
     t0: f64,
     path: &Path,
 ) -> Result<(), PlotError> {
-    let t = |r: &CycleRecord| r.time.as_secs_f64() - t0;
     let mut values: Vec<f64> = window
         .iter()
         .flat_map(|r| [r.wake_latency_ns as f64, r.compute_ns as f64])
@@ -554,28 +536,13 @@ fn timing_plot(
         "µs",
         path,
     )?;
-    for (name, c, value) in [
-        (
-            "wake_latency_us",
-            WIRE_COLOURS[0],
-            (|r: &CycleRecord| r.wake_latency_ns) as fn(&CycleRecord) -> u64,
-        ),
-        ("compute_us", WIRE_COLOURS[1], |r: &CycleRecord| {
-            r.compute_ns
-        }),
-    ] {
-        chart
-            .draw_series(LineSeries::new(
-                window
-                    .iter()
-                    .map(|r| (t(r), (value(r) as f64 * 1e-3).min(hi))),
-                c.stroke_width(1),
-            ))
-            .map_err(write_error(path))?
-            .label(name)
-            .legend(line_mark(c.stroke_width(2)));
-    }
-    draw_legend(&mut chart, SeriesLabelPosition::UpperLeft, path)
+    let wake_us = |r: &CycleRecord| r.wake_latency_ns as f64 * 1e-3;
+    let compute_us = |r: &CycleRecord| r.compute_ns as f64 * 1e-3;
+    let series: [(&str, RGBColor, Quantity); 2] = [
+        ("wake_latency_us", WIRE_COLOURS[0], wake_us),
+        ("compute_us", WIRE_COLOURS[1], compute_us),
+    ];
+    draw_quantities(&mut chart, window, t0, &series, 1, hi, path)
 }
 
 #[cfg(test)]
