@@ -17,6 +17,7 @@ fn args(left: PathBuf, right: PathBuf, out: PathBuf, roi: Option<[u32; 4]>) -> V
         out,
         roi,
         max_disparity: Some(64.0),
+        checks: None,
         surface: false,
         relief_depth: 0.08,
     }

@@ -404,6 +404,16 @@ pub struct VisionConfig {
     /// its nearest). Every frame is captured; while the finger is over the scene, every frame
     /// updates the relief around it.
     pub frame_rate_hz: u32,
+    /// Checks against wrong stereo matches (a wrong match becomes a ridge or a hole in the
+    /// relief): match the right image to the left one as well and keep a match only when
+    /// both directions agree.
+    pub left_right_check: bool,
+    /// ... drop a match whose confidence (agreement of its matched neighbours, margin over
+    /// other candidates, photometric agreement; 0..1) is below this (0: no threshold).
+    pub min_match_confidence: f64,
+    /// ... drop a match its matched neighbours contradict (an isolated 3-D segment off the
+    /// surface around it).
+    pub surface_check: bool,
 }
 
 /// Per-cycle telemetry.
@@ -489,6 +499,9 @@ impl Default for VisionConfig {
             max_disparity_px: 64.0,
             pair_tolerance_ms: 20.0,
             frame_rate_hz: 30,
+            left_right_check: false,
+            min_match_confidence: 0.0,
+            surface_check: false,
         }
     }
 }

@@ -177,6 +177,10 @@ fn every_section_is_validated() {
         ("[vision]\nmax_disparity_px = 0.5\n", "vision.max_disparity_px"),
         ("[vision]\npair_tolerance_ms = 0\n", "vision.pair_tolerance_ms"),
         ("[vision]\nframe_rate_hz = 0\n", "vision.frame_rate_hz"),
+        (
+            "[vision]\nmin_match_confidence = 1.5\n",
+            "vision.min_match_confidence",
+        ),
         ("[socket]\npath = \"\"\n", "socket.path"),
         (
             "[control]\nslack_takeup_speed_m_s = 0.6\n",

@@ -290,6 +290,12 @@ impl Config {
             1000.0,
         )?;
         in_range(
+            "vision.min_match_confidence",
+            self.vision.min_match_confidence,
+            0.0,
+            1.0,
+        )?;
+        in_range(
             "vision.pair_tolerance_ms",
             self.vision.pair_tolerance_ms,
             0.1,

@@ -20,6 +20,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use image::GrayImage;
+use videt_vision::matching::MatchChecks;
 use videt_vision::surface::region::merge_region;
 use videt_vision::surface::{
     build_from_scene, BuildReport, PinholeCamera, ReliefModel, ReliefParams, SceneSegment3,
@@ -403,6 +404,8 @@ pub struct LiveSettings {
     /// merges split segments into at the regions' borders, so the segment list stays the size
     /// of one image's.
     pub full_refresh_s: f64,
+    /// The checks against wrong matches of every run, whole-image and local.
+    pub checks: MatchChecks,
 }
 
 impl Default for LiveSettings {
@@ -412,7 +415,17 @@ impl Default for LiveSettings {
             roi_size_px: [72.0, 72.0],
             update_period_s: 1.0 / 15.0,
             full_refresh_s: 10.0,
+            checks: MatchChecks::default(),
         }
+    }
+}
+
+/// The checks against wrong matches `config` switches on.
+pub fn match_checks(config: &videt_rt_config::VisionConfig) -> MatchChecks {
+    MatchChecks {
+        left_right: config.left_right_check,
+        min_confidence: config.min_match_confidence as f32,
+        surface: config.surface_check,
     }
 }
 
@@ -505,6 +518,7 @@ impl StereoRelief {
         let geometry = pair.geometry();
         let mut vision = VisionParams::default();
         vision.matching.disparity_max_px = pair.camera.max_disparity_px;
+        live.checks.apply(&mut vision.matching);
         // Live updates by the paper's criterion (no match of the whole-image run missed, no
         // new error in the region), with the context chosen from the data: about three times
         // faster than growing the windows until the region's matches are identical.
@@ -852,6 +866,13 @@ pub fn spawn_live_updates(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_configured_checks_default_to_the_matchers() {
+        let config = videt_rt_config::Config::default();
+        assert_eq!(match_checks(&config.vision), MatchChecks::default());
+        assert_eq!(LiveSettings::default().checks, MatchChecks::default());
+    }
 
     #[test]
     fn camera_toml_is_checked() {

@@ -16,7 +16,8 @@
 //! rectified, then `whole` on the sharp bench pair: the conservative figure, since the cost of
 //! rectification does not depend on the content), `rectify_compare` (as `rectify_whole`, but odd runs
 //! rectify with the plain per-pixel reference tables instead: both tables timed in one run under
-//! the same cache conditions). Prints the wall-clock median and minimum of each run
+//! the same cache conditions). A third argument sets the checks against wrong matches
+//! (`whole 300 left-right,confidence=0.2`; default: the defaults'). Prints the wall-clock median and minimum of each run
 //! and, for the pipeline modes, of each stage.
 
 #[path = "../benches/common/mod.rs"]
@@ -42,6 +43,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let mut params = VisionParams::default();
     params.matching.disparity_max_px = 96.0;
+    // Third argument: the checks against wrong matches (`none`, or a list of `left-right`,
+    // `surface`, `confidence=T`; default: the defaults').
+    if let Some(checks) = args.next() {
+        checks
+            .parse::<videt_vision::matching::MatchChecks>()?
+            .apply(&mut params.matching);
+    }
     let mut single_pass = params;
     single_pass.local.exact = false;
     single_pass.local.context = videt_vision::roi::LocalContext::Fixed;

@@ -16,7 +16,8 @@
 //! completion parameters (see the source).
 //!
 //! The pair `map` is the synthetic printed map before a background plane
-//! (`videt_vision::synthetic::printed_map_scene`).
+//! (`videt_vision::synthetic::printed_map_scene`); any other name is looked up among the extra
+//! pairs of `scripts/fetch-extra-stereo.sh` (`target/extra-stereo/NAME`).
 //!
 //! `cargo run --release -p videt-vision --example unmatched_reasons [pair ...] [--list]
 //! [--completed] [key=value ...]`
@@ -74,6 +75,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             image::open(dir.join("right.ppm"))?.to_luma8(),
             load_middlebury_truth(&dir, scale)?,
         ));
+    }
+    // Pairs of `scripts/fetch-extra-stereo.sh` (target/extra-stereo/NAME), by name.
+    let extra = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/extra-stereo");
+    for name in &wanted {
+        let dir = extra.join(name);
+        let Ok(scale) = std::fs::read_to_string(dir.join("scale.txt")) else {
+            continue;
+        };
+        let p =
+            videt_vision::evaluation::load_truth_pair(&dir, name, scale.trim().parse()?, false)?;
+        pairs.push((p.name, p.left, p.right, p.truth));
     }
     if wanted.contains(&"map") {
         let (w, h) = (640, 480);
@@ -305,41 +317,11 @@ fn classify(diagnoses: &[PairDiagnosis], min_support: u32) -> String {
 
 /// Whether `r` is a true partner of `l` (see the module documentation).
 fn is_partner(l: &Segment, r: &Segment, horizontal: bool, truth: &DisparityMap) -> bool {
-    if l.polarity != r.polarity {
-        return false;
-    }
     if horizontal {
-        return judge_correspondence(l, r, truth) == MatchVerdict::Correct;
+        l.polarity == r.polarity && judge_correspondence(l, r, truth) == MatchVerdict::Correct
+    } else {
+        videt_vision::evaluation::partners::is_partner(l, r, truth)
     }
-    let steps = l.length_px.ceil().max(1.0) as usize;
-    let (mut on_rows, mut landing) = (0usize, 0usize);
-    for k in 0..=steps {
-        let t = k as f32 / steps as f32;
-        let x = l.start[0] + t * (l.end[0] - l.start[0]);
-        let y = l.start[1] + t * (l.end[1] - l.start[1]);
-        if y < r.start[1] || y > r.end[1] {
-            continue;
-        }
-        let Some(xr) = r.x_at_row(y) else {
-            continue;
-        };
-        let (xi, yi) = (x.round() as i64, y.round() as i64);
-        let mut known = false;
-        let mut lands = false;
-        for dy in -2..=2 {
-            for dx in -2..=2 {
-                if let Some(d) = truth.at(xi + dx, yi + dy) {
-                    known = true;
-                    lands |= (x - d - xr).abs() <= 1.5;
-                }
-            }
-        }
-        if known {
-            on_rows += 1;
-            landing += lands as usize;
-        }
-    }
-    on_rows as f32 >= (steps as f32 / 3.0).max(3.0) && 2 * landing >= on_rows
 }
 
 fn patch(c: &CannyWorkspace) -> ImagePatch<'_> {

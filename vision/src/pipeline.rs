@@ -6,7 +6,9 @@ use crate::canny::{CannyParams, CannyWorkspace, KeptSmoothed};
 use crate::chains::Chains;
 use crate::error::VisionError;
 use crate::gray::{GrayView, PixelRect};
-use crate::matching::{ImagePatch, MatchParams, MatchWorkspace, SegmentMatch, StereoImages};
+use crate::matching::{
+    ImagePatch, MatchParams, MatchWorkspace, MutualCheck, SegmentMatch, StereoImages,
+};
 use crate::reconstruct::{back_project_matches, RectifiedGeometry, Segment3d};
 use crate::roi::{
     cut_chain_sides, enlarge, grow_window, local_windows, right_band, union, LocalContext,
@@ -29,6 +31,13 @@ pub struct VisionParams {
     pub disparity_sigma_px: f64,
     /// Local mode.
     pub local: LocalParams,
+    /// The right image's hysteresis thresholds are the left's times this, in `(0, 1]`. The
+    /// left image is the reference (its segments are the ones back-projected); the right one
+    /// is only searched for their partners, and a partner whose edge is a little weaker in the
+    /// right view is lost at the left's thresholds. The extra right segments a lower ratio
+    /// keeps are only candidates: they are matched to nothing unless a left segment takes
+    /// them.
+    pub right_threshold_ratio: f32,
 }
 
 impl Default for VisionParams {
@@ -44,6 +53,7 @@ impl Default for VisionParams {
             matching: MatchParams::default(),
             disparity_sigma_px: 0.5,
             local: LocalParams::default(),
+            right_threshold_ratio: 1.0,
         }
     }
 }
@@ -59,6 +69,13 @@ impl VisionParams {
                 name: "disparity_sigma_px",
                 value: self.disparity_sigma_px,
                 allowed: "(0, 10]",
+            });
+        }
+        if !(self.right_threshold_ratio > 0.0 && self.right_threshold_ratio <= 1.0) {
+            return Err(VisionError::Parameter {
+                name: "right_threshold_ratio",
+                value: f64::from(self.right_threshold_ratio),
+                allowed: "(0, 1]",
             });
         }
         Ok(())
@@ -109,6 +126,7 @@ pub struct StereoPipeline {
     chains: Chains,
     segments: SegmentWorkspace,
     matcher: MatchWorkspace,
+    mutual: MutualCheck,
     output: PipelineOutput,
 }
 
@@ -412,7 +430,12 @@ impl StereoPipeline {
                 canny.keep_smoothed(&mut self.left_smoothed);
             }
             let t = Instant::now();
-            canny.detect(view, &params.canny)?;
+            let canny_params = if side == 1 {
+                right_canny(&params.canny, params.right_threshold_ratio)
+            } else {
+                params.canny
+            };
+            canny.detect(view, &canny_params)?;
             timings.edges += t.elapsed();
             let t = Instant::now();
             self.chains.link(
@@ -485,6 +508,15 @@ impl StereoPipeline {
             &params.matching,
             &mut out.matches,
         );
+        if params.matching.mutual_check {
+            self.mutual.filter(
+                &out.left_segments,
+                &out.right_segments,
+                Some(&images),
+                &params.matching,
+                &mut out.matches,
+            );
+        }
         timings.matching = t.elapsed();
         out.segments_3d.clear();
         if let Some(g) = geometry {
@@ -535,6 +567,16 @@ fn patch<'a>(data: &'a [u8], (width, height): (usize, usize), v: &GrayView<'_>) 
         width,
         height,
         origin_px: v.origin_px(),
+    }
+}
+
+/// The right image's edge detection: the left's thresholds times `ratio` (at least 1).
+fn right_canny(left: &CannyParams, ratio: f32) -> CannyParams {
+    let scale = |t: u16| ((f32::from(t) * ratio).round() as u16).max(1);
+    CannyParams {
+        low_threshold: scale(left.low_threshold),
+        high_threshold: scale(left.high_threshold),
+        ..*left
     }
 }
 

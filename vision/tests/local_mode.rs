@@ -4,6 +4,7 @@
 //! region are exactly the local run's there: same left and right segments, same disparities,
 //! nothing missing and nothing extra.
 
+use videt_vision::matching::MatchChecks;
 use videt_vision::matching::SegmentMatch;
 use videt_vision::segments::Segment;
 use videt_vision::{
@@ -65,12 +66,39 @@ fn regions(width: f32, height: f32) -> Vec<LocalRegion> {
 
 #[test]
 fn local_runs_equal_the_global_run_inside_the_region() {
-    let params = VisionParams::default();
+    let Some(total) = local_equals_global(&VisionParams::default()) else {
+        return;
+    };
+    eprintln!("{total} global matches inside the regions, all found identically");
+    assert!(total > 200, "the regions must hold matches ({total})");
+}
+
+/// The same with every check against wrong matches on: the windows grow until the region's
+/// matches are the whole-image run's, whatever decides them.
+#[test]
+fn with_the_checks_local_runs_equal_the_global_run_inside_the_region() {
+    let mut params = VisionParams::default();
+    MatchChecks {
+        left_right: true,
+        min_confidence: 0.2,
+        surface: true,
+    }
+    .apply(&mut params.matching);
+    let Some(total) = local_equals_global(&params) else {
+        return;
+    };
+    eprintln!("with the checks: {total} global matches inside the regions, all found identically");
+    assert!(total > 200, "the regions must hold matches ({total})");
+}
+
+/// Runs every region of every shared pair locally and asserts its matches are the whole-image
+/// run's inside the region; returns how many whole-image matches the regions held (`None` when
+/// the data is absent).
+fn local_equals_global(params: &VisionParams) -> Option<usize> {
+    let params = *params;
     let mut total = 0;
     for name in ["tsukuba", "venus", "cones", "teddy"] {
-        let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
-            return;
-        };
+        let dir = videt_testdata::data_dir(&format!("stereo/{name}"))?;
         let left = image::open(dir.join("left.ppm")).unwrap().to_luma8();
         let right = image::open(dir.join("right.ppm")).unwrap().to_luma8();
         let lv = GrayView::from_image(&left).unwrap();
@@ -105,8 +133,7 @@ fn local_runs_equal_the_global_run_inside_the_region() {
             total += expected.len();
         }
     }
-    eprintln!("{total} global matches inside the regions, all found identically");
-    assert!(total > 200, "the regions must hold matches ({total})");
+    Some(total)
 }
 
 /// Without growth (one pass over the region plus its context margin) chains cut by the window

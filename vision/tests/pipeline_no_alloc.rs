@@ -1,7 +1,9 @@
-//! Once warm, the Canny detector and the whole stereo pipeline (whole-image and local runs)
-//! perform no heap allocation per frame (counted by a global allocator wrapper, per thread).
+//! Once warm, the Canny detector and the whole stereo pipeline (whole-image and local runs,
+//! with every check against wrong matches on) perform no heap allocation per frame (counted by
+//! a global allocator wrapper, per thread).
 
 use videt_vision::canny::{CannyParams, CannyWorkspace};
+use videt_vision::matching::MatchChecks;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
 #[global_allocator]
@@ -31,7 +33,15 @@ fn warm_canny_and_pipeline_do_not_allocate() {
     }
     assert_eq!(allocations(), before, "Canny allocated once warm");
 
-    let params = VisionParams::default();
+    // Every check against wrong matches on: the left-right check's second run and mirrored
+    // images reuse their buffers too.
+    let mut params = VisionParams::default();
+    MatchChecks {
+        left_right: true,
+        min_confidence: 0.2,
+        surface: true,
+    }
+    .apply(&mut params.matching);
     let geometry = RectifiedGeometry {
         focal_px: 3740.0,
         cx_px: 216.5,

@@ -114,13 +114,16 @@ where
     if let Some(slot) = &live_image {
         relief = relief.with_live_image(Arc::clone(slot));
     }
+    let checks = crate::stereo_relief::match_checks(&config.vision);
     relief = relief.with_live_settings(crate::stereo_relief::LiveSettings {
         update_period_s: 1.0 / f64::from(config.vision.frame_rate_hz.max(1)),
+        checks,
         ..Default::default()
     });
     let (model, first) = relief.rebuild()?;
     info!(
         camera = %name,
+        checks_against_wrong_matches = %checks,
         matches = first.matches,
         segments_3d = first.segments_3d,
         depth_range_m = ?first.depth_range_m,

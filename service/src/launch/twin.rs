@@ -261,7 +261,10 @@ pub(super) fn run_stereo_relief_demo(
     };
     let name = pair.name.clone();
     let layout = ReliefLayout::for_config(config);
-    let live = LiveSettings::default();
+    let live = LiveSettings {
+        checks: crate::stereo_relief::match_checks(&config.vision),
+        ..LiveSettings::default()
+    };
     let (relief, model, initial) = match StereoRelief::build(pair, &layout, live) {
         Ok(r) => r,
         Err(e) => {

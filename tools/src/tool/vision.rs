@@ -2,7 +2,7 @@
 //! the matches, the 3D segments and overlay images.
 //!
 //! `videt vision --left L.png --right R.png (--calib FILE | --rectified --focal PX --baseline M)
-//! --out DIR [--roi X,Y,W,H] [--surface [--relief-depth M]]`
+//! --out DIR [--roi X,Y,W,H] [--checks LIST] [--surface [--relief-depth M]]`
 //!
 //! With `--surface` it also builds the bas-relief from the 3D segments (the image stretched over
 //! a 40 cm wide area, the scene's depth range mapped onto the relief depth) and writes the mesh
@@ -16,6 +16,7 @@ use image::GrayImage;
 use videt_hal::GrayFrame;
 use videt_vision::disparity_range::choose_max_disparity;
 use videt_vision::io::{load_gray_image, write_results};
+use videt_vision::matching::MatchChecks;
 use videt_vision::surface::build_from_scene;
 use videt_vision::surface::export::write_surface_outputs;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
@@ -59,10 +60,20 @@ pub struct VisionArgs {
     /// frame, metres) and `surface_depth.png` (shaded depth) into the output directory.
     #[arg(long)]
     pub surface: bool,
+    /// Checks against wrong matches: `none`, or a comma-separated list of `left-right` (match
+    /// the right image to the left one too; keep a match both directions agree on),
+    /// `surface` (drop a match its matched neighbours contradict) and `confidence=T` (drop a
+    /// match whose confidence is below T, in 0..=1). Default: the service's defaults.
+    #[arg(long, value_name = "LIST", value_parser = parse_checks)]
+    pub checks: Option<MatchChecks>,
     /// With --surface: the relief depth d_max, metres (the nearest scene depth stands out this
     /// much in front of the back plane at 0.45 m).
     #[arg(long, value_name = "M", default_value_t = 0.08, requires = "surface")]
     pub relief_depth: f64,
+}
+
+fn parse_checks(text: &str) -> Result<MatchChecks, String> {
+    text.parse().map_err(|e| format!("--checks: {e}"))
 }
 
 fn parse_roi(text: &str) -> Result<[u32; 4], String> {
@@ -119,6 +130,9 @@ pub fn run(args: &VisionArgs) -> ToolResult {
     };
     geometry.validate()?;
     let mut params = VisionParams::default();
+    if let Some(checks) = &args.checks {
+        checks.apply(&mut params.matching);
+    }
     let lv = GrayView::from_image(&left)?;
     let rv = GrayView::from_image(&right)?;
     let mut pipeline = StereoPipeline::new();
@@ -152,6 +166,7 @@ pub fn run(args: &VisionArgs) -> ToolResult {
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     let report = format!(
         "{range_line}\n\
+         checks against wrong matches: {}\n\
          segments: {} left, {} right; matches: {}; 3D segments: {}\n\
          edges (Canny, both images)   {:8.3} ms\n\
          chain linking                {:8.3} ms\n\
@@ -160,6 +175,7 @@ pub fn run(args: &VisionArgs) -> ToolResult {
          back-projection              {:8.3} ms\n\
          total                        {:8.3} ms\n\
          written to {}\n",
+        MatchChecks::of(&params.matching),
         output.left_segments.len(),
         output.right_segments.len(),
         output.matches.len(),
@@ -269,5 +285,15 @@ mod tests {
         assert!(parse_roi("10,20,100").unwrap_err().contains("4 numbers"));
         assert!(parse_roi("10,20,-1,5").unwrap_err().contains("W"));
         assert!(parse_roi("1,2,0,5").unwrap_err().contains("> 0"));
+    }
+
+    #[test]
+    fn checks_parsing() {
+        assert_eq!(parse_checks("none").unwrap(), MatchChecks::NONE);
+        let c = parse_checks("left-right, confidence=0.25").unwrap();
+        assert!(c.left_right && !c.surface && (c.min_confidence - 0.25).abs() < 1e-6);
+        assert!(parse_checks("surface").unwrap().surface);
+        assert!(parse_checks("confidence=2").unwrap_err().contains("0..=1"));
+        assert!(parse_checks("lr").unwrap_err().contains("left-right"));
     }
 }

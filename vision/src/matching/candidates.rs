@@ -5,7 +5,7 @@
 use super::geometry::{angle_difference, line_distance, min_max, Extent};
 use super::pairs::{evaluate_pair, Candidate, PairConstraint};
 use super::params::MatchParams;
-use super::photometric::{photometric_error, StereoImages};
+use super::photometric::{photometric_error_within, StereoImages};
 use super::workspace::{JoinedFragments, MatchWorkspace, RightKey};
 use crate::segments::Segment;
 
@@ -88,7 +88,7 @@ impl MatchWorkspace {
             for &k in &survivors[..passed] {
                 let j = keys[k as usize].index;
                 let r = &right[j as usize];
-                let c = match evaluate_pair(i as u32, l, j, r, l_horizontal, params) {
+                let mut c = match evaluate_pair(i as u32, l, j, r, l_horizontal, params) {
                     Ok(c) => c,
                     // Completion pairs: the geometric limits only (the photometric check
                     // comes last, for the few that neighbours vouch for).
@@ -107,11 +107,19 @@ impl MatchWorkspace {
                 };
                 if let Some(images) = images {
                     if !c.horizontal {
-                        let error = photometric_error(
+                        // Beyond both limits the exact error is not needed.
+                        let error = photometric_error_within(
                             l,
                             &c,
                             images,
                             params.photometric_sampling_insensitive,
+                            if complete {
+                                params
+                                    .max_photometric_error
+                                    .max(params.completion_max_photometric_error)
+                            } else {
+                                params.max_photometric_error
+                            },
                         );
                         if error > params.max_photometric_error {
                             if complete {
@@ -119,6 +127,7 @@ impl MatchWorkspace {
                             }
                             continue;
                         }
+                        c.photometric_error = error;
                     }
                 }
                 self.candidates.push(c);
@@ -248,11 +257,17 @@ impl MatchWorkspace {
             c.rows2 = rows2;
             c.right2 = other.0;
             if let Some(images) = images {
-                if photometric_error(l, &c, images, params.photometric_sampling_insensitive)
-                    > params.max_photometric_error
-                {
+                let error = photometric_error_within(
+                    l,
+                    &c,
+                    images,
+                    params.photometric_sampling_insensitive,
+                    params.max_photometric_error,
+                );
+                if error > params.max_photometric_error {
                     continue;
                 }
+                c.photometric_error = error;
             }
             self.candidates.push(c);
         }

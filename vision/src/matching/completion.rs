@@ -117,7 +117,7 @@ impl MatchWorkspace {
             let mut best: Option<(Candidate, u32)> = None;
             let n_strict = strict.len();
             for k in 0..n_strict + loose.len() {
-                let (c, known_error) = if k < n_strict {
+                let (mut c, known_error) = if k < n_strict {
                     (self.candidates[strict.start + k], 0.0)
                 } else {
                     self.loose[loose.start + k - n_strict]
@@ -159,6 +159,8 @@ impl MatchWorkspace {
                     continue;
                 }
                 // Completion pairs are checked photometrically last (the costliest test).
+                // (A candidate passed the stricter candidate limit: its known error is 0 here
+                // and it keeps the error it was measured with.)
                 if let Some(images) = images {
                     let error = if known_error.is_nan() {
                         photometric_error(l, &c, images, params.photometric_sampling_insensitive)
@@ -167,6 +169,9 @@ impl MatchWorkspace {
                     };
                     if error > params.completion_max_photometric_error {
                         continue;
+                    }
+                    if k >= n_strict {
+                        c.photometric_error = error;
                     }
                 }
                 let better = best.is_none_or(|(b, b_agree)| {

@@ -54,14 +54,25 @@
 //! from the line joining the fragments; the match then uses rows of both right pieces and
 //! reports the longer one.
 //!
+//! **Checks against wrong matches** (each configurable, off by default): a left-right
+//! consistency check by a second run of the whole algorithm on the mirrored pair
+//! ([`MutualCheck`]), a confidence threshold on each match's evidence ([`MatchEvidence`]:
+//! agreement of its matched neighbours, margin over its best rival, photometric agreement) and
+//! a surface check that drops a match its matched neighbours contradict. They run after
+//! completion, before the nearly horizontal rounds (which then take their context from the
+//! matches kept); the left-right check runs on the final matches.
+//!
 //! Every ranking ends with a tie-break on image position, so that the result does not depend
 //! on the order in which segments were extracted (a local run sees them in another order).
 
 mod candidates;
+mod checks;
 mod completion;
 mod diagnostics;
+mod evidence;
 mod geometry;
 mod horizontal;
+mod mutual;
 mod pairs;
 mod params;
 mod photometric;
@@ -70,8 +81,10 @@ mod support;
 mod workspace;
 
 pub use diagnostics::{CandidateDiagnosis, PairDiagnosis};
+pub use evidence::MatchEvidence;
+pub use mutual::MutualCheck;
 pub use pairs::PairConstraint;
-pub use params::MatchParams;
+pub use params::{MatchChecks, MatchParams};
 pub use photometric::{ImagePatch, StereoImages};
 pub use workspace::{MatchWorkspace, SegmentMatch};
 

@@ -41,6 +41,8 @@ pub(super) struct Candidate {
     /// Disparity at the left start and end rows.
     pub(super) disparity: [f32; 2],
     pub(super) cost: f32,
+    /// Photometric error once measured (`NaN` before, or without images), grey levels.
+    pub(super) photometric_error: f32,
     pub(super) tight: bool,
     pub(super) horizontal: bool,
     pub(super) support: u32,
@@ -234,6 +236,7 @@ pub(super) fn evaluate_pair(
         right: j,
         disparity,
         cost,
+        photometric_error: f32::NAN,
         tight,
         horizontal: l_horizontal,
         support: 0,

@@ -122,6 +122,32 @@ pub struct MatchParams {
     pub completion_max_photometric_error: f32,
     /// Completion: minimum row overlap ratio.
     pub completion_min_row_overlap_ratio: f32,
+    /// Checks: a match whose confidence ([`MatchEvidence::confidence`]) is below this is
+    /// dropped (0: none is).
+    ///
+    /// [`MatchEvidence::confidence`]: super::MatchEvidence::confidence
+    pub min_confidence: f32,
+    /// Checks: drop a match its matched neighbours contradict (see
+    /// [`MatchParams::surface_min_disagreeing`]).
+    pub surface_check: bool,
+    /// Checks: a matched neighbour agrees with a match when their disparities at the closest
+    /// points differ by at most this plus [`MatchParams::surface_gradient_limit`] times their
+    /// distance, pixels (the matching precision).
+    pub surface_tolerance_px: f32,
+    /// Checks: allowed disparity change per pixel of distance for an agreeing neighbour.
+    pub surface_gradient_limit: f32,
+    /// Surface check: a match is contradicted when at least this many matched neighbours
+    /// disagree with it ...
+    pub surface_min_disagreeing: u32,
+    /// ... and fewer than this times as many agree.
+    pub surface_min_agreeing_ratio: f32,
+    /// Left-right consistency by a second run: the right segments are matched to the left
+    /// ones by the same algorithm (the pair mirrored), and a match is kept only when the
+    /// right segment's match in that run is the same left segment, or a left segment on the
+    /// same rows with a disparity within [`MatchParams::mutual_tolerance_px`].
+    pub mutual_check: bool,
+    /// Mutual check: largest disparity difference of the two runs' matches, pixels.
+    pub mutual_tolerance_px: f32,
 }
 
 impl Default for MatchParams {
@@ -139,7 +165,12 @@ impl Default for MatchParams {
     /// <= 9 and a disparity change <= 2.5 px along
     /// the segment, taken when >= 2 matched neighbours agree within 1 px + 0.1 px/px on both
     /// halves, a matched neighbour within 25 px of each end agrees, and contradicting ones
-    /// (beyond the continuity limit) are at most half the agreeing ones.
+    /// (beyond the continuity limit) are at most half the agreeing ones. The checks against
+    /// wrong matches are off: on the pairs they were judged on (the shared Middlebury pairs,
+    /// by the area of relief deviating from the true surface), each costs more relief, through
+    /// the correct matches it drops, than it saves; their own limits (surface tolerance 1 px
+    /// plus 0.1 px/px, contradicted by >= 2 with fewer than half as many agreeing, left-right
+    /// agreement within 1 px) apply when they are switched on.
     fn default() -> Self {
         Self {
             disparity_min_px: 0.0,
@@ -189,14 +220,128 @@ impl Default for MatchParams {
             completion_max_disparity_slope: 1.0,
             completion_max_photometric_error: 9.0,
             completion_min_row_overlap_ratio: 0.2,
+            min_confidence: 0.0,
+            surface_check: false,
+            surface_tolerance_px: 1.0,
+            surface_gradient_limit: 0.1,
+            surface_min_disagreeing: 2,
+            surface_min_agreeing_ratio: 0.5,
+            mutual_check: false,
+            mutual_tolerance_px: 1.0,
         }
+    }
+}
+
+/// The checks against wrong matches a configuration switches (the other limits of the checks
+/// stay [`MatchParams`]' own).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchChecks {
+    /// [`MatchParams::mutual_check`].
+    pub left_right: bool,
+    /// [`MatchParams::min_confidence`] (0: no threshold).
+    pub min_confidence: f32,
+    /// [`MatchParams::surface_check`].
+    pub surface: bool,
+}
+
+impl MatchChecks {
+    /// No check.
+    pub const NONE: MatchChecks = MatchChecks {
+        left_right: false,
+        min_confidence: 0.0,
+        surface: false,
+    };
+
+    /// The checks `params` switch on.
+    pub fn of(params: &MatchParams) -> MatchChecks {
+        MatchChecks {
+            left_right: params.mutual_check,
+            min_confidence: params.min_confidence,
+            surface: params.surface_check,
+        }
+    }
+
+    /// Switches `params`' checks to these.
+    pub fn apply(&self, params: &mut MatchParams) {
+        params.mutual_check = self.left_right;
+        params.min_confidence = self.min_confidence;
+        params.surface_check = self.surface;
+    }
+}
+
+impl std::str::FromStr for MatchChecks {
+    type Err = String;
+
+    /// `none`, or a comma-separated list of `left-right`, `surface` and `confidence=T` (T in
+    /// 0..=1).
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        let mut checks = MatchChecks::NONE;
+        if text.trim() == "none" {
+            return Ok(checks);
+        }
+        for item in text.split(',').map(str::trim) {
+            match item.split_once('=') {
+                None if item == "left-right" => checks.left_right = true,
+                None if item == "surface" => checks.surface = true,
+                Some(("confidence", value)) => {
+                    checks.min_confidence = value
+                        .trim()
+                        .parse::<f32>()
+                        .ok()
+                        .filter(|v| (0.0..=1.0).contains(v))
+                        .ok_or_else(|| {
+                            format!("confidence={value}: the threshold must be in 0..=1")
+                        })?;
+                }
+                _ => {
+                    return Err(format!(
+                        "unknown check {item:?}: expected none, or a list of left-right, surface, confidence=T"
+                    ))
+                }
+            }
+        }
+        Ok(checks)
+    }
+}
+
+impl std::fmt::Display for MatchChecks {
+    /// The form [`str::parse`] reads.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut names = Vec::new();
+        if self.left_right {
+            names.push("left-right".to_string());
+        }
+        if self.surface {
+            names.push("surface".to_string());
+        }
+        if self.min_confidence > 0.0 {
+            names.push(format!("confidence={}", self.min_confidence));
+        }
+        if names.is_empty() {
+            f.write_str("none")
+        } else {
+            f.write_str(&names.join(","))
+        }
+    }
+}
+
+impl Default for MatchChecks {
+    /// The checks of [`MatchParams::default`].
+    fn default() -> Self {
+        MatchChecks::of(&MatchParams::default())
     }
 }
 
 impl MatchParams {
     /// Checks the parameter ranges.
     pub fn validate(&self) -> Result<(), VisionError> {
-        let checks: [(&'static str, f32, bool, &'static str); 9] = [
+        let checks: [(&'static str, f32, bool, &'static str); 10] = [
+            (
+                "matching.min_confidence",
+                self.min_confidence,
+                (0.0..=1.0).contains(&self.min_confidence),
+                "0..=1",
+            ),
             (
                 "matching.disparity_max_px",
                 self.disparity_max_px,
@@ -264,5 +409,40 @@ impl MatchParams {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checks_are_read_and_written_in_one_form() {
+        assert_eq!("none".parse::<MatchChecks>().unwrap(), MatchChecks::NONE);
+        let c: MatchChecks = "left-right, confidence=0.25".parse().unwrap();
+        assert!(c.left_right && !c.surface && (c.min_confidence - 0.25).abs() < 1e-6);
+        assert_eq!(c.to_string().parse::<MatchChecks>().unwrap(), c);
+        assert_eq!(MatchChecks::NONE.to_string(), "none");
+        assert!("confidence=2"
+            .parse::<MatchChecks>()
+            .unwrap_err()
+            .contains("0..=1"));
+        assert!("lr"
+            .parse::<MatchChecks>()
+            .unwrap_err()
+            .contains("left-right"));
+    }
+
+    #[test]
+    fn a_confidence_threshold_out_of_range_is_refused_by_name() {
+        let p = MatchParams {
+            min_confidence: 1.5,
+            ..MatchParams::default()
+        };
+        assert!(p
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("min_confidence"));
     }
 }

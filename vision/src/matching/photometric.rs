@@ -76,7 +76,21 @@ pub(super) fn photometric_error(
     images: &StereoImages<'_>,
     sampling_insensitive: bool,
 ) -> f32 {
+    photometric_error_within(l, c, images, sampling_insensitive, f32::INFINITY)
+}
+
+/// As [`photometric_error`], but it stops as soon as the error must exceed `limit` and then
+/// returns a lower bound of it (above `limit`): the sums only grow, and each side's mean is
+/// at least its sum over the most samples it can have.
+pub(super) fn photometric_error_within(
+    l: &Segment,
+    c: &Candidate,
+    images: &StereoImages<'_>,
+    sampling_insensitive: bool,
+    limit: f32,
+) -> f32 {
     const SAMPLES: usize = 12;
+    const MOST_PER_SIDE: f32 = (SAMPLES * 4) as f32;
     let mut sums = [0.0f32; 2];
     let mut counts = [0u32; 2];
     for k in 0..SAMPLES {
@@ -104,6 +118,10 @@ pub(super) fn photometric_error(
                     counts[side] += 1;
                 }
             }
+        }
+        let at_least = sums[0].min(sums[1]) / MOST_PER_SIDE;
+        if at_least > limit {
+            return at_least;
         }
     }
     let mut best = f32::INFINITY;

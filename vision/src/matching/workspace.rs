@@ -4,6 +4,7 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+use super::evidence::MatchEvidence;
 use super::geometry::Extent;
 use super::pairs::{Candidate, Neighbour, NONE};
 use super::params::MatchParams;
@@ -25,6 +26,8 @@ pub struct SegmentMatch {
     pub predicted: bool,
     /// Whether the left segment is nearly horizontal (matched, but not back-projected).
     pub nearly_horizontal: bool,
+    /// What speaks for and against the match (default for nearly horizontal matches).
+    pub evidence: MatchEvidence,
 }
 
 /// Reusable buffers of the matcher.
@@ -80,6 +83,8 @@ pub struct MatchWorkspace {
     pub(super) end_context: Vec<(u8, f32, f32)>,
     /// Completion proposals: candidate, agreeing neighbours.
     pub(super) completion_proposals: Vec<(Candidate, u32)>,
+    /// Evidence of each left segment's match (see the checks).
+    pub(super) evidence: Vec<MatchEvidence>,
 }
 
 /// A candidate waiting in propagation's queue, popped best first (support, then cost, then
@@ -170,6 +175,7 @@ impl MatchWorkspace {
                 }
             }
         }
+        self.check_matches(left, images, params);
         if params.match_horizontal {
             for _ in 0..HORIZONTAL_ROUNDS {
                 if !self.match_horizontal_round(left, right, params) {
@@ -196,6 +202,7 @@ impl MatchWorkspace {
                 support: cand.support,
                 predicted: cand.tight,
                 nearly_horizontal: cand.horizontal,
+                evidence: self.evidence.get(i).copied().unwrap_or_default(),
             });
         }
     }

@@ -19,11 +19,21 @@
 //! the samples that could land (those within the right segment's column extent) do. Their
 //! endpoint disparity is judged separately by [`judge_match`] and reported as
 //! [`AccuracyReport::horizontal_disparity_wrong`].
+//!
+//! [`relief`] judges what the matches become: the area of a built bas-relief that departs from
+//! the true surface ([`phantom_area`]).
 
 use std::path::Path;
 
 use crate::matching::SegmentMatch;
 use crate::segments::Segment;
+
+pub mod partners;
+pub mod relief;
+
+pub use relief::{
+    phantom_area, relief_deviation, PhantomArea, ReliefDeviation, ReliefEvaluationError,
+};
 
 /// The Middlebury pairs of the shared test data (`stereo/NAME`) and the scale of their 8-bit
 /// ground truth.
@@ -45,6 +55,75 @@ pub fn load_middlebury_truth(dir: &Path, scale: f32) -> Result<DisparityMap, ima
         truth.mask_occlusions(&r, 1.0);
     }
     Ok(truth)
+}
+
+/// A rectified pair with its ground truth, as the accuracy tools read it.
+#[derive(Debug, Clone)]
+pub struct TruthPair {
+    /// What it is (its directory's name).
+    pub name: String,
+    /// Left image (8-bit grey).
+    pub left: image::GrayImage,
+    /// Right image.
+    pub right: image::GrayImage,
+    /// The left view's ground truth, occlusions masked when the right one is given.
+    pub truth: DisparityMap,
+    /// Whether it is one of the shared pairs (parameters may be chosen on it) rather than an
+    /// extra one.
+    pub shared: bool,
+}
+
+/// Reads the pair in `dir`: `left` and `right` (`.ppm` or `.png`) and its truth
+/// ([`load_middlebury_truth`] with `scale`).
+pub fn load_truth_pair(
+    dir: &Path,
+    name: &str,
+    scale: f32,
+    shared: bool,
+) -> Result<TruthPair, String> {
+    let open = |stem: &str| -> Result<image::GrayImage, String> {
+        for ext in ["ppm", "png"] {
+            let p = dir.join(format!("{stem}.{ext}"));
+            if p.exists() {
+                return image::open(&p)
+                    .map(|i| i.to_luma8())
+                    .map_err(|e| format!("{}: {e}", p.display()));
+            }
+        }
+        Err(format!("{}: no {stem}.ppm or {stem}.png", dir.display()))
+    };
+    Ok(TruthPair {
+        name: name.to_string(),
+        left: open("left")?,
+        right: open("right")?,
+        truth: load_middlebury_truth(dir, scale).map_err(|e| format!("{}: {e}", dir.display()))?,
+        shared,
+    })
+}
+
+/// The extra pairs under `dir` (`scripts/fetch-extra-stereo.sh`): every sub-directory holding
+/// a `scale.txt` (the ground truth's scale), by name; none when `dir` does not exist.
+pub fn load_extra_pairs(dir: &Path) -> Result<Vec<TruthPair>, String> {
+    let mut dirs: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    dirs.sort();
+    dirs.into_iter()
+        .filter(|d| d.join("scale.txt").exists())
+        .map(|d| {
+            let path = d.join("scale.txt");
+            let scale: f32 = std::fs::read_to_string(&path)
+                .map_err(|e| format!("{}: {e}", path.display()))?
+                .trim()
+                .parse()
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            let name = d
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            load_truth_pair(&d, &name, scale, false)
+        })
+        .collect()
 }
 
 /// A dense disparity map; `NaN` marks unknown pixels.
@@ -373,6 +452,7 @@ mod tests {
             support: 1,
             predicted: true,
             nearly_horizontal: false,
+            evidence: Default::default(),
         }
     }
 
