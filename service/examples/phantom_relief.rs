@@ -100,13 +100,10 @@ const DEFAULT_FIGURE_PAIRS: [&str; 4] = ["syn-shelf", "tsukuba", "motorcycle", "
 /// Width of one image in the figure, pixels.
 const FIGURE_CELL_WIDTH: u32 = 480;
 
-/// The matcher without any check against wrong matches: the defaults with the mutual check and
-/// the surface check off and no confidence floor.
+/// The matcher without any check against wrong matches.
 fn without_checks() -> VisionParams {
     let mut p = VisionParams::default();
-    p.matching.mutual_check = false;
-    p.matching.surface_check = false;
-    p.matching.min_confidence = 0.0;
+    MatchChecks::NONE.apply(&mut p.matching);
     p
 }
 
@@ -180,7 +177,8 @@ impl Run {
 }
 
 /// The whole-image pipeline on `pair` with `params` and the disparity bound measured on the
-/// pair, as the product runs it; every back-projected match judged against the truth.
+/// pair (as `videt vision` does by default); every back-projected match judged against the
+/// truth.
 fn run(
     pipeline: &mut StereoPipeline,
     pair: &Pair,

@@ -89,9 +89,7 @@ impl Base {
         p.matching.propagate_max_angle_diff_deg = self.propagate_angle_deg;
         p.matching.photometric_sampling_insensitive = self.sampling_insensitive;
         p.right_threshold_ratio = self.right_ratio;
-        p.matching.mutual_check = false;
-        p.matching.surface_check = false;
-        p.matching.min_confidence = 0.0;
+        MatchChecks::NONE.apply(&mut p.matching);
         p
     }
 
@@ -111,51 +109,18 @@ impl Base {
     }
 }
 
-/// The checks of a setting.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Checks {
-    mutual: bool,
-    surface: bool,
-    confidence: f32,
-}
-
-impl Checks {
-    fn as_match_checks(&self) -> MatchChecks {
-        MatchChecks {
-            left_right: self.mutual,
-            min_confidence: self.confidence,
-            surface: self.surface,
-        }
-    }
-
-    fn apply(&self, p: &mut VisionParams) {
-        self.as_match_checks().apply(&mut p.matching);
-    }
-
-    fn describe(&self) -> String {
-        self.as_match_checks().to_string()
-    }
-}
-
 /// A family of checks: its name and its settings of the checks.
-fn families() -> Vec<(&'static str, Vec<Checks>)> {
-    let with = |mutual, surface, confidence: bool| -> Vec<Checks> {
-        if confidence {
-            CONFIDENCE
-                .iter()
-                .map(|&c| Checks {
-                    mutual,
-                    surface,
-                    confidence: c,
-                })
-                .collect()
-        } else {
-            vec![Checks {
-                mutual,
+fn families() -> Vec<(&'static str, Vec<MatchChecks>)> {
+    let with = |left_right, surface, confidence: bool| -> Vec<MatchChecks> {
+        let thresholds: &[f32] = if confidence { &CONFIDENCE } else { &[0.0] };
+        thresholds
+            .iter()
+            .map(|&min_confidence| MatchChecks {
+                left_right,
+                min_confidence,
                 surface,
-                confidence: 0.0,
-            }]
-        }
+            })
+            .collect()
     };
     vec![
         ("none", with(false, false, false)),
@@ -262,7 +227,7 @@ fn ceiling(pipeline: &mut StereoPipeline, pair: &TruthPair, params: &VisionParam
 }
 
 /// Every setting: (base index, checks).
-type Setting = (usize, Checks);
+type Setting = (usize, MatchChecks);
 
 /// The setting chosen among `settings` on the pairs `training` (`scores[setting][pair]`).
 fn choose(settings: &[usize], scores: &[Vec<Score>], training: &[usize]) -> usize {
@@ -499,7 +464,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let params_of = |(b, c): &Setting, bound_px: f32| {
         let mut p = bases[*b].params();
-        c.apply(&mut p);
+        c.apply(&mut p.matching);
         p.matching.disparity_max_px = bound_px;
         p
     };
@@ -537,12 +502,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The defaults' own base setting (their checks aside).
     let default_base = {
         let mut d = VisionParams::default();
-        Checks {
-            mutual: false,
-            surface: false,
-            confidence: 0.0,
-        }
-        .apply(&mut d);
+        MatchChecks::NONE.apply(&mut d.matching);
         bases
             .iter()
             .position(|b| b.params() == d)
@@ -596,7 +556,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 println!(
                     "{:<11} {:<66} {:>7} {:>7.1}% {:>6.2}% {:>7.1}%  {}",
                     pair.name,
-                    format!("{}; {}", bases[b].describe(), c.describe()),
+                    format!("{}; {}", bases[b].describe(), c),
                     s.matches,
                     100.0 * s.matched,
                     100.0 * s.wrong,
@@ -624,19 +584,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         summary.push(format!(
             "chosen on all the shared pairs, over every family: {}; {}",
             bases[b].describe(),
-            c.describe()
+            c
         ));
         summaries.push((block, summary));
     }
-    println!("\n== defaults (their checks: {})", {
-        let d = VisionParams::default().matching;
-        Checks {
-            mutual: d.mutual_check,
-            surface: d.surface_check,
-            confidence: d.min_confidence,
-        }
-        .describe()
-    });
+    println!(
+        "\n== defaults (their checks: {})",
+        MatchChecks::of(&VisionParams::default().matching)
+    );
     for (pair, s) in pairs.iter().zip(&defaults) {
         println!(
             "{:<11} {:>7} {:>7.1}% {:>6.2}%  {:<4} {}",
@@ -665,11 +620,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let curve = SWEEP
             .iter()
             .map(|&t| {
-                let s = (b, Checks { confidence: t, ..c });
+                let s = (
+                    b,
+                    MatchChecks {
+                        min_confidence: t,
+                        ..c
+                    },
+                );
                 (t, score(&mut pipeline, &pairs[i], &params_of(&s, bound_px)))
             })
             .collect();
-        (pairs[i].name.clone(), curve, c.confidence, pairs[i].shared)
+        (
+            pairs[i].name.clone(),
+            curve,
+            c.min_confidence,
+            pairs[i].shared,
+        )
     });
     if let Some(path) = value_of("--csv") {
         let mut text = String::from("pair,held_out_by,threshold,matched,wrong,matches\n");
@@ -706,7 +672,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .collect();
             println!(
                 "  {:<52} {}",
-                format!("{}; {}", bases[s.0].describe(), s.1.describe()),
+                format!("{}; {}", bases[s.0].describe(), s.1),
                 cells.join("  ")
             );
         }

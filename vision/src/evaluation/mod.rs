@@ -431,7 +431,9 @@ pub fn evaluate(
 mod tests {
     use super::*;
 
-    fn vertical(x: f32) -> Segment {
+    /// A vertical segment at column `x`, rows 5..25, polarity +1 (shared by the evaluation's
+    /// tests).
+    pub(super) fn vertical(x: f32) -> Segment {
         Segment {
             start: [x, 5.0],
             end: [x, 25.0],

@@ -80,16 +80,13 @@ pub fn partnered(
 mod tests {
     use super::*;
 
-    fn vertical(x: f32, polarity: i8) -> Segment {
+    use super::super::tests::vertical;
+
+    /// A vertical segment at column `x` with `polarity`.
+    fn edge(x: f32, polarity: i8) -> Segment {
         Segment {
-            start: [x, 5.0],
-            end: [x, 25.0],
-            length_px: 20.0,
-            angle_rad: std::f32::consts::FRAC_PI_2,
             polarity,
-            contrast: 50.0,
-            side_intensity: [0.0, 0.0],
-            chain: 0,
+            ..vertical(x)
         }
     }
 
@@ -104,12 +101,12 @@ mod tests {
     #[test]
     fn a_right_segment_at_the_true_disparity_is_a_partner_and_others_are_not() {
         let t = truth(5.0);
-        let l = vertical(20.0, 1);
-        assert!(is_partner(&l, &vertical(15.0, 1), &t));
-        assert!(is_partner(&l, &vertical(16.2, 1), &t));
-        assert!(!is_partner(&l, &vertical(12.0, 1), &t));
-        assert!(!is_partner(&l, &vertical(15.0, -1), &t));
-        let (with, total) = partnered(&[l, vertical(30.0, 1)], &[vertical(15.0, 1)], &t, 0.2);
+        let l = edge(20.0, 1);
+        assert!(is_partner(&l, &edge(15.0, 1), &t));
+        assert!(is_partner(&l, &edge(16.2, 1), &t));
+        assert!(!is_partner(&l, &edge(12.0, 1), &t));
+        assert!(!is_partner(&l, &edge(15.0, -1), &t));
+        let (with, total) = partnered(&[l, edge(30.0, 1)], &[edge(15.0, 1)], &t, 0.2);
         assert_eq!((with, total), (1, 2));
     }
 
@@ -120,10 +117,6 @@ mod tests {
             height: 30,
             values: vec![f32::NAN; 40 * 30],
         };
-        assert!(!is_partner(
-            &vertical(20.0, 1),
-            &vertical(15.0, 1),
-            &unknown
-        ));
+        assert!(!is_partner(&edge(20.0, 1), &edge(15.0, 1), &unknown));
     }
 }

@@ -21,9 +21,7 @@
 use super::evidence::MatchEvidence;
 use super::pairs::{Candidate, NONE};
 use super::params::MatchParams;
-use super::photometric::{photometric_error, StereoImages};
 use super::workspace::MatchWorkspace;
-use crate::segments::Segment;
 
 /// Whether two candidates' disparities at the closest points of their left segments agree
 /// within the surface check's precision.
@@ -35,15 +33,10 @@ fn agree(a: &Candidate, b: &Candidate, t_a: f32, t_b: f32, distance: f32, p: &Ma
 impl MatchWorkspace {
     /// Gathers the evidence of every accepted match (into `evidence`, by left segment), then
     /// drops those the confidence threshold or the surface check reject.
-    pub(super) fn check_matches(
-        &mut self,
-        left: &[Segment],
-        images: Option<&StereoImages<'_>>,
-        params: &MatchParams,
-    ) {
+    pub(super) fn check_matches(&mut self, n_left: usize, params: &MatchParams) {
         self.evidence.clear();
-        self.evidence.resize(left.len(), MatchEvidence::default());
-        for i in 0..left.len() {
+        self.evidence.resize(n_left, MatchEvidence::default());
+        for i in 0..n_left {
             let k = self.accepted_candidate[i];
             if k == NONE {
                 continue;
@@ -54,7 +47,6 @@ impl MatchWorkspace {
             }
             let mut e = MatchEvidence {
                 completed: self.completed[i],
-                photometric_error: f32::NAN,
                 ..MatchEvidence::default()
             };
             for n in self.neighbours_of(i as u32) {
@@ -86,25 +78,15 @@ impl MatchWorkspace {
                     e.rival_support = Some(r.support);
                 }
             }
-            // Measured when the pair became a candidate (or a completion pair).
-            let error = match images {
-                Some(images) if c.photometric_error.is_nan() => photometric_error(
-                    &left[i],
-                    &c,
-                    images,
-                    params.photometric_sampling_insensitive,
-                ),
-                _ => c.photometric_error,
-            };
-            if error.is_finite() {
-                e.photometric_error = error;
-            }
+            // Measured when the pair became a candidate or a completion pair (`NaN` without
+            // images).
+            e.photometric_error = c.photometric_error;
             self.evidence[i] = e;
         }
         if params.min_confidence <= 0.0 && !params.surface_check {
             return;
         }
-        for i in 0..left.len() {
+        for i in 0..n_left {
             let k = self.accepted_candidate[i];
             if k == NONE || self.candidates[k as usize].horizontal {
                 continue;
@@ -125,6 +107,7 @@ mod tests {
     use super::*;
     use crate::matching::test_support::{scene, seg};
     use crate::matching::SegmentMatch;
+    use crate::segments::Segment;
 
     /// The fan of [`scene`] on a plane at 23 px, and one more segment among it whose partner
     /// lies 12 px off the plane (an edge the matcher would turn into a spike). Seeds need no

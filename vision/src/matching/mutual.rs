@@ -16,6 +16,7 @@
 //! (`i` is then a fragment of the edge the second run matched whole). Nearly horizontal
 //! matches take their disparity from their neighbours and are kept.
 
+use super::pairs::NONE;
 use super::params::MatchParams;
 use super::photometric::{ImagePatch, StereoImages};
 use super::workspace::{MatchWorkspace, SegmentMatch};
@@ -33,8 +34,6 @@ pub struct MutualCheck {
     /// For each right segment, its match in the second run (index into `reverse_matches`).
     match_of_right: Vec<u32>,
 }
-
-const NONE: u32 = u32::MAX;
 
 impl MutualCheck {
     /// An empty check (its buffers grow during the first runs).

@@ -175,7 +175,7 @@ impl MatchWorkspace {
                 }
             }
         }
-        self.check_matches(left, images, params);
+        self.check_matches(left.len(), params);
         if params.match_horizontal {
             for _ in 0..HORIZONTAL_ROUNDS {
                 if !self.match_horizontal_round(left, right, params) {
@@ -202,7 +202,7 @@ impl MatchWorkspace {
                 support: cand.support,
                 predicted: cand.tight,
                 nearly_horizontal: cand.horizontal,
-                evidence: self.evidence.get(i).copied().unwrap_or_default(),
+                evidence: self.evidence[i],
             });
         }
     }
