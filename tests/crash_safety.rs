@@ -1,6 +1,7 @@
 //! Crash safety of the files the product writes: a process killed with SIGKILL at a random
 //! point of a calibration save leaves the old or the new calibration, never a mix or nothing;
-//! killed while writing a session log, the log reads up to its last whole record.
+//! killed while writing a session log, the log reads up to its last whole record, as a session
+//! that ended without closing.
 //!
 //! The writer runs in a child process (this test binary re-run with `VIDET_CRASH_CHILD` set),
 //! which the test kills after a random delay.
@@ -214,6 +215,12 @@ fn a_session_log_killed_mid_write_reads_up_to_its_last_whole_record() {
         assert_eq!(
             log.truncated_bytes > 0,
             log.damage.is_some(),
+            "trial {trial}"
+        );
+        // Killed, it never closed the log: on a frame boundary or not, it reads as such.
+        assert!(!log.closed(), "trial {trial}");
+        assert!(
+            log.end_note().starts_with("session ended without closing"),
             "trial {trial}"
         );
         if let Some(d) = &log.damage {

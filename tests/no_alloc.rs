@@ -143,7 +143,9 @@ fn the_control_thread_allocates_and_frees_nothing() {
     done.store(true, Ordering::Relaxed);
     let (published, seen_cycle) = vision.join().unwrap();
     drop(observers);
-    let written = telemetry_writer.finish().unwrap();
+    let written = telemetry_writer
+        .finish(telemetry::EndReason::DurationElapsed)
+        .unwrap();
     let live = live.stop();
 
     assert!(report.cycles >= 10_000, "ran {} periods", report.cycles);
@@ -218,7 +220,9 @@ fn every_devices_control_loop_allocates_nothing() {
             )
         });
         drop(observers);
-        telemetry_writer.finish().unwrap();
+        telemetry_writer
+            .finish(telemetry::EndReason::DurationElapsed)
+            .unwrap();
         assert!(
             report.cycles >= 3_000,
             "{:?}: {} periods",

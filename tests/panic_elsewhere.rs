@@ -1,5 +1,6 @@
 //! A panic in any thread of the service drives the control loop to the safe state (minimum
-//! tension, forces ramped out, drives off) and the service exits non-zero.
+//! tension, forces ramped out, drives off) and the service exits non-zero; the session log
+//! closes with the fault as the reason.
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -44,4 +45,12 @@ fn a_panic_in_another_thread_stops_the_loop_safely_with_a_nonzero_exit() {
         log.records.last().unwrap().time.as_secs_f64() < 600.0,
         "stopped long before the duration"
     );
+    let end = log.end.expect("the log is closed");
+    assert_eq!(
+        end.reason,
+        videt_runtime::telemetry::EndReason::FatalFault(
+            "a thread panicked: stopped in the safe state".into()
+        )
+    );
+    assert_eq!(end.last_cycle, Some(last.cycle));
 }

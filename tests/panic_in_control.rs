@@ -1,4 +1,5 @@
-//! A panic inside the control loop powers the drives off and the service exits non-zero.
+//! A panic inside the control loop powers the drives off and the service exits non-zero; the
+//! session log closes with the fault as the reason.
 
 use std::process::ExitCode;
 
@@ -7,6 +8,7 @@ use videt_rt_config::Config;
 use videt_runtime::cycle::WireZero;
 use videt_runtime::setup;
 use videt_runtime::snapshot::{SurfaceFeed, SurfaceView};
+use videt_runtime::telemetry::EndReason;
 use videt_service::service::{run_service, ServiceOptions, EXIT_PANIC};
 
 /// A surface source that fails after a while.
@@ -35,9 +37,10 @@ fn a_panic_in_the_control_loop_exits_nonzero() {
     let scene = videt_assembly::twin_scene::demo_scene(&config, 9);
     let rig = setup::rig(&config).unwrap();
     let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
+    let dir = tempfile::tempdir().unwrap();
     let mut options = ServiceOptions::from_config(config);
     options.socket_path = None;
-    options.telemetry_dir = None;
+    options.telemetry_dir = Some(dir.path().to_path_buf());
     options.status_lines = false;
     options.duration_s = Some(60.0);
     let code = run_service(
@@ -50,4 +53,17 @@ fn a_panic_in_the_control_loop_exits_nonzero() {
         &options,
     );
     assert_eq!(code, ExitCode::from(EXIT_PANIC));
+    let log_path = std::fs::read_dir(dir.path())
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let log = videt_runtime::telemetry::read_log(&log_path).unwrap();
+    let end = log.end.expect("the log is closed");
+    assert_eq!(
+        end.reason,
+        EndReason::FatalFault("the control loop panicked; drives powered off".into())
+    );
+    assert_eq!(end.last_cycle, log.records.last().map(|r| r.cycle));
 }

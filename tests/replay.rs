@@ -2,34 +2,39 @@
 //! supervisor commands, device faults, and reliefs swapped by a vision thread) replay bit for
 //! bit through the same control cycle; so do `videtd --sim` sessions of every scene (wall, box,
 //! stereo, camera) and every device (wireman3, planar2, polar1) the service runs; a changed gain
-//! is reported at the period where it first matters; a log cut anywhere replays up to the cut; a
-//! log recorded before a configuration key existed names the key and the default it replays
+//! is reported at the period where it first matters; a log cut anywhere (on a record boundary
+//! or inside a record) reads as a session that ended without closing and replays up to the cut;
+//! a log recorded before a configuration key existed names the key and the default it replays
 //! with.
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use videt_hal::MonoTime;
 use videt_rt_config::Config;
 use videt_runtime::control_loop::{
-    run_control_loop, start_hardware, ControlCommand, CycleObserver, LoopControl, LoopSettings,
-    LoopStats, WindowStats,
+    run_control_loop, start_hardware, ControlCommand, CycleObserver, LoopControl, LoopEnd,
+    LoopSettings, LoopStats, WindowStats,
 };
 use videt_runtime::cycle::{CycleOp, CycleRecord, WireZero};
 use videt_runtime::setup;
 use videt_runtime::snapshot::{FixedSurface, SurfaceFeed};
 use videt_runtime::telemetry::{
-    self, CalibrationInForce, LogHeader, SessionInfo, SessionRecording,
+    self, CalibrationInForce, EndReason, LogHeader, SessionInfo, SessionRecording,
 };
 use videt_service::relief_scene;
 use videt_sim::TwinFault;
+use videt_tools::felt::felt_report;
 use videt_tools::replay::{replay, ReplayOverrides};
 
-/// Sends supervisor commands at given periods (as the control socket would).
+/// Sends supervisor commands at given periods (as the control socket would), and stalls the
+/// control thread at others.
 struct Commander {
     queue: rtrb::Producer<ControlCommand>,
     plan: Vec<(u64, ControlCommand)>,
+    stalls: Vec<(u64, Duration)>,
 }
 
 impl CycleObserver for Commander {
@@ -37,6 +42,11 @@ impl CycleObserver for Commander {
         for (at, command) in &self.plan {
             if *at == record.cycle {
                 let _ = self.queue.push(*command);
+            }
+        }
+        for (at, stall) in &self.stalls {
+            if *at == record.cycle {
+                std::thread::sleep(*stall);
             }
         }
     }
@@ -51,6 +61,20 @@ fn record_session(
     relief: bool,
     commands: Vec<(u64, ControlCommand)>,
     faults: &[(f64, TwinFault)],
+) {
+    record_stalled_session(path, config, seconds, relief, commands, faults, Vec::new());
+}
+
+/// [`record_session`] with the control thread stalled for the given time (real time: the
+/// twin's clock does not move meanwhile) at the given periods.
+fn record_stalled_session(
+    path: &Path,
+    config: &Config,
+    seconds: f64,
+    relief: bool,
+    commands: Vec<(u64, ControlCommand)>,
+    faults: &[(f64, TwinFault)],
+    stalls: Vec<(u64, Duration)>,
 ) {
     let mut scene = videt_assembly::twin_scene::demo_scene(config, 3);
     for &(t, fault) in faults {
@@ -67,6 +91,7 @@ fn record_session(
     let commander = Commander {
         queue,
         plan: commands,
+        stalls,
     };
     let header = LogHeader {
         rate_hz: config.control.rate_hz,
@@ -96,16 +121,18 @@ fn record_session(
         session
             .twin
             .set_operator(relief_scene::box_operator(&layout, start, 6.0));
-        // Vision: rebuilds the box (its height changing) while the loop runs.
+        // Vision: rebuilds the box while the loop runs, its height changing every eighth
+        // rebuild (an unchanged relief is recorded as a repeat).
         let done = Arc::new(AtomicBool::new(false));
         let vision_done = Arc::clone(&done);
         let vision = std::thread::spawn(move || {
             let mut k = 0;
             while !vision_done.load(Ordering::Relaxed) {
                 k += 1;
-                let (m, _) = relief_scene::box_relief(&layout, 0.002 * f64::from(k % 3)).unwrap();
+                let height = 0.002 * f64::from(k / 8 % 3);
+                let (m, _) = relief_scene::box_relief(&layout, height).unwrap();
                 writer.publish(m);
-                std::thread::sleep(std::time::Duration::from_millis(3));
+                std::thread::sleep(Duration::from_millis(3));
             }
         });
         session.run(&mut feed, &mut control, commander);
@@ -143,7 +170,7 @@ impl Session<'_> {
             telemetry::start_session(self.path, self.header, recording, 1 << 16).unwrap();
         producer.calibration(0, &CalibrationInForce::of(&self.cycle));
         let mut observers = (producer, commander);
-        run_control_loop(
+        let report = run_control_loop(
             &mut self.twin,
             feed,
             &mut self.cycle,
@@ -153,7 +180,8 @@ impl Session<'_> {
             &mut LoopStats::default(),
         );
         drop(observers);
-        writer.finish().unwrap();
+        assert_eq!(report.ended_by, LoopEnd::DurationElapsed);
+        writer.finish(EndReason::DurationElapsed).unwrap();
     }
 }
 
@@ -249,7 +277,13 @@ fn a_changed_gain_is_reported_at_the_first_period_it_matters() {
         .expect("a stiffer wall renders other forces");
     assert_eq!(d.record, expected, "{d}");
     assert_eq!(d.cycle, log.records[expected].cycle);
-    assert!(d.field.starts_with("desired_force_n"), "{d}");
+    // The stiffer wall asks another force, and from the first touch on the set-points follow
+    // it (the free-space pull hands over to the contact force): the set-points are compared
+    // first.
+    assert!(
+        d.field.starts_with("tension_setpoint_n") || d.field.starts_with("desired_force_n"),
+        "{d}"
+    );
     // The replay went on to the end, every period compared.
     assert_eq!(r.replayed.len(), log.records.len());
     assert!(r.divergent_periods > 100);
@@ -282,23 +316,99 @@ fn a_changed_gain_is_reported_at_the_first_period_it_matters() {
     assert!(e.contains("P9") && e.contains("P1"), "{e}");
 }
 
-#[test]
-fn a_log_cut_at_a_random_byte_replays_up_to_the_cut() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("c.vlog");
-    record_session(&path, &Config::default(), 1.5, true, Vec::new(), &[]);
-    let bytes = std::fs::read(&path).unwrap();
-    let whole = telemetry::parse_log(&bytes).unwrap();
-    let mut rng = 0x2545_f491_4f6c_dd1du64;
-    for _ in 0..12 {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        let cut =
-            telemetry::HEADER_BYTES + (rng as usize) % (bytes.len() - telemetry::HEADER_BYTES);
+/// Where to cut a closed log, chosen from its frames: every frame boundary (the log of a service
+/// that stopped writing between two frames: power lost, the process killed), bytes inside the
+/// header, inside the first frame of every kind, inside periods spread over the session (their
+/// head, payload and CRC), and every byte of the end frame. Each with whether it is a boundary.
+fn cuts_from_frames(frames: &[telemetry::FrameAt]) -> Vec<(usize, bool)> {
+    let mut cuts: Vec<(usize, bool)> = [0, 1, 8, 12, 20, telemetry::HEADER_BYTES - 1]
+        .into_iter()
+        .map(|at| (at, false))
+        .collect();
+    cuts.extend(frames.iter().map(|f| (f.offset, true)));
+    let inside =
+        |f: &telemetry::FrameAt| [f.offset + 1, f.offset + f.bytes / 2, f.offset + f.bytes - 1];
+    let mut kinds = Vec::new();
+    for f in frames {
+        if !kinds.contains(&f.kind) {
+            kinds.push(f.kind);
+            cuts.extend(inside(f).map(|at| (at, false)));
+        }
+    }
+    let periods: Vec<&telemetry::FrameAt> = frames
+        .iter()
+        .filter(|f| f.kind == telemetry::format::FrameKind::Period)
+        .collect();
+    for k in 0..8 {
+        cuts.extend(inside(periods[k * (periods.len() - 1) / 7]).map(|at| (at, false)));
+    }
+    let end = frames.last().expect("frames");
+    cuts.extend((end.offset + 1..end.offset + end.bytes).map(|at| (at, false)));
+    cuts.sort_unstable();
+    cuts.dedup();
+    cuts
+}
+
+/// `bytes`, a closed log of a session whose duration elapsed, cut on every record boundary and
+/// inside records ([`cuts_from_frames`]): each cut reads as a session that ended without
+/// closing at its last whole record, with damage exactly when the cut is inside a frame, and
+/// its records a prefix of the whole log's; a cut log replays up to the cut at the period
+/// boundaries before and after every frame kind, at spread periods and inside records.
+fn check_cuts(bytes: &[u8]) {
+    let started = Instant::now();
+    let whole = telemetry::parse_log(bytes).unwrap();
+    assert!(whole.damage.is_none(), "{:?}", whole.damage_note());
+    let end = whole.end.clone().expect("the log is closed");
+    assert_eq!(end.reason, EndReason::DurationElapsed);
+    assert_eq!(end.last_cycle, Some(whole.records.last().unwrap().cycle));
+    assert_eq!(end.periods, whole.records.len() as u64);
+    let frames = telemetry::frames(bytes).unwrap();
+    let last = frames.last().unwrap();
+    assert_eq!(last.kind, telemetry::format::FrameKind::End);
+    assert_eq!(last.offset + last.bytes, bytes.len());
+    let cuts = cuts_from_frames(&frames);
+    // Replayed: the boundaries around the first frames and the end frame, 8 spread period
+    // boundaries, and every cut inside a frame other than the end frame.
+    let spread: Vec<usize> = (0..8)
+        .map(|k| frames[4 + k * (frames.len() - 5) / 7].offset)
+        .collect();
+    let replayed = |cut: usize, on_boundary: bool| {
+        let near_start = frames.iter().take(6).any(|f| f.offset == cut);
+        if on_boundary {
+            near_start || cut == last.offset || spread.contains(&cut)
+        } else {
+            cut < last.offset
+        }
+    };
+    let (mut parsed, mut replays) = (0, 0);
+    for &(cut, on_boundary) in &cuts {
+        if cut < telemetry::HEADER_BYTES {
+            let e = telemetry::parse_log(&bytes[..cut]).unwrap_err().to_string();
+            assert!(e.contains("an empty session log"), "cut at {cut}: {e}");
+            continue;
+        }
         let log = telemetry::parse_log(&bytes[..cut]).unwrap();
-        assert!(log.damage_note().is_some() || cut == bytes.len());
+        parsed += 1;
+        assert!(!log.closed(), "cut at {cut}");
+        assert_eq!(log.damage.is_none(), on_boundary, "cut at {cut}");
         assert_eq!(log.records[..], whole.records[..log.records.len()]);
+        let note = log.end_note();
+        let at = log
+            .records
+            .last()
+            .map_or("before its first period".to_string(), |r| {
+                format!("at cycle {}", r.cycle)
+            });
+        assert!(
+            note.starts_with(&format!(
+                "session ended without closing, {at} (no end frame"
+            )),
+            "cut at {cut}: {note}"
+        );
+        if !replayed(cut, on_boundary) {
+            continue;
+        }
+        replays += 1;
         match replay(&log, &ReplayOverrides::default()) {
             Ok(r) => {
                 assert!(r.identical(), "cut at {cut}: {:?}", r.first_divergence);
@@ -313,6 +423,45 @@ fn a_log_cut_at_a_random_byte_replays_up_to_the_cut() {
             Err(e) => assert!(log.records.is_empty(), "cut at {cut}: {e}"),
         }
     }
+    // The log without its end frame: every record, not closed.
+    let unclosed = telemetry::parse_log(&bytes[..last.offset]).unwrap();
+    assert_eq!(unclosed.records.len(), whole.records.len());
+    eprintln!(
+        "{} frames, {} bytes: {parsed} cuts read, {replays} replayed, in {:.1} s",
+        frames.len(),
+        bytes.len(),
+        started.elapsed().as_secs_f64()
+    );
+}
+
+#[test]
+fn a_log_cut_on_a_record_boundary_or_inside_one_reads_as_not_closed_and_replays_up_to_the_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.vlog");
+    record_session(&path, &Config::default(), 0.6, true, Vec::new(), &[]);
+    check_cuts(&std::fs::read(&path).unwrap());
+}
+
+#[test]
+fn a_log_recorded_with_stalls_cut_on_a_record_boundary_or_inside_one_reads_as_not_closed() {
+    // The control thread stalls while the vision thread keeps publishing and the writer drains
+    // an empty ring: the frames fall elsewhere from run to run.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.vlog");
+    let stalls = [100, 250, 251, 400, 550]
+        .into_iter()
+        .zip([25, 7, 40, 13, 31].map(Duration::from_millis))
+        .collect();
+    record_stalled_session(
+        &path,
+        &Config::default(),
+        0.6,
+        true,
+        Vec::new(),
+        &[],
+        stalls,
+    );
+    check_cuts(&std::fs::read(&path).unwrap());
 }
 
 fn videt(args: &[&std::ffi::OsStr]) -> (std::process::ExitStatus, String, String) {
@@ -393,7 +542,7 @@ fn the_replay_tool_reports_plots_and_refuses_bad_logs_clearly() {
     let (status, _, err) = videt(&["replay".as_ref(), cut.as_os_str()]);
     assert_eq!(status.code(), Some(1));
     assert!(
-        err.contains("version 7") && err.contains("reads versions 1 and 2"),
+        err.contains("version 7") && err.contains("reads versions 1 to 3"),
         "{err}"
     );
     std::fs::write(&cut, "[control]\nrate_hz = 1000\n").unwrap();
@@ -413,6 +562,103 @@ fn the_replay_tool_reports_plots_and_refuses_bad_logs_clearly() {
     assert!(err.contains("version 1 log records no inputs"), "{err}");
     let (status, out, _) = videt(&["log".as_ref(), cut.as_os_str()]);
     assert!(status.success() && out.contains("2 records"), "{out}");
+}
+
+#[test]
+fn videt_log_says_whether_the_session_closed_and_that_a_log_cut_on_a_record_boundary_did_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("w.vlog");
+    record_session(&path, &Config::default(), 1.0, false, Vec::new(), &[]);
+    let bytes = std::fs::read(&path).unwrap();
+    let last = telemetry::parse_log(&bytes)
+        .unwrap()
+        .records
+        .last()
+        .unwrap()
+        .cycle;
+    let (status, out, _) = videt(&["log".as_ref(), path.as_os_str()]);
+    assert!(status.success(), "{out}");
+    assert!(
+        out.contains(&format!(
+            "session closed at cycle {last}: its set duration elapsed"
+        )),
+        "{out}"
+    );
+    // Cut on record boundaries (the service gone between two writes): before the end frame,
+    // and in the middle of the session.
+    let frames = telemetry::frames(&bytes).unwrap();
+    let periods: Vec<&telemetry::FrameAt> = frames
+        .iter()
+        .filter(|f| f.kind == telemetry::format::FrameKind::Period)
+        .collect();
+    let cut = dir.path().join("cut.vlog");
+    for at in [
+        frames.last().unwrap().offset,
+        periods[periods.len() / 2].offset,
+    ] {
+        std::fs::write(&cut, &bytes[..at]).unwrap();
+        let read = telemetry::parse_log(&bytes[..at]).unwrap();
+        let ended = format!(
+            "session ended without closing, at cycle {}",
+            read.records.last().unwrap().cycle
+        );
+        let (status, out, _) = videt(&["log".as_ref(), cut.as_os_str()]);
+        assert!(status.success(), "{out}");
+        assert!(out.contains(&ended), "cut at {at}: {out}");
+        assert!(
+            !out.contains("session closed") && !out.contains("damaged"),
+            "cut at {at}: {out}"
+        );
+        let (status, json, _) = videt(&["log".as_ref(), cut.as_os_str(), "--json".as_ref()]);
+        assert!(status.success(), "{json}");
+        let summary: serde_json::Value = serde_json::from_str(&json).unwrap();
+        assert_eq!(summary["closed"], false, "{json}");
+        assert!(
+            summary["end"].as_str().unwrap().starts_with(&ended),
+            "{json}"
+        );
+        // The replay says so too, beside an identical replay of what was read.
+        let (status, out, _) = videt(&["replay".as_ref(), cut.as_os_str()]);
+        assert!(status.success(), "{out}");
+        assert!(
+            out.contains(&ended) && out.contains("identical"),
+            "cut at {at}: {out}"
+        );
+    }
+    // Logs of the versions before the end frame (the fuzzer's seeds: `videtd --sim` sessions
+    // cut after six periods, whole or inside a frame, and a version 1 log) read as not closed.
+    let seeds = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/session_log");
+    for (name, version, damaged) in [
+        ("wall_6_periods.vlog", 2, false),
+        ("box_6_periods.vlog", 2, false),
+        ("wall_cut.vlog", 2, true),
+        ("box_cut.vlog", 2, true),
+        ("version1_4_records.vlog", 1, false),
+    ] {
+        let old = seeds.join(name);
+        let log = telemetry::read_log(&old).unwrap();
+        assert_eq!(
+            (log.version, log.damage.is_some(), log.closed()),
+            (version, damaged, false),
+            "{name}"
+        );
+        let (status, out, _) = videt(&["log".as_ref(), old.as_os_str()]);
+        assert!(status.success(), "{name}: {out}");
+        assert!(
+            out.contains(&format!(
+                "session ended without closing, at cycle {} (a version {version} log: that format records no end)",
+                log.records.last().unwrap().cycle
+            )),
+            "{name}: {out}"
+        );
+    }
+    let closed = seeds.join("wall_6_periods_closed.vlog");
+    let (status, out, _) = videt(&["log".as_ref(), closed.as_os_str()]);
+    assert!(status.success(), "{out}");
+    assert!(
+        out.contains("session closed at cycle 5: stopped on request (control socket)"),
+        "{out}"
+    );
 }
 
 /// What `videtd --sim SIM` (`hal` or `can`) ran and recorded for 2 s: the session log, or the
@@ -474,6 +720,39 @@ fn assert_replays_every_cycle_period(what: &str, log: &telemetry::Log) {
         "{what}"
     );
     eprintln!("{what}: {} periods replayed bit for bit", r.replayed.len());
+    assert_felt_bound_with_every_algorithm(what, log);
+}
+
+/// What the finger felt stays within the felt bound (`docs/felt-force.md`) as recorded, and
+/// in the replay of the same motion with every algorithm.
+fn assert_felt_bound_with_every_algorithm(what: &str, log: &telemetry::Log) {
+    let config = log
+        .session
+        .as_ref()
+        .unwrap()
+        .as_ref()
+        .unwrap()
+        .config
+        .clone();
+    let recorded = felt_report(log, &config, log.records.iter().enumerate()).unwrap();
+    assert!(recorded.periods > 1500, "{what}: {recorded}");
+    assert_eq!(recorded.over_bound, 0, "{what} as recorded: {recorded}");
+    for algorithm in videt_control::distribution::ALGORITHM_NAMES {
+        let r = replay(
+            log,
+            &ReplayOverrides {
+                config: None,
+                algorithm: Some(algorithm.into()),
+            },
+        )
+        .unwrap();
+        let felt = felt_report(log, &r.config, r.replayed.iter().map(|(i, o)| (*i, o))).unwrap();
+        assert_eq!(
+            felt.over_bound, 0,
+            "{what} replayed with {algorithm}: {felt}"
+        );
+        eprintln!("{what}, {algorithm}: {felt}");
+    }
 }
 
 /// The reliefs the session rendered and how many came with a camera frame's age.

@@ -287,6 +287,11 @@ fn videtd_speaks_the_notify_protocol_and_answers_the_control_socket() {
         log.records.windows(2).all(|w| w[1].cycle == w[0].cycle + 1),
         "no record dropped"
     );
+    // Closed, on the request, at the last period.
+    let end = log.end.as_ref().expect("the log is closed");
+    assert_eq!(end.reason, videt_runtime::telemetry::EndReason::StopRequest);
+    assert_eq!(end.last_cycle, Some(log.records.last().unwrap().cycle));
+    assert_eq!((end.periods, end.dropped), (log.records.len() as u64, 0));
 }
 
 #[test]
@@ -305,6 +310,13 @@ fn sigterm_ramps_the_forces_out_and_exits_zero() {
     let log = videt_runtime::telemetry::read_log(&only_log(dir.path())).unwrap();
     let last = log.records.last().unwrap();
     assert_eq!(last.force_scale, 0.0, "forces ramped out before exit");
+    assert_eq!(
+        log.end_note(),
+        format!(
+            "session closed at cycle {}: stopped by a signal (SIGTERM)",
+            last.cycle
+        )
+    );
     let ramp: Vec<f64> = log
         .records
         .iter()
@@ -352,6 +364,11 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
         let status = wait_exit(&mut daemon, Duration::from_secs(20));
         assert!(status.success(), "--sim {sim}: {status:?}");
         let log = videt_runtime::telemetry::read_log(&only_log(dir.path())).unwrap();
+        assert_eq!(
+            log.end.as_ref().map(|e| &e.reason),
+            Some(&videt_runtime::telemetry::EndReason::DurationElapsed),
+            "--sim {sim}"
+        );
         let unsafe_state = log.records.iter().find(|r| r.safety.reason().is_some());
         assert!(
             unsafe_state.is_none(),

@@ -7,30 +7,31 @@
 /// | algorithm | field `f_c` (magnitude from the parameters)       | projection outside `F` |
 /// |-----------|---------------------------------------------------|------------------------|
 /// | `P1`      | constant direction (paper: `|f_c| = 0`)           | P1: clamp negatives    |
-/// | `P2`      | constant direction (paper: `|f_c| = 0`)           | P2: exact along `n`    |
+/// | `P2`      | constant direction (paper: `|f_c| = 0`)           | P2: along `n` first    |
 /// | `F1`      | constant direction                                | P2                     |
 /// | `F2`      | along the bisector of the wire cone               | P2                     |
-/// | `Qp`      | along the bisector of the wire cone               | normal-first nearest   |
+/// | `Qp`      | along the bisector of the wire cone               | normal-weighted nearest|
 ///
 /// The paper defines F1 and F2 by their field only and leaves the projection open; P2 is used
 /// because it is the better of the paper's two (its Fig. 21 against Fig. 20). P1 and P2 accept a
-/// field because the paper's Figs. 20-21 run them with `|f_c|` up to 2 N.
+/// field because the paper's Figs. 20-21 run them with `|f_c|` up to 2 N. Every projection is
+/// continuous in the force and the pose and keeps the felt bound (`docs/felt-force.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Algorithm {
     /// P1: negative tensions set to `t_min`, the positive ones actuated as computed.
     P1,
-    /// P2: negative tensions set to `t_min`; the positive wires get `t' = (n^T V_P)^+ r` with
-    /// `r = |f| - n^T V_N t_min` so that the force along `n = f/|f|` is exactly `|f|`.
+    /// P2: from P1's tensions, the least change along the wires that makes the force along
+    /// `n = f/|f|` as close to `|f|` as a weight on the normal allows (the paper's
+    /// `t' = (n^T V_P)^+ r`, made continuous where the pulling wires change).
     #[default]
     P2,
     /// F1: constant force field `f_c` of fixed direction added, then P2.
     F1,
     /// F2: force field of constant magnitude along the bisector of the wires, then P2.
     F2,
-    /// QP: bisector field, then the reachable force that renders the component along `n`
-    /// exactly (or as much of it as the limits allow) and, among those, is closest to the
-    /// desired force. Never worse than P1/P2/F1/F2 on the index V, never worse than P2 on the
-    /// force error. Exact small active-set solution over the `3^N` bound patterns.
+    /// QP: bisector field, then the reachable force nearest the desired one, the error along
+    /// `n` weighed 101 times the error across it (nearly exact along `n` where the wires can
+    /// do it). Exact small active-set solution over the `3^N` bound patterns.
     Qp,
 }
 
@@ -39,9 +40,9 @@ pub enum Algorithm {
 pub enum Projection {
     /// Paper's P1: `t = clamp(J^T f, t_min, t_max)`.
     ClampNegative,
-    /// Paper's P2 (with the other wires' `t_min` accounted for).
+    /// Paper's P2, continuous: P1 corrected towards the force along the normal.
     ExactAlongNormal,
-    /// Normal component first (as exact as the limits allow), then nearest in force.
+    /// Nearest in force, the normal component weighed most.
     NormalFirstNearest,
 }
 

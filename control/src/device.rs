@@ -44,12 +44,12 @@ fn square_forces<const N: usize>(
         direction: field_direction,
     };
     let f = field_force(settings.algorithm, &field, map);
-    let mut field_n =
-        if !in_contact && f == SVector::<f64, N>::zeros() && settings.free_space_field_n > 0.0 {
-            free_space_force(settings.free_space_field_n, settings.limits.t_min_n, map)
-        } else {
-            f
-        };
+    let mut field_n = if f == SVector::<f64, N>::zeros() && settings.free_space_field_n > 0.0 {
+        let pull = free_space_force(settings.free_space_field_n, settings.limits.t_min_n, map);
+        pull * free_space_pull_share(in_contact, desired_n.norm(), pull.norm())
+    } else {
+        f
+    };
     field_n *= scale;
     let target = desired_n + field_n;
     let distribution = project(
@@ -59,6 +59,25 @@ fn square_forces<const N: usize>(
         &settings.limits,
     );
     (field_n, target, distribution)
+}
+
+/// How much of the free-space pull (`pull_n` newtons) stays with a contact force of
+/// `desired_n` newtons: all of it out of contact, and in contact `1 - |f_e| / |pull|` down to
+/// none, so a touch starts from the force felt just before it instead of dropping the pull in
+/// one period.
+pub fn free_space_pull_share(in_contact: bool, desired_n: f64, pull_n: f64) -> f64 {
+    if !in_contact {
+        return 1.0;
+    }
+    if pull_n.is_nan() || pull_n <= 1e-12 {
+        return 0.0;
+    }
+    let share = 1.0 - desired_n / pull_n;
+    if share.is_finite() {
+        share.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 impl WireDevice<3> for Rig3 {
@@ -352,12 +371,12 @@ impl WireDevice<1> for PolarDevice {
                     }
                 }
             }
-        } else if !in_contact && settings.free_space_field_n > 0.0 {
+        } else if settings.free_space_field_n > 0.0 {
             let fs = settings
                 .free_space_field_n
                 .max(settings.limits.t_min_n)
                 .min(settings.limits.t_max_n);
-            u * fs
+            u * (fs * free_space_pull_share(in_contact, desired_n.norm(), fs))
         } else {
             Vec3::zeros()
         };

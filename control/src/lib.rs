@@ -15,7 +15,8 @@
 //!   the wire count is a const generic, chosen once when the runtime starts.
 //! - Force: [`contact`] (spring-damper along the normal), [`field`] (constant-direction and
 //!   bisector fields, free-space pull), [`distribution`] (P1, P2, F1, F2 and QP projections onto
-//!   `F = { V t : t_min <= t_i <= t_max }`), [`measures`] (index V, isotropic force limit).
+//!   `F = { V t : t_min <= t_i <= t_max }`, continuous and within the felt bound of [`felt`]),
+//!   [`measures`] (index V, isotropic force limit).
 //! - [`step`]: one control period; [`analysis`]: the designer's sweeps behind `videt analyze`.
 #![no_std]
 #![forbid(unsafe_code)]
@@ -28,9 +29,11 @@ mod algorithm;
 pub mod analysis;
 pub mod autoinit;
 pub mod blend;
+mod box_qp;
 pub mod contact;
 pub mod device;
 pub mod distribution;
+pub mod felt;
 pub mod field;
 pub mod kinematics;
 pub mod measures;
@@ -57,6 +60,7 @@ pub use device::{
 pub use distribution::{
     distribute, project, Algorithm, Distribution, FieldRule, ForceLimits, LimitsError, Projection,
 };
+pub use felt::{FeltPeriod, FeltTally, FELT_MARGIN_N};
 pub use field::{field_force, free_space_force, ForceField};
 pub use kinematics::{ForwardSolution, Rig3, RigError};
 pub use measures::{isotropic_force_limit_n, v_index};

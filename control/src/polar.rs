@@ -7,7 +7,10 @@
 
 use nalgebra::Matrix3;
 
-use crate::distribution::{clamp_tension, Algorithm, ForceLimits, Projection};
+use crate::distribution::{
+    clamp_tension, normal_weight_fade, Algorithm, ForceLimits, Projection, NORMAL_WEIGHT,
+};
+use crate::felt::FELT_MARGIN_N;
 use crate::kinematics::libm_sqrt;
 use crate::Vec3;
 
@@ -69,10 +72,19 @@ pub struct OneWireDistribution {
     pub saturated: bool,
 }
 
-/// Tension of the single wire for `desired_n` at `position_m`. The wire pulls along `u = -v`.
-/// P1 and the field algorithms use `t = u·f` (the component along the wire, floored at `t_min`);
-/// P2 and QP make the force along `n = f/|f|` exact where possible, `t = |f| / (n·u)` when
-/// `n·u > 0` (the sphere `S_f` degenerates to a point: only forces along the wire are exact).
+/// Tension of the single wire for `desired_n` at `position_m`. The wire pulls along `u = -v`;
+/// `a = n·u` with `n = f/|f|`, `t1 = clamp(u·f)` (P1: the component along the wire).
+/// - P1: `t1`.
+/// - P2 (and F1, F2): the least change of `t1` that makes the force along `n` close to `|f|`:
+///   minimise `κφ (a t − |f|)² + (t − t1)²`, `t = (t1 + κφ a |f|) / (1 + κφ a²)`.
+/// - QP: the nearest force, the error along `n` weighed `1 + κφ` times:
+///   `t = (u·f + κφ a |f|) / (1 + κφ a²)`.
+///
+/// `κ` = [`NORMAL_WEIGHT`](crate::distribution::NORMAL_WEIGHT), `φ` =
+/// [`normal_weight_fade`](crate::distribution::normal_weight_fade) with the floor `t_min`: a
+/// force along the wire is exact; one turning across the wire fades to `t1` continuously, so the
+/// paper's `t = |f| / (n·u)`, which jumps from `t_max` to `t_min` where `n·u` crosses a threshold,
+/// never hits the finger. The felt bound holds: `t <= |f| + t_min + FELT_MARGIN_N`.
 pub fn one_wire_distribute(
     position_m: &Vec3,
     desired_n: &Vec3,
@@ -87,23 +99,21 @@ pub fn one_wire_distribute(
     };
     let magnitude = desired_n.norm();
     let along = u.dot(desired_n);
+    let first = clamp_tension(along, limits);
+    let a = if magnitude > 1e-12 {
+        along / magnitude
+    } else {
+        0.0
+    };
+    let weight = NORMAL_WEIGHT * normal_weight_fade(magnitude, limits.t_min_n);
     let raw = match algorithm.projection() {
         Projection::ClampNegative => along,
-        Projection::ExactAlongNormal | Projection::NormalFirstNearest => {
-            let a = if magnitude > 1e-12 {
-                along / magnitude
-            } else {
-                0.0
-            };
-            if a > 1e-3 {
-                magnitude / a
-            } else {
-                limits.t_min_n
-            }
-        }
+        Projection::ExactAlongNormal => (first + weight * a * magnitude) / (1.0 + weight * a * a),
+        Projection::NormalFirstNearest => (along + weight * a * magnitude) / (1.0 + weight * a * a),
     };
     let raw = if raw.is_finite() { raw } else { limits.t_min_n };
-    let tension_n = clamp_tension(raw, limits);
+    let felt_limit = magnitude + limits.t_min_n + FELT_MARGIN_N;
+    let tension_n = clamp_tension(raw.min(felt_limit), limits);
     OneWireDistribution {
         tension_n,
         rendered_n: u * tension_n,
@@ -141,13 +151,32 @@ mod tests {
             let d = one_wire_distribute(&p, &along, alg, &limits);
             assert!((d.rendered_n - along).norm() < 1e-12, "{alg:?}");
         }
-        // Sideways with a pull component: P2 gets the normal component exact, P1 the wire one.
+        // Sideways with a pull component: P1 renders the wire's component; P2 and QP more of
+        // the normal one, up to the felt bound (|f| + t_min + margin), which holds them here.
         let f = Vec3::new(1.0, 0.0, 0.0) + along * 0.5;
         let n = f.normalize();
-        let d2 = one_wire_distribute(&p, &f, Algorithm::P2, &limits);
-        assert!((d2.rendered_n.dot(&n) - f.norm()).abs() < 1e-9);
         let d1 = one_wire_distribute(&p, &f, Algorithm::P1, &limits);
         assert!((d1.tension_n - (-p.normalize()).dot(&f)).abs() < 1e-12);
+        for alg in [Algorithm::P2, Algorithm::Qp] {
+            let d = one_wire_distribute(&p, &f, alg, &limits);
+            assert!((d.tension_n - (f.norm() + 0.2 + FELT_MARGIN_N)).abs() < 1e-12);
+            assert!(d.rendered_n.dot(&n) > d1.rendered_n.dot(&n));
+        }
+        // Across the wire, P2's t = |f| / (n·u) no longer jumps from t_max to t_min where n·u
+        // crosses zero: it fades to P1's floor.
+        let across = Vec3::new(-p.y, p.x, 0.0).normalize() * 3.0;
+        for tilt in [1e-3, 1e-6, 0.0, -1e-6] {
+            let g = across - p.normalize() * tilt;
+            for alg in [Algorithm::P2, Algorithm::Qp] {
+                let d = one_wire_distribute(&p, &g, alg, &limits);
+                let lipschitz = crate::distribution::NORMAL_WEIGHT * tilt.abs();
+                assert!(
+                    d.tension_n <= 0.2 + lipschitz + 1e-12,
+                    "tilt {tilt}: {}",
+                    d.tension_n
+                );
+            }
+        }
         // Pushing away from the guide: only t_min.
         let d = one_wire_distribute(&p, &(p * 10.0), Algorithm::P2, &limits);
         assert_eq!(d.tension_n, 0.2);

@@ -194,9 +194,11 @@ impl<const N: usize, D: WireDevice<N>> ControlStep<N, D> {
         &self.params
     }
 
-    /// Forget the tension loop's integral (after the drives were off).
+    /// Forget everything the step carries from one period to the next (after the drives were
+    /// off): the tension loop's integral and the last set-points (the wires' stretch).
     pub fn reset(&mut self) {
         self.pi.reset();
+        self.last_setpoint_n = [0.0; N];
     }
 
     /// Run one period against `surface`, writing into `out`.
@@ -415,6 +417,26 @@ mod tests {
         assert!(uncorrected > 5e-5, "{uncorrected}");
         assert_eq!(stretch.stretched_length_m(0.3, f64::NAN), 0.3);
         assert_eq!(WireStretch::RIGID.stretched_length_m(0.3, 5.0), 0.3);
+    }
+
+    #[test]
+    fn reset_forgets_everything_the_step_carries() {
+        let mut s = step(Algorithm::P2);
+        s.params.stretch = WireStretch {
+            axial_stiffness_n: 8000.0,
+            inside_length_m: 0.12,
+        };
+        let fresh = s;
+        let wall = Plane::new(Vec3::new(0.0, 0.0, 0.3), Vec3::z()).unwrap();
+        let mut out = StepOutput::default();
+        let mut input = input_at(&s, Vec3::new(0.18, 0.1, 0.29));
+        input.measured_tension_n = [1.0, 2.0, 3.0];
+        for _ in 0..50 {
+            s.update(&input, &wall, &mut out);
+        }
+        assert_ne!(s, fresh);
+        s.reset();
+        assert_eq!(s, fresh);
     }
 
     #[test]

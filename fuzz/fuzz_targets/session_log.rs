@@ -1,14 +1,15 @@
 //! Fuzzes the session-log reader and the replay: arbitrary bytes through
-//! `telemetry::parse_log`, and every log it accepts through `replay::replay` with the recorded
-//! settings (a damaged or hostile log must be read up to its damage or refused, never panic).
+//! `telemetry::parse_log` and the frame walk `telemetry::frames`, and every log the reader
+//! accepts through `replay::replay` with the recorded settings (a damaged or hostile log must be
+//! read up to its damage or refused, never panic).
 //! Frames carry a CRC, which random mutations almost always break; so each input is also read
 //! a second time with the CRC of every whole frame recomputed, which lets the fuzzer reach the
 //! decoding of the frames' contents (periods, session, calibrations, surfaces) and the replay.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use videt_runtime::telemetry::{frames, parse_log, HEADER_BYTES};
 use videt_tools::replay::{replay, ReplayOverrides};
-use videt_runtime::telemetry::{parse_log, HEADER_BYTES};
 
 const FRAME_HEAD_BYTES: usize = 8;
 const FRAME_TAIL_BYTES: usize = 4;
@@ -37,6 +38,19 @@ fn read_and_replay(bytes: &[u8]) {
         return;
     };
     let _ = log.damage_note();
+    let _ = log.end_note();
+    // Whole frames are a prefix of the file, one after the other; a closed log's end frame is
+    // its last whole frame.
+    let walked = frames(bytes).expect("a log the reader accepts");
+    let mut at = HEADER_BYTES;
+    for f in &walked {
+        assert_eq!(f.offset, at);
+        at += f.bytes;
+    }
+    assert!(at <= bytes.len());
+    if log.closed() {
+        assert!(walked.last().is_some_and(|f| f.kind as u8 == 6));
+    }
     if let Ok(r) = replay(&log, &ReplayOverrides::default()) {
         assert!(r.replayed.len() <= log.records.len());
         if let Some(d) = &r.first_divergence {

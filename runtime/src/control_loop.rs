@@ -118,6 +118,23 @@ pub struct LoopReport {
     /// The loop ended to hand the hardware over ([`ControlCommand::HandOver`]): the drives are
     /// still enabled, every wire at minimum tension.
     pub handed_over: bool,
+    /// What made the loop stop.
+    pub ended_by: LoopEnd,
+}
+
+/// What made the loop stop (the stop's ramp then ran to its end).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LoopEnd {
+    /// [`LoopControl::stop`] was raised (by a signal's handler, in the service).
+    StopFlag,
+    /// A [`ControlCommand::Stop`] (the control socket's `stop`).
+    StopCommand,
+    /// [`LoopSettings::duration_ns`] elapsed.
+    DurationElapsed,
+    /// A panic elsewhere in the service ([`SERVICE_PANICKED`]).
+    Panic,
+    /// A [`ControlCommand::HandOver`].
+    HandOver,
 }
 
 /// The loop could not start.
@@ -200,6 +217,9 @@ where
     let mut consecutive_overruns = 0u32;
     let mut stopping = false;
     let mut handing_over = false;
+    let mut stop_commanded = false;
+    // Set when the stop begins: the loop ends only after that.
+    let mut ended_by = LoopEnd::StopFlag;
 
     loop {
         hw.sleep_until(next);
@@ -209,13 +229,17 @@ where
         if let Some(commands) = control.commands.as_deref_mut() {
             while let Ok(command) = commands.pop() {
                 match command {
-                    ControlCommand::Stop => control.stop.store(true, Ordering::Relaxed),
+                    ControlCommand::Stop => {
+                        stop_commanded = true;
+                        control.stop.store(true, Ordering::Relaxed);
+                    }
                     ControlCommand::ReleaseWire(w) => cycle.release_wire(Some(usize::from(w))),
                     ControlCommand::Resume => cycle.release_wire(None),
                     ControlCommand::ResetFaults => cycle.reset_faults(),
                     ControlCommand::HandOver if !stopping => {
                         stopping = true;
                         handing_over = true;
+                        ended_by = LoopEnd::HandOver;
                         cycle.release_wire(None);
                         cycle.request_stop();
                     }
@@ -227,9 +251,19 @@ where
         if panicked {
             cycle.trip(SafetyState::MinimumTension(SafetyReason::SoftwareFault));
         }
+        let stop_raised = control.stop.load(Ordering::Relaxed);
         if (!stopping || handing_over)
-            && (panicked || control.stop.load(Ordering::Relaxed) || end.is_some_and(|e| woke >= e))
+            && (panicked || stop_raised || end.is_some_and(|e| woke >= e))
         {
+            ended_by = if panicked {
+                LoopEnd::Panic
+            } else if stop_commanded {
+                LoopEnd::StopCommand
+            } else if stop_raised {
+                LoopEnd::StopFlag
+            } else {
+                LoopEnd::DurationElapsed
+            };
             // A real stop wins over a hand-over.
             stopping = true;
             handing_over = false;
@@ -288,5 +322,6 @@ where
         overruns: stats.overruns,
         final_safety: cycle.safety_state(),
         handed_over: handing_over,
+        ended_by,
     }
 }

@@ -67,7 +67,7 @@ def binaries() -> tuple[Path, Path]:
 
 @dataclass
 class VlogFacts:
-    """What a session log holds, read from its frames (docs/telemetry.md, version 2)."""
+    """What a session log holds, read from its frames (docs/telemetry.md, version 3)."""
 
     periods: int = 0
     first_time_ns: int | None = None
@@ -76,13 +76,15 @@ class VlogFacts:
     calibrations: int = 0
     session: bool = False
     safety: list[tuple[int, int, int]] = field(default_factory=list)
+    # The end frame: (last period, periods written, periods dropped, reason code).
+    end: tuple[int, int, int, int] | None = None
 
 
 def read_vlog(path: Path) -> VlogFacts:
     data = path.read_bytes()
     assert data[:8] == b"VIDETLOG", "not a session log"
     version, period_bytes = struct.unpack_from("<II", data, 8)
-    assert (version, period_bytes) == (2, 416)
+    assert (version, period_bytes) == (3, 416)
     facts = VlogFacts()
     at = 32
     last_safety = None
@@ -114,6 +116,8 @@ def read_vlog(path: Path) -> VlogFacts:
                 last_safety = state
         elif kind == 5:
             facts.lost.append(struct.unpack_from("<Q", payload, 0)[0])
+        elif kind == 6:
+            facts.end = (*struct.unpack_from("<QQQ", payload, 0), payload[24])
         at = end + 4
     return facts
 
@@ -219,6 +223,10 @@ def test_configuration_and_calibrations_are_attached(sessions, scene):
     assert len(calibration["guides_m"]) == 3 and calibration["calibrated"] is True
     session = metadata["videt.session"]
     assert session["records"] == str(s.facts.periods)
+    # Closed by the service when its duration elapsed (reason 3), after every period written.
+    assert s.facts.end is not None
+    assert (s.facts.end[1], s.facts.end[3]) == (s.facts.periods, 3)
+    assert session["closed"] == "true" and "duration elapsed" in session["end"]
     assert session["device"] == "wireman3"
     assert ("box" in session["what"]) == (scene == "box")
 

@@ -5,7 +5,7 @@
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -18,15 +18,15 @@ use crate::init::remote::procedure_channel;
 use crate::service_hardware::ServiceHardware;
 use crate::socket::{self, ServerSettings, ServerShared, StatusReport};
 use videt_runtime::control_loop::{
-    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopReport, LoopSettings,
-    LoopStats, SERVICE_PANICKED,
+    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopEnd, LoopReport,
+    LoopSettings, LoopStats, SERVICE_PANICKED,
 };
 use videt_runtime::cycle::ControlCycle;
 use videt_runtime::rt;
 use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::snapshot::SurfaceFeed;
 use videt_runtime::status::{status_channel, StatusPublisher, StatusSnapshot};
-use videt_runtime::telemetry::{self, CalibrationInForce, LogHeader, TelemetryProducer};
+use videt_runtime::telemetry::{self, CalibrationInForce, EndReason, LogHeader, TelemetryProducer};
 
 /// Exit code after a panic in any thread.
 pub const EXIT_PANIC: u8 = 70;
@@ -269,8 +269,13 @@ where
         warn!("{w}");
     }
     let stop = Arc::new(AtomicBool::new(false));
+    // The signal that raised `stop` (0: none), for the session log's end.
+    let signalled = Arc::new(AtomicUsize::new(0));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        if let Err(e) = signal_hook::flag::register(signal, Arc::clone(&stop)) {
+        let registered =
+            signal_hook::flag::register_usize(signal, Arc::clone(&signalled), signal as usize)
+                .and_then(|_| signal_hook::flag::register(signal, Arc::clone(&stop)));
+        if let Err(e) = registered {
             error!("cannot install the handler for signal {signal}: {e}");
             return ExitCode::FAILURE;
         }
@@ -628,14 +633,16 @@ where
     if let Some(server) = server {
         server.stop();
     }
+    let panicked = SERVICE_PANICKED.load(Ordering::SeqCst);
     if let Some(writer) = telemetry_writer {
         let dropped = writer.dropped();
-        match writer.finish() {
-            Ok(written) => info!(written, dropped, "telemetry log closed"),
+        let reason = end_reason(&outcome, signalled.load(Ordering::SeqCst), panicked);
+        let why = reason.to_string();
+        match writer.finish(reason) {
+            Ok(written) => info!(written, dropped, end = %why, "telemetry log closed"),
             Err(e) => error!("telemetry log incomplete: {e}"),
         }
     }
-    let panicked = SERVICE_PANICKED.load(Ordering::SeqCst);
     match outcome {
         Ok(Ok((report, stats))) => {
             if options.status_lines {
@@ -661,6 +668,39 @@ where
     }
 }
 
+/// Why the service ended, for the end frame of its session log: from the control thread's
+/// outcome, the signal that raised the stop flag (0: none) and whether a thread panicked.
+fn end_reason(
+    outcome: &std::thread::Result<Result<(LoopReport, LoopStats), String>>,
+    signalled: usize,
+    panicked: bool,
+) -> EndReason {
+    let a_panic = || EndReason::FatalFault("a thread panicked: stopped in the safe state".into());
+    match outcome {
+        Ok(Err(e)) => EndReason::FatalFault(e.clone()),
+        Err(_) => EndReason::FatalFault("the control thread panicked".into()),
+        Ok(Ok(_)) if panicked => a_panic(),
+        Ok(Ok((report, _))) => match report.ended_by {
+            LoopEnd::StopFlag => EndReason::Signal(signal_name(signalled)),
+            LoopEnd::StopCommand => EndReason::StopRequest,
+            LoopEnd::DurationElapsed => EndReason::DurationElapsed,
+            LoopEnd::Panic => a_panic(),
+            LoopEnd::HandOver => EndReason::FatalFault(
+                "a hand-over with no procedure to take it: drives powered off".into(),
+            ),
+        },
+    }
+}
+
+/// The name of `signal` (one the service stops on).
+fn signal_name(signal: usize) -> String {
+    match i32::try_from(signal) {
+        Ok(signal_hook::consts::SIGINT) => "SIGINT".into(),
+        Ok(signal_hook::consts::SIGTERM) => "SIGTERM".into(),
+        _ => format!("signal {signal}"),
+    }
+}
+
 /// `  colour ...` for the status line, or nothing without a colour thread.
 fn colour_suffix(colour: Option<&crate::colour_thread::ColourRuntime>) -> String {
     colour.map_or_else(String::new, |c| format!("  {}", c.status_text()))
@@ -676,4 +716,65 @@ fn log_report(report: &LoopReport, stats: &LoopStats) {
         compute_p99_us = stats.compute.quantile_ns(0.99) as f64 * 1e-3,
         "control loop stopped"
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ended(by: LoopEnd) -> std::thread::Result<Result<(LoopReport, LoopStats), String>> {
+        let report = LoopReport {
+            cycles: 10,
+            overruns: 0,
+            final_safety: SafetyState::Normal,
+            handed_over: by == LoopEnd::HandOver,
+            ended_by: by,
+        };
+        Ok(Ok((report, LoopStats::default())))
+    }
+
+    #[test]
+    fn the_session_ends_for_what_stopped_the_loop() {
+        let sigterm = signal_hook::consts::SIGTERM as usize;
+        assert_eq!(
+            end_reason(&ended(LoopEnd::StopFlag), sigterm, false),
+            EndReason::Signal("SIGTERM".into())
+        );
+        assert_eq!(
+            end_reason(
+                &ended(LoopEnd::StopFlag),
+                signal_hook::consts::SIGINT as usize,
+                false
+            ),
+            EndReason::Signal("SIGINT".into())
+        );
+        assert_eq!(
+            end_reason(&ended(LoopEnd::StopCommand), 0, false),
+            EndReason::StopRequest
+        );
+        assert_eq!(
+            end_reason(&ended(LoopEnd::DurationElapsed), 0, false),
+            EndReason::DurationElapsed
+        );
+        // A panic anywhere wins: the service exits as after a panic.
+        for by in [LoopEnd::Panic, LoopEnd::StopFlag] {
+            let reason = end_reason(&ended(by), sigterm, true);
+            assert_eq!(reason.as_str(), "fatal fault", "{by:?}");
+            assert!(reason.to_string().contains("a thread panicked"), "{reason}");
+        }
+        assert_eq!(
+            end_reason(&Ok(Err("cannot start the control loop".into())), 0, false),
+            EndReason::FatalFault("cannot start the control loop".into())
+        );
+        let panicked: std::thread::Result<Result<(LoopReport, LoopStats), String>> =
+            Err(Box::new("boom"));
+        assert_eq!(
+            end_reason(&panicked, 0, true),
+            EndReason::FatalFault("the control thread panicked".into())
+        );
+        assert_eq!(
+            end_reason(&ended(LoopEnd::HandOver), 0, false).as_str(),
+            "fatal fault"
+        );
+    }
 }

@@ -6,6 +6,7 @@
 //! nothing uses it but the `videt` binary.
 #![warn(missing_docs)]
 
+pub mod felt;
 pub mod haptic_bench;
 pub mod plotting;
 pub mod replay;

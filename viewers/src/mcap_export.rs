@@ -186,6 +186,9 @@ fn write_mcap<W: Write + Seek + Send + 'static>(
     if let Some(note) = log.damage_note() {
         notes.push(note);
     }
+    if !log.closed() {
+        notes.push(log.end_note());
+    }
     let lost: Vec<u64> = log
         .surfaces
         .iter()
@@ -353,6 +356,8 @@ fn write_session_records<W: Write + Seek + Send + 'static>(
     if let Some(note) = log.damage_note() {
         put("damage", note);
     }
+    put("closed", log.closed().to_string());
+    put("end", log.end_note());
     mcap.write_metadata("videt.session", meta)?;
 
     if let Some(text) = config_toml {
@@ -507,7 +512,9 @@ mod tests {
     use videt_control::surface::Plane;
     use videt_control::Vec3;
     use videt_runtime::cycle::CycleRecord;
-    use videt_runtime::telemetry::{CalibrationInForce, LogHeader, RecordedSurface, SessionInfo};
+    use videt_runtime::telemetry::{
+        CalibrationInForce, EndReason, LogHeader, RecordedSurface, SessionEnd, SessionInfo,
+    };
     use videt_vision::surface::ReliefModel;
 
     const PERIODS: usize = 3000;
@@ -536,7 +543,8 @@ mod tests {
 
     /// A session at 1 kHz: surface versions 0 (rendered from the start), 1 (rendered from
     /// period 1000), 2 (never rendered), 3 (a relief, from period 2000), 4 lost; a trip to
-    /// minimum tension at period 1500 and back at 1600; one calibration.
+    /// minimum tension at period 1500 and back at 1600; one calibration; closed on a stop
+    /// request.
     fn session_log() -> Log {
         let records = (0..PERIODS)
             .map(|i| {
@@ -592,6 +600,12 @@ mod tests {
             log.surfaces.insert(v, SurfaceEntry::Recorded(Arc::new(s)));
         }
         log.surfaces.insert(4, SurfaceEntry::Lost);
+        log.end = Some(SessionEnd {
+            reason: EndReason::StopRequest,
+            last_cycle: Some(PERIODS as u64 - 1),
+            periods: PERIODS as u64,
+            dropped: 0,
+        });
         log
     }
 
@@ -626,6 +640,7 @@ mod tests {
         assert_eq!(summary.bytes, bytes.len() as u64);
         assert_eq!((summary.periods, summary.surfaces), (PERIODS, 4));
         assert!(summary.notes.iter().any(|n| n.contains("not recorded: 4")));
+        assert!(!summary.notes.iter().any(|n| n.contains("closing")));
 
         let topics = read_back(&bytes);
         let t0 = 5_000_000_000u64;
@@ -684,6 +699,11 @@ mod tests {
         let session = mcap::read::metadata(&bytes, &summary.metadata_indexes[0]).unwrap();
         assert_eq!(session.metadata["what"], "test: a wall");
         assert_eq!(session.metadata["records"], PERIODS.to_string());
+        assert_eq!(session.metadata["closed"], "true");
+        assert_eq!(
+            session.metadata["end"],
+            "session closed at cycle 2999: stopped on request (control socket)"
+        );
         // Chunks are zstd-compressed.
         assert!(summary
             .chunk_indexes
@@ -758,8 +778,13 @@ mod tests {
         let mut log = session_log();
         log.session = None;
         log.calibrations.clear();
+        log.end = None;
         let summary = export_mcap(&log, &out, &ExportOptions::default(), |_, _| {}).unwrap();
         assert!(summary.notes[0].starts_with("no session recorded"));
+        assert!(summary
+            .notes
+            .iter()
+            .any(|n| n.starts_with("session ended without closing, at cycle 2999")));
         let bytes = std::fs::read(&out).unwrap();
         let index = mcap::Summary::read(&bytes).unwrap().unwrap();
         assert!(index.attachment_indexes.is_empty());

@@ -1,18 +1,21 @@
 //! The session log's bytes (`docs/telemetry.md`): the header, the period record (its outputs,
-//! the same 256 bytes as in version 1, and its inputs), and the framing of version 2.
+//! the same 256 bytes as in version 1, and its inputs), the framing of versions 2 and 3, and the
+//! end frame of version 3.
 
 use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::{DriveSample, DriveState, MonoTime};
 
-use super::session::CalibrationInForce;
+use super::session::{CalibrationInForce, EndReason, SessionEnd};
 use crate::cycle::{
     CycleInputs, CycleOp, CycleOps, CycleRecord, EStopReading, TorqueWrite, LOG_WIRE_SLOTS,
 };
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"VIDETLOG";
-/// The format version written.
-pub const FORMAT_VERSION: u32 = 2;
+/// The format version written: version 2's frames, and an end frame when the service stops.
+pub const FORMAT_VERSION: u32 = 3;
+/// Frames without an end frame (still read; such a log never reads as closed).
+pub const FORMAT_VERSION_2: u32 = 2;
 /// The first format version: fixed 256-byte output records, no inputs (still read).
 pub const FORMAT_VERSION_1: u32 = 1;
 /// Header size, bytes.
@@ -25,6 +28,8 @@ pub const INPUTS_BYTES: usize = 160;
 pub const PERIOD_BYTES: usize = RECORD_BYTES + INPUTS_BYTES;
 /// Size of a calibration frame's payload, bytes.
 pub const CALIBRATION_BYTES: usize = 112;
+/// Size of an end frame's payload before its text, bytes.
+pub const END_FIXED_BYTES: usize = 32;
 /// Frame head (kind, reserved, payload length), bytes.
 pub const FRAME_HEAD_BYTES: usize = 8;
 /// Frame tail (CRC-32), bytes.
@@ -45,6 +50,8 @@ pub enum FrameKind {
     Period = 4,
     /// A surface version that could not be recorded.
     SurfaceLost = 5,
+    /// The session ended and the service closed the log (version 3; the last frame).
+    End = 6,
 }
 
 impl FrameKind {
@@ -56,6 +63,7 @@ impl FrameKind {
             3 => FrameKind::Surface,
             4 => FrameKind::Period,
             5 => FrameKind::SurfaceLost,
+            6 => FrameKind::End,
             _ => return None,
         })
     }
@@ -70,7 +78,7 @@ pub struct LogHeader {
     pub start_unix_ns: u64,
 }
 
-/// Encode the header (version 2).
+/// Encode the header (the version written).
 pub fn encode_header(h: &LogHeader) -> [u8; HEADER_BYTES] {
     let mut b = [0u8; HEADER_BYTES];
     b[0..8].copy_from_slice(MAGIC);
@@ -412,6 +420,48 @@ pub fn decode_calibration(
     ))
 }
 
+/// Encode an end frame's payload: u64 last period (all ones: none), u64 periods written, u64
+/// periods dropped, u8 reason, 7 bytes reserved, then the reason's text (UTF-8).
+pub fn encode_end(end: &SessionEnd) -> Vec<u8> {
+    let (code, text) = match &end.reason {
+        EndReason::Signal(name) => (1, name.as_str()),
+        EndReason::StopRequest => (2, ""),
+        EndReason::DurationElapsed => (3, ""),
+        EndReason::FatalFault(what) => (4, what.as_str()),
+    };
+    let mut b = vec![0u8; END_FIXED_BYTES];
+    b[0..8].copy_from_slice(&end.last_cycle.unwrap_or(u64::MAX).to_le_bytes());
+    b[8..16].copy_from_slice(&end.periods.to_le_bytes());
+    b[16..24].copy_from_slice(&end.dropped.to_le_bytes());
+    b[24] = code;
+    b.extend_from_slice(text.as_bytes());
+    b
+}
+
+/// Decode an end frame's payload; an undefined reason or text that is not UTF-8 is an error.
+pub fn decode_end(b: &[u8]) -> Result<SessionEnd, String> {
+    if b.len() < END_FIXED_BYTES {
+        return Err(format!("an end frame of {} bytes", b.len()));
+    }
+    let u64_at = |at: usize| u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"));
+    let text = std::str::from_utf8(&b[END_FIXED_BYTES..])
+        .map_err(|e| format!("an end frame's text: {e}"))?
+        .to_string();
+    let reason = match b[24] {
+        1 => EndReason::Signal(text),
+        2 => EndReason::StopRequest,
+        3 => EndReason::DurationElapsed,
+        4 => EndReason::FatalFault(text),
+        k => return Err(format!("an end frame of undefined reason {k}")),
+    };
+    Ok(SessionEnd {
+        reason,
+        last_cycle: Some(u64_at(0)).filter(|&c| c != u64::MAX),
+        periods: u64_at(8),
+        dropped: u64_at(16),
+    })
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -505,6 +555,41 @@ pub(crate) mod tests {
         encode_period(&r, &mut b);
         b[RECORD_BYTES + 1] = 9;
         assert!(decode_period(&b).unwrap_err().contains("e-stop 9"));
+    }
+
+    #[test]
+    fn end_frames_round_trip_and_refuse_undefined_reasons() {
+        for (reason, last_cycle) in [
+            (EndReason::Signal("SIGTERM".into()), Some(41_999)),
+            (EndReason::StopRequest, Some(0)),
+            (EndReason::DurationElapsed, Some(u64::MAX - 1)),
+            (
+                EndReason::FatalFault("cannot start the control loop: enable failed".into()),
+                None,
+            ),
+        ] {
+            let end = SessionEnd {
+                reason,
+                last_cycle,
+                periods: 42_000,
+                dropped: 3,
+            };
+            let b = encode_end(&end);
+            assert_eq!(decode_end(&b).unwrap(), end);
+        }
+        let mut b = encode_end(&SessionEnd {
+            reason: EndReason::StopRequest,
+            last_cycle: Some(7),
+            periods: 8,
+            dropped: 0,
+        });
+        assert_eq!(b.len(), END_FIXED_BYTES);
+        assert!(decode_end(&b[..31]).unwrap_err().contains("31 bytes"));
+        b[24] = 9;
+        assert!(decode_end(&b).unwrap_err().contains("reason 9"));
+        b[24] = 1;
+        b.push(0xff);
+        assert!(decode_end(&b).unwrap_err().contains("text"));
     }
 
     #[test]

@@ -4,7 +4,10 @@
 //!
 //! The log (`docs/telemetry.md`) records what a replay needs: the session's configuration, the
 //! calibration in force, every surface version once, and per period the inputs the control
-//! cycle read and the outputs it produced. Version 1 logs (outputs only) are still read.
+//! cycle read and the outputs it produced; when the service stops, the writer closes it with an
+//! end frame (why, and the last period), so that a log without one reads as a session that
+//! ended without closing. Version 1 (outputs only) and version 2 logs (no end frame) are still
+//! read.
 
 pub mod format;
 pub mod read;
@@ -14,19 +17,21 @@ pub mod surfaces;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 pub use format::{LogHeader, FORMAT_VERSION, HEADER_BYTES, MAGIC, PERIOD_BYTES, RECORD_BYTES};
-pub use read::{parse_log, read_log, CalibrationEntry, Damage, Log, LogError, SurfaceEntry};
-pub use session::{CalibrationInForce, SessionInfo};
+pub use read::{
+    frames, parse_log, read_log, CalibrationEntry, Damage, FrameAt, Log, LogError, SurfaceEntry,
+};
+pub use session::{CalibrationInForce, EndReason, SessionEnd, SessionInfo};
 pub use surfaces::{FeedRecording, RecordSurface, RecordedSurface, SurfaceTap};
 
 use crate::control_loop::{CycleObserver, WindowStats};
 use crate::cycle::CycleRecord;
-use format::{encode_calibration, encode_header, encode_period, frame, FrameKind};
+use format::{encode_calibration, encode_end, encode_header, encode_period, frame, FrameKind};
 
 /// What the control thread sends the writer. The ring's slots are preallocated at the size of
 /// the largest item: boxing the period would allocate on the control thread.
@@ -39,11 +44,17 @@ enum TelemetryItem {
     Calibration(u64, CalibrationInForce),
 }
 
-/// Control-thread side: pushes records, counts drops. Allocation-free.
+/// Control-thread side: pushes records, counts drops, keeps the last period's number for the
+/// end frame. Allocation-free.
 pub struct TelemetryProducer {
     producer: rtrb::Producer<TelemetryItem>,
     dropped: Arc<AtomicU64>,
+    /// The last period observed (`NO_CYCLE`: none yet), dropped or not.
+    last_cycle: Arc<AtomicU64>,
 }
+
+/// [`TelemetryProducer::last_cycle`] before the first period.
+const NO_CYCLE: u64 = u64::MAX;
 
 impl TelemetryProducer {
     /// The control cycle starts (or restarts after a re-initialization) with `calibration`
@@ -61,6 +72,7 @@ impl TelemetryProducer {
 
 impl CycleObserver for TelemetryProducer {
     fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
+        self.last_cycle.store(record.cycle, Ordering::Relaxed);
         if self.producer.push(TelemetryItem::Period(*record)).is_err() {
             self.dropped.fetch_add(1, Ordering::Relaxed);
         }
@@ -70,7 +82,8 @@ impl CycleObserver for TelemetryProducer {
 /// The running writer thread.
 pub struct TelemetryWriter {
     handle: JoinHandle<io::Result<u64>>,
-    finish: Arc<AtomicBool>,
+    /// Set once, by [`TelemetryWriter::finish`]: the writer drains, closes and stops.
+    end: Arc<OnceLock<EndReason>>,
     dropped: Arc<AtomicU64>,
     path: PathBuf,
 }
@@ -84,10 +97,14 @@ impl TelemetryWriter {
     pub fn path(&self) -> &Path {
         &self.path
     }
-    /// Drain what is left, flush, fsync and close; returns the number of period records
-    /// written.
-    pub fn finish(self) -> io::Result<u64> {
-        self.finish.store(true, Ordering::Release);
+    /// The session ended for `reason` (the control thread has stopped pushing): drain what is
+    /// left, write the end frame (the reason, the last period, the periods written and
+    /// dropped), flush, fsync and close; returns the number of period records written. A
+    /// writer dropped without this leaves the log without an end frame, as a killed service
+    /// does.
+    pub fn finish(self, reason: EndReason) -> io::Result<u64> {
+        // Only `finish` sets it, once: it consumes the writer.
+        let _ = self.end.set(reason);
         self.handle
             .join()
             .map_err(|_| io::Error::other("telemetry writer panicked"))?
@@ -140,15 +157,21 @@ pub fn start_session(
     }
     let (producer, mut consumer) = rtrb::RingBuffer::<TelemetryItem>::new(ring_records.max(1));
     let dropped = Arc::new(AtomicU64::new(0));
-    let finish = Arc::new(AtomicBool::new(false));
-    let writer_finish = Arc::clone(&finish);
+    let last_cycle = Arc::new(AtomicU64::new(NO_CYCLE));
+    let end = Arc::new(OnceLock::<EndReason>::new());
+    let (writer_end, writer_dropped, writer_last_cycle) = (
+        Arc::clone(&end),
+        Arc::clone(&dropped),
+        Arc::clone(&last_cycle),
+    );
     let handle = std::thread::Builder::new()
         .name("videt-telemetry".into())
         .spawn(move || {
             let mut written = 0u64;
             let mut buf = [0u8; PERIOD_BYTES];
-            loop {
-                let done = writer_finish.load(Ordering::Acquire);
+            let reason = loop {
+                // Everything pushed before `finish` is in the ring once the reason is seen.
+                let done = writer_end.get();
                 // Surfaces first: a period refers to a surface published before it.
                 if let Some(tap) = &tap {
                     let drained = tap.drain();
@@ -177,14 +200,22 @@ pub fn start_session(
                     }
                     drained += 1;
                 }
-                if done {
-                    break;
+                if let Some(reason) = done {
+                    break reason.clone();
                 }
                 if drained == 0 {
                     out.flush()?;
                     std::thread::sleep(Duration::from_millis(20));
                 }
-            }
+            };
+            let last_cycle = writer_last_cycle.load(Ordering::Relaxed);
+            let end = SessionEnd {
+                reason,
+                last_cycle: (last_cycle != NO_CYCLE).then_some(last_cycle),
+                periods: written,
+                dropped: writer_dropped.load(Ordering::Relaxed),
+            };
+            frame(FrameKind::End, &encode_end(&end), &mut out)?;
             out.flush()?;
             out.get_ref().sync_all()?;
             Ok(written)
@@ -193,10 +224,11 @@ pub fn start_session(
         TelemetryProducer {
             producer,
             dropped: Arc::clone(&dropped),
+            last_cycle,
         },
         TelemetryWriter {
             handle,
-            finish,
+            end,
             dropped,
             path: path.to_path_buf(),
         },
@@ -233,7 +265,9 @@ impl SurfaceFrames {
 #[cfg(test)]
 mod tests {
     use super::format::tests::sample;
-    use super::format::{encode_record, FRAME_HEAD_BYTES, FRAME_TAIL_BYTES};
+    use super::format::{
+        encode_record, END_FIXED_BYTES, FORMAT_VERSION_2, FRAME_HEAD_BYTES, FRAME_TAIL_BYTES,
+    };
     use super::*;
     use videt_control::surface::Plane;
     use videt_control::Vec3;
@@ -243,13 +277,24 @@ mod tests {
         start_unix_ns: 5,
     };
 
+    /// Bytes of a period frame.
+    const PERIOD_FRAME: usize = FRAME_HEAD_BYTES + PERIOD_BYTES + FRAME_TAIL_BYTES;
+    /// Bytes of the end frame of a session whose set duration elapsed (no text).
+    const END_FRAME: usize = FRAME_HEAD_BYTES + END_FIXED_BYTES + FRAME_TAIL_BYTES;
+
     fn plane(z: f64) -> RecordedSurface {
         RecordedSurface::Plane(Plane::new(Vec3::new(0.0, 0.0, z), -Vec3::z()).unwrap())
     }
 
     /// A session of 3000 periods with a calibration, a surface before start, surfaces
-    /// published during it (one a repeat) and the session frame.
+    /// published during it (one a repeat) and the session frame, closed as its duration
+    /// elapsed.
     fn write_session(path: &Path) -> u64 {
+        write_session_of(path, 3000)
+    }
+
+    /// [`write_session`] of `periods` periods, the surfaces published at a third of them.
+    fn write_session_of(path: &Path, periods: u64) -> u64 {
         let tap = Arc::new(SurfaceTap::default());
         tap.published(1, plane(0.31));
         let recording = SessionRecording {
@@ -267,8 +312,8 @@ mod tests {
                 ..CalibrationInForce::default()
             },
         );
-        for c in 0..3000 {
-            if c == 1000 {
+        for c in 0..periods {
+            if c == periods / 3 {
                 tap.published(2, plane(0.32));
                 tap.published(3, plane(0.32));
             }
@@ -278,7 +323,7 @@ mod tests {
             }
         }
         assert_eq!(writer.dropped(), 0);
-        writer.finish().unwrap()
+        writer.finish(EndReason::DurationElapsed).unwrap()
     }
 
     #[test]
@@ -287,7 +332,7 @@ mod tests {
         let path = dir.path().join("s.vlog");
         assert_eq!(write_session(&path), 3000);
         let log = read_log(&path).unwrap();
-        assert_eq!((log.header, log.version), (HEADER, 2));
+        assert_eq!((log.header, log.version), (HEADER, 3));
         assert_eq!(log.records.len(), 3000);
         assert_eq!(log.records[2999], sample(2999));
         assert!(log.damage.is_none() && log.truncated_bytes == 0);
@@ -307,24 +352,122 @@ mod tests {
     }
 
     #[test]
+    fn the_writer_closes_the_log_with_the_reason_and_the_last_period() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session(&path);
+        let bytes = std::fs::read(&path).unwrap();
+        let log = parse_log(&bytes).unwrap();
+        assert!(log.closed());
+        assert_eq!(
+            log.end,
+            Some(SessionEnd {
+                reason: EndReason::DurationElapsed,
+                last_cycle: Some(2999),
+                periods: 3000,
+                dropped: 0,
+            })
+        );
+        assert_eq!(
+            log.end_note(),
+            "session closed at cycle 2999: its set duration elapsed"
+        );
+        // The end frame is the last frame, after every period.
+        let frames = frames(&bytes).unwrap();
+        let last = frames.last().unwrap();
+        assert_eq!(last.kind, FrameKind::End);
+        assert_eq!(last.offset + last.bytes, bytes.len());
+        assert_eq!(
+            frames
+                .iter()
+                .filter(|f| f.kind == FrameKind::Period)
+                .count(),
+            3000
+        );
+        assert_eq!(frames[0].kind, FrameKind::Session);
+        assert_eq!(frames[0].offset, HEADER_BYTES);
+        for w in frames.windows(2) {
+            assert_eq!(w[0].offset + w[0].bytes, w[1].offset);
+        }
+        // A session that ran no period and ended on a fault says so.
+        let empty = dir.path().join("e.vlog");
+        let (_producer, writer) = start(&empty, HEADER, 16).unwrap();
+        writer
+            .finish(EndReason::FatalFault(
+                "cannot start the control loop".into(),
+            ))
+            .unwrap();
+        let log = read_log(&empty).unwrap();
+        assert_eq!(log.end.as_ref().unwrap().last_cycle, None);
+        assert_eq!(
+            log.end_note(),
+            "session closed before its first period: a fatal fault: cannot start the control loop"
+        );
+        // Anything after the end frame is damage.
+        let mut appended = bytes.clone();
+        appended.extend_from_slice(&bytes[bytes.len() - END_FRAME - PERIOD_FRAME..]);
+        let log = parse_log(&appended).unwrap();
+        assert_eq!(log.records.len(), 3000);
+        assert!(log.closed());
+        let damage = log.damage.unwrap();
+        assert_eq!(damage.offset as usize, bytes.len());
+        assert!(damage.what.contains("after the end frame"), "{damage:?}");
+    }
+
+    #[test]
+    fn a_log_cut_on_any_frame_boundary_or_inside_a_frame_reads_as_not_closed() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session_of(&path, 300);
+        let bytes = std::fs::read(&path).unwrap();
+        let whole = parse_log(&bytes).unwrap();
+        let frames = frames(&bytes).unwrap();
+        // Every frame boundary (a clean cut: power lost between two writes), the middle of
+        // every frame, and every byte of the end frame.
+        let end = frames.last().unwrap();
+        let cuts = frames
+            .iter()
+            .flat_map(|f| [f.offset, f.offset + f.bytes / 2])
+            .chain(end.offset..end.offset + end.bytes);
+        for cut in cuts {
+            let log = parse_log(&bytes[..cut]).unwrap();
+            assert!(!log.closed(), "cut at {cut}");
+            assert_eq!(log.records[..], whole.records[..log.records.len()]);
+            let on_boundary = frames.iter().any(|f| f.offset == cut);
+            assert_eq!(log.damage.is_none(), on_boundary, "cut at {cut}");
+            let last = log.records.last().map_or(0, |r| r.cycle);
+            assert!(
+                log.end_note().starts_with(&format!(
+                    "session ended without closing, at cycle {last} (no end frame"
+                )) || log.records.is_empty(),
+                "cut at {cut}: {}",
+                log.end_note()
+            );
+        }
+        let log = parse_log(&bytes[..HEADER_BYTES]).unwrap();
+        assert!(log
+            .end_note()
+            .contains("without closing, before its first period"));
+    }
+
+    #[test]
     fn a_log_cut_anywhere_or_corrupted_reads_up_to_the_damage_and_says_so() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.vlog");
         write_session(&path);
         let bytes = std::fs::read(&path).unwrap();
-        let frame_bytes = FRAME_HEAD_BYTES + PERIOD_BYTES + FRAME_TAIL_BYTES;
         // Cut inside the last period: one record fewer, the cut reported.
-        let cut = &bytes[..bytes.len() - 100];
+        let cut = &bytes[..bytes.len() - END_FRAME - 100];
         let log = parse_log(cut).unwrap();
         assert_eq!(log.records.len(), 2999);
-        assert_eq!(log.truncated_bytes, frame_bytes - 100);
+        assert_eq!(log.truncated_bytes, PERIOD_FRAME - 100);
         let note = log.damage_note().unwrap();
         assert!(
             note.starts_with("read 2999 records, the rest is damaged"),
             "{note}"
         );
-        // Cut at every byte of the first frames, and at random bytes: never a panic, and the
-        // records are a prefix of the whole log's.
+        // Cut at every byte of the first frames, and at pseudo-random bytes: never a panic, and
+        // the records are a prefix of the whole log's.
         let whole = parse_log(&bytes).unwrap();
         let mut rng = 0x9e37_79b9_7f4a_7c15u64;
         let cuts = (HEADER_BYTES..HEADER_BYTES + 3000).chain((0..200).map(|_| {
@@ -341,20 +484,22 @@ mod tests {
                 log.damage.is_some(),
                 "cut at {cut}"
             );
+            assert!(!log.closed(), "cut at {cut}");
         }
         // A flipped byte in a period: the records before it are read.
         let mut corrupt = bytes.clone();
-        let at = bytes.len() - 10 * frame_bytes + 50;
+        let at = bytes.len() - END_FRAME - 10 * PERIOD_FRAME + 50;
         corrupt[at] ^= 0x40;
         let log = parse_log(&corrupt).unwrap();
         assert_eq!(log.records.len(), 2990);
+        assert!(!log.closed());
         assert!(log.damage.unwrap().what.contains("CRC"));
         // Another version, and not a log at all.
         let mut other = bytes.clone();
         other[8] = 9;
         let e = parse_log(&other).unwrap_err().to_string();
         assert!(
-            e.contains("version 9") && e.contains("reads versions 1 and 2"),
+            e.contains("version 9") && e.contains("reads versions 1 to 3"),
             "{e}"
         );
         let e = parse_log(b"#!/bin/sh\necho hello\n")
@@ -362,6 +507,25 @@ mod tests {
             .to_string();
         assert!(e.contains("not a VIDET session log"), "{e}");
         assert!(parse_log(&bytes[..10]).is_err());
+    }
+
+    #[test]
+    fn a_version_2_log_reads_whole_and_as_not_closed() {
+        // What a version 2 writer wrote: the same frames, no end frame.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session(&path);
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes.truncate(bytes.len() - END_FRAME);
+        bytes[8..12].copy_from_slice(&FORMAT_VERSION_2.to_le_bytes());
+        let log = parse_log(&bytes).unwrap();
+        assert_eq!(log.version, 2);
+        assert_eq!(log.records.len(), 3000);
+        assert!(log.damage.is_none() && !log.closed());
+        assert_eq!(
+            log.end_note(),
+            "session ended without closing, at cycle 2999 (a version 2 log: that format records no end)"
+        );
     }
 
     #[test]
@@ -388,18 +552,34 @@ mod tests {
         assert_eq!(log.records[8], outputs);
         assert_eq!(log.truncated_bytes, 253);
         assert!(log.session.is_none());
+        assert!(!log.closed());
+        assert!(log.end_note().contains("at cycle 8 (a version 1 log"));
+        assert!(frames(&bytes).unwrap().is_empty());
     }
 
     #[test]
     fn a_full_ring_drops_and_counts_instead_of_blocking() {
         let dir = tempfile::tempdir().unwrap();
-        let (mut producer, writer) = start(&dir.path().join("d.vlog"), HEADER, 64).unwrap();
+        let path = dir.path().join("d.vlog");
+        let (mut producer, writer) = start(&path, HEADER, 64).unwrap();
         for c in 0..100_000 {
             producer.observe(&sample(c), &WindowStats::default());
         }
         let dropped = writer.dropped();
-        let written = writer.finish().unwrap();
+        let written = writer.finish(EndReason::StopRequest).unwrap();
         assert!(dropped > 0);
         assert_eq!(dropped + written, 100_000);
+        // The end frame counts both, and names the last period even when it was dropped.
+        let log = read_log(&path).unwrap();
+        let end = log.end.as_ref().unwrap();
+        assert_eq!((end.periods, end.dropped), (written, dropped));
+        assert_eq!(end.last_cycle, Some(99_999));
+        if log.records.last().unwrap().cycle < 99_999 {
+            assert!(
+                log.end_note().contains("were dropped"),
+                "{}",
+                log.end_note()
+            );
+        }
     }
 }

@@ -1,6 +1,7 @@
-//! Reading a session log back: both versions, and whatever is readable of a damaged one (a
+//! Reading a session log back: every version, and whatever is readable of a damaged one (a
 //! service killed mid-write, a corrupt frame): the records before the damage, and where and
-//! what the damage is.
+//! what the damage is; and whether the session closed its log (version 3's end frame) or the
+//! log stops without closing, on a frame boundary or not.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -9,11 +10,11 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::format::{
-    decode_calibration, decode_period, decode_record, frame_crc, FrameKind, LogHeader,
-    CALIBRATION_BYTES, FORMAT_VERSION, FORMAT_VERSION_1, FRAME_HEAD_BYTES, FRAME_TAIL_BYTES,
-    HEADER_BYTES, MAGIC, MAX_FRAME_PAYLOAD, PERIOD_BYTES, RECORD_BYTES,
+    decode_calibration, decode_end, decode_period, decode_record, frame_crc, FrameKind, LogHeader,
+    CALIBRATION_BYTES, FORMAT_VERSION, FORMAT_VERSION_1, FORMAT_VERSION_2, FRAME_HEAD_BYTES,
+    FRAME_TAIL_BYTES, HEADER_BYTES, MAGIC, MAX_FRAME_PAYLOAD, PERIOD_BYTES, RECORD_BYTES,
 };
-use super::session::{CalibrationInForce, SessionInfo};
+use super::session::{CalibrationInForce, SessionEnd, SessionInfo};
 use super::surfaces::RecordedSurface;
 use crate::cycle::CycleRecord;
 
@@ -77,6 +78,9 @@ pub struct Log {
     pub truncated_bytes: usize,
     /// The first damage, if any: nothing after it is read.
     pub damage: Option<Damage>,
+    /// The end frame, when the session closed the log (`None`: it ended without closing, or
+    /// the log is of a version before 3, which records no end).
+    pub end: Option<SessionEnd>,
 }
 
 impl Log {
@@ -91,6 +95,44 @@ impl Log {
             surfaces: BTreeMap::new(),
             truncated_bytes: 0,
             damage: None,
+            end: None,
+        }
+    }
+
+    /// Whether the session closed its log: an end frame was read.
+    pub fn closed(&self) -> bool {
+        self.end.is_some()
+    }
+
+    /// One line on how the session ended: as its end frame says (`session closed at cycle N:
+    /// why`), or `session ended without closing, at cycle N`, the last period read.
+    pub fn end_note(&self) -> String {
+        let at = |cycle: Option<u64>| {
+            cycle.map_or_else(
+                || "before its first period".to_string(),
+                |c| format!("at cycle {c}"),
+            )
+        };
+        let last_read = self.records.last().map(|r| r.cycle);
+        match &self.end {
+            Some(end) => {
+                let mut note = format!("session closed {}: {}", at(end.last_cycle), end.reason);
+                if let (Some(last), Some(read)) = (end.last_cycle, last_read) {
+                    if last > read {
+                        note += &format!(" (the periods after cycle {read} were dropped)");
+                    }
+                }
+                note
+            }
+            None if self.version >= FORMAT_VERSION => format!(
+                "session ended without closing, {} (no end frame: the service was killed or lost power, or the file was cut)",
+                at(last_read)
+            ),
+            None => format!(
+                "session ended without closing, {} (a version {} log: that format records no end)",
+                at(last_read),
+                self.version
+            ),
         }
     }
 
@@ -107,14 +149,14 @@ impl Log {
     }
 }
 
-/// Read a log file (version 1 or 2).
+/// Read a log file (version 1, 2 or 3).
 pub fn read_log(path: &Path) -> Result<Log, LogError> {
     let mut bytes = Vec::new();
     File::open(path)?.read_to_end(&mut bytes)?;
     parse_log(&bytes)
 }
 
-/// Parse a log's bytes (version 1 or 2).
+/// Parse a log's bytes (version 1, 2 or 3).
 pub fn parse_log(bytes: &[u8]) -> Result<Log, LogError> {
     if bytes.len() < HEADER_BYTES && MAGIC.starts_with(&bytes[..bytes.len().min(8)]) {
         return Err(LogError::Format(format!(
@@ -153,17 +195,81 @@ pub fn parse_log(bytes: &[u8]) -> Result<Log, LogError> {
                 });
             }
         }
-        (FORMAT_VERSION, PERIOD_BYTES) => read_frames(body, &mut log),
+        (FORMAT_VERSION_2 | FORMAT_VERSION, PERIOD_BYTES) => read_frames(body, &mut log),
         _ => {
             return Err(LogError::Format(format!(
-                "a VIDET session log of version {version} (record size {record_bytes}): this videt reads versions {FORMAT_VERSION_1} and {FORMAT_VERSION}"
+                "a VIDET session log of version {version} (record size {record_bytes}): this videt reads versions {FORMAT_VERSION_1} to {FORMAT_VERSION}"
             )))
         }
     }
     Ok(log)
 }
 
-/// Read version 2's frames until the end or the first damage.
+/// A whole frame of a log (head, length and CRC good): where it is and what kind it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameAt {
+    /// Byte offset of its head in the file.
+    pub offset: usize,
+    /// Its kind.
+    pub kind: FrameKind,
+    /// Its size in the file (head, payload and CRC), bytes.
+    pub bytes: usize,
+}
+
+/// The whole frames of a log of version 2 or 3, in file order, up to its end or the first frame
+/// that is incomplete, has an unknown kind or a bad CRC (their payloads are not decoded); empty
+/// for a version 1 log. An error when `bytes` is not a session log.
+pub fn frames(bytes: &[u8]) -> Result<Vec<FrameAt>, LogError> {
+    let log = parse_log(&bytes[..bytes.len().min(HEADER_BYTES)])?;
+    if log.version == FORMAT_VERSION_1 {
+        return Ok(Vec::new());
+    }
+    let mut out = Vec::new();
+    let mut at = 0;
+    while let Ok((kind, payload)) = next_frame(&bytes[HEADER_BYTES..], at) {
+        let size = FRAME_HEAD_BYTES + payload.len() + FRAME_TAIL_BYTES;
+        out.push(FrameAt {
+            offset: HEADER_BYTES + at,
+            kind,
+            bytes: size,
+        });
+        at += size;
+    }
+    Ok(out)
+}
+
+/// The whole frame at `at` of `body` (kind and payload), or what is wrong there (`None`: the
+/// end of the body).
+fn next_frame(body: &[u8], at: usize) -> Result<(FrameKind, &[u8]), Option<String>> {
+    let rest = &body[at..];
+    if rest.is_empty() {
+        return Err(None);
+    }
+    if rest.len() < FRAME_HEAD_BYTES {
+        return Err(Some("an incomplete frame".into()));
+    }
+    let kind = FrameKind::from_byte(rest[0]);
+    let len = u32::from_le_bytes(rest[4..8].try_into().expect("4 bytes")) as usize;
+    let Some(kind) = kind.filter(|_| rest[1..4] == [0, 0, 0] && len <= MAX_FRAME_PAYLOAD) else {
+        return Err(Some(format!("a corrupt frame head (kind {})", rest[0])));
+    };
+    let total = FRAME_HEAD_BYTES + len + FRAME_TAIL_BYTES;
+    if rest.len() < total {
+        return Err(Some("an incomplete frame".into()));
+    }
+    let crc = u32::from_le_bytes(
+        rest[total - FRAME_TAIL_BYTES..total]
+            .try_into()
+            .expect("4 bytes"),
+    );
+    if frame_crc(&rest[..total - FRAME_TAIL_BYTES]) != crc {
+        return Err(Some("a corrupt frame (CRC mismatch)".into()));
+    }
+    Ok((kind, &rest[FRAME_HEAD_BYTES..FRAME_HEAD_BYTES + len]))
+}
+
+/// Read the frames of version 2 or 3 until the end or the first damage; anything after an end
+/// frame is damage.
 fn read_frames(body: &[u8], log: &mut Log) {
     let mut at = 0usize;
     let mut last_surface: Option<Arc<RecordedSurface>> = None;
@@ -174,38 +280,22 @@ fn read_frames(body: &[u8], log: &mut Log) {
         })
     };
     while at < body.len() {
-        let rest = &body[at..];
-        if rest.len() < FRAME_HEAD_BYTES {
-            log.damage = damaged(at, "an incomplete frame".into());
+        if log.end.is_some() {
+            log.damage = damaged(at, "bytes after the end frame".into());
             break;
         }
-        let kind = FrameKind::from_byte(rest[0]);
-        let len = u32::from_le_bytes(rest[4..8].try_into().expect("4 bytes")) as usize;
-        let Some(kind) = kind.filter(|_| rest[1..4] == [0, 0, 0] && len <= MAX_FRAME_PAYLOAD)
-        else {
-            log.damage = damaged(at, format!("a corrupt frame head (kind {})", rest[0]));
-            break;
+        let (kind, payload) = match next_frame(body, at) {
+            Ok(frame) => frame,
+            Err(what) => {
+                log.damage = damaged(at, what.unwrap_or_default());
+                break;
+            }
         };
-        let total = FRAME_HEAD_BYTES + len + FRAME_TAIL_BYTES;
-        if rest.len() < total {
-            log.damage = damaged(at, "an incomplete frame".into());
-            break;
-        }
-        let crc = u32::from_le_bytes(
-            rest[total - FRAME_TAIL_BYTES..total]
-                .try_into()
-                .expect("4 bytes"),
-        );
-        if frame_crc(&rest[..total - FRAME_TAIL_BYTES]) != crc {
-            log.damage = damaged(at, "a corrupt frame (CRC mismatch)".into());
-            break;
-        }
-        let payload = &rest[FRAME_HEAD_BYTES..FRAME_HEAD_BYTES + len];
         if let Err(what) = read_frame(kind, payload, log, &mut last_surface) {
             log.damage = damaged(at, what);
             break;
         }
-        at += total;
+        at += FRAME_HEAD_BYTES + payload.len() + FRAME_TAIL_BYTES;
     }
     log.truncated_bytes = body.len() - at;
 }
@@ -269,6 +359,9 @@ fn read_frame(
                 .map_err(|_| "a lost-surface frame of the wrong size".to_string())?;
             log.surfaces
                 .insert(u64::from_le_bytes(b), SurfaceEntry::Lost);
+        }
+        FrameKind::End => {
+            log.end = Some(decode_end(payload).map_err(|e| format!("a corrupt end frame: {e}"))?);
         }
     }
     Ok(())

@@ -1,6 +1,6 @@
 //! What a session log records besides the periods, so that a replay can rebuild the control
-//! cycle: the configuration in force and the calibration (rig geometry, encoder zeros). The
-//! surfaces it records are [`super::surfaces`]'s.
+//! cycle: the configuration in force and the calibration (rig geometry, encoder zeros); and how
+//! the session ended. The surfaces it records are [`super::surfaces`]'s.
 
 use serde::{Deserialize, Serialize};
 use videt_rt_config::Config;
@@ -75,6 +75,57 @@ impl CalibrationInForce {
             },
         ))
     }
+}
+
+/// Why a session ended, as the end frame of its log records it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EndReason {
+    /// A signal asked the service to stop (SIGINT: Ctrl-C; SIGTERM: `systemctl stop`): its name.
+    Signal(String),
+    /// A stop request (the control socket's `stop`).
+    StopRequest,
+    /// The run's set duration (`--duration`) elapsed.
+    DurationElapsed,
+    /// A fatal fault ended the service (a panic, the hardware not starting): what it was.
+    FatalFault(String),
+}
+
+impl EndReason {
+    /// The reason's name: `signal`, `stop request`, `duration elapsed` or `fatal fault`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            EndReason::Signal(_) => "signal",
+            EndReason::StopRequest => "stop request",
+            EndReason::DurationElapsed => "duration elapsed",
+            EndReason::FatalFault(_) => "fatal fault",
+        }
+    }
+}
+
+impl std::fmt::Display for EndReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EndReason::Signal(name) => write!(f, "stopped by a signal ({name})"),
+            EndReason::StopRequest => f.write_str("stopped on request (control socket)"),
+            EndReason::DurationElapsed => f.write_str("its set duration elapsed"),
+            EndReason::FatalFault(what) => write!(f, "a fatal fault: {what}"),
+        }
+    }
+}
+
+/// The end frame: the service stopped and closed the log. A log without one ended without
+/// closing (power lost, the process killed, or a copy cut short).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SessionEnd {
+    /// Why the session ended.
+    pub reason: EndReason,
+    /// The last period the control loop ran (`None`: it ran none). Later than the last record
+    /// when the last periods were dropped (a full ring).
+    pub last_cycle: Option<u64>,
+    /// Periods written to the log.
+    pub periods: u64,
+    /// Periods dropped because the ring was full.
+    pub dropped: u64,
 }
 
 #[cfg(test)]

@@ -15,15 +15,21 @@
 pub mod plots;
 pub mod rig;
 pub mod wall_feel;
+pub mod zwidth;
 
 use serde::Serialize;
 use videt_control::safety::SafetyState;
 use videt_control::surface::Plane;
+use videt_control::FeltTally;
 use videt_rt_config::{Ads1220Mode, Config, TensionAdc};
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 use rig::{run, start_position, Experiment, Parts, Trace};
 use wall_feel::{feel_wall, WallFeel};
+pub use zwidth::{
+    judge_wall, judge_wall_in, zwidth, zwidth_sweep, WallVerdict, ZWidthRow, ZWidthSearch,
+    ZWIDTH_CRITERION, ZWIDTH_RANGE_N_PER_M,
+};
 
 /// The paper's sub-regions of the force directions (Figs 10, 12), for the 3-wire device: where
 /// the wires can make the contact force `f_e ∥ n` with non-negative tensions (A), where they
@@ -37,6 +43,20 @@ pub enum Region {
     B,
     /// No wire pulls along `n`.
     C,
+}
+
+impl Region {
+    /// The outward normal of the wall the Z-width is judged on in this region, at the bench's
+    /// start: A the wall facing the frame (`-z`), B a side wall (`+x`: the guide at `x = 0.37`
+    /// still pulls along it), C the wall facing away from the frame (`+z`: no wire pulls along
+    /// it, nothing can be rendered).
+    pub fn wall_normal(self) -> Vec3 {
+        match self {
+            Region::A => Vec3::new(0.0, 0.0, -1.0),
+            Region::B => Vec3::new(1.0, 0.0, 0.0),
+            Region::C => Vec3::new(0.0, 0.0, 1.0),
+        }
+    }
 }
 
 /// The region of the force direction `n` at `position_m` for the configured guides.
@@ -127,6 +147,8 @@ pub struct StiffnessRow {
     pub settled: bool,
     /// Safety state at the end.
     pub safety: String,
+    /// What the finger felt beyond what was asked over the run (`docs/felt-force.md`).
+    pub felt: FeltTally,
 }
 
 /// Hand stiffness of the bench's operator in the stiffness sweep, N/m.
@@ -202,7 +224,7 @@ pub fn stiffness_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<StiffnessR
             let n = normal_at(polar, azimuth);
             let mut config = base.clone();
             config.control.algorithm = algorithm.into();
-            let (rendered, a, b, final_safety) = secant_stiffness(&config, n)?;
+            let (rendered, a, b, final_safety, felt) = secant_stiffness(&config, n)?;
             let k = config.control.stiffness_n_per_m;
             rows.push(StiffnessRow {
                 algorithm: algorithm.into(),
@@ -216,6 +238,7 @@ pub fn stiffness_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<StiffnessR
                 pushes: [(a.0, a.1 * 1e3), (b.0, b.1 * 1e3)],
                 settled: a.2 < 2e-4 && b.2 < 2e-4,
                 safety: safety_name(final_safety),
+                felt,
             });
         }
     }
@@ -226,11 +249,12 @@ pub fn stiffness_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<StiffnessR
 pub type Equilibrium = (f64, f64, f64);
 
 /// The stiffness `config` renders along `n` (the secant between a 10 and a 25 mm push of a
-/// 400 N/m hand, without a force field), with both equilibria and the safety state at the end.
+/// 400 N/m hand, without a force field), with both equilibria, the safety state at the end and
+/// the felt-force measure of the run.
 pub fn secant_stiffness(
     config: &Config,
     n: Vec3,
-) -> Result<(f64, Equilibrium, Equilibrium, SafetyState), String> {
+) -> Result<(f64, Equilibrium, Equilibrium, SafetyState, FeltTally), String> {
     let start = start_position(config);
     let depths = [0.010, 0.025];
     let times = [0.0, 1.2];
@@ -247,7 +271,13 @@ pub fn secant_stiffness(
     })?;
     let a = equilibrium(&trace, &surface, windows[0].0, windows[0].1);
     let b = equilibrium(&trace, &surface, windows[1].0, windows[1].1);
-    Ok(((b.0 - a.0) / (b.1 - a.1), a, b, trace.final_safety))
+    Ok((
+        (b.0 - a.0) / (b.1 - a.1),
+        a,
+        b,
+        trace.final_safety,
+        trace.felt,
+    ))
 }
 
 fn safety_name(s: SafetyState) -> String {
@@ -336,284 +366,6 @@ impl SensorSetup {
             TensionAdc::Hx711 => format!("HX711 {} SPS", self.sample_rate_sps),
         }
     }
-}
-
-/// How a wall of given stiffness behaved while the operator held a push on it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct WallVerdict {
-    /// Wall stiffness, N/m.
-    pub stiffness_n_per_m: f64,
-    /// Half the peak-to-peak penetration over the judged window, mm.
-    pub oscillation_mm: f64,
-    /// RMS thimble speed over the judged window, mm/s.
-    pub rms_speed_mm_s: f64,
-    /// Periods of the judged window out of contact.
-    pub contact_lost: usize,
-    /// The safety supervisor stayed in its normal state.
-    pub safe: bool,
-    /// No sustained oscillation (see [`ZWIDTH_CRITERION`]).
-    pub stable: bool,
-}
-
-/// The Z-width's criterion, as printed with the results.
-pub const ZWIDTH_CRITERION: &str =
-    "the operator (hand 200 N/m) pushes 15 mm past a wall facing the \
-frame (region A, P2) and holds; over the last 0.6 s of a 1.5 s hold the wall is stable when the \
-penetration's half peak-to-peak stays below 0.1 mm, the RMS speed below 5 mm/s, the finger never \
-leaves the wall and the safety supervisor never leaves its normal state";
-
-/// The wall facing the frame (region A) rendered by P2 with stiffness `k` and damping `b` on
-/// `base`'s parts: the configuration, where the thimble starts, the wall's outward normal and
-/// the wall (3 mm ahead).
-fn frame_wall(base: &Config, k: f64, b: f64) -> (Config, Vec3, Vec3, Plane) {
-    let mut config = base.clone();
-    config.control.stiffness_n_per_m = k;
-    config.control.damping_n_s_per_m = b;
-    config.control.algorithm = "P2".into();
-    let start = start_position(&config);
-    let n = Vec3::new(0.0, 0.0, -1.0);
-    let surface = surface_ahead(start, n);
-    (config, start, n, surface)
-}
-
-/// How still the thimble held against `surface` over `[from_s, to_s)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct HoldStats {
-    /// Half the penetration's peak-to-peak, mm.
-    oscillation_mm: f64,
-    /// RMS thimble speed, mm/s.
-    rms_speed_mm_s: f64,
-    /// Periods out of contact.
-    contact_lost: usize,
-    /// Periods in the window.
-    periods: usize,
-}
-
-fn hold_stats(trace: &Trace, surface: &Plane, from_s: f64, to_s: f64) -> HoldStats {
-    let (mut lo, mut hi, mut v2, mut periods, mut lost) = (f64::MAX, f64::MIN, 0.0, 0, 0);
-    for s in trace.window(from_s, to_s) {
-        let depth = -surface.signed_distance_m(&s.position_m);
-        lo = lo.min(depth);
-        hi = hi.max(depth);
-        v2 += s.velocity_m_s.norm_squared();
-        periods += 1;
-        if depth <= 0.0 {
-            lost += 1;
-        }
-    }
-    HoldStats {
-        oscillation_mm: (hi - lo) * 0.5e3,
-        rms_speed_mm_s: (v2 / periods.max(1) as f64).sqrt() * 1e3,
-        contact_lost: lost,
-        periods,
-    }
-}
-
-/// Press on a wall of stiffness `k` with damping `b` and judge it.
-pub fn judge_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallVerdict, String> {
-    let (config, start, n, surface) = frame_wall(base, k, b);
-    let trace = run(&Experiment {
-        config,
-        surface,
-        operator: pusher(start, n, &[0.015], &[0.0], 200.0),
-        duration_s: 1.8,
-        parts,
-    })?;
-    let hold = hold_stats(&trace, &surface, 1.2, 1.8);
-    let safe = trace.final_safety == SafetyState::Normal && hold.periods > 0;
-    Ok(WallVerdict {
-        stiffness_n_per_m: k,
-        oscillation_mm: hold.oscillation_mm,
-        rms_speed_mm_s: hold.rms_speed_mm_s,
-        contact_lost: hold.contact_lost,
-        safe,
-        stable: safe
-            && hold.contact_lost == 0
-            && hold.oscillation_mm < 0.1
-            && hold.rms_speed_mm_s < 5.0,
-    })
-}
-
-/// The Z-width at one rate and sensor, for one damping.
-#[derive(Debug, Clone, Serialize)]
-pub struct ZWidthRow {
-    /// The parts' model (the configured parts' timing, or ideal parts for reference).
-    pub parts: Parts,
-    /// Control rate, Hz.
-    pub rate_hz: u32,
-    /// The tension sensor.
-    pub sensor: String,
-    /// The PI gains' fraction the sensor allows (1 = the configured gains).
-    pub tension_gain_scale: f64,
-    /// The rendering (before, or as configured).
-    pub rendering: Rendering,
-    /// Wall damping, N·s/m.
-    pub damping_n_s_per_m: f64,
-    /// Stiffest stable wall found, N/m (`None`: not even the softest one).
-    pub max_stable_n_per_m: Option<f64>,
-    /// Softest unstable wall found, N/m (`None`: stable up to the configuration's bound).
-    pub min_unstable_n_per_m: Option<f64>,
-    /// Every wall tried.
-    pub tried: Vec<WallVerdict>,
-    /// The stiffest stable wall's 10 s hold and release (and the stiffer ones that failed it).
-    pub held: Vec<WallFeel>,
-}
-
-/// Softest and stiffest walls the Z-width search considers, N/m (the configuration allows
-/// stiffness up to 20 000 N/m).
-pub const ZWIDTH_RANGE_N_PER_M: (f64, f64) = (100.0, 20_000.0);
-
-/// What a Z-width search found.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ZWidthSearch {
-    /// Stiffest stable wall, N/m (`None`: not even the softest one).
-    pub max_stable_n_per_m: Option<f64>,
-    /// Softest unstable wall, N/m (`None`: stable up to the configuration's bound).
-    pub min_unstable_n_per_m: Option<f64>,
-    /// Every wall tried, in order.
-    pub tried: Vec<WallVerdict>,
-    /// The long holds tried on the stiffest walls the short criterion passed, in order.
-    pub held: Vec<WallFeel>,
-}
-
-/// How many times the Z-width steps down from the short criterion's stiffest wall when it fails
-/// the 10 s hold and release, and by what factor each time.
-const HOLD_STEPS_DOWN: (u32, f64) = (6, 0.85);
-
-/// The short criterion's stiffest stable wall, confirmed by a 10 s hold and release or stepped
-/// down until one passes.
-fn confirm_by_holding(
-    base: &Config,
-    b: f64,
-    parts: Parts,
-    search: &mut ZWidthSearch,
-) -> Result<(), String> {
-    let Some(mut k) = search.max_stable_n_per_m else {
-        return Ok(());
-    };
-    for _ in 0..=HOLD_STEPS_DOWN.0 {
-        let held = feel_wall(base, k, b, parts)?;
-        search.held.push(held);
-        if held.stable {
-            search.max_stable_n_per_m = Some(k);
-            return Ok(());
-        }
-        search.min_unstable_n_per_m = Some(k);
-        k *= HOLD_STEPS_DOWN.1;
-        if k < ZWIDTH_RANGE_N_PER_M.0 {
-            break;
-        }
-    }
-    search.max_stable_n_per_m = None;
-    Ok(())
-}
-
-/// Find the largest stable stiffness: bisection on a log scale with the short criterion
-/// (stability is taken to be monotonic in the stiffness, which every tried wall is recorded to
-/// check), then the 10 s hold and release on the stiffest wall found, stepping down until one
-/// passes.
-pub fn zwidth(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthSearch, String> {
-    let mut search = zwidth_short(base, b, steps, parts)?;
-    confirm_by_holding(base, b, parts, &mut search)?;
-    Ok(search)
-}
-
-fn zwidth_short(base: &Config, b: f64, steps: u32, parts: Parts) -> Result<ZWidthSearch, String> {
-    let (lo_k, hi_k) = ZWIDTH_RANGE_N_PER_M;
-    let mut tried = Vec::new();
-    let hi = judge_wall(base, hi_k, b, parts)?;
-    tried.push(hi);
-    if hi.stable {
-        return Ok(ZWidthSearch {
-            max_stable_n_per_m: Some(hi_k),
-            min_unstable_n_per_m: None,
-            tried,
-            held: Vec::new(),
-        });
-    }
-    let lo = judge_wall(base, lo_k, b, parts)?;
-    tried.push(lo);
-    if !lo.stable {
-        return Ok(ZWidthSearch {
-            max_stable_n_per_m: None,
-            min_unstable_n_per_m: Some(lo_k),
-            tried,
-            held: Vec::new(),
-        });
-    }
-    let (mut stable, mut unstable) = (lo_k, hi_k);
-    for _ in 0..steps {
-        let mid = (stable * unstable).sqrt();
-        let v = judge_wall(base, mid, b, parts)?;
-        tried.push(v);
-        if v.stable {
-            stable = mid;
-        } else {
-            unstable = mid;
-        }
-    }
-    Ok(ZWidthSearch {
-        max_stable_n_per_m: Some(stable),
-        min_unstable_n_per_m: Some(unstable),
-        tried,
-        held: Vec::new(),
-    })
-}
-
-/// The Z-width table: every sensor (or the configured one) x rate x damping.
-pub fn zwidth_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<ZWidthRow>, String> {
-    let sensors: Vec<SensorSetup> = if plan.all_sensors {
-        SensorSetup::SUPPORTED.to_vec()
-    } else {
-        vec![SensorSetup::of(base)]
-    };
-    let mut rates = vec![1000u32];
-    if plan.highest_rate {
-        let highest = videt_assembly::bus_budget::max_rate_hz(base).min(10_000);
-        if highest > 1000 {
-            rates.push(highest);
-        }
-    }
-    // The configured sensor on ideal parts first: the reference the parts' timing is judged by.
-    let mut runs = vec![(Parts::Ideal, SensorSetup::of(base), 1000u32)];
-    for sensor in &sensors {
-        for &rate in &rates {
-            runs.push((Parts::Faithful, *sensor, rate));
-        }
-    }
-    let mut rows = Vec::new();
-    for (parts, sensor, rate) in runs {
-        let mut config = base.clone();
-        sensor.apply(&mut config);
-        config.control.rate_hz = rate;
-        let scale = match videt_runtime::tension_budget::plan(&config) {
-            Ok(videt_runtime::tension_budget::TensionLoopPlan::Full(_)) => 1.0,
-            Ok(videt_runtime::tension_budget::TensionLoopPlan::Degraded { scale, .. }) => scale,
-            Err(e) => return Err(format!("{}: {e}", sensor.label())),
-        };
-        for rendering in renderings_compared(base) {
-            rendering.apply(&mut config);
-            for &b in plan.damping_n_s_per_m {
-                let found = zwidth(&config, b, plan.zwidth_steps, parts)?;
-                rows.push(ZWidthRow {
-                    parts,
-                    rate_hz: rate,
-                    sensor: match parts {
-                        Parts::Ideal => "instant".into(),
-                        Parts::Faithful => sensor.label(),
-                    },
-                    tension_gain_scale: scale,
-                    rendering,
-                    damping_n_s_per_m: b,
-                    max_stable_n_per_m: found.max_stable_n_per_m,
-                    min_unstable_n_per_m: found.min_unstable_n_per_m,
-                    tried: found.tried,
-                    held: found.held,
-                });
-            }
-        }
-    }
-    Ok(rows)
 }
 
 /// How the wall is rendered, as far as the bench compares: the tension integral's speed gate
@@ -844,6 +596,8 @@ pub struct BenchReport {
     pub stiffness: Vec<StiffnessRow>,
     /// Z-width rows.
     pub zwidth: Vec<ZWidthRow>,
+    /// What the finger felt beyond what was asked over every stiffness and Z-width run.
+    pub felt: FeltTally,
     /// The long hold and release the Z-width's stiffest walls also pass.
     pub hold_criterion: String,
     /// The wall's feel before and with the configured rendering.
@@ -859,13 +613,23 @@ pub fn run_bench(
     plan: &BenchPlan,
     feature_mm: f64,
 ) -> Result<BenchReport, String> {
+    let stiffness = stiffness_sweep(config, plan)?;
+    let zwidth = zwidth_sweep(config, plan)?;
+    let mut felt = FeltTally::new();
+    for row in &stiffness {
+        felt.merge(&row.felt);
+    }
+    for verdict in zwidth.iter().flat_map(|row| &row.tried) {
+        felt.merge(&verdict.felt);
+    }
     Ok(BenchReport {
         config_origin: origin.into(),
         control: config.control.clone(),
         sensor: SensorSetup::of(config),
         zwidth_criterion: ZWIDTH_CRITERION.into(),
-        stiffness: stiffness_sweep(config, plan)?,
-        zwidth: zwidth_sweep(config, plan)?,
+        stiffness,
+        zwidth,
+        felt,
         hold_criterion: wall_feel::HOLD_CRITERION.into(),
         feel: feel_sweep(config, plan)?,
         pop_through: pop_through(config, plan, feature_mm)?,

@@ -156,7 +156,11 @@ fn zwidth(path: &Path, report: &BenchReport) -> Result<(), PlotError> {
     // stretch correction, thick ones with the configured rendering.
     let mut setups: Vec<String> = Vec::new();
     let mut curves: Vec<Curve> = Vec::new();
-    for row in &report.zwidth {
+    for row in report
+        .zwidth
+        .iter()
+        .filter(|r| r.region == super::Region::A)
+    {
         let setup = match row.parts {
             super::rig::Parts::Ideal => format!("ideal parts, {} Hz", row.rate_hz),
             super::rig::Parts::Faithful => format!("{}, {} Hz", row.sensor, row.rate_hz),

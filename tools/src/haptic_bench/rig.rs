@@ -9,6 +9,7 @@ use videt_runtime::WIREMAN_WIRES;
 
 use videt_control::safety::SafetyState;
 use videt_control::surface::Plane;
+use videt_control::{ControlStep, FeltTally, Rig3};
 use videt_hal::{
     AngleSensors, Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime,
     TensionSensors, WireDrives,
@@ -18,9 +19,10 @@ use videt_sim::{Vec3, VirtualOperator};
 
 use videt_assembly::can_twin::{drive_config, CanTwin};
 use videt_runtime::control_loop::{
-    run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
+    run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
+    WindowStats,
 };
-use videt_runtime::cycle::WireZero;
+use videt_runtime::cycle::{CycleRecord, WireZero};
 use videt_runtime::setup;
 use videt_runtime::snapshot::FixedSurface;
 
@@ -58,6 +60,8 @@ pub struct Trace {
     pub final_safety: SafetyState,
     /// Periods run.
     pub cycles: u64,
+    /// What the finger felt beyond what was asked, over the run (`docs/felt-force.md`).
+    pub felt: FeltTally,
 }
 
 impl Trace {
@@ -143,19 +147,20 @@ pub fn run(experiment: &Experiment) -> Result<Trace, String> {
             drives.drive_heartbeat_timeout = std::time::Duration::from_secs(3600);
             let dictionary = videt_assembly::drive_dictionary::for_config(config)?;
             let hw = CanTwin::stepped(scene.twin, drives, dictionary)?;
-            run_probed(hw, experiment, &mut cycle, &settings, periods)?
+            run_probed(hw, experiment, &mut cycle, &settings, periods, rig)?
         }
         Parts::Ideal => {
             scene.twin.set_sensor_converter(None);
             scene.twin.set_torque_step_nm(None);
-            run_probed(scene.twin, experiment, &mut cycle, &settings, periods)?
+            run_probed(scene.twin, experiment, &mut cycle, &settings, periods, rig)?
         }
     };
-    let (report, samples) = report;
+    let (report, samples, felt) = report;
     Ok(Trace {
         samples,
         final_safety: report.final_safety,
         cycles: report.cycles,
+        felt,
     })
 }
 
@@ -165,7 +170,15 @@ fn run_probed<H: HasTwin>(
     cycle: &mut videt_runtime::WiremanCycle,
     settings: &LoopSettings,
     periods: usize,
-) -> Result<(videt_runtime::control_loop::LoopReport, Vec<TruthSample>), String> {
+    rig: Rig3,
+) -> Result<
+    (
+        videt_runtime::control_loop::LoopReport,
+        Vec<TruthSample>,
+        FeltTally,
+    ),
+    String,
+> {
     let mut probe = Probe {
         hw,
         samples: Vec::with_capacity(periods),
@@ -174,16 +187,34 @@ fn run_probed<H: HasTwin>(
     };
     start_hardware(&mut probe).map_err(|e| format!("the twin did not start: {e}"))?;
     let stop = AtomicBool::new(false);
+    let mut felt = FeltObserver {
+        step: setup::control_step_for(&experiment.config, rig),
+        tally: FeltTally::new(),
+    };
     let report = run_control_loop(
         &mut probe,
         &mut FixedSurface(experiment.surface),
         cycle,
         settings,
         &mut LoopControl::stop_flag(&stop),
-        &mut (),
+        &mut felt,
         &mut LoopStats::default(),
     );
-    Ok((report, probe.samples))
+    Ok((report, probe.samples, felt.tally))
+}
+
+/// The felt-force measure of every period the loop runs.
+struct FeltObserver {
+    step: ControlStep<WIREMAN_WIRES, Rig3>,
+    tally: FeltTally,
+}
+
+impl CycleObserver for FeltObserver {
+    fn observe(&mut self, record: &CycleRecord, _window: &WindowStats) {
+        if let Some(period) = crate::felt::felt_period(&self.step, record) {
+            self.tally.add(&period);
+        }
+    }
 }
 
 /// Simulated hardware, the twin sampled after every torque command.

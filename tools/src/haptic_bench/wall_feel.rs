@@ -11,7 +11,8 @@ use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 use super::rig::{run, Experiment, Parts, Trace};
-use super::{frame_wall, hold_stats};
+use super::zwidth::{hold_stats, region_wall};
+use super::Region;
 use videt_control::surface::Plane;
 
 /// How long the operator holds the push, seconds.
@@ -108,10 +109,21 @@ fn push_hold_release(script: Script, start: Vec3, n: Vec3, gap_m: f64) -> Virtua
     )
 }
 
-/// Push, hold and release a wall of stiffness `k` and damping `b` with `base`'s parts and
-/// tension loop, and judge it.
+/// Push, hold and release the wall facing the frame (region A) of stiffness `k` and damping `b`
+/// with `base`'s parts and tension loop, and judge it.
 pub fn feel_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallFeel, String> {
-    let (config, start, n, surface) = frame_wall(base, k, b);
+    feel_wall_in(base, Region::A, k, b, parts)
+}
+
+/// [`feel_wall`] on the wall of `region` ([`Region::wall_normal`]).
+pub fn feel_wall_in(
+    base: &Config,
+    region: Region,
+    k: f64,
+    b: f64,
+    parts: Parts,
+) -> Result<WallFeel, String> {
+    let (config, start, n, surface) = region_wall(base, region, k, b);
     let script = Script::for_config(&config);
     let trace = run(&Experiment {
         config: config.clone(),

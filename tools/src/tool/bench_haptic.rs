@@ -136,6 +136,11 @@ pub fn render_text(r: &BenchReport) -> String {
             }
         }
     }
+    let _ = writeln!(
+        s,
+        "  felt force over every stiffness and Z-width run: {}",
+        r.felt
+    );
     let _ = writeln!(s, "\nZ-width: {}", r.zwidth_criterion);
     let _ = writeln!(s, "  and then: {}", r.hold_criterion);
     let now = crate::haptic_bench::Rendering::of(c);
@@ -147,12 +152,13 @@ pub fn render_text(r: &BenchReport) -> String {
     );
     let _ = writeln!(
         s,
-        "  parts     sensor                  rate    PI gains  rendering  B N·s/m  stable K  unstable K  (N/m)"
+        "  region  parts     sensor                  rate    PI gains  rendering  B N·s/m  stable K  unstable K  (N/m)"
     );
     for row in &r.zwidth {
         let _ = writeln!(
             s,
-            "  {:<9} {:<22} {:>5} Hz  x{:<6.3} {:<9} {:>7.1}  {:>8}  {:>10}",
+            "  {:<6}  {:<9} {:<22} {:>5} Hz  x{:<6.3} {:<9} {:>7.1}  {:>8}  {:>10}",
+            format!("{:?}", row.region),
             format!("{:?}", row.parts).to_lowercase(),
             row.sensor,
             row.rate_hz,

@@ -64,6 +64,10 @@ pub struct LogSummary {
     pub dropped: u64,
     /// Bytes of a cut-off last record.
     pub truncated_bytes: usize,
+    /// The session closed its log (an end frame).
+    pub closed: bool,
+    /// How the session ended: as the end frame says, or that it ended without closing.
+    pub end: String,
     /// Wake-up latency percentiles, µs: p50, p99, p99.9, max.
     pub wake_latency_us: [f64; 4],
     /// Compute time percentiles, µs: p50, p99, p99.9, max.
@@ -79,6 +83,9 @@ pub struct LogSummary {
     /// Frame to force: from a camera frame's capture to the first period rendering the relief
     /// built from it (`None` when no rendered surface came from a camera frame).
     pub frame_to_force: Option<FrameToForce>,
+    /// What the finger felt beyond what was asked, and the jolts (`docs/felt-force.md`);
+    /// `None` when the configuration names no device the tools know.
+    pub felt: Option<videt_control::FeltTally>,
 }
 
 /// Latency from camera frames to the control thread, over the surface versions rendered.
@@ -170,6 +177,8 @@ pub fn summarise(
         duration_s,
         dropped,
         truncated_bytes: log.truncated_bytes,
+        closed: log.closed(),
+        end: log.end_note(),
         wake_latency_us: percentiles_us(&wake),
         compute_us: percentiles_us(&compute),
         contact_fraction: if log.records.is_empty() {
@@ -181,7 +190,11 @@ pub fn summarise(
         max_force_n: max_force,
         safety_events: events,
         frame_to_force: FrameToForce::of(&log.records),
+        felt: None,
     };
+    let mut summary = summary;
+    let config = session_config(args, &log)?;
+    summary.felt = crate::felt::felt_report(&log, &config, log.records.iter().enumerate()).ok();
     Ok((summary, log))
 }
 
@@ -231,16 +244,23 @@ pub fn write_csv(log: &videt_runtime::telemetry::Log, out: &mut dyn Write) -> st
     Ok(())
 }
 
+/// The configuration the session ran (`--config` overrides it; an old log without one: the
+/// built-in defaults).
+fn session_config(
+    args: &LogArgs,
+    log: &videt_runtime::telemetry::Log,
+) -> Result<videt_rt_config::Config, super::ToolError> {
+    Ok(match (&args.config, &log.session) {
+        (Some(path), _) => videt_rt_config::Config::load(path)?,
+        (None, Some(Ok(session))) => session.config.clone(),
+        (None, _) => videt_rt_config::Config::default(),
+    })
+}
+
 /// Run `videt log`.
 pub fn run(args: &LogArgs) -> ToolResult {
     let (s, log) = summarise(args)?;
-    let config = || -> Result<videt_rt_config::Config, super::ToolError> {
-        Ok(match (&args.config, &log.session) {
-            (Some(path), _) => videt_rt_config::Config::load(path)?,
-            (None, Some(Ok(session))) => session.config.clone(),
-            (None, _) => videt_rt_config::Config::default(),
-        })
-    };
+    let config = || session_config(args, &log);
     if let Some(out) = &args.view_figure {
         let shown = super::view_figure::write_view_figure(out, &log, &config()?, args.at)?;
         eprintln!("wrote {} (the session at {shown:.3} s)", out.display());
@@ -269,6 +289,7 @@ pub fn run(args: &LogArgs) -> ToolResult {
         if let Some(note) = log.damage_note() {
             println!("  {note}");
         }
+        println!("  {}", s.end);
         match &log.session {
             Some(Ok(session)) => println!(
                 "  session: {} (videtd {}, algorithm {})",
@@ -317,6 +338,9 @@ pub fn run(args: &LogArgs) -> ToolResult {
             s.max_tension_n,
             s.max_force_n
         );
+        if let Some(felt) = &s.felt {
+            println!("  felt force: {felt}");
+        }
         if s.safety_events.is_empty() {
             println!("  safety: normal throughout");
         }

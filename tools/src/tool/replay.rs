@@ -61,6 +61,10 @@ pub struct ReplayReport {
     pub stopped_early: Option<String>,
     /// What could not be read of the log, if anything.
     pub damage: Option<String>,
+    /// The session closed its log (an end frame).
+    pub closed: bool,
+    /// How the session ended: as the end frame says, or that it ended without closing.
+    pub end: String,
     /// Largest |replayed - recorded| tension set-point per wire, N.
     pub max_setpoint_difference_n: [f64; 3],
     /// Largest |replayed - recorded| torque command per wire, N·m.
@@ -72,6 +76,9 @@ pub struct ReplayReport {
     /// Keys of today's configuration the recorded one lacks (recorded before they existed),
     /// replayed with today's defaults: `key = default`.
     pub unrecorded_config: Vec<String>,
+    /// What the finger would have felt beyond what was asked, and the jolts, in the replayed
+    /// periods (`docs/felt-force.md`).
+    pub felt: Option<videt_control::FeltTally>,
 }
 
 fn report(log: &Log, r: &Replay, unrecorded: &[UnrecordedKey]) -> ReplayReport {
@@ -106,11 +113,15 @@ fn report(log: &Log, r: &Replay, unrecorded: &[UnrecordedKey]) -> ReplayReport {
         }),
         stopped_early: r.stopped_early.clone(),
         damage: log.damage_note(),
+        closed: log.closed(),
+        end: log.end_note(),
         max_setpoint_difference_n: sp,
         max_torque_difference_nm: tq,
         max_force_difference_n: f,
         algorithm: r.config.control.algorithm.clone(),
         unrecorded_config: unrecorded.iter().map(|k| k.to_string()).collect(),
+        felt: crate::felt::felt_report(log, &r.config, r.replayed.iter().map(|(i, o)| (*i, o)))
+            .ok(),
     }
 }
 
@@ -236,6 +247,9 @@ fn print_report(args: &ReplayArgs, log: &Log, rep: &ReplayReport, overridden: bo
     if let Some(d) = &rep.damage {
         println!("  {d}");
     }
+    if !rep.closed {
+        println!("  {}", rep.end);
+    }
     if rep.procedure_periods > 0 {
         println!(
             "  {} procedure periods (auto-initialization) skipped: not the control cycle's",
@@ -255,6 +269,9 @@ fn print_report(args: &ReplayArgs, log: &Log, rep: &ReplayReport, overridden: bo
     }
     if let Some(why) = &rep.stopped_early {
         println!("  replay stopped early at {why}");
+    }
+    if let Some(felt) = &rep.felt {
+        println!("  felt force: {felt}");
     }
     match &rep.first_divergence {
         None => println!(

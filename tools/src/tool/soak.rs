@@ -1,8 +1,8 @@
 //! `videt soak`: run `videtd` on the CAN twin for a long time with faults injected at random,
 //! recover each through its documented procedure, and check that every fault reached its safe
 //! state within two periods of being visible to the control cycle, that nothing panicked, that
-//! memory, file descriptors and threads stay flat, and that every session log is complete and
-//! replays bit for bit. One table at the end; exit 0 only when every check holds.
+//! memory, file descriptors and threads stay flat, and that every session log is complete (read
+//! whole, closed by its end frame, gaps equal to the drops reported) and replays bit for bit. One table at the end; exit 0 only when every check holds.
 //!
 //! Recovery, as `docs/control-socket.md` documents it: a fault that only holds the wires at
 //! minimum tension (a tension sensor) is cleared with `videt service reset-faults` once its
@@ -651,9 +651,27 @@ fn after_warm_up(samples: &[Sample]) -> Option<(Sample, Sample)> {
     Some((window(&warm[..third]), window(&warm[warm.len() - third..])))
 }
 
+/// Why a run's session log is not complete, if it is not: damaged, not closed by its end frame
+/// (every run is stopped through the control socket), or with gaps other than the drops the
+/// service reported (`reported`).
+fn incomplete_log(log: &Log, gaps: u64, reported: Option<u64>) -> Option<String> {
+    let mut why = Vec::new();
+    if let Some(note) = log.damage_note() {
+        why.push(note);
+    }
+    if !log.closed() {
+        why.push(log.end_note());
+    }
+    if reported != Some(gaps) {
+        why.push(format!("log gaps {gaps}, reported dropped {reported:?}"));
+    }
+    (!why.is_empty()).then(|| why.join("; "))
+}
+
 fn report(soak: &Soak) -> ToolResult {
     let mut failures = Vec::new();
-    // Session logs: complete, replayable; periods to the safe state.
+    // Session logs: complete (whole, closed, no unreported gap), replayable; periods to the
+    // safe state.
     let mut trials = soak.trials.clone();
     let mut log_rows = Vec::new();
     let mut entries: Vec<Vec<SafeStateEntry>> = Vec::new();
@@ -670,11 +688,8 @@ fn report(soak: &Soak) -> ToolResult {
             .map(|w| w[1].cycle.saturating_sub(w[0].cycle.saturating_add(1)))
             .sum();
         let reported = reported_drops(&inst.stderr);
-        if log.damage.is_some() || reported != Some(gaps) {
-            failures.push(format!(
-                "instance {n}: log gaps {gaps}, reported dropped {reported:?}, damage {:?}",
-                log.damage
-            ));
+        if let Some(why) = incomplete_log(&log, gaps, reported) {
+            failures.push(format!("instance {n}: {why}"));
         }
         let replay = crate::replay::replay(&log, &Default::default())?;
         if !replay.identical() {
@@ -682,6 +697,20 @@ fn report(soak: &Soak) -> ToolResult {
                 "instance {n}: replay diverges: {:?}",
                 replay.first_divergence
             ));
+        }
+        // What the finger felt: never beyond the felt bound, whatever the faults.
+        let config = match &log.session {
+            Some(Ok(session)) => session.config.clone(),
+            _ => videt_rt_config::Config::default(),
+        };
+        match crate::felt::felt_report(&log, &config, log.records.iter().enumerate()) {
+            Ok(felt) => {
+                println!("instance {n}: felt force: {felt}");
+                if felt.over_bound > 0 {
+                    failures.push(format!("instance {n}: felt force: {felt}"));
+                }
+            }
+            Err(e) => failures.push(format!("instance {n}: felt force: {e}")),
         }
         let text = std::fs::read_to_string(&inst.stderr).unwrap_or_default();
         if text.contains("panicked") {
@@ -866,6 +895,44 @@ mod tests {
                 threads: 7 + usize::from(fds(k) > 8),
             })
             .collect()
+    }
+
+    #[test]
+    fn a_session_log_is_complete_only_when_whole_closed_and_without_unreported_gaps() {
+        use videt_runtime::telemetry::{EndReason, LogHeader, SessionEnd};
+        let header = LogHeader {
+            rate_hz: 1000,
+            start_unix_ns: 0,
+        };
+        let records = (0..5)
+            .map(|cycle| CycleRecord {
+                cycle,
+                ..CycleRecord::default()
+            })
+            .collect();
+        let mut log = Log::of_records(header, records);
+        // Ended without closing: a service killed, or its log cut on a record boundary.
+        let why = incomplete_log(&log, 0, Some(0)).unwrap();
+        assert!(why.contains("ended without closing, at cycle 4"), "{why}");
+        log.end = Some(SessionEnd {
+            reason: EndReason::StopRequest,
+            last_cycle: Some(4),
+            periods: 5,
+            dropped: 0,
+        });
+        assert_eq!(incomplete_log(&log, 0, Some(0)), None);
+        let why = incomplete_log(&log, 2, Some(0)).unwrap();
+        assert!(
+            why.contains("log gaps 2, reported dropped Some(0)"),
+            "{why}"
+        );
+        log.damage = Some(videt_runtime::telemetry::Damage {
+            offset: 100,
+            what: "an incomplete frame".into(),
+        });
+        assert!(incomplete_log(&log, 0, Some(0))
+            .unwrap()
+            .contains("the rest is damaged"));
     }
 
     #[test]
