@@ -400,7 +400,14 @@ pub fn backup_path(path: &Path) -> PathBuf {
 /// Write `contents` to `path` atomically: a temporary file in the same directory, `fsync`,
 /// the previous file (if any) copied to `<path>.bak` the same way, `rename`, `fsync` of the
 /// directory. A crash at any point leaves either the old or the new file, never a mix.
+///
+/// A path that exists and is not a regular file (`/dev/null`, `/dev/stdout`, a FIFO) is written
+/// to as it is: renaming over it would replace the device or pipe with a file.
 pub fn write_atomically(path: &Path, contents: &[u8]) -> io::Result<()> {
+    if fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        let mut f = fs::OpenOptions::new().write(true).open(path)?;
+        return f.write_all(contents);
+    }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -458,6 +465,35 @@ pub fn utc_timestamp(unix_s: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pipe_or_device_is_written_to_not_replaced() {
+        use std::io::Read;
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("out.csv");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("skipping: mkfifo is not available");
+            return;
+        }
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || {
+                let mut text = String::new();
+                File::open(&fifo)
+                    .unwrap()
+                    .read_to_string(&mut text)
+                    .unwrap();
+                text
+            })
+        };
+        write_atomically(&fifo, b"cycle,time_s\n").unwrap();
+        assert_eq!(reader.join().unwrap(), "cycle,time_s\n");
+        let kind = fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(kind.is_fifo(), "the pipe was replaced: {kind:?}");
+        assert!(!backup_path(&fifo).exists());
+    }
 
     fn sample() -> Calibration {
         let (a, b, c) = (0.37_f64, 0.35_f64, 0.31_f64);
