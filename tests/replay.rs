@@ -355,6 +355,8 @@ fn cuts_from_frames(frames: &[telemetry::FrameAt]) -> Vec<(usize, bool)> {
 /// its records a prefix of the whole log's; a cut log replays up to the cut at the period
 /// boundaries before and after every frame kind, at spread periods and inside records.
 fn check_cuts(bytes: &[u8]) {
+    // Hundreds of parses and replays: not while a videtd session records in real time.
+    let _cpu = real_time();
     let started = Instant::now();
     let whole = telemetry::parse_log(bytes).unwrap();
     assert!(whole.damage.is_none(), "{:?}", whole.damage_note());
@@ -661,6 +663,17 @@ fn videt_log_says_whether_the_session_closed_and_that_a_log_cut_on_a_record_boun
     );
 }
 
+/// Held while a `videtd` session records, and while the other tests parse and replay logs by
+/// the hundred (the cut checks, the felt force with every algorithm): a session's reliefs come
+/// from its vision thread in real time, and on two cores those would starve it.
+static REAL_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn real_time() -> std::sync::MutexGuard<'static, ()> {
+    REAL_TIME
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 /// What `videtd --sim SIM` (`hal` or `can`) ran and recorded for 2 s: the session log, or the
 /// service's refusal (its standard error) when it does not run the combination.
 fn videtd_session(
@@ -676,6 +689,7 @@ fn videtd_session(
     let config_path = dir.join(format!("{name}.toml"));
     std::fs::write(&config_path, toml::to_string(&config).unwrap()).unwrap();
     let logs = dir.join(name);
+    let session = real_time();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_videtd"))
         .args(["--sim", sim, "--config"])
         .arg(&config_path)
@@ -686,6 +700,7 @@ fn videtd_session(
         .env("RUST_LOG", "warn")
         .output()
         .unwrap();
+    drop(session);
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     if !out.status.success() {
         return Err(format!("exit {:?}: {stderr}", out.status.code()));
@@ -737,6 +752,7 @@ fn assert_felt_bound_with_every_algorithm(what: &str, log: &telemetry::Log) {
     let recorded = felt_report(log, &config, log.records.iter().enumerate()).unwrap();
     assert!(recorded.periods > 1500, "{what}: {recorded}");
     assert_eq!(recorded.over_bound, 0, "{what} as recorded: {recorded}");
+    let _replays = real_time();
     for algorithm in videt_control::distribution::ALGORITHM_NAMES {
         let r = replay(
             log,
