@@ -157,20 +157,27 @@ pub fn project<const N: usize>(
     let in_range = raw
         .iter()
         .all(|&t| t >= limits.t_min_n && t <= limits.t_max_n);
+    // The floor's pull `F0 = V t_min`: the fade of the normal's weight and the felt bound.
+    let floor = map.force(&[limits.t_min_n; N]);
     let (mut tensions, mut projected) = if in_range {
         (raw, false)
     } else {
         let clamped = raw.map(|t| clamp_tension(t, limits));
         let t = match projection {
             Projection::ClampNegative => clamped,
-            Projection::ExactAlongNormal => exact_along_normal(map, target_n, &clamped, limits),
-            Projection::NormalFirstNearest => normal_first_nearest(map, target_n, limits),
+            Projection::ExactAlongNormal => {
+                exact_along_normal(map, target_n, &clamped, limits, floor.norm())
+            }
+            Projection::NormalFirstNearest => {
+                normal_first_nearest(map, target_n, limits, floor.norm())
+            }
         };
         (t, true)
     };
-    let floor_pull = map.force(&[limits.t_min_n; N]).norm();
-    let limit = target_n.norm() + floor_pull + FELT_MARGIN_N;
-    if govern(&mut tensions, limits.t_min_n, limit, |t| map.force(t)) {
+    let limit = target_n.norm() + floor.norm() + FELT_MARGIN_N;
+    if govern(&mut tensions, limits.t_min_n, &floor, limit, |t| {
+        map.force(t)
+    }) {
         projected = true;
     }
     let mut out = Distribution {
@@ -210,28 +217,53 @@ fn exact_along_normal<const N: usize>(
     target_n: &SVector<f64, N>,
     clamped: &[f64; N],
     limits: &ForceLimits,
+    floor_pull_n: f64,
 ) -> [f64; N] {
-    let magnitude = target_n.norm();
-    if magnitude < 1e-12 {
+    let Some(normal) = NormalTerms::of(map, target_n, floor_pull_n) else {
         return *clamped;
+    };
+    let mut qp = tension_programme(limits);
+    for i in 0..N {
+        for j in 0..N {
+            qp.hessian[i][j] =
+                normal.weight * normal.along[i] * normal.along[j] + if i == j { 1.0 } else { 0.0 };
+        }
+        qp.linear[i] = normal.weight * normal.magnitude * normal.along[i] + clamped[i];
     }
-    let n = target_n / magnitude;
-    let floor_pull = map.force(&[limits.t_min_n; N]).norm();
-    let weight = NORMAL_WEIGHT * normal_weight_fade(magnitude, floor_pull);
-    let along: [f64; N] = core::array::from_fn(|i| n.dot(&map.pull_direction(i)));
-    let mut qp = BoxQp {
+    qp.solve()
+}
+
+/// A programme over the tension box `[t_min, t_max]`, its `H` and `g` zero (to be filled).
+fn tension_programme<const N: usize>(limits: &ForceLimits) -> BoxQp<N> {
+    BoxQp {
         hessian: [[0.0; N]; N],
         linear: [0.0; N],
         lo: limits.t_min_n,
         hi: limits.t_max_n.max(limits.t_min_n),
-    };
-    for i in 0..N {
-        for j in 0..N {
-            qp.hessian[i][j] = weight * along[i] * along[j] + if i == j { 1.0 } else { 0.0 };
-        }
-        qp.linear[i] = weight * magnitude * along[i] + clamped[i];
     }
-    qp.solve()
+}
+
+/// What P2 and QP weigh the force along the normal with: `|f|`, `a_i = n·u_i` and `κφ`.
+struct NormalTerms<const N: usize> {
+    magnitude: f64,
+    along: [f64; N],
+    weight: f64,
+}
+
+impl<const N: usize> NormalTerms<N> {
+    /// The terms of `target_n` (`None` for a zero force: it has no normal).
+    fn of(map: &WireMap<N>, target_n: &SVector<f64, N>, floor_pull_n: f64) -> Option<Self> {
+        let magnitude = target_n.norm();
+        if magnitude < 1e-12 {
+            return None;
+        }
+        let n = target_n / magnitude;
+        Some(NormalTerms {
+            magnitude,
+            along: core::array::from_fn(|i| n.dot(&map.pull_direction(i))),
+            weight: NORMAL_WEIGHT * normal_weight_fade(magnitude, floor_pull_n),
+        })
+    }
 }
 
 /// QP, continuous: the reachable force nearest the target, the error along `n` weighed
@@ -242,29 +274,22 @@ fn normal_first_nearest<const N: usize>(
     map: &WireMap<N>,
     target_n: &SVector<f64, N>,
     limits: &ForceLimits,
+    floor_pull_n: f64,
 ) -> [f64; N] {
-    let magnitude = target_n.norm();
-    let n = if magnitude > 1e-12 {
-        target_n / magnitude
-    } else {
-        SVector::<f64, N>::zeros()
-    };
-    let floor_pull = map.force(&[limits.t_min_n; N]).norm();
-    let weight = NORMAL_WEIGHT * normal_weight_fade(magnitude, floor_pull);
-    let along: [f64; N] = core::array::from_fn(|i| n.dot(&map.pull_direction(i)));
-    let n_dot_f = n.dot(target_n);
-    let mut qp = BoxQp {
-        hessian: [[0.0; N]; N],
-        linear: [0.0; N],
-        lo: limits.t_min_n,
-        hi: limits.t_max_n.max(limits.t_min_n),
-    };
+    // A zero force has no normal: plain nearest.
+    let normal = NormalTerms::of(map, target_n, floor_pull_n).unwrap_or(NormalTerms {
+        magnitude: 0.0,
+        along: [0.0; N],
+        weight: 0.0,
+    });
+    let mut qp = tension_programme(limits);
     for i in 0..N {
         let ui = map.pull_direction(i);
         for j in 0..N {
-            qp.hessian[i][j] = ui.dot(&map.pull_direction(j)) + weight * along[i] * along[j];
+            qp.hessian[i][j] =
+                ui.dot(&map.pull_direction(j)) + normal.weight * normal.along[i] * normal.along[j];
         }
-        qp.linear[i] = ui.dot(target_n) + weight * along[i] * n_dot_f;
+        qp.linear[i] = ui.dot(target_n) + normal.weight * normal.along[i] * normal.magnitude;
     }
     qp.solve()
 }
@@ -438,6 +463,10 @@ mod tests {
         (0.0f64..1.0, 2.0f64..20.0).prop_map(|(t_min_n, t_max_n)| ForceLimits { t_min_n, t_max_n })
     }
 
+    fn floor_pull(map: &WireMap<3>, limits: &ForceLimits) -> f64 {
+        map.force(&[limits.t_min_n; 3]).norm()
+    }
+
     /// The weighted error P2's correction minimises, and QP's.
     fn along_error(map: &WireMap<3>, f: &Vec3, t: &[f64; 3]) -> f64 {
         let n = f.normalize();
@@ -492,7 +521,7 @@ mod tests {
             prop_assume!(f.norm() > 1e-3);
             let map = rig().wire_map(&p).unwrap();
             let clamped = map.tensions(&f).map(|t| clamp_tension(t, &limits));
-            let t2 = exact_along_normal(&map, &f, &clamped, &limits);
+            let t2 = exact_along_normal(&map, &f, &clamped, &limits, floor_pull(&map, &limits));
             prop_assert!(along_error(&map, &f, &t2) <= along_error(&map, &f, &clamped) + 1e-9);
             // Where a wire pulling along n is free (inside its limits), the remaining error along
             // n is its correction over κφ a_i (the KKT condition of the correction).
@@ -520,9 +549,9 @@ mod tests {
             let f = Vec3::new(fx, fy, fz);
             prop_assume!(f.norm() > 1e-3);
             let map = rig().wire_map(&p).unwrap();
-            let q = normal_first_nearest(&map, &f, &limits);
+            let q = normal_first_nearest(&map, &f, &limits, floor_pull(&map, &limits));
             let clamped = map.tensions(&f).map(|t| clamp_tension(t, &limits));
-            let p2 = exact_along_normal(&map, &f, &clamped, &limits);
+            let p2 = exact_along_normal(&map, &f, &clamped, &limits, floor_pull(&map, &limits));
             let cost = |t: &[f64; 3]| qp_cost(&map, &f, t, &limits);
             prop_assert!(cost(&q) <= cost(&clamped) + 1e-9 * (1.0 + cost(&clamped)));
             prop_assert!(cost(&q) <= cost(&p2) + 1e-9 * (1.0 + cost(&p2)));

@@ -14,6 +14,7 @@
 
 pub mod plots;
 pub mod rig;
+mod wall;
 pub mod wall_feel;
 pub mod zwidth;
 

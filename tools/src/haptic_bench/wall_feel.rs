@@ -11,7 +11,7 @@ use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 use super::rig::{run, Experiment, Parts, Trace};
-use super::zwidth::{hold_stats, region_wall};
+use super::wall::{hold_stats, region_wall};
 use super::Region;
 use videt_control::surface::Plane;
 

@@ -4,16 +4,13 @@
 
 use serde::Serialize;
 use videt_control::safety::SafetyState;
-use videt_control::surface::Plane;
 use videt_control::FeltTally;
 use videt_rt_config::Config;
-use videt_sim::Vec3;
 
-use super::rig::{run, start_position, Experiment, Parts, Trace};
+use super::rig::{run, Experiment, Parts};
+use super::wall::{hold_stats, region_wall};
 use super::wall_feel::{feel_wall_in, WallFeel};
-use super::{
-    pusher, renderings_compared, surface_ahead, BenchPlan, Region, Rendering, SensorSetup,
-};
+use super::{pusher, renderings_compared, BenchPlan, Region, Rendering, SensorSetup};
 
 /// How a wall of given stiffness behaved while the operator held a push on it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -40,58 +37,6 @@ pub const ZWIDTH_CRITERION: &str =
 the frame, B: a side wall, C: facing away) and holds; over the last 0.6 s of a 1.5 s hold the wall is stable when the \
 penetration's half peak-to-peak stays below 0.1 mm, the RMS speed below 5 mm/s, the finger never \
 leaves the wall and the safety supervisor never leaves its normal state";
-
-/// The wall of `region` ([`Region::wall_normal`]) rendered by P2 with stiffness `k` and
-/// damping `b` on `base`'s parts: the configuration, where the thimble starts, the wall's
-/// outward normal and the wall (3 mm ahead).
-pub(super) fn region_wall(
-    base: &Config,
-    region: Region,
-    k: f64,
-    b: f64,
-) -> (Config, Vec3, Vec3, Plane) {
-    let mut config = base.clone();
-    config.control.stiffness_n_per_m = k;
-    config.control.damping_n_s_per_m = b;
-    config.control.algorithm = "P2".into();
-    let start = start_position(&config);
-    let n = region.wall_normal();
-    let surface = surface_ahead(start, n);
-    (config, start, n, surface)
-}
-
-/// How still the thimble held against `surface` over `[from_s, to_s)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct HoldStats {
-    /// Half the penetration's peak-to-peak, mm.
-    pub(super) oscillation_mm: f64,
-    /// RMS thimble speed, mm/s.
-    pub(super) rms_speed_mm_s: f64,
-    /// Periods out of contact.
-    pub(super) contact_lost: usize,
-    /// Periods in the window.
-    pub(super) periods: usize,
-}
-
-pub(super) fn hold_stats(trace: &Trace, surface: &Plane, from_s: f64, to_s: f64) -> HoldStats {
-    let (mut lo, mut hi, mut v2, mut periods, mut lost) = (f64::MAX, f64::MIN, 0.0, 0, 0);
-    for s in trace.window(from_s, to_s) {
-        let depth = -surface.signed_distance_m(&s.position_m);
-        lo = lo.min(depth);
-        hi = hi.max(depth);
-        v2 += s.velocity_m_s.norm_squared();
-        periods += 1;
-        if depth <= 0.0 {
-            lost += 1;
-        }
-    }
-    HoldStats {
-        oscillation_mm: (hi - lo) * 0.5e3,
-        rms_speed_mm_s: (v2 / periods.max(1) as f64).sqrt() * 1e3,
-        contact_lost: lost,
-        periods,
-    }
-}
 
 /// Press on the wall facing the frame (region A) of stiffness `k` with damping `b` and judge it.
 pub fn judge_wall(base: &Config, k: f64, b: f64, parts: Parts) -> Result<WallVerdict, String> {
