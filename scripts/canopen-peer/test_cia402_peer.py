@@ -290,15 +290,18 @@ def test_driver_start_up_sequence_on_the_epos4(rig: Rig) -> None:
     configure(host, 1)
     host.heartbeat(0.01)
     assert host.wait_for(is_frame(0x701, b"\x05"))
-    states = []
+    readings = []
     for cw, n in ((0x06, 3), (0x07, 3), (0x0F, 3)):
-        states += [cycle(host, (1,), cw, 0)[0][1] for _ in range(n)]
+        readings += [cycle(host, (1,), cw, 0)[0] for _ in range(n)]
+    states = [sw for _, sw, _ in readings]
     assert states[0] == 0x0250
+    # The brake holds the unpowered shaft: the wire keeps its 2 mm pre-stretch of the 2000 N/m
+    # spring. (Powered, the spring unwinds it between SYNCs by as much as the timing allows.)
+    assert readings[0][2] == 4000
     walk = [s for i, s in enumerate(states) if i == 0 or s != states[i - 1]]
     assert walk == [0x0250, 0x0231, 0x0233, 0x0237]
     t_syncs = time.monotonic()
     pos0, _, tension0 = cycle(host, (1,), 0x0F, 0)[0]
-    assert tension0 == 4000  # 2 mm pre-stretch of the 2000 N/m spring
     samples = []
     for _ in range(120):
         samples.append(cycle(host, (1,), 0x0F, 100)[0])
