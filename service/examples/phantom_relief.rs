@@ -57,7 +57,10 @@
 //! total deviating fraction (and the floor's), and that split.
 //!
 //! `cargo run --release -p videt-service --example phantom_relief -- [--view] [--extra DIR]
-//! [--threshold-mm MM] [--after-checks LIST] [--figure FILE.png] [--figure-pairs a,b,c]`
+//! [--threshold-mm MM] [--after-checks LIST] [--figure FILE.png] [--figure-pairs a,b,c]
+//! [--pairs a,b,c] [--shape interpolated|stepped] [--step-height-mm MM] [--step-slope S]
+//! [--step-width-mm MM]` (`--pairs`: only these pairs; `--shape` and `--step-*`: the relief
+//! builder's [`ReliefShape`] and step settings instead of the defaults')
 //! (`--after-checks`: `after`'s checks instead of the defaults', `none` or a comma-separated
 //! list of `left-right`, `surface`, `confidence=T`).
 //!
@@ -84,7 +87,7 @@ use videt_vision::evaluation::{
     PhantomArea, ReliefDeviation, TruthPair, MIDDLEBURY_PAIRS,
 };
 use videt_vision::matching::MatchChecks;
-use videt_vision::surface::{build_from_scene, ReliefParams, SceneSegment3};
+use videt_vision::surface::{build_from_scene, ReliefParams, ReliefShape, SceneSegment3};
 use videt_vision::{GrayView, RectifiedGeometry, StereoPipeline, VisionParams};
 
 /// The relief depth of a stereo view without a rig: `videt vision --surface`'s default
@@ -267,12 +270,14 @@ fn measure(
     layout: Layout,
     threshold_m: f64,
     after_params: &VisionParams,
+    shape: &ShapeOptions,
 ) -> Result<PairResult, String> {
     let geometry = pair.stereo.geometry();
     let before =
         run(pipeline, pair, &geometry, &without_checks()).map_err(|e| format!("before: {e}"))?;
     let after = run(pipeline, pair, &geometry, after_params).map_err(|e| format!("after: {e}"))?;
-    let params = layout.params(&before.segments, pair.stereo.size_px())?;
+    let mut params = layout.params(&before.segments, pair.stereo.size_px())?;
+    shape.apply(&mut params);
     let depth_range_m = scene_depth_range(&before.segments)?;
     // A row: `r`'s relief, its excess over the floor (over itself for the floor) and over
     // `own_floor`.
@@ -495,6 +500,53 @@ fn write_figure(
     Ok(())
 }
 
+/// The relief builder's shape settings given on the command line (`--shape`, `--step-*`);
+/// the defaults' where not given.
+#[derive(Debug, Clone, Copy, Default)]
+struct ShapeOptions {
+    shape: Option<ReliefShape>,
+    step_min_height_m: Option<f64>,
+    step_min_slope: Option<f64>,
+    step_width_m: Option<f64>,
+}
+
+impl ShapeOptions {
+    fn parse(value_of: impl Fn(&str) -> Option<String>) -> Result<ShapeOptions, String> {
+        let number = |flag: &str, scale: f64| -> Result<Option<f64>, String> {
+            value_of(flag)
+                .map(|v| {
+                    v.parse::<f64>()
+                        .map(|x| x * scale)
+                        .map_err(|e| format!("{flag} {v}: {e}"))
+                })
+                .transpose()
+        };
+        let shape = match value_of("--shape").as_deref() {
+            None => None,
+            Some("interpolated") => Some(ReliefShape::Interpolated),
+            Some("stepped") => Some(ReliefShape::Stepped),
+            Some(other) => {
+                return Err(format!(
+                    "--shape {other}: expected `interpolated` or `stepped`"
+                ))
+            }
+        };
+        Ok(ShapeOptions {
+            shape,
+            step_min_height_m: number("--step-height-mm", 1e-3)?,
+            step_min_slope: number("--step-slope", 1.0)?,
+            step_width_m: number("--step-width-mm", 1e-3)?,
+        })
+    }
+
+    fn apply(&self, params: &mut ReliefParams) {
+        params.shape = self.shape.unwrap_or(params.shape);
+        params.step_min_height_m = self.step_min_height_m.unwrap_or(params.step_min_height_m);
+        params.step_min_slope = self.step_min_slope.unwrap_or(params.step_min_slope);
+        params.step_width_m = self.step_width_m.unwrap_or(params.step_width_m);
+    }
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let value_of = |flag: &str| {
@@ -525,6 +577,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         return Err(format!("--threshold-mm {threshold_mm} must be finite and >= 0").into());
     }
     let threshold_m = threshold_mm * 1e-3;
+    let shape = ShapeOptions::parse(value_of)?;
+    let only: Option<Vec<String>> =
+        value_of("--pairs").map(|list| list.split(',').map(|s| s.trim().to_string()).collect());
     let layout = if args.iter().any(|a| a == "--view") {
         Layout::View
     } else {
@@ -540,6 +595,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     for p in load_extra_pairs(&extra_dir)? {
         pairs.push(as_stereo(p)?);
+    }
+    if let Some(only) = &only {
+        pairs.retain(|p| only.contains(&p.name));
     }
 
     let layout_label = match layout {
@@ -603,8 +661,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut pipeline = StereoPipeline::new();
     let mut results = Vec::new();
     for pair in &pairs {
-        let r = measure(&mut pipeline, pair, layout, threshold_m, &after_params)
-            .map_err(|e| format!("{}: {e}", pair.name))?;
+        let r = measure(
+            &mut pipeline,
+            pair,
+            layout,
+            threshold_m,
+            &after_params,
+            &shape,
+        )
+        .map_err(|e| format!("{}: {e}", pair.name))?;
         for (label, row) in r.rows() {
             println!(
                 "{:<11} {:<13} {:>7} {:>6} {:>6} {:>5.2}..{:<5.2} {:>8.1} {:>9.1} {:>7.1}% {:>9.2} {:>9.2} {:>9}",

@@ -24,6 +24,21 @@ pub struct VirtualOperator {
     pub repeat_period_s: Option<f64>,
     /// Simulated time at which the script starts, seconds (0 unless [`Self::starting_at`]).
     start_s: f64,
+    /// When set, the hand presses with a constant force along this direction instead of
+    /// following the target along it ([`Self::pressing`]).
+    press: Option<Press>,
+}
+
+/// A hand pressing with a constant force along one direction ([`VirtualOperator::pressing`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Press {
+    /// Unit direction of the push.
+    direction: Vec3,
+    /// The push, newtons.
+    force_n: f64,
+    /// Blocked across by more than this (newtons), the hand eases the push and lifts, by the
+    /// excess, as a finger that meets a wall lifts over it ([`VirtualOperator::lifting_over`]).
+    lift_above_n: Option<f64>,
 }
 
 impl VirtualOperator {
@@ -44,7 +59,34 @@ impl VirtualOperator {
             damping_n_s_per_m,
             repeat_period_s: None,
             start_s: 0.0,
+            press: None,
         }
+    }
+
+    /// The same script with a hand that presses with a constant `force_n` along `direction`
+    /// (normalised; e.g. `+z`, into a bas-relief) and follows the target only across it, as a
+    /// finger exploring a surface at a light push: along `direction` only the push and the
+    /// damping act. A zero direction leaves the operator as it was.
+    pub fn pressing(mut self, direction: Vec3, force_n: f64) -> VirtualOperator {
+        let norm = direction.norm();
+        if norm > 1e-12 && force_n.is_finite() {
+            self.press = Some(Press {
+                direction: direction / norm,
+                force_n,
+                lift_above_n: None,
+            });
+        }
+        self
+    }
+
+    /// A [`Self::pressing`] hand that, held back across its push by more than `limit_n` (a
+    /// wall in the way), eases the push by the excess and lifts: it climbs over a step instead
+    /// of dragging the finger against it. No effect on a hand that does not press.
+    pub fn lifting_over(mut self, limit_n: f64) -> VirtualOperator {
+        if let Some(press) = &mut self.press {
+            press.lift_above_n = Some(limit_n.max(0.0));
+        }
+        self
     }
 
     /// The same script, repeated every `period_s` seconds (at least as long as the script).
@@ -151,8 +193,21 @@ impl VirtualOperator {
     /// The force of the hand on the thimble at `position_m`, `velocity_m_s`, time `t_s`.
     pub fn force_n(&self, t_s: f64, position_m: &Vec3, velocity_m_s: &Vec3) -> Vec3 {
         let (target, target_velocity) = self.target(t_s);
-        (target - position_m) * self.stiffness_n_per_m
-            + (target_velocity - velocity_m_s) * self.damping_n_s_per_m
+        let follow = (target - position_m) * self.stiffness_n_per_m
+            + (target_velocity - velocity_m_s) * self.damping_n_s_per_m;
+        match self.press {
+            None => follow,
+            Some(Press {
+                direction,
+                force_n,
+                lift_above_n,
+            }) => {
+                let across = follow - direction * direction.dot(&follow);
+                let lift = lift_above_n.map_or(0.0, |limit| (across.norm() - limit).max(0.0));
+                let along = force_n - lift - self.damping_n_s_per_m * direction.dot(velocity_m_s);
+                across + direction * along
+            }
+        }
     }
 }
 
@@ -185,5 +240,26 @@ mod tests {
         );
         let looped = op.repeating(2.0);
         assert_eq!(looped.target(2.5).0, Vec3::new(0.5, 0.0, 0.0));
+    }
+
+    #[test]
+    fn a_pressing_hand_pushes_along_and_follows_across() {
+        let op = VirtualOperator::holding(Vec3::new(0.1, 0.0, 0.0)).pressing(Vec3::z() * 3.0, 1.5);
+        // Across: the spring towards the target (200 N/m * 0.1 m); along z: the push, whatever
+        // the target's z, less the damping of the motion along z (6 N s/m * 0.1 m/s).
+        let f = op.force_n(0.0, &Vec3::new(0.0, 0.0, -0.2), &Vec3::new(0.0, 0.0, 0.1));
+        assert!(
+            (f - Vec3::new(20.0, 0.0, 1.5 - 0.6)).norm() < 1e-12,
+            "{f:?}"
+        );
+        // Held back across by 20 N, 5 N over the limit: the push becomes a 3.5 N lift.
+        let lifting = op.clone().lifting_over(15.0);
+        let f = lifting.force_n(0.0, &Vec3::new(0.0, 0.0, -0.2), &Vec3::zeros());
+        assert!(
+            (f - Vec3::new(20.0, 0.0, 1.5 - 5.0)).norm() < 1e-12,
+            "{f:?}"
+        );
+        let plain = VirtualOperator::holding(Vec3::zeros()).pressing(Vec3::zeros(), 1.0);
+        assert_eq!(plain, VirtualOperator::holding(Vec3::zeros()));
     }
 }

@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub mod felt;
+pub mod felt_surface;
 pub mod haptic_bench;
 pub mod plotting;
 pub mod replay;

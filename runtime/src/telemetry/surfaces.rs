@@ -152,6 +152,12 @@ impl RecordSurface for Plane {
     }
 }
 
+impl RecordSurface for ReliefModel {
+    fn recorded(&self) -> Option<RecordedSurface> {
+        Some(RecordedSurface::Relief(self.clone()))
+    }
+}
+
 /// A polygonal profile (the paper's experiments) is not recorded: a session on one is not
 /// replayed.
 impl<const CAP: usize> RecordSurface for videt_control::profile::Profile<CAP> {

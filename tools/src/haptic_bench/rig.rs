@@ -76,11 +76,11 @@ impl Trace {
 /// An experiment: the configuration under test (algorithm, stiffness, damping, rate, sensor),
 /// the surface, and the operator's script; the thimble starts where the demo scene puts it.
 #[derive(Debug, Clone)]
-pub struct Experiment {
+pub struct Experiment<S = Plane> {
     /// The configuration the control cycle and the twin's parts are built from.
     pub config: Config,
-    /// The surface rendered.
-    pub surface: Plane,
+    /// The surface rendered (a wall; a bas-relief for the felt surface, `crate::felt_surface`).
+    pub surface: S,
     /// The operator (hand target path, hand stiffness and damping).
     pub operator: VirtualOperator,
     /// Simulated seconds to run.
@@ -118,6 +118,17 @@ impl HasTwin for CanTwin<3, videt_assembly::WiremanTwin> {
     }
 }
 
+/// A surface an experiment renders: what the control loop takes as a fixed surface.
+pub trait RenderedSurface:
+    videt_control::Surface + videt_runtime::telemetry::surfaces::RecordSurface + Clone
+{
+}
+
+impl<S> RenderedSurface for S where
+    S: videt_control::Surface + videt_runtime::telemetry::surfaces::RecordSurface + Clone
+{
+}
+
 /// Where the demo scene starts the thimble for `config` (in front of the frame's centre).
 pub fn start_position(config: &Config) -> Vec3 {
     videt_assembly::twin_scene::demo_scene(config, 1)
@@ -127,7 +138,7 @@ pub fn start_position(config: &Config) -> Vec3 {
 }
 
 /// Run `experiment`: the control loop on the stepped CAN twin, recording the twin's truth.
-pub fn run(experiment: &Experiment) -> Result<Trace, String> {
+pub fn run<S: RenderedSurface>(experiment: &Experiment<S>) -> Result<Trace, String> {
     let config = &experiment.config;
     let mut scene = videt_assembly::twin_scene::demo_scene(config, 7);
     scene.twin.set_operator(experiment.operator.clone());
@@ -164,9 +175,9 @@ pub fn run(experiment: &Experiment) -> Result<Trace, String> {
     })
 }
 
-fn run_probed<H: HasTwin>(
+fn run_probed<H: HasTwin, S: RenderedSurface>(
     hw: H,
-    experiment: &Experiment,
+    experiment: &Experiment<S>,
     cycle: &mut videt_runtime::WiremanCycle,
     settings: &LoopSettings,
     periods: usize,
@@ -193,7 +204,7 @@ fn run_probed<H: HasTwin>(
     };
     let report = run_control_loop(
         &mut probe,
-        &mut FixedSurface(experiment.surface),
+        &mut FixedSurface(experiment.surface.clone()),
         cycle,
         settings,
         &mut LoopControl::stop_flag(&stop),

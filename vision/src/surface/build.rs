@@ -14,9 +14,13 @@ use std::collections::HashMap;
 
 use spade::{ConstrainedDelaunayTriangulation, HasPosition, Point2, Triangulation};
 
+use super::border::NearestHeight;
 use super::clip::clip_to_rect;
-use super::input::{DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, SceneSegment3};
+use super::input::{
+    DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, ReliefShape, SceneSegment3,
+};
 use super::model::ReliefModel;
+use super::steps::{cut_steps, MeshTopology};
 
 /// Which input item a rejection refers to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -100,12 +104,15 @@ pub struct BuildReport {
     pub points_in: usize,
     /// Segments kept as constraint edges (possibly split).
     pub constraints_kept: usize,
-    /// Constraint edges in the triangulation after splitting.
+    /// Constraint edges in the triangulation after splitting (the segments', not the frame's).
     pub constraint_edges: usize,
     /// Crossings split into a shared vertex.
     pub crossings_split: usize,
     /// Input points merged into a nearby one.
     pub points_merged: usize,
+    /// Edges of the triangulation found to span a depth step, each cut into a wall
+    /// ([`ReliefShape::Stepped`]).
+    pub depth_steps: usize,
     /// Vertices of the mesh (frame included).
     pub vertices: usize,
     /// Triangles of the mesh.
@@ -466,6 +473,21 @@ fn build_mapped(
     let clamp_z = |z: f64| z.clamp(nearest_z, back_z);
     let fw = params.frame_width_m.max(params.merge_distance_m);
     let inner = [area[0] + fw, area[1] + fw, area[2] - fw, area[3] - fw];
+    // A stepped relief's frame has an inner border of its own (a constraint ring at `inner`):
+    // the geometry stays clear of it.
+    let inner_border = params.shape == ReliefShape::Stepped
+        && params.frame_width_m > 4.0 * params.merge_distance_m;
+    let clear = if inner_border {
+        2.0 * params.merge_distance_m
+    } else {
+        0.0
+    };
+    let inside = [
+        inner[0] + clear,
+        inner[1] + clear,
+        inner[2] - clear,
+        inner[3] - clear,
+    ];
     let mut table = VertexTable::new(params.merge_distance_m);
 
     // The frame: the area's border at the back plane.
@@ -495,7 +517,7 @@ fn build_mapped(
     let mut seen: CellMap<(u32, u32), usize> =
         CellMap::with_capacity_and_hasher(segments.len(), Default::default());
     for seg in &segments {
-        let Some((s0, s1)) = clip_to_rect(seg.a, seg.b, inner) else {
+        let Some((s0, s1)) = clip_to_rect(seg.a, seg.b, inside) else {
             report.rejections.push(Rejection {
                 item: InputItem::Segment(seg.source),
                 reason: RejectReason::OutsideArea,
@@ -545,7 +567,7 @@ fn build_mapped(
         });
     }
     for (p, i) in &points {
-        if !in_rect([p[0], p[1]], inner) {
+        if !in_rect([p[0], p[1]], inside) {
             report.rejections.push(Rejection {
                 item: InputItem::Point(*i),
                 reason: RejectReason::OutsideArea,
@@ -580,6 +602,15 @@ fn build_mapped(
     }
     report.constraints_kept = accepted.len();
     report.points_merged = table.merged;
+    if inner_border {
+        add_inner_border(
+            &mut table,
+            frame_vertices,
+            inner,
+            params,
+            &mut constraint_pieces,
+        );
+    }
 
     let vertices = table.vertices.clone();
     let edge_list: Vec<[usize; 2]> = constraint_pieces.iter().map(|p| p.0).collect();
@@ -601,23 +632,46 @@ fn build_mapped(
         }
     };
     for c in &conflicts {
-        if let Some(piece) = constraint_pieces.iter().find(|p| p.0 == *c) {
+        if let Some(piece) = constraint_pieces
+            .iter()
+            .find(|p| p.0 == *c && p.1 != INNER_BORDER)
+        {
             report.rejections.push(Rejection {
                 item: InputItem::Segment(piece.1),
                 reason: RejectReason::TriangulationConflict,
             });
         }
     }
-    report.constraint_edges = cdt.num_constraints();
+    let border_pieces = constraint_pieces
+        .iter()
+        .filter(|p| p.1 == INNER_BORDER)
+        .count();
+    report.constraint_edges = cdt.num_constraints().saturating_sub(border_pieces);
 
-    let mesh_vertices: Vec<[f64; 3]> = cdt
+    let mut mesh_vertices: Vec<[f64; 3]> = cdt
         .vertices()
         .map(|v| [v.data().x, v.data().y, v.data().z])
         .collect();
-    let triangles: Vec<[u32; 3]> = cdt
+    let mut triangles: Vec<[u32; 3]> = cdt
         .inner_faces()
         .map(|f| f.vertices().map(|v| v.fix().index() as u32))
         .collect();
+    if params.shape == ReliefShape::Stepped {
+        // The bulk load keeps the vertices' order: the frame's come first.
+        let constraints: HashMap<(u32, u32), ()> = cdt
+            .undirected_edges()
+            .filter(|e| e.is_constraint_edge())
+            .map(|e| {
+                let [a, b] = e.vertices().map(|v| v.fix().index() as u32);
+                ((a.min(b), a.max(b)), ())
+            })
+            .collect();
+        let topology = MeshTopology {
+            constraints: &constraints,
+            frame_vertices: frame_vertices as u32,
+        };
+        report.depth_steps = cut_steps(&mut mesh_vertices, &mut triangles, &topology, params).steps;
+    }
     report.vertices = mesh_vertices.len();
     report.triangles = triangles.len();
     let t_triangulated = std::time::Instant::now();
@@ -625,6 +679,51 @@ fn build_mapped(
     let model = ReliefModel::from_mesh(mesh_vertices, triangles, area, back_z, params);
     report.timings.model = t_triangulated.elapsed();
     Ok((model, report))
+}
+
+/// The `source` of the inner border's constraint pieces (not an input segment).
+const INNER_BORDER: usize = usize::MAX;
+
+/// The frame's inner border ([`ReliefShape::Stepped`], `super::border`): a ring of vertices
+/// along `inner`, as many per side as the frame has, each at the height of the nearest vertex
+/// of the geometry, joined by constraint pieces.
+fn add_inner_border(
+    table: &mut VertexTable,
+    frame_vertices: usize,
+    inner: [f64; 4],
+    params: &ReliefParams,
+    pieces: &mut Vec<([usize; 2], usize)>,
+) {
+    let geometry: Vec<[f64; 3]> = table.vertices[frame_vertices..]
+        .iter()
+        .map(|v| [v.x, v.y, v.z])
+        .collect();
+    let nearest = NearestHeight::new(&geometry, inner);
+    let [x0, y0, x1, y1] = inner;
+    let mut ring: Vec<u32> = Vec::with_capacity(64);
+    for (a, b) in [
+        ([x0, y0], [x1, y0]),
+        ([x1, y0], [x1, y1]),
+        ([x1, y1], [x0, y1]),
+        ([x0, y1], [x0, y0]),
+    ] {
+        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let n = ((len / params.border_spacing_m).ceil() as usize).clamp(1, 1000);
+        for k in 0..n {
+            let s = k as f64 / n as f64;
+            let (x, y) = (a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s);
+            let Some(z) = nearest.at(x, y) else {
+                return;
+            };
+            ring.push(table.insert(x, y, z, true));
+        }
+    }
+    for k in 0..ring.len() {
+        let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+        if a != b {
+            pieces.push(([a as usize, b as usize], INNER_BORDER));
+        }
+    }
 }
 
 /// Keep the nearest segments as constraints; split crossings at a shared vertex when heights

@@ -71,11 +71,40 @@ pub struct ReliefParams {
     /// Acceleration grid: cells per triangle (> 0; about 1-2 gives one or two triangles per
     /// cell).
     pub grid_cells_per_triangle: f64,
+    /// How the surface spans the gaps between the segments: the paper's interpolation, or depth
+    /// steps kept as steps and the border at the height of what is near it.
+    pub shape: ReliefShape,
+    /// [`ReliefShape::Stepped`]: an edge of the triangulation between two segments is a depth
+    /// step when its ends' heights differ by more than this, metres (> 0)...
+    pub step_min_height_m: f64,
+    /// ... and a triangle on it is steeper than this (the gradient of its height on the area;
+    /// > 0, 1 is 45 degrees).
+    pub step_min_slope: f64,
+    /// [`ReliefShape::Stepped`]: width of a step's wall on the area, metres (> 0, less than the
+    /// frame's width when there is a frame): the surface drops from the nearer end's height to
+    /// the farther end's within this distance of the nearer end.
+    pub step_width_m: f64,
+}
+
+/// How the relief spans the gaps between the 3-D segments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReliefShape {
+    /// The paper's surface: the constrained Delaunay triangulation interpolates the height
+    /// linearly everywhere, across depth steps too, and the area's border is at the back plane.
+    Interpolated,
+    /// Depth steps kept as steps: where a triangle spans a step (see
+    /// [`ReliefParams::step_min_height_m`]), the surface holds the farther height up to a wall
+    /// [`ReliefParams::step_width_m`] wide at the nearer side, as at an occluding edge; the
+    /// frame's inner border takes the height of the nearest segment or point, so the area does
+    /// not ramp down to the back plane (the frame itself does).
+    Stepped,
 }
 
 impl ReliefParams {
     /// Defaults for a scene map: 0.3 mm merging, a 5 mm frame with a vertex every 2 cm, 2 mm
-    /// crossing tolerance, one grid cell per triangle.
+    /// crossing tolerance, one grid cell per triangle; depth steps kept as steps
+    /// ([`ReliefShape::Stepped`]) where heights differ by more than 3 mm across a triangle
+    /// steeper than 0.5 (27 degrees), with 1 mm walls.
     pub fn new(scene_map: SceneMap) -> ReliefParams {
         ReliefParams {
             scene_map,
@@ -84,6 +113,10 @@ impl ReliefParams {
             border_spacing_m: 0.02,
             crossing_tolerance_m: 0.002,
             grid_cells_per_triangle: 1.0,
+            shape: ReliefShape::Stepped,
+            step_min_height_m: 0.003,
+            step_min_slope: 0.5,
+            step_width_m: 0.001,
         }
     }
 
@@ -135,6 +168,26 @@ impl ReliefParams {
                 "crossing_tolerance_m",
                 self.crossing_tolerance_m,
                 "finite and >= 0",
+            );
+        }
+        if !(self.step_min_height_m > 0.0 && self.step_min_height_m.is_finite()) {
+            return err(
+                "step_min_height_m",
+                self.step_min_height_m,
+                "finite and > 0",
+            );
+        }
+        if !(self.step_min_slope > 0.0 && self.step_min_slope.is_finite()) {
+            return err("step_min_slope", self.step_min_slope, "finite and > 0");
+        }
+        if !(self.step_width_m > self.merge_distance_m
+            && (self.frame_width_m == 0.0 || self.step_width_m < self.frame_width_m)
+            && self.step_width_m < 0.25 * smaller_side)
+        {
+            return err(
+                "step_width_m",
+                self.step_width_m,
+                "> merge_distance_m and < frame_width_m (when there is a frame)",
             );
         }
         if !(self.grid_cells_per_triangle > 0.0 && self.grid_cells_per_triangle <= 64.0) {

@@ -15,6 +15,7 @@
 //!
 //! [`SceneMap`]: videt_control::SceneMap
 
+mod border;
 mod build;
 mod clip;
 pub mod export;
@@ -22,6 +23,7 @@ mod grid;
 mod input;
 mod model;
 pub mod region;
+mod steps;
 
 pub use build::{
     build_from_device, build_from_scene, BuildError, BuildReport, BuildTimings, InputItem,
@@ -29,7 +31,8 @@ pub use build::{
 };
 pub use grid::TriangleGrid;
 pub use input::{
-    params_for_view, DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, SceneSegment3,
+    params_for_view, DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, ReliefShape,
+    SceneSegment3,
 };
 pub use model::{Impact, ModelStats, ReliefModel};
 

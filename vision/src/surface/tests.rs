@@ -28,7 +28,8 @@ fn square(x0: f64, y0: f64, x1: f64, y1: f64, z: f64) -> [DeviceSegment; 4] {
     ]
 }
 
-/// The step scene: `z = 0.40` for `x <= 0.19`, `0.42` for `x >= 0.21`, a ramp between.
+/// The step scene: `z = 0.40` for `x <= 0.19`, `0.42` for `x >= 0.21`, a ramp between (the
+/// paper's interpolated surface).
 fn step_scene() -> ReliefModel {
     let segs = [
         seg([0.10, 0.05, 0.40], [0.10, 0.25, 0.40]),
@@ -36,14 +37,23 @@ fn step_scene() -> ReliefModel {
         seg([0.21, 0.05, 0.42], [0.21, 0.25, 0.42]),
         seg([0.30, 0.05, 0.42], [0.30, 0.25, 0.42]),
     ];
-    build_from_device(&segs, &[], &params()).unwrap().0
+    build_from_device(&segs, &[], &interpolated()).unwrap().0
 }
 
-/// The box scene: a 10 cm square top at `z = 0.38` on a 20 cm base outline at `0.43`.
+/// The paper's surface: interpolated across steps (the scenes whose queries are checked
+/// against analytic ramps).
+fn interpolated() -> ReliefParams {
+    let mut p = params();
+    p.shape = ReliefShape::Interpolated;
+    p
+}
+
+/// The box scene: a 10 cm square top at `z = 0.38` on a 20 cm base outline at `0.43` (the
+/// paper's interpolated surface).
 fn box_scene() -> ReliefModel {
     let mut segs = square(0.15, 0.10, 0.25, 0.20, 0.38).to_vec();
     segs.extend(square(0.10, 0.05, 0.30, 0.25, 0.43));
-    build_from_device(&segs, &[], &params()).unwrap().0
+    build_from_device(&segs, &[], &interpolated()).unwrap().0
 }
 
 #[test]
@@ -367,4 +377,92 @@ proptest! {
             }
         }
     }
+}
+
+/// Two parallel segments 7 cm apart: a near one (`z = 0.38`) at `x = 0.15`, a far one
+/// (`z = 0.43`) at `x = 0.22`, the depth step of an occluding edge in front of a background.
+fn occluding_edge(shape: ReliefShape) -> ReliefModel {
+    let segs = [
+        seg([0.15, 0.05, 0.38], [0.15, 0.25, 0.38]),
+        seg([0.22, 0.05, 0.43], [0.22, 0.25, 0.43]),
+    ];
+    let mut p = params();
+    p.shape = shape;
+    build_from_device(&segs, &[], &p).unwrap().0
+}
+
+#[test]
+fn a_depth_step_is_kept_as_a_step_at_the_near_edge() {
+    let stepped = occluding_edge(ReliefShape::Stepped);
+    let ramped = occluding_edge(ReliefShape::Interpolated);
+    for y in [0.08, 0.15, 0.22] {
+        // On the near segment: its height.
+        assert!((stepped.height_at(0.15, y).unwrap().z_m - 0.38).abs() < 1e-9);
+        // Past the 1 mm wall, the far height all the way to the far segment.
+        for x in [0.152, 0.16, 0.185, 0.21] {
+            let z = stepped.height_at(x, y).unwrap().z_m;
+            assert!((z - 0.43).abs() < 1e-9, "({x}, {y}): {z}");
+        }
+        // Inside the wall (at most 1 mm wide, narrower where a triangle's edge crosses it
+        // obliquely), in between: the surface is continuous.
+        let wall = stepped.height_at(0.1502, y).unwrap().z_m;
+        assert!(wall > 0.38 && wall < 0.43, "{wall}");
+        // The paper's surface ramps across the gap instead.
+        let mid = ramped.height_at(0.185, y).unwrap().z_m;
+        assert!((mid - 0.405).abs() < 1e-9, "{mid}");
+    }
+    // Still a bas-relief: every normal within 90 degrees of -z, no hole.
+    assert!(stepped.vertex_normals().iter().all(|n| n[2] < 0.0));
+    for k in 0..=200 {
+        let x = 0.1 + 0.15 * f64::from(k) / 200.0;
+        assert!(stepped
+            .height_at(x, 0.15)
+            .is_some_and(|h| h.z_m.is_finite()));
+    }
+}
+
+#[test]
+fn a_gentle_slope_is_not_a_step() {
+    // 2 cm over 7 cm (a slope of 0.29, below the default 0.5): interpolated as a ramp.
+    let segs = [
+        seg([0.15, 0.05, 0.40], [0.15, 0.25, 0.40]),
+        seg([0.22, 0.05, 0.42], [0.22, 0.25, 0.42]),
+    ];
+    let (m, _) = build_from_device(&segs, &[], &params()).unwrap();
+    for y in [0.08, 0.15, 0.22] {
+        let mid = m.height_at(0.185, y).unwrap().z_m;
+        assert!((mid - 0.41).abs() < 1e-9, "{mid}");
+    }
+}
+
+#[test]
+fn the_area_keeps_the_height_near_its_border_and_only_the_frame_ramps() {
+    // A plane of segments at z = 0.40 well inside the area (x 0.1..0.3, y 0.05..0.25).
+    let mut segs = square(0.1, 0.05, 0.3, 0.25, 0.40).to_vec();
+    segs.push(seg([0.1, 0.05, 0.40], [0.3, 0.25, 0.40]));
+    let stepped = build_from_device(&segs, &[], &params()).unwrap().0;
+    let mut p = params();
+    p.shape = ReliefShape::Interpolated;
+    let ramped = build_from_device(&segs, &[], &p).unwrap().0;
+    // Between the segments and the frame's inner edge (5 mm): the plane's height.
+    for (x, y) in [
+        (0.006, 0.15),
+        (0.05, 0.15),
+        (0.2, 0.01),
+        (0.39, 0.29),
+        (0.35, 0.006),
+    ] {
+        let z = stepped.height_at(x, y).unwrap().z_m;
+        assert!((z - 0.40).abs() < 1e-9, "({x}, {y}): {z}");
+        assert!(
+            ramped.height_at(x, y).unwrap().z_m > 0.40 + 1e-4,
+            "({x}, {y})"
+        );
+    }
+    // The frame ramps to the back plane at the area's edge, and beyond is the back plane.
+    let frame = stepped.height_at(0.0025, 0.15).unwrap().z_m;
+    assert!(frame > 0.40 && frame < BACK_Z, "{frame}");
+    assert!((stepped.height_at(0.0, 0.15).unwrap().z_m - BACK_Z).abs() < 1e-12);
+    assert!((stepped.height_at(-0.1, 0.15).unwrap().z_m - BACK_Z).abs() < 1e-12);
+    assert!(stepped.vertex_normals().iter().all(|n| n[2] < 0.0));
 }

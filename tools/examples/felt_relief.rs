@@ -1,0 +1,210 @@
+//! What the wearer touches on the relief of a stereo pair, against the true surface: the pixel
+//! comparison and the felt surface, for the paper's interpolated relief and the stepped one.
+//!
+//! Per pair with ground truth (the shared Middlebury pairs and every pair under the extra
+//! directory, default `target/extra-stereo`, as `phantom_relief` finds them), the relief is
+//! built as the service builds it (`StereoRelief::build`: the default matcher, laid out in front
+//! of the default rig, 20 x 15 cm, 4 cm of relief; the disparity bound measured on the pair)
+//! with each [`ReliefShape`], and:
+//!
+//! - **pixels**: the fraction of the evaluated area more than 5 mm off the true surface
+//!   (`videt_vision::evaluation::relief_deviation`, as `phantom_relief` reports it);
+//! - **felt**: the twin's virtual operator sweeps the area inside the frame in 1 cm rows at
+//!   8 cm/s with a 1 N push, the real control cycle rendering the relief through the CiA 402
+//!   twin (`videt_tools::felt_surface`); the height the finger was held at is compared with the
+//!   true surface: median and 95th percentile of the error, the fraction of the visited 5 mm
+//!   cells more than 5 mm off, and the wires' force in contact (99th percentile, largest).
+//!
+//! `cargo run --release -p videt-tools --example felt_relief -- [--pairs a,b] [--extra DIR]
+//! [--rows-mm MM]`
+
+use std::path::{Path, PathBuf};
+
+use videt_rt_config::Config;
+use videt_service::relief_scene::ReliefLayout;
+use videt_service::stereo_relief::{pinhole, LiveSettings, PairCamera, StereoPair, StereoRelief};
+use videt_tools::felt_surface::{felt_surface, FeltSettings, FeltSurface};
+use videt_tools::haptic_bench::rig::{run, start_position, Experiment, Parts};
+use videt_vision::disparity_range::choose_max_disparity;
+use videt_vision::evaluation::{
+    load_extra_pairs, load_truth_pair, relief_deviation, DisparityMap, TruthPair, MIDDLEBURY_PAIRS,
+};
+use videt_vision::surface::{build_from_scene, ReliefModel, ReliefParams, ReliefShape};
+use videt_vision::{GrayView, RectifiedGeometry, StereoPipeline, VisionParams};
+
+const THRESHOLD_M: f64 = 0.005;
+
+/// The true surface's device `z` at `(x, y)`: the left pixel there, its true depth mapped as
+/// the relief maps depths.
+fn truth_z(
+    params: &ReliefParams,
+    geometry: &RectifiedGeometry,
+    truth: &DisparityMap,
+    x: f64,
+    y: f64,
+) -> Option<f64> {
+    let map = &params.scene_map;
+    let [u, v] = map.workspace_to_image(x, y);
+    let (i, j) = (u.round(), v.round());
+    if !(i >= 0.0 && j >= 0.0 && (i as usize) < truth.width && (j as usize) < truth.height) {
+        return None;
+    }
+    let d = truth.values[j as usize * truth.width + i as usize];
+    if !(d.is_finite() && d > 0.0) {
+        return None;
+    }
+    let (point, _) = geometry.back_project(i, j, f64::from(d), 0.0)?;
+    Some(map.scene_depth_to_relief_z(point.z))
+}
+
+/// One relief's figures.
+struct Figures {
+    pixels_off: f64,
+    felt: FeltSurface,
+    build_ms: f64,
+}
+
+fn measure(
+    config: &Config,
+    model: &ReliefModel,
+    params: &ReliefParams,
+    geometry: &RectifiedGeometry,
+    truth: &DisparityMap,
+    rows_m: f64,
+    build_ms: f64,
+) -> Result<Figures, String> {
+    let pixels_off = relief_deviation(model, params, geometry, truth)
+        .map_err(|e| e.to_string())?
+        .phantom(THRESHOLD_M)
+        .deviating_fraction();
+    let area = params.area_m();
+    let fw = params.frame_width_m.max(params.merge_distance_m) + 0.002;
+    let mut settings = FeltSettings::over([area[0] + fw, area[1] + fw, area[2] - fw, area[3] - fw]);
+    settings.row_spacing_m = rows_m;
+    let start = start_position(config);
+    let trace = run(&Experiment {
+        config: config.clone(),
+        surface: model.clone(),
+        operator: settings.operator(start),
+        duration_s: settings.duration_s(start),
+        parts: Parts::Faithful,
+    })?;
+    let felt = felt_surface(
+        &trace,
+        model,
+        |x, y| truth_z(params, geometry, truth, x, y),
+        &settings,
+    );
+    Ok(Figures {
+        pixels_off,
+        felt,
+        build_ms,
+    })
+}
+
+fn pair_figures(
+    config: &Config,
+    layout: &ReliefLayout,
+    p: TruthPair,
+    rows_m: f64,
+) -> Result<Vec<(ReliefShape, Figures)>, String> {
+    let mut pipeline = StereoPipeline::new();
+    let lv = GrayView::from_image(&p.left).map_err(|e| e.to_string())?;
+    let rv = GrayView::from_image(&p.right).map_err(|e| e.to_string())?;
+    let bound = choose_max_disparity(&mut pipeline, &lv, &rv, &VisionParams::default())
+        .map_err(|e| e.to_string())?;
+    let mut camera = PairCamera::nominal(p.left.width());
+    camera.max_disparity_px = bound.max_px;
+    let truth = p.truth;
+    let pair = StereoPair::new(p.name, p.left, p.right, camera)?;
+    let geometry = pair.geometry();
+    let (relief, _, _) = StereoRelief::build(pair, layout, LiveSettings::default())?;
+    let mut out = Vec::new();
+    for shape in [ReliefShape::Interpolated, ReliefShape::Stepped] {
+        let mut params = *relief.relief_params();
+        params.shape = shape;
+        let t = std::time::Instant::now();
+        let (model, _) = build_from_scene(relief.segments(), &[], &pinhole(&geometry), &params)
+            .map_err(|e| e.to_string())?;
+        let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        let figures = measure(config, &model, &params, &geometry, &truth, rows_m, build_ms)?;
+        out.push((shape, figures));
+    }
+    Ok(out)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let value_of = |flag: &str| {
+        args.iter()
+            .position(|a| a == flag)
+            .and_then(|i| args.get(i + 1))
+            .cloned()
+    };
+    let extra_dir = value_of("--extra").map(PathBuf::from).unwrap_or_else(|| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join("target/extra-stereo")
+    });
+    let only: Option<Vec<String>> =
+        value_of("--pairs").map(|l| l.split(',').map(|s| s.trim().to_string()).collect());
+    let rows_m = match value_of("--rows-mm") {
+        Some(v) => v.parse::<f64>()? * 1e-3,
+        None => 0.01,
+    };
+    if !(rows_m.is_finite() && rows_m >= 0.001) {
+        return Err("--rows-mm must be at least 1".into());
+    }
+    let config = Config::default();
+    let layout = ReliefLayout::for_config(&config);
+
+    let mut pairs = Vec::new();
+    for (name, scale) in MIDDLEBURY_PAIRS {
+        match videt_testdata::data_dir(&format!("stereo/{name}")) {
+            Some(dir) => pairs.push(load_truth_pair(&dir, name, scale, true)?),
+            None => println!("{name}: not in the shared data, skipped"),
+        }
+    }
+    pairs.extend(load_extra_pairs(&extra_dir)?);
+    if let Some(only) = &only {
+        pairs.retain(|p| only.contains(&p.name));
+    }
+    println!(
+        "relief in front of the default rig (20 x 15 cm, 4 cm of relief), the default matcher; \
+         off: > 5 mm from the true surface; felt: a raster of {:.0} mm rows at 8 cm/s, 1 N push",
+        rows_m * 1e3
+    );
+    println!(
+        "{:<11} {:<13} {:>8} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9} {:>9}",
+        "pair",
+        "relief",
+        "build ms",
+        "pixels %",
+        "felt p50",
+        "felt p95",
+        "felt %",
+        "samples",
+        "F p99 N",
+        "F max N"
+    );
+    for p in pairs {
+        let name = p.name.clone();
+        let rows = pair_figures(&config, &layout, p, rows_m).map_err(|e| format!("{name}: {e}"))?;
+        for (shape, f) in rows {
+            println!(
+                "{:<11} {:<13} {:>8.2} {:>8.1}% {:>6.1} mm {:>6.1} mm {:>7.1}% {:>9} {:>9.2} {:>9.2}",
+                name,
+                format!("{shape:?}").to_lowercase(),
+                f.build_ms,
+                100.0 * f.pixels_off,
+                f.felt.median_m * 1e3,
+                f.felt.p95_m * 1e3,
+                100.0 * f.felt.off_fraction,
+                f.felt.samples,
+                f.felt.force_p99_n,
+                f.felt.force_max_n
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,216 @@
+//! Depth steps kept as steps ([`ReliefShape::Stepped`](super::ReliefShape::Stepped)).
+//!
+//! The constrained Delaunay triangulation joins every vertex to its neighbours, so a triangle
+//! between a near segment (an occluding edge) and a far one (the background behind it)
+//! interpolates a ramp where the scene has a cliff. Here every such edge of the mesh gets a
+//! **foot** vertex close to its nearer end, at its farther end's height: the triangles on the
+//! edge are cut at their feet, so the surface holds the far height up to a wall of
+//! `step_width_m` beside the near vertex. The wall is steep but not vertical (the surface
+//! stays a height field, its normals within 90 degrees of the reference normal) and the cut
+//! keeps the mesh conforming: a foot belongs to its edge, shared by the two triangles on it.
+//!
+//! An edge is a step when its ends' heights differ by more than `step_min_height_m` and a
+//! triangle on it is steeper than `step_min_slope` (its height's gradient on the area); never
+//! when it is a constraint (a matched segment follows the scene) or touches a vertex of the
+//! frame, whose ramp to the back plane is the area's edge.
+
+use std::collections::HashMap;
+
+use super::input::ReliefParams;
+
+/// What the cut needs to know about the mesh.
+pub(super) struct MeshTopology<'a> {
+    /// Unordered vertex pairs `(min, max)` that are constraint edges (matched segments).
+    pub constraints: &'a HashMap<(u32, u32), ()>,
+    /// Vertices `0..frame_vertices` are the frame's, at the back plane.
+    pub frame_vertices: u32,
+}
+
+/// The feet of the edges that span a depth step, and the cut mesh.
+pub(super) struct StepCut {
+    /// Edges found to span a step.
+    pub steps: usize,
+}
+
+/// Cut every triangle at its edges' feet (see the module's documentation): new vertices are
+/// appended to `vertices`, `triangles` is replaced by the cut mesh (counter-clockwise kept).
+pub(super) fn cut_steps(
+    vertices: &mut Vec<[f64; 3]>,
+    triangles: &mut Vec<[u32; 3]>,
+    topology: &MeshTopology<'_>,
+    params: &ReliefParams,
+) -> StepCut {
+    let mut steep: HashMap<(u32, u32), ()> = HashMap::with_capacity(triangles.len());
+    for t in triangles.iter() {
+        if slope(vertices, *t).is_some_and(|g| g > params.step_min_slope) {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                steep.insert((a.min(b), a.max(b)), ());
+            }
+        }
+    }
+    let mut feet: HashMap<(u32, u32), Option<u32>> = HashMap::with_capacity(triangles.len() * 2);
+    let mut steps = 0;
+    let mut foot_of = |a: u32, b: u32, vertices: &mut Vec<[f64; 3]>| -> Option<u32> {
+        let key = (a.min(b), a.max(b));
+        if let Some(f) = feet.get(&key) {
+            return *f;
+        }
+        let on_steep = steep.contains_key(&key);
+        let foot = step_foot(vertices, key, on_steep, topology, params).map(|p| {
+            vertices.push(p);
+            steps += 1;
+            (vertices.len() - 1) as u32
+        });
+        feet.insert(key, foot);
+        foot
+    };
+    let mut cut: Vec<[u32; 3]> = Vec::with_capacity(triangles.len() * 2);
+    for &t in triangles.iter() {
+        let f = [
+            foot_of(t[0], t[1], vertices),
+            foot_of(t[1], t[2], vertices),
+            foot_of(t[2], t[0], vertices),
+        ];
+        cut_triangle(t, f, &mut cut);
+    }
+    *triangles = cut;
+    StepCut { steps }
+}
+
+/// The steepness of triangle `t`: the norm of its height's gradient on the area (`None` when
+/// it has no area).
+fn slope(vertices: &[[f64; 3]], t: [u32; 3]) -> Option<f64> {
+    let [p0, p1, p2] = t.map(|i| vertices[i as usize]);
+    let e1 = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
+    let e2 = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
+    let det = e1[0] * e2[1] - e1[1] * e2[0];
+    if det.abs() < 1e-18 {
+        return None;
+    }
+    let gx = (e1[2] * e2[1] - e2[2] * e1[1]) / det;
+    let gy = (e2[2] * e1[0] - e1[2] * e2[0]) / det;
+    Some(gx.hypot(gy))
+}
+
+/// The foot of the edge `(a, b)` when it spans a step (`on_steep`: a triangle on it is steep):
+/// on the edge, `step_width_m` from its nearer end (the smaller `z`), at the farther end's
+/// height.
+fn step_foot(
+    vertices: &[[f64; 3]],
+    (a, b): (u32, u32),
+    on_steep: bool,
+    topology: &MeshTopology<'_>,
+    params: &ReliefParams,
+) -> Option<[f64; 3]> {
+    if a < topology.frame_vertices
+        || b < topology.frame_vertices
+        || topology.constraints.contains_key(&(a, b))
+    {
+        return None;
+    }
+    let (pa, pb) = (vertices[a as usize], vertices[b as usize]);
+    let (near, far) = if pa[2] <= pb[2] { (pa, pb) } else { (pb, pa) };
+    let rise = far[2] - near[2];
+    let length = (far[0] - near[0]).hypot(far[1] - near[1]);
+    let is_step = on_steep && rise > params.step_min_height_m && length > 2.0 * params.step_width_m;
+    is_step.then(|| {
+        let s = params.step_width_m / length;
+        [
+            near[0] + (far[0] - near[0]) * s,
+            near[1] + (far[1] - near[1]) * s,
+            far[2],
+        ]
+    })
+}
+
+/// The triangle `t` (counter-clockwise) cut at the feet `f` of its edges `t0 t1`, `t1 t2`,
+/// `t2 t0`, appended to `out`, counter-clockwise.
+fn cut_triangle(t: [u32; 3], f: [Option<u32>; 3], out: &mut Vec<[u32; 3]>) {
+    match f {
+        [None, None, None] => out.push(t),
+        [Some(_), Some(_), Some(_)] => {
+            let [f01, f12, f20] = f.map(|x| x.unwrap_or_default());
+            out.extend([
+                [t[0], f01, f20],
+                [t[1], f12, f01],
+                [t[2], f20, f12],
+                [f01, f12, f20],
+            ]);
+        }
+        _ => {
+            // Rotate so that the cut edges come first: one foot on t0 t1, or two on t0 t1 and
+            // t2 t0 (the edges at t0).
+            let rotated = (0..3).find_map(|r| {
+                let (tt, ff) = (rotate(t, r), rotate(f, r));
+                let one = ff[0].is_some() && ff[1].is_none() && ff[2].is_none();
+                let two = ff[0].is_some() && ff[1].is_none() && ff[2].is_some();
+                (one || two).then_some((tt, ff))
+            });
+            let Some((t, f)) = rotated else {
+                out.push(t);
+                return;
+            };
+            match (f[0], f[2]) {
+                (Some(f01), None) => out.extend([[t[0], f01, t[2]], [f01, t[1], t[2]]]),
+                (Some(f01), Some(f20)) => {
+                    out.extend([[t[0], f01, f20], [f01, t[1], t[2]], [f01, t[2], f20]])
+                }
+                _ => out.push(t),
+            }
+        }
+    }
+}
+
+fn rotate<T: Copy>(a: [T; 3], r: usize) -> [T; 3] {
+    [a[r % 3], a[(r + 1) % 3], a[(r + 2) % 3]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn signed_area(v: &[[f64; 3]], t: [u32; 3]) -> f64 {
+        let [a, b, c] = t.map(|i| v[i as usize]);
+        0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+    }
+
+    #[test]
+    fn the_slope_is_the_gradient_on_the_area() {
+        let v = vec![
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 2.0, 0.0],
+        ];
+        assert!((slope(&v, [0, 1, 2]).unwrap() - 0.5).abs() < 1e-12);
+        assert_eq!(slope(&v, [0, 2, 3]), None);
+    }
+
+    #[test]
+    fn every_cut_keeps_the_area_and_the_orientation() {
+        let v: Vec<[f64; 3]> = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.1, 0.0, 0.0],
+            [0.9, 0.1, 0.0],
+            [0.0, 0.1, 0.0],
+        ];
+        let whole = signed_area(&v, [0, 1, 2]);
+        for mask in 0..8u32 {
+            let f = [3, 4, 5].map(|i| (mask & (1 << (i - 3)) != 0).then_some(i));
+            let mut out = Vec::new();
+            cut_triangle([0, 1, 2], f, &mut out);
+            let total: f64 = out.iter().map(|&t| signed_area(&v, t)).sum();
+            assert!((total - whole).abs() < 1e-12, "mask {mask}: {total}");
+            assert!(out.iter().all(|&t| signed_area(&v, t) > 0.0), "mask {mask}");
+            let used = f.iter().flatten().count();
+            assert!(
+                f.iter()
+                    .flatten()
+                    .all(|i| out.iter().any(|t| t.contains(i))),
+                "mask {mask}: {used} feet, not all used"
+            );
+        }
+    }
+}
