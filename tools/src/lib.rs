@@ -6,8 +6,10 @@
 //! nothing uses it but the `videt` binary.
 #![warn(missing_docs)]
 
+pub mod cli;
 pub mod felt;
 pub mod haptic_bench;
+pub mod manual;
 pub mod plotting;
 pub mod replay;
 pub mod tool;
