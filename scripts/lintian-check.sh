@@ -23,7 +23,7 @@ for pkg in "$@"; do
   esac
   echo "== lintian $(basename "$pkg")"
   status=0
-  out=$(lintian --info --fail-on error,warning --no-tag-display-limit "$file" 2>&1) || status=$?
+  out=$(lintian --info --fail-on error,warning --tag-display-limit 0 "$file" 2>&1) || status=$?
   printf '%s\n' "$out" | grep -v '^running with root privileges' || true
   [ "$status" = 0 ] || { echo "FAIL: lintian $(basename "$pkg") (exit $status)"; rc=1; }
 done

@@ -12,7 +12,11 @@ fn generate() -> (tempfile::TempDir, Vec<PathBuf>) {
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let files = String::from_utf8(out.stdout)
         .unwrap()
         .lines()
@@ -31,7 +35,7 @@ fn have(tool: &str) -> bool {
 /// Renders a page with groff's man macros, warnings on; returns the text and the warnings.
 fn render(page: &Path) -> (String, String) {
     let out = Command::new("groff")
-        .args(["-man", "-Tutf8", "-ww", "-rLL=80n"])
+        .args(["-man", "-Tutf8", "-P-bcou", "-ww", "-rLL=80n"])
         .arg(page)
         .output()
         .unwrap();
@@ -49,7 +53,10 @@ fn pages_render_without_warnings() {
         return;
     }
     let (_dir, files) = generate();
-    let pages: Vec<_> = files.iter().filter(|f| f.to_string_lossy().contains("/man/man")).collect();
+    let pages: Vec<_> = files
+        .iter()
+        .filter(|f| f.to_string_lossy().contains("/man/man"))
+        .collect();
     assert!(pages.len() >= 20, "{pages:?}");
     for page in &pages {
         let (text, warnings) = render(page);
@@ -58,14 +65,27 @@ fn pages_render_without_warnings() {
     }
     let dir = files[0].ancestors().nth(2).unwrap().to_owned();
     let (videtd, _) = render(&dir.join("man8/videtd.8"));
-    for heading in ["SYNOPSIS", "OPTIONS", "EXIT STATUS", "FILES", "SIGNALS", "SEE ALSO"] {
-        assert!(videtd.contains(heading), "videtd(8) lacks {heading}:\n{videtd}");
+    for heading in [
+        "SYNOPSIS",
+        "OPTIONS",
+        "EXIT STATUS",
+        "FILES",
+        "SIGNALS",
+        "SEE ALSO",
+    ] {
+        assert!(
+            videtd.contains(heading),
+            "videtd(8) lacks {heading}:\n{videtd}"
+        );
     }
     let (init, _) = render(&dir.join("man1/videt-init.1"));
     assert!(init.contains("videt init"), "{init}");
     assert!(init.contains("/var/lib/videt/calibration.toml"), "{init}");
     let (config, _) = render(&dir.join("man5/videt.toml.5"));
-    assert!(config.contains("[control]") && config.contains("t_max_n"), "{config}");
+    assert!(
+        config.contains("[control]") && config.contains("t_max_n"),
+        "{config}"
+    );
     // man-db reads them as the package installs them.
     if have("man") {
         let out = Command::new("man")
@@ -76,7 +96,11 @@ fn pages_render_without_warnings() {
             .unwrap();
         assert!(out.status.success());
         assert!(String::from_utf8_lossy(&out.stdout).contains("SIGNALS"));
-        assert!(out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.stderr.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
 }
 
@@ -86,7 +110,10 @@ fn completions_parse_in_their_shells() {
     let of = |shell: &str| -> Vec<&PathBuf> {
         files
             .iter()
-            .filter(|f| f.to_string_lossy().contains(&format!("/completions/{shell}/")))
+            .filter(|f| {
+                f.to_string_lossy()
+                    .contains(&format!("/completions/{shell}/"))
+            })
             .collect()
     };
     for (shell, check) in [("bash", "-n"), ("zsh", "-n"), ("fish", "--no-execute")] {
@@ -118,5 +145,8 @@ fn completions_parse_in_their_shells() {
     );
     let out = Command::new("bash").args(["-c", &script]).output().unwrap();
     let replies = String::from_utf8_lossy(&out.stdout);
-    assert!(replies.lines().any(|l| l == "tension-calibrate"), "{replies}");
+    assert!(
+        replies.lines().any(|l| l == "tension-calibrate"),
+        "{replies}"
+    );
 }

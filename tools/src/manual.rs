@@ -527,7 +527,7 @@ mod tests {
         }
         assert!(videtd.contains("/run/videt/videtd.sock"));
         let init = &find(&pages, "videt-init").text;
-        assert!(init.contains(".TH VIDET\\-INIT 1"), "{}", &init[..200]);
+        assert!(init.contains(".TH VIDET-INIT 1"), "{}", &init[..200]);
         // The synopsis names the command as it is typed.
         assert!(init.contains("videt init"), "{init}");
         // Its own list of exit codes (its --help's), not the generic one.
