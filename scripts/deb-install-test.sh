@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Debian package install test: builds the videt .deb with cargo-deb, installs it with dpkg into a
+# Debian package install test: builds the videt .deb with cargo-deb (scripts/build-deb.sh), runs
+# lintian on it (no error, no warning: scripts/lintian-check.sh), installs it with dpkg into a
 # clean Debian bookworm root (debootstrap minbase with systemd and udev, as on the backpack
 # computer, but in a chroot where systemd is not running) and checks what the package promises:
 # the user, the files and their owners, the conffile, the service neither enabled nor started, a
-# clean `systemd-analyze verify` of the unit, the binaries running there; then a reinstall keeps
+# clean `systemd-analyze verify` of the unit, the binaries running there (stripped), the manual
+# pages and shell completions where man and each shell look; then a reinstall keeps
 # an edited configuration, and remove and purge leave nothing of the package behind. A second
 # round installs without systemd-sysusers (the maintainer scripts' fallback to useradd). The
 # package under a running systemd is scripts/systemd-in-the-loop.sh.
@@ -104,12 +106,8 @@ t=$(now)
 if [ "$ROOT_ONLY" = 1 ]; then
   :
 elif [ "$BUILD" = 1 ]; then
-  if ! "$CARGO" deb --version >/dev/null 2>&1; then
-    log "installing cargo-deb"
-    "$CARGO" install cargo-deb --locked
-  fi
   log "building the package (release profile; log: $WORK/build.log)"
-  if ! DEB=$("$CARGO" deb 2>"$WORK/build.log" | tail -n 1) || [ ! -f "$DEB" ]; then
+  if ! DEB=$(CARGO="$CARGO" bash scripts/build-deb.sh 2>"$WORK/build.log" | tail -n 1) || [ ! -f "$DEB" ]; then
     tail -n 30 "$WORK/build.log" >&2
     die "cargo deb failed"
   fi
@@ -121,6 +119,15 @@ fi
 if [ "$ROOT_ONLY" = 0 ]; then
   echo "package: $DEB"
   phase_done package "$t"
+  # lintian: a new error or warning fails the test (and CI).
+  t=$(now)
+  DBGSYM=$(dirname "$DEB")/$(basename "$DEB" | sed 's/^videt_/videt-dbgsym_/; s/\.deb$/.ddeb/')
+  [ -f "$DBGSYM" ] || die "no debug symbols package $DBGSYM beside $DEB"
+  echo "debug symbols: $DBGSYM"
+  # The -dbgsym package is not checked yet: cargo-deb writes it with Priority: extra and without
+  # its own copyright and changelog (debhelper's carry a doc symlink to the main package's).
+  bash scripts/lintian-check.sh "$DEB" || die "lintian reports errors or warnings"
+  phase_done lintian "$t"
 fi
 
 # --- a clean bookworm root --------------------------------------------------------------------
@@ -228,7 +235,11 @@ export ROOT
 export -f root_processes
 FILES="/usr/bin/videtd /usr/bin/videt /lib/systemd/system/videtd.service \
   /usr/lib/sysusers.d/videt.conf /usr/lib/udev/rules.d/60-videt.rules /etc/videt/videt.toml /usr/share/doc/videt/README.md \
-  /usr/share/doc/videt/videt.example.toml /usr/share/doc/videt/copyright"
+  /usr/share/doc/videt/videt.example.toml /usr/share/doc/videt/copyright \
+  /usr/share/doc/videt/changelog.Debian.gz /usr/share/man/man8/videtd.8.gz /usr/share/man/man1/videt.1.gz \
+  /usr/share/man/man1/videt-init.1.gz /usr/share/man/man1/videt-config-check.1.gz \
+  /usr/share/man/man5/videt.toml.5.gz /usr/share/bash-completion/completions/videt \
+  /usr/share/zsh/vendor-completions/_videt /usr/share/fish/vendor_completions.d/videt.fish"
 USER_CHECK='getent passwd videt | cut -d: -f6,7 | grep -qx "/var/lib/videt:/usr/sbin/nologin"
   groups=" $(id -nG videt) "
   for g in videt video gpio spi; do case $groups in *" $g "*) ;; *) echo "videt not in $g:$groups"; exit 1 ;; esac; done'
@@ -270,6 +281,21 @@ check "videt config check /etc/videt/videt.toml (as user videt) succeeds" \
 check "videt --version" 'videt --version | grep -q "^videt 0\."'
 check "videtd --version: built with V4L2 capture" 'videtd --version | grep -q "with V4L2 capture"'
 check "videtd --help" 'videtd --help | grep -q -- "--config"'
+check "videt --version and videtd --version name the commit" \
+  'videt --version | grep -q "(commit [0-9a-f]\{12\}\|(commit unknown"
+   videtd --version | grep -q "(commit [0-9a-f]\{12\}\|(commit unknown"'
+check_host "the installed binaries are stripped (their symbols in videt-dbgsym)" \
+  "for b in '$ROOT/usr/bin/videtd' '$ROOT/usr/bin/videt'; do
+     ! readelf -S --wide \"\$b\" | grep -q -e '\\.debug_' -e '\\.symtab' || { echo \"\$b is not stripped\"; exit 1; }
+   done"
+check "manual pages: gzipped, well-formed roff with a NAME section" \
+  'for p in /usr/share/man/man8/videtd.8.gz /usr/share/man/man1/videt-init.1.gz /usr/share/man/man5/videt.toml.5.gz; do
+     gzip -t "$p" && zcat "$p" | grep -q "^\.SH NAME"
+   done
+   [ "$(ls /usr/share/man/man1/videt*.1.gz | wc -l)" -ge 19 ]'
+check "bash completion parses and completes the subcommands" \
+  'bash -n /usr/share/bash-completion/completions/videt
+   bash -c ". /usr/share/bash-completion/completions/videt; COMP_WORDS=(videt ini); COMP_CWORD=1; COMP_LINE=\"videt ini\"; COMP_POINT=9; _videt videt ini videt; printf \"%s\n\" \"\${COMPREPLY[@]}\"" | grep -qx init'
 
 echo "--- reinstall over an edited configuration"
 check "edit /etc/videt/videt.toml" 'echo "# edited for this device" >>/etc/videt/videt.toml'

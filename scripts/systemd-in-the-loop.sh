@@ -40,9 +40,8 @@ mkdir -p "$SD"
 # --- the package ------------------------------------------------------------------------------
 package() {
   if [ "$BUILD" = 1 ]; then
-    command -v cargo-deb >/dev/null 2>&1 || cargo install cargo-deb --locked
     log "building the package (release, with V4L2 capture, in $GUEST_TARGET)"
-    DEB=$(CARGO_TARGET_DIR=$GUEST_TARGET cargo deb 2>>"$KIL/build.log" | tail -n 1) ||
+    DEB=$(CARGO_TARGET_DIR=$GUEST_TARGET bash "$REPO/scripts/build-deb.sh" 2>>"$KIL/build.log" | tail -n 1) ||
       { tail -30 "$KIL/build.log" >&2; return 1; }
   else
     # shellcheck disable=SC2012 # the newest by time; the names are cargo-deb's

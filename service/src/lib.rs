@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod camera_relief;
+pub mod cli;
 pub mod colour_thread;
 pub mod drive_report;
 pub mod init;

@@ -6,9 +6,11 @@
 //! nothing uses it but the `videt` binary.
 #![warn(missing_docs)]
 
+pub mod cli;
 pub mod felt;
 pub mod felt_surface;
 pub mod haptic_bench;
+pub mod manual;
 pub mod plotting;
 pub mod replay;
 pub mod tool;

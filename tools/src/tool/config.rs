@@ -21,6 +21,99 @@ pub enum ConfigCommand {
     },
 }
 
+/// The resolved settings as TOML in the example file's layout (`config/videt.example.toml`): its
+/// sections in its order, each setting on one line (arrays inline), a blank line between
+/// sections, so a technician can compare the two line by line.
+pub fn resolved_settings(config: &Config) -> Result<String, toml::ser::Error> {
+    // The non-pretty writer keeps arrays on one line and the settings in the schema's order.
+    let text = toml::to_string(config)?;
+    // Split into sections: a header line and the lines up to the next top-level header (a
+    // sub-table `[a.b]` stays with `[a]`).
+    let mut sections: Vec<(String, Vec<&str>)> = Vec::new();
+    for line in text.lines() {
+        let header = line
+            .strip_prefix("[[")
+            .or_else(|| line.strip_prefix('['))
+            .map(|h| {
+                h.trim_end_matches(']')
+                    .split('.')
+                    .next()
+                    .unwrap_or(h)
+                    .to_owned()
+            });
+        match header {
+            Some(name) if sections.last().is_none_or(|(last, _)| *last != name) => {
+                sections.push((name, vec![line]))
+            }
+            _ => match sections.last_mut() {
+                Some((_, lines)) => lines.push(line),
+                None => sections.push((String::new(), vec![line])),
+            },
+        }
+    }
+    let layout = example_layout();
+    // Stable sorts: what the example lacks keeps its place after what it has.
+    sections.sort_by_key(|(name, _)| {
+        layout
+            .iter()
+            .position(|(o, _)| o == name)
+            .unwrap_or(layout.len())
+    });
+    for (name, lines) in &mut sections {
+        let Some((_, keys)) = layout.iter().find(|(o, _)| o == name) else {
+            continue;
+        };
+        // The section's own settings, between its header and a sub-table's header if any.
+        let end = lines
+            .iter()
+            .skip(1)
+            .position(|l| l.starts_with('['))
+            .map_or(lines.len(), |i| i + 1);
+        let start = usize::from(lines.first().is_some_and(|l| l.starts_with('[')));
+        if start < end {
+            lines[start..end].sort_by_key(|l| {
+                let key = l.split_once('=').map_or("", |(k, _)| k.trim());
+                keys.iter().position(|k| k == key).unwrap_or(keys.len())
+            });
+        }
+    }
+    let mut out = String::new();
+    for (_, lines) in &sections {
+        let lines: Vec<&str> = lines
+            .iter()
+            .copied()
+            .filter(|l| !l.trim().is_empty())
+            .collect();
+        if lines.is_empty() {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push('\n');
+        }
+        for l in lines {
+            out.push_str(l);
+            out.push('\n');
+        }
+    }
+    Ok(out)
+}
+
+/// The sections of the example configuration and the settings of each, in its order.
+fn example_layout() -> Vec<(String, Vec<String>)> {
+    let mut layout: Vec<(String, Vec<String>)> = Vec::new();
+    for line in crate::manual::EXAMPLE_CONFIG.lines() {
+        if let Some(h) = line.strip_prefix('[') {
+            layout.push((h.trim_end_matches(']').to_owned(), Vec::new()));
+        } else if let (Some((_, keys)), Some((key, _))) = (layout.last_mut(), line.split_once('='))
+        {
+            if !line.starts_with([' ', '#']) {
+                keys.push(key.trim().to_owned());
+            }
+        }
+    }
+    layout
+}
+
 /// Run a configuration subcommand.
 pub fn run(command: &ConfigCommand) -> ToolResult {
     match command {
@@ -28,7 +121,7 @@ pub fn run(command: &ConfigCommand) -> ToolResult {
             let config = Config::load(file)?;
             videt_assembly::bus_budget::check(&config)?;
             videt_runtime::tension_budget::plan(&config)?;
-            let resolved = toml::to_string_pretty(&config)?;
+            let resolved = resolved_settings(&config)?;
             println!(
                 "# {}: valid\n# {}\n# {}\n# {}\n{resolved}",
                 file.display(),
@@ -38,5 +131,75 @@ pub fn run(command: &ConfigCommand) -> ToolResult {
             );
             Ok(ExitCode::SUCCESS)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `(section, key)` of every setting of a TOML text, in order.
+    fn settings(text: &str) -> Vec<(String, String)> {
+        let mut section = String::new();
+        let mut out = Vec::new();
+        for line in text.lines().map(str::trim) {
+            if let Some(h) = line.strip_prefix('[') {
+                section = h.trim_end_matches(']').to_owned();
+            } else if let Some((key, _)) = line.split_once('=') {
+                if !line.starts_with('#') {
+                    out.push((section.clone(), key.trim().to_owned()));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn resolved_settings_read_like_the_example() {
+        let example = crate::manual::EXAMPLE_CONFIG;
+        let config: Config = toml::from_str(example).unwrap();
+        let text = resolved_settings(&config).unwrap();
+        // Every setting on one line: no array or table spread over lines.
+        for line in text.lines() {
+            assert!(
+                !line.ends_with('[') && !line.ends_with(','),
+                "spread out: {line}\n{text}"
+            );
+            assert!(!line.starts_with(' '), "indented: {line}\n{text}");
+        }
+        assert!(
+            text.contains("guides_m = [[0.0, 0.0], [0.37, 0.0], [0.185, 0.3]]"),
+            "{text}"
+        );
+        // The sections in the example's order, and each section's settings in its order.
+        let headers = |t: &str| -> Vec<String> {
+            t.lines()
+                .filter(|l| l.starts_with('['))
+                .map(str::to_owned)
+                .collect()
+        };
+        assert_eq!(headers(&text), headers(example), "{text}");
+        let ours = settings(&text);
+        let theirs = settings(example);
+        let mut at = 0;
+        for s in &theirs {
+            let found = ours[at..].iter().position(|o| o == s);
+            let Some(i) = found else {
+                panic!(
+                    "{}.{} missing or out of the example's order in\n{text}",
+                    s.0, s.1
+                );
+            };
+            at += i + 1;
+        }
+        // And it is the configuration it resolves.
+        let back: Config = toml::from_str(&text).unwrap();
+        assert_eq!(
+            toml::to_string(&back).unwrap(),
+            toml::to_string(&config).unwrap()
+        );
+        // Sections apart by one blank line, as in the example.
+        assert!(text.contains("\n\n[transmission]\n"), "{text}");
+        assert!(!text.contains("\n\n\n"));
     }
 }
