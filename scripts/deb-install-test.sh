@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Debian package install test: builds the videt .deb with cargo-deb (scripts/build-deb.sh), runs
-# lintian on it (no error, no warning: scripts/lintian-check.sh), installs it with dpkg into a
-# clean Debian bookworm root (debootstrap minbase with systemd and udev, as on the backpack
-# computer, but in a chroot where systemd is not running) and checks what the package promises:
-# the user, the files and their owners, the conffile, the service neither enabled nor started, a
-# clean `systemd-analyze verify` of the unit, the binaries running there (stripped), the manual
-# pages and shell completions where man and each shell look; then a reinstall keeps
-# an edited configuration, and remove and purge leave nothing of the package behind. A second
+# lintian on it and on its videt-dbgsym .ddeb (no error, no warning: scripts/lintian-check.sh),
+# installs it with dpkg into a clean Debian bookworm root (debootstrap minbase with systemd and
+# udev, as on the backpack computer, but in a chroot where systemd is not running; man-db added
+# to read the pages) and checks what the package promises: the user, the files and their owners,
+# the conffile, the service neither enabled nor started, a clean `systemd-analyze verify` of the
+# unit, the binaries running there (stripped, their build ids in videt-dbgsym), `man videtd`,
+# `man videt-init` and `man videt.toml` and the shell completions where each shell looks; then a
+# reinstall keeps an edited configuration, and remove and purge leave nothing of the package behind. A second
 # round installs without systemd-sysusers (the maintainer scripts' fallback to useradd). The
 # package under a running systemd is scripts/systemd-in-the-loop.sh.
 #
@@ -21,7 +22,10 @@
 # be installed. The package is built from the guests' binaries, in target/guest (release, with
 # V4L2 capture; scripts/kil/host.sh), and written to target/guest/debian. The bootstrapped root
 # is cached as target/deb-test/bookworm-minbase-systemd-udev-v4l.tar: later runs unpack it
-# instead of bootstrapping (delete it to bootstrap afresh). CARGO names the cargo command to run
+# instead of bootstrapping (delete it to bootstrap afresh). man-db and what it needs beside that
+# root (groff-base, ...) are fetched from the root's mirror on the first run, kept as .debs in
+# target/deb-test/man-db-debs and installed from there into each run's root, so later runs need
+# no network; the root stays that of the systemd guest. CARGO names the cargo command to run
 # (default: cargo). Prints PASS/FAIL lines and exits 1 on any FAIL.
 # The checks are shell snippets run inside the root: their $ expand there, not here.
 # shellcheck disable=SC2016
@@ -36,6 +40,8 @@ SUITE=bookworm
 # v4l-utils for the systemd guest to set its emulated cameras up.
 INCLUDE=systemd,udev,v4l-utils
 CACHE=$WORK/$SUITE-minbase-systemd-udev-v4l.tar
+# man-db's packages, fetched once for that root (removed with it when it is bootstrapped afresh).
+MAN_DEBS=$WORK/man-db-debs
 CARGO=${CARGO:-cargo}
 export CARGO_TARGET_DIR=$REPO/target/guest
 BUILD=1
@@ -124,9 +130,7 @@ if [ "$ROOT_ONLY" = 0 ]; then
   DBGSYM=$(dirname "$DEB")/$(basename "$DEB" | sed 's/^videt_/videt-dbgsym_/; s/\.deb$/.ddeb/')
   [ -f "$DBGSYM" ] || die "no debug symbols package $DBGSYM beside $DEB"
   echo "debug symbols: $DBGSYM"
-  # The -dbgsym package is not checked yet: cargo-deb writes it with Priority: extra and without
-  # its own copyright and changelog (debhelper's carry a doc symlink to the main package's).
-  bash scripts/lintian-check.sh "$DEB" || die "lintian reports errors or warnings"
+  bash scripts/lintian-check.sh "$DEB" "$DBGSYM" || die "lintian reports errors or warnings"
   phase_done lintian "$t"
 fi
 
@@ -168,6 +172,7 @@ if [ ! -f "$CACHE" ]; then
   unmount_under "$WORK/bootstrap"
   rm -f "$WORK/bootstrap"/var/cache/apt/archives/*.deb
   tar -C "$WORK/bootstrap" -cf "$CACHE.tmp" . && mv "$CACHE.tmp" "$CACHE"
+  rm -rf "$MAN_DEBS"
   remove_tree "$WORK/bootstrap"
   phase_done bootstrap "$t"
 fi
@@ -185,6 +190,7 @@ for dev in null:1:3 zero:1:5 full:1:7 random:1:8 urandom:1:9 tty:5:0; do
   [ -c "$ROOT/dev/$name" ] || { rm -f "$ROOT/dev/$name"; mknod -m 666 "$ROOT/dev/$name" c "$major" "$minor"; }
 done
 cp "$DEB" "$ROOT/tmp/videt.deb"
+cp "$DBGSYM" "$ROOT/tmp/videt-dbgsym.deb"
 phase_done unpack-root "$t"
 
 # --- checks -----------------------------------------------------------------------------------
@@ -247,6 +253,26 @@ DIRS_CHECK='for d in /var/log/videt /var/lib/videt; do
     s=$(stat -c "%U:%G %a" "$d"); [ "$s" = "videt:videt 755" ] || { echo "$d: $s"; exit 1; }
   done'
 
+# man-db (man, groff) as a technician's system has it: from the kept .debs, fetched with the
+# root's apt on the first run. Installed before the package, so its trigger indexes the pages.
+t=$(now)
+if ! ls "$MAN_DEBS"/*.deb >/dev/null 2>&1; then
+  log "fetching man-db for the root (once; kept in $MAN_DEBS)"
+  rm -rf "$MAN_DEBS.tmp" && mkdir -p "$MAN_DEBS.tmp"
+  { in_root apt-get update -qq &&
+    in_root apt-get install -y -qq --download-only --no-install-recommends man-db; } \
+    >"$WORK/man-db-fetch.log" 2>&1 || { tail -n 20 "$WORK/man-db-fetch.log" >&2; die "fetching man-db failed"; }
+  cp "$ROOT"/var/cache/apt/archives/*.deb "$MAN_DEBS.tmp/"
+  rm -rf "$MAN_DEBS" && mv "$MAN_DEBS.tmp" "$MAN_DEBS"
+  rm -f "$ROOT"/var/cache/apt/archives/*.deb
+fi
+mkdir -p "$ROOT/tmp/man-db"
+cp "$MAN_DEBS"/*.deb "$ROOT/tmp/man-db/"
+in_root sh -c 'dpkg -i /tmp/man-db/*.deb' >"$WORK/man-db-install.log" 2>&1 ||
+  { tail -n 20 "$WORK/man-db-install.log" >&2; die "installing man-db in the root failed"; }
+rm -rf "$ROOT/tmp/man-db"
+phase_done man-db "$t"
+
 t=$(now)
 echo "--- install (systemd-sysusers; systemd not running)"
 install_package "$WORK/dpkg-install.log"
@@ -284,15 +310,44 @@ check "videtd --help" 'videtd --help | grep -q -- "--config"'
 check "videt --version and videtd --version name the commit" \
   'videt --version | grep -q "(commit [0-9a-f]\{12\}\|(commit unknown"
    videtd --version | grep -q "(commit [0-9a-f]\{12\}\|(commit unknown"'
+# rustc's .debug_gdb_scripts is loaded with the program (it names gdb's pretty-printers, no
+# symbol): strip keeps it, as dh_strip does.
 check_host "the installed binaries are stripped (their symbols in videt-dbgsym)" \
   "for b in '$ROOT/usr/bin/videtd' '$ROOT/usr/bin/videt'; do
-     ! readelf -S --wide \"\$b\" | grep -q -e '\\.debug_' -e '\\.symtab' || { echo \"\$b is not stripped\"; exit 1; }
+     left=\$(readelf -S --wide \"\$b\" | grep -e '\\.debug_' -e '\\.symtab' | grep -v '\\.debug_gdb_scripts' || true)
+     [ -z \"\$left\" ] || { echo \"\$b is not stripped: \$left\"; exit 1; }
    done"
 check "manual pages: gzipped, well-formed roff with a NAME section" \
   'for p in /usr/share/man/man8/videtd.8.gz /usr/share/man/man1/videt-init.1.gz /usr/share/man/man5/videt.toml.5.gz; do
      gzip -t "$p" && zcat "$p" | grep -q "^\.SH NAME"
    done
    [ "$(ls /usr/share/man/man1/videt*.1.gz | wc -l)" -ge 19 ]'
+# man as a technician types it: man-db finds the page, groff formats it (no pager: not a terminal).
+rc=0
+MAN_OUT=$(in_root sh -ec 'for page in videtd videt-init "5 videt.toml"; do
+    out=$(MANWIDTH=200 man $page 2>&1) || { printf "man %s failed: %s\n" "$page" "$out"; exit 1; }
+    printf "%s\n" "$out" | sed -n "/^NAME\$/{n;s/^ *//;p;q}"
+  done' 2>&1) || rc=$?
+printf '%s\n' "$MAN_OUT" >"$WORK/man.log"
+[ "$rc" != 0 ] || printf '%s\n' "$MAN_OUT" | grep -Eq '^videtd +- +VIDET service' || rc=1
+[ "$rc" != 0 ] || printf '%s\n' "$MAN_OUT" | grep -Eq '^videt.init +- +Auto-initialize the rig' || rc=1
+[ "$rc" != 0 ] || printf '%s\n' "$MAN_OUT" | grep -Eq '^videt\.toml +- ' || rc=1
+report "man videtd, man videt-init, man 5 videt.toml print their NAME lines" "$rc" "$MAN_OUT"
+check "videt-dbgsym installs beside videt; its doc is videt's (copyright, changelog)" \
+  'dpkg -i /tmp/videt-dbgsym.deb >/dev/null
+   [ "$(dpkg-query -W -f="\${Status}" videt-dbgsym)" = "install ok installed" ]
+   [ "$(readlink /usr/share/doc/videt-dbgsym)" = videt ]
+   [ -f /usr/share/doc/videt-dbgsym/copyright ] && [ -f /usr/share/doc/videt-dbgsym/changelog.Debian.gz ]'
+check_host "videt-dbgsym holds the installed binaries' symbols, by their build ids" \
+  "for b in '$ROOT/usr/bin/videtd' '$ROOT/usr/bin/videt'; do
+     id=\$(readelf -n \"\$b\" | awk '/Build ID:/ { print \$3 }')
+     [ -n \"\$id\" ] || { echo \"\$b: no build id\"; exit 1; }
+     f='$ROOT/usr/lib/debug/.build-id/'\${id:0:2}/\${id:2}.debug
+     readelf -S --wide \"\$f\" | grep -q '\\.debug_line' || { echo \"no line tables in \$f\"; exit 1; }
+   done"
+check "dpkg -r videt-dbgsym removes it" 'dpkg -r videt-dbgsym >/dev/null
+  ! dpkg-query -W -f="\${Status}" videt-dbgsym 2>/dev/null | grep -q "ok installed"
+  [ ! -e /usr/lib/debug/.build-id ] || [ -z "$(find /usr/lib/debug/.build-id -name "*.debug")" ]'
 check "bash completion parses and completes the subcommands" \
   'bash -n /usr/share/bash-completion/completions/videt
    bash -c ". /usr/share/bash-completion/completions/videt; COMP_WORDS=(videt ini); COMP_CWORD=1; COMP_LINE=\"videt ini\"; COMP_POINT=9; _videt videt ini videt; printf \"%s\n\" \"\${COMPREPLY[@]}\"" | grep -qx init'
@@ -340,6 +395,7 @@ check "restore systemd-sysusers" 'mv /usr/bin/systemd-sysusers.hidden /usr/bin/s
 phase_done "install-checks(fallback)" "$t"
 
 echo "systemd-analyze: $(tr '\n' ' ' <"$WORK/systemd-analyze.log")"
+echo "man (NAME lines): $(paste -sd '|' "$WORK/man.log" | sed 's/|/ | /g')"
 echo "times: ${TIMES[*]}; total $(($(now) - T0))s"
 if [ "$FAILS" -gt 0 ]; then
   echo "deb-install-test: FAIL ($FAILS failed)"
