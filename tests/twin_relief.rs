@@ -16,10 +16,10 @@ use videt_runtime::setup;
 use videt_runtime::snapshot::SnapshotWriter;
 use videt_service::relief_feed::relief_channel;
 use videt_service::relief_scene::{
-    blend_params, box_operator, box_relief, proxy_params, ReliefLayout,
+    blend_params, box_operator, box_relief, box_segments, proxy_params, ReliefLayout,
 };
 use videt_sim::Vec3;
-use videt_vision::surface::ReliefModel;
+use videt_vision::surface::{build_from_device, ReliefModel, ReliefShape};
 
 /// Keeps every record and publishes a new surface at a given period (as the vision thread
 /// would; the test publishes from the observer for determinism).
@@ -42,45 +42,41 @@ impl CycleObserver for Recorder {
     }
 }
 
-#[test]
-fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
-    let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
-    let (model_a, report) = box_relief(&layout, 0.0).unwrap();
-    assert_eq!(report.constraints_kept, 8);
-    // The surface swapped in mid-slide: the box top 4 mm nearer.
-    let (model_b, _) = box_relief(&layout, 0.004).unwrap();
-
+/// The virtual operator's box slide (`box_operator`, 4.6 s) over `model_a`, `model_b` swapped in
+/// at 1.8 s, through the real control loop on the twin: the loop's report and every record.
+fn slide(
+    config: &Config,
+    model_a: &ReliefModel,
+    model_b: &ReliefModel,
+) -> (videt_runtime::control_loop::LoopReport, Vec<CycleRecord>) {
+    let layout = ReliefLayout::for_config(config);
     let k = config.control.stiffness_n_per_m;
     let period_s = 1.0 / f64::from(config.control.rate_hz);
     let (writer, mut feed) = relief_channel(
         model_a.clone(),
         proxy_params(),
-        blend_params(&config),
+        blend_params(config),
         k,
         period_s,
     )
     .unwrap();
 
-    let mut scene = videt_assembly::twin_scene::demo_scene(&config, 42);
+    let mut scene = videt_assembly::twin_scene::demo_scene(config, 42);
     let start = scene.twin.plant().position_m();
     scene.twin.set_operator(box_operator(&layout, start, 5.0));
-    let rig = setup::rig(&config).unwrap();
-    let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
-    let seconds = 4.6;
+    let rig = setup::rig(config).unwrap();
+    let mut cycle = setup::control_cycle(config, rig, WireZero::default(), true);
     let settings = LoopSettings {
         rate_hz: config.control.rate_hz,
-        duration_ns: Some((seconds * 1e9) as u64),
+        duration_ns: Some((SLIDE_S * 1e9) as u64),
         max_consecutive_overruns: 10,
     };
     let mut twin = scene.twin;
     start_hardware(&mut twin).unwrap();
-    // Swap while the finger slides down the box's edge (about 1.8 s in).
-    let swap_at_cycle = (1.8 / period_s) as u64;
     let mut recorder = Recorder {
         records: Vec::with_capacity(10_000),
         writer,
-        swap_at_cycle,
+        swap_at_cycle: swap_at_cycle(config),
         next_model: model_b.clone(),
     };
     let stop = AtomicBool::new(false);
@@ -93,17 +89,84 @@ fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
         &mut recorder,
         &mut LoopStats::default(),
     );
-    assert_eq!(report.final_safety, SafetyState::Normal);
-    let records = recorder.records;
+    (report, recorder.records)
+}
+
+/// Seconds of the slide.
+const SLIDE_S: f64 = 4.6;
+
+/// The surface `r` was rendered with: the first, or the one swapped in.
+fn rendered<'a>(
+    r: &CycleRecord,
+    first: &'a ReliefModel,
+    swapped: &'a ReliefModel,
+) -> &'a ReliefModel {
+    if r.surface_version == 0 {
+        first
+    } else {
+        swapped
+    }
+}
+
+/// The slide's periods at full force (the ramps in and out left aside), and how many of them
+/// touched the relief (asserted to be most of the slide).
+fn steady_contact(records: &[CycleRecord]) -> (Vec<&CycleRecord>, usize) {
     let steady: Vec<&CycleRecord> = records
         .iter()
-        .filter(|r| r.force_scale >= 1.0 && r.time.as_secs_f64() < seconds - 0.05)
+        .filter(|r| r.force_scale >= 1.0 && r.time.as_secs_f64() < SLIDE_S - 0.05)
         .collect();
     let in_contact = steady.iter().filter(|r| r.in_contact).count();
     assert!(
         in_contact > 2000,
         "touched the relief ({in_contact} periods)"
     );
+    (steady, in_contact)
+}
+
+/// The period at which the second surface is swapped in: while the finger slides down the
+/// box's edge, about 1.8 s in.
+fn swap_at_cycle(config: &Config) -> u64 {
+    (1.8 * f64::from(config.control.rate_hz)) as u64
+}
+
+/// The distance from `p` (inside the solid) to the surface of `model`: the least of its depth
+/// along `z` and its distances, along `x` and `y` both ways, to where the surface passes
+/// below it (0.1 mm steps): at a steep wall the finger may be deep along `z` yet close to the
+/// wall's face.
+fn distance_inside(model: &ReliefModel, p: &videt_control::Vec3) -> f64 {
+    let Some(contact) = model.contact(p) else {
+        return 0.0;
+    };
+    let mut best = contact.depth_m;
+    for (dx, dy) in [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] {
+        let mut d = 1e-4;
+        while d < best {
+            let q = videt_control::Vec3::new(p.x + dx * d, p.y + dy * d, p.z);
+            if model.contact(&q).is_none() {
+                best = d;
+                break;
+            }
+            d += 1e-4;
+        }
+    }
+    best
+}
+
+#[test]
+fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
+    let config = Config::default();
+    let layout = ReliefLayout::for_config(&config);
+    let (model_a, report) = box_relief(&layout, 0.0).unwrap();
+    assert_eq!(report.constraints_kept, 8);
+    // The surface swapped in mid-slide: the box top 4 mm nearer.
+    let (model_b, _) = box_relief(&layout, 0.004).unwrap();
+
+    let k = config.control.stiffness_n_per_m;
+    let period_s = 1.0 / f64::from(config.control.rate_hz);
+    let swap_at_cycle = swap_at_cycle(&config);
+    let (report, records) = slide(&config, &model_a, &model_b);
+    assert_eq!(report.final_safety, SafetyState::Normal);
+    let (steady, in_contact) = steady_contact(&records);
 
     // The finger slid over the box top, off its edge and back.
     let xs: Vec<f64> = steady
@@ -127,11 +190,7 @@ fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
     let mut max_depth: f64 = 0.0;
     for r in &steady {
         let p = videt_control::Vec3::from(r.position_m);
-        let model = if r.surface_version == 0 {
-            &model_a
-        } else {
-            &model_b
-        };
+        let model = rendered(r, &model_a, &model_b);
         let depth = model.contact(&p).map_or(0.0, |c| c.depth_m);
         max_depth = max_depth.max(depth);
         let spring_m = videt_control::Vec3::from(r.desired_force_n).norm() / k;
@@ -185,5 +244,59 @@ fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
     assert!(
         max_step < bound,
         "force step {max_step:.3} N at t = {at:.3} s (bound {bound:.2} N)"
+    );
+}
+
+#[test]
+fn operator_slides_over_a_stepped_relief_without_pop_through_or_force_jumps() {
+    // The same outlines built with the default stepped shape: the box's sides become the 1 mm
+    // walls of an occluding edge, the finger slides onto the top, off its cliff and back.
+    let config = Config::default();
+    let layout = ReliefLayout::for_config(&config);
+    let stepped = |lift_m: f64| {
+        let params = layout.params([640, 480], [0.5, 5.0]).unwrap();
+        assert_eq!(params.shape, ReliefShape::Stepped);
+        let (model, report) =
+            build_from_device(&box_segments(&layout, lift_m), &[], &params).unwrap();
+        assert!(report.depth_steps >= 8, "{} steps cut", report.depth_steps);
+        model
+    };
+    let (model_a, model_b) = (stepped(0.0), stepped(0.004));
+    let (report, records) = slide(&config, &model_a, &model_b);
+    assert_eq!(report.final_safety, SafetyState::Normal);
+    let k = config.control.stiffness_n_per_m;
+    let (steady, in_contact) = steady_contact(&records);
+    // No pop-through: inside the solid, the spring pushes back with at least half the finger's
+    // distance to the surface (at a wall: to its face).
+    let mut deepest: f64 = 0.0;
+    for r in &steady {
+        let p = videt_control::Vec3::from(r.position_m);
+        let model = rendered(r, &model_a, &model_b);
+        let distance = distance_inside(model, &p);
+        deepest = deepest.max(distance);
+        let spring_m = videt_control::Vec3::from(r.desired_force_n).norm() / k;
+        assert!(
+            spring_m >= 0.5 * distance - 0.001,
+            "at t = {:.3} s the finger is {:.1} mm inside but the spring is {:.1} mm",
+            r.time.as_secs_f64(),
+            distance * 1e3,
+            spring_m * 1e3
+        );
+    }
+    assert!(deepest < 0.015, "deepest {:.1} mm", deepest * 1e3);
+    // The proxy bounds the spring's change per period at the walls too.
+    let bound = k * proxy_params().max_offset_step_m + 0.1;
+    let max_step = steady
+        .windows(2)
+        .filter(|w| w[1].cycle == w[0].cycle + 1)
+        .map(|w| (Vec3::from(w[1].desired_force_n) - Vec3::from(w[0].desired_force_n)).norm())
+        .fold(0.0, f64::max);
+    eprintln!(
+        "stepped: contact {in_contact} periods, deepest {:.2} mm, max force step {max_step:.3} N",
+        deepest * 1e3
+    );
+    assert!(
+        max_step < bound,
+        "force step {max_step:.3} N (bound {bound:.2} N)"
     );
 }

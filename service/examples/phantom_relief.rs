@@ -59,7 +59,7 @@
 //! `cargo run --release -p videt-service --example phantom_relief -- [--view] [--extra DIR]
 //! [--threshold-mm MM] [--after-checks LIST] [--figure FILE.png] [--figure-pairs a,b,c]
 //! [--pairs a,b,c] [--shape interpolated|stepped] [--step-height-mm MM] [--step-slope S]
-//! [--step-width-mm MM]` (`--pairs`: only these pairs; `--shape` and `--step-*`: the relief
+//! [--step-width-mm MM] [--step-wall-slope S]` (`--pairs`: only these pairs; `--shape` and `--step-*`: the relief
 //! builder's [`ReliefShape`] and step settings instead of the defaults')
 //! (`--after-checks`: `after`'s checks instead of the defaults', `none` or a comma-separated
 //! list of `left-right`, `surface`, `confidence=T`).
@@ -508,6 +508,7 @@ struct ShapeOptions {
     step_min_height_m: Option<f64>,
     step_min_slope: Option<f64>,
     step_width_m: Option<f64>,
+    step_max_wall_slope: Option<f64>,
 }
 
 impl ShapeOptions {
@@ -536,6 +537,7 @@ impl ShapeOptions {
             step_min_height_m: number("--step-height-mm", 1e-3)?,
             step_min_slope: number("--step-slope", 1.0)?,
             step_width_m: number("--step-width-mm", 1e-3)?,
+            step_max_wall_slope: number("--step-wall-slope", 1.0)?,
         })
     }
 
@@ -544,6 +546,9 @@ impl ShapeOptions {
         params.step_min_height_m = self.step_min_height_m.unwrap_or(params.step_min_height_m);
         params.step_min_slope = self.step_min_slope.unwrap_or(params.step_min_slope);
         params.step_width_m = self.step_width_m.unwrap_or(params.step_width_m);
+        params.step_max_wall_slope = self
+            .step_max_wall_slope
+            .unwrap_or(params.step_max_wall_slope);
     }
 }
 

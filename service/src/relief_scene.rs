@@ -10,6 +10,7 @@ use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 use videt_vision::surface::{
     build_from_device, BuildError, BuildReport, DeviceSegment, ReliefModel, ReliefParams,
+    ReliefShape,
 };
 
 /// How the sweeping operator explores a relief.
@@ -124,14 +125,18 @@ pub fn box_segments(layout: &ReliefLayout, lift_m: f64) -> Vec<DeviceSegment> {
     segs
 }
 
-/// Build the demo box relief.
+/// Build the demo box relief. Its segments are the outlines of a frustum's top and base, whose
+/// sides are slopes by design: it is built with the paper's interpolated shape, which spans
+/// them as the ramps they are (the stepped shape would read them as the depth steps of an
+/// occluding edge).
 pub fn box_relief(
     layout: &ReliefLayout,
     lift_m: f64,
 ) -> Result<(ReliefModel, BuildReport), BuildError> {
-    let params = layout
+    let mut params = layout
         .params([640, 480], [0.5, 5.0])
         .map_err(BuildError::Triangulation)?;
+    params.shape = ReliefShape::Interpolated;
     build_from_device(&box_segments(layout, lift_m), &[], &params)
 }
 

@@ -16,14 +16,20 @@
 //!   cells more than 5 mm off, and the wires' force in contact (99th percentile, largest).
 //!
 //! `cargo run --release -p videt-tools --example felt_relief -- [--pairs a,b] [--extra DIR]
-//! [--rows-mm MM]`
+//! [--rows-mm MM] [--figure FILE.png]`
+//!
+//! With `--figure` it writes one PNG, a row per pair: the true surface, the interpolated and the
+//! stepped relief, and the felt surface on the stepped relief (the median height the finger was
+//! held at per 2.5 mm cell), coloured by height.
 
 use std::path::{Path, PathBuf};
 
+use image::{Rgb, RgbImage};
+use plotters::prelude::*;
 use videt_rt_config::Config;
 use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{pinhole, LiveSettings, PairCamera, StereoPair, StereoRelief};
-use videt_tools::felt_surface::{felt_surface, FeltSettings, FeltSurface};
+use videt_tools::felt_surface::{felt_map, felt_surface, FeltMap, FeltSettings, FeltSurface};
 use videt_tools::haptic_bench::rig::{run, start_position, Experiment, Parts};
 use videt_vision::disparity_range::choose_max_disparity;
 use videt_vision::evaluation::{
@@ -62,6 +68,9 @@ struct Figures {
     pixels_off: f64,
     felt: FeltSurface,
     build_ms: f64,
+    /// The relief swept and the felt surface, for the figure.
+    model: ReliefModel,
+    felt_map: FeltMap,
 }
 
 fn measure(
@@ -99,7 +108,18 @@ fn measure(
         pixels_off,
         felt,
         build_ms,
+        model: model.clone(),
+        felt_map: felt_map(&trace, model, &settings, FIGURE_CELL_M),
     })
+}
+
+/// A pair's reliefs, measured, with what its figure row needs.
+struct PairRun {
+    name: String,
+    params: ReliefParams,
+    geometry: RectifiedGeometry,
+    truth: DisparityMap,
+    shapes: Vec<(ReliefShape, Figures)>,
 }
 
 fn pair_figures(
@@ -107,7 +127,7 @@ fn pair_figures(
     layout: &ReliefLayout,
     p: TruthPair,
     rows_m: f64,
-) -> Result<Vec<(ReliefShape, Figures)>, String> {
+) -> Result<PairRun, String> {
     let mut pipeline = StereoPipeline::new();
     let lv = GrayView::from_image(&p.left).map_err(|e| e.to_string())?;
     let rv = GrayView::from_image(&p.right).map_err(|e| e.to_string())?;
@@ -130,7 +150,141 @@ fn pair_figures(
         let figures = measure(config, &model, &params, &geometry, &truth, rows_m, build_ms)?;
         out.push((shape, figures));
     }
-    Ok(out)
+    Ok(PairRun {
+        name: relief.pair().name.clone(),
+        params: *relief.relief_params(),
+        geometry,
+        truth,
+        shapes: out,
+    })
+}
+
+/// Cells of the felt surface in the figure, metres.
+const FIGURE_CELL_M: f64 = 0.0025;
+/// A panel's width, pixels.
+const PANEL_W: u32 = 300;
+
+/// The colour of a relief height: warm where raised (the nearest depth), dark blue at the
+/// back plane; black where unknown or never touched.
+fn height_colour(z: Option<f64>, params: &ReliefParams) -> Rgb<u8> {
+    let Some(z) = z else {
+        return Rgb([0, 0, 0]);
+    };
+    let back = params.scene_map.back_plane_z_m();
+    let near = back - params.scene_map.relief_depth_m();
+    let t = ((back - z) / (back - near)).clamp(0.0, 1.0);
+    let stops = [
+        [30.0, 35.0, 95.0],
+        [200.0, 60.0, 90.0],
+        [255.0, 225.0, 110.0],
+    ];
+    let (a, b, f) = if t < 0.5 {
+        (stops[0], stops[1], t * 2.0)
+    } else {
+        (stops[1], stops[2], t * 2.0 - 1.0)
+    };
+    Rgb([0, 1, 2].map(|k| (a[k] + (b[k] - a[k]) * f) as u8))
+}
+
+/// A panel of the area: `height(x, y)` coloured.
+fn panel(params: &ReliefParams, height: impl Fn(f64, f64) -> Option<f64>) -> RgbImage {
+    let [x0, y0, x1, y1] = params.area_m();
+    let h = (f64::from(PANEL_W) * (y1 - y0) / (x1 - x0)).round() as u32;
+    RgbImage::from_fn(PANEL_W, h, |c, r| {
+        let x = x0 + (f64::from(c) + 0.5) / f64::from(PANEL_W) * (x1 - x0);
+        let y = y1 - (f64::from(r) + 0.5) / f64::from(h) * (y1 - y0);
+        height_colour(height(x, y), params)
+    })
+}
+
+/// One PNG: a row per pair, the true surface, the interpolated and the stepped relief, and the
+/// felt surface of the stepped relief.
+fn write_figure(path: &Path, runs: &[PairRun]) -> Result<(), Box<dyn std::error::Error>> {
+    videt_tools::plotting::register_font();
+    let (margin, title_h, label_h) = (10u32, 50u32, 22u32);
+    let rows: Vec<[RgbImage; 4]> = runs
+        .iter()
+        .map(|r| {
+            let p = &r.params;
+            let shape = |s: ReliefShape| r.shapes.iter().find(|x| x.0 == s).map(|x| &x.1);
+            let relief = |s: ReliefShape| {
+                panel(p, |x, y| {
+                    shape(s).and_then(|f| f.model.height_at(x, y).map(|h| h.z_m))
+                })
+            };
+            [
+                panel(p, |x, y| truth_z(p, &r.geometry, &r.truth, x, y)),
+                relief(ReliefShape::Interpolated),
+                relief(ReliefShape::Stepped),
+                panel(p, |x, y| {
+                    shape(ReliefShape::Stepped).and_then(|f| f.felt_map.at(x, y))
+                }),
+            ]
+        })
+        .collect();
+    let width = 5 * margin + 4 * PANEL_W;
+    let height = title_h
+        + rows
+            .iter()
+            .map(|r| label_h + r[0].height() + margin)
+            .sum::<u32>();
+    let mut buffer = vec![255u8; (width * height * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
+        let text = |s: &str, x: u32, y: u32, size: u32| {
+            root.draw(&Text::new(
+                s.to_string(),
+                (x as i32, y as i32),
+                ("sans-serif", size).into_font().color(&BLACK),
+            ))
+        };
+        text(
+            "True surface | relief, interpolated (the paper's) | relief, stepped (the default) | \
+             felt on the stepped relief",
+            margin,
+            6,
+            15,
+        )?;
+        text(
+            "yellow: raised (nearest), dark blue: the back plane, black: unknown or not touched",
+            margin,
+            28,
+            13,
+        )?;
+        let mut y = title_h;
+        for (r, row) in runs.iter().zip(&rows) {
+            let f = |s: ReliefShape| r.shapes.iter().find(|x| x.0 == s).map(|x| &x.1);
+            let (Some(a), Some(b)) = (f(ReliefShape::Interpolated), f(ReliefShape::Stepped)) else {
+                continue;
+            };
+            text(
+                &format!(
+                    "{}: off > 5 mm {:.0}% -> {:.0}%; felt p95 {:.1} -> {:.1} mm",
+                    r.name,
+                    100.0 * a.pixels_off,
+                    100.0 * b.pixels_off,
+                    a.felt.p95_m * 1e3,
+                    b.felt.p95_m * 1e3
+                ),
+                margin,
+                y + 3,
+                13,
+            )?;
+            y += label_h + row[0].height() + margin;
+        }
+        root.present()?;
+    }
+    let mut image = RgbImage::from_raw(width, height, buffer).ok_or("figure buffer")?;
+    let mut y = title_h;
+    for row in &rows {
+        for (k, p) in row.iter().enumerate() {
+            let x = margin + k as u32 * (PANEL_W + margin);
+            image::imageops::overlay(&mut image, p, i64::from(x), i64::from(y + label_h));
+        }
+        y += label_h + row[0].height() + margin;
+    }
+    image.save(path)?;
+    Ok(())
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -187,10 +341,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "F p99 N",
         "F max N"
     );
+    let figure = value_of("--figure").map(PathBuf::from);
+    let mut runs = Vec::new();
     for p in pairs {
         let name = p.name.clone();
-        let rows = pair_figures(&config, &layout, p, rows_m).map_err(|e| format!("{name}: {e}"))?;
-        for (shape, f) in rows {
+        let run = pair_figures(&config, &layout, p, rows_m).map_err(|e| format!("{name}: {e}"))?;
+        for (shape, f) in &run.shapes {
             println!(
                 "{:<11} {:<13} {:>8.2} {:>8.1}% {:>6.1} mm {:>6.1} mm {:>7.1}% {:>9} {:>9.2} {:>9.2}",
                 name,
@@ -205,6 +361,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 f.felt.force_max_n
             );
         }
+        runs.push(run);
+    }
+    if let Some(path) = figure {
+        write_figure(&path, &runs)?;
+        println!("figure: {}", path.display());
     }
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! The `videt` command line: the subcommands and what runs each. The binary parses it; the
-//! manual pages and shell completions are generated from the same definitions ([`crate::manual`]),
-//! so they cannot drift from `videt --help`.
+//! manual pages and shell completions are generated from the same definitions (the `manual`
+//! module), so they cannot drift from `videt --help`.
 
 use clap::{Parser, Subcommand};
 

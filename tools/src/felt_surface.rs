@@ -193,9 +193,133 @@ pub fn felt_surface(
     }
 }
 
+/// The felt surface as a map: per cell of `cell_m`, the median height the thimble was held
+/// at in contact (`NaN` where it never touched), row-major from `[x0, y0]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeltMap {
+    /// The area mapped `[x0, y0, x1, y1]`, metres.
+    pub area_m: [f64; 4],
+    /// Side of a cell, metres.
+    pub cell_m: f64,
+    /// Cells along `x` and `y`.
+    pub cells: [usize; 2],
+    /// Median contact height per cell, metres.
+    pub z_m: Vec<f64>,
+}
+
+impl FeltMap {
+    /// The felt height at `(x, y)`, `None` where the finger never touched.
+    pub fn at(&self, x: f64, y: f64) -> Option<f64> {
+        let [x0, y0, x1, y1] = self.area_m;
+        if !(x >= x0 && x <= x1 && y >= y0 && y <= y1) {
+            return None;
+        }
+        let i = (((x - x0) / self.cell_m) as usize).min(self.cells[0] - 1);
+        let j = (((y - y0) / self.cell_m) as usize).min(self.cells[1] - 1);
+        let z = self.z_m[j * self.cells[0] + i];
+        z.is_finite().then_some(z)
+    }
+}
+
+/// The [`FeltMap`] of `trace` (a sweep of `relief`) in cells of `cell_m` over
+/// `settings.area_m`.
+pub fn felt_map(
+    trace: &Trace,
+    relief: &impl Surface,
+    settings: &FeltSettings,
+    cell_m: f64,
+) -> FeltMap {
+    let [x0, y0, x1, y1] = settings.area_m;
+    let nx = ((x1 - x0) / cell_m).ceil().max(1.0) as usize;
+    let ny = ((y1 - y0) / cell_m).ceil().max(1.0) as usize;
+    let mut per_cell: Vec<Vec<f64>> = vec![Vec::new(); nx * ny];
+    for s in &trace.samples {
+        let p = s.position_m;
+        if !(p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1) || relief.contact(&p).is_none() {
+            continue;
+        }
+        let i = (((p.x - x0) / cell_m) as usize).min(nx - 1);
+        let j = (((p.y - y0) / cell_m) as usize).min(ny - 1);
+        per_cell[j * nx + i].push(p.z);
+    }
+    let z_m = per_cell
+        .iter_mut()
+        .map(|c| {
+            c.sort_by(f64::total_cmp);
+            percentile(c, 0.5)
+        })
+        .collect();
+    FeltMap {
+        area_m: settings.area_m,
+        cell_m,
+        cells: [nx, ny],
+        z_m,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::haptic_bench::rig::TruthSample;
+    use videt_control::safety::SafetyState;
+    use videt_control::surface::Plane;
+    use videt_control::FeltTally;
+
+    /// A trace of the thimble held 0.5 mm into the wall `z = 0.4` (outward `-z`) on a 1 mm
+    /// grid over `[0, 0.1] x [0, 0.05]`, and once above it, out of contact.
+    fn pressed_trace() -> Trace {
+        let sample = |x: f64, y: f64, z: f64| TruthSample {
+            time_s: 0.0,
+            position_m: Vec3::new(x, y, z),
+            velocity_m_s: Vec3::zeros(),
+            wire_force_n: Vec3::new(0.0, 0.0, -1.0),
+            hand_force_n: Vec3::zeros(),
+            max_tension_n: 0.0,
+            tension_n: [0.0; 3],
+            measured_tension_n: [0.0; 3],
+            torque_nm: [0.0; 3],
+            pulley_speed_rad_s: [0.0; 3],
+        };
+        let mut samples: Vec<TruthSample> = (0..100)
+            .flat_map(|i| (0..50).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                sample(
+                    0.0005 + 0.001 * f64::from(i),
+                    0.0005 + 0.001 * f64::from(j),
+                    0.4005,
+                )
+            })
+            .collect();
+        samples.push(sample(0.02, 0.02, 0.3));
+        Trace {
+            samples,
+            final_safety: SafetyState::Normal,
+            cycles: 0,
+            felt: FeltTally::new(),
+        }
+    }
+
+    #[test]
+    fn the_felt_surface_is_compared_cell_by_cell_with_the_truth() {
+        let wall = Plane::new(Vec3::new(0.0, 0.0, 0.4), -Vec3::z()).unwrap();
+        let settings = FeltSettings::over([0.0, 0.0, 0.1, 0.05]);
+        // The truth: the wall's height for x < 0.03, 9.5 mm nearer beyond (off by 10 mm), unknown
+        // for y > 0.04.
+        let truth = |x: f64, y: f64| (y <= 0.04).then_some(if x < 0.03 { 0.4 } else { 0.3905 });
+        let felt = felt_surface(&pressed_trace(), &wall, truth, &settings);
+        // 20 x 8 cells of 5 mm with truth; 6 of 20 columns right, 14 off by 10 mm.
+        assert_eq!(felt.cells, 20 * 8);
+        assert!((felt.off_fraction - 14.0 / 20.0).abs() < 1e-12, "{felt:?}");
+        assert!((felt.median_m - 0.010).abs() < 1e-9, "{felt:?}");
+        assert!((felt.p95_m - 0.010).abs() < 1e-9, "{felt:?}");
+        // The sample out of contact is not counted; the forces are those in contact.
+        assert_eq!(felt.samples, 100 * 40);
+        assert!((felt.force_max_n - 1.0).abs() < 1e-12);
+        let map = felt_map(&pressed_trace(), &wall, &settings, 0.0025);
+        assert_eq!(map.at(0.05, 0.045), Some(0.4005));
+        assert_eq!(map.at(0.2, 0.0), None);
+    }
 
     #[test]
     fn the_raster_covers_the_area_row_by_row() {

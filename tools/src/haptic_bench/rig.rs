@@ -79,7 +79,7 @@ impl Trace {
 pub struct Experiment<S = Plane> {
     /// The configuration the control cycle and the twin's parts are built from.
     pub config: Config,
-    /// The surface rendered (a wall; a bas-relief for the felt surface, `crate::felt_surface`).
+    /// The surface rendered (a wall; a bas-relief when the felt surface is measured).
     pub surface: S,
     /// The operator (hand target path, hand stiffness and damping).
     pub operator: VirtualOperator,

@@ -10,11 +10,10 @@
 //! when their heights agree there, otherwise the farther (occluded) one is kept as points only;
 //! overlapping collinear segments keep the nearer one. Building never panics.
 
-use std::collections::HashMap;
-
 use spade::{ConstrainedDelaunayTriangulation, HasPosition, Point2, Triangulation};
 
 use super::border::NearestHeight;
+use super::cell_hash::CellMap;
 use super::clip::clip_to_rect;
 use super::input::{
     DeviceSegment, PinholeCamera, ReliefParams, ReliefParamsError, ReliefShape, SceneSegment3,
@@ -221,32 +220,6 @@ impl HasPosition for ReliefVertex {
         Point2::new(self.x, self.y)
     }
 }
-
-/// A fast hasher for small integer keys (multiply-rotate, as in rustc's FxHasher).
-#[derive(Default, Clone, Copy)]
-struct CellHasher(u64);
-
-impl std::hash::Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-    fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn write_i64(&mut self, v: i64) {
-        self.write_u64(v as u64);
-    }
-    fn write_u32(&mut self, v: u32) {
-        self.write_u64(u64::from(v));
-    }
-}
-
-type CellMap<K, V> = HashMap<K, V, std::hash::BuildHasherDefault<CellHasher>>;
 
 /// Sentinel of the per-cell vertex chains.
 const NO_VERTEX: u32 = u32::MAX;
@@ -652,22 +625,25 @@ fn build_mapped(
         .vertices()
         .map(|v| [v.data().x, v.data().y, v.data().z])
         .collect();
-    let mut triangles: Vec<[u32; 3]> = cdt
-        .inner_faces()
-        .map(|f| f.vertices().map(|v| v.fix().index() as u32))
-        .collect();
+    let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(cdt.num_inner_faces());
+    let mut triangle_edges: Vec<[u32; 3]> = Vec::with_capacity(cdt.num_inner_faces());
+    for f in cdt.inner_faces() {
+        triangles.push(f.vertices().map(|v| v.fix().index() as u32));
+        // The edges v0 v1, v1 v2, v2 v0, as the vertices are listed.
+        triangle_edges.push(
+            f.adjacent_edges()
+                .map(|e| e.as_undirected().fix().index() as u32),
+        );
+    }
     if params.shape == ReliefShape::Stepped {
+        let mut constraint = vec![false; cdt.num_undirected_edges()];
+        for e in cdt.undirected_edges() {
+            constraint[e.fix().index()] = e.is_constraint_edge();
+        }
         // The bulk load keeps the vertices' order: the frame's come first.
-        let constraints: HashMap<(u32, u32), ()> = cdt
-            .undirected_edges()
-            .filter(|e| e.is_constraint_edge())
-            .map(|e| {
-                let [a, b] = e.vertices().map(|v| v.fix().index() as u32);
-                ((a.min(b), a.max(b)), ())
-            })
-            .collect();
         let topology = MeshTopology {
-            constraints: &constraints,
+            constraint: &constraint,
+            triangle_edges: &triangle_edges,
             frame_vertices: frame_vertices as u32,
         };
         report.depth_steps = cut_steps(&mut mesh_vertices, &mut triangles, &topology, params).steps;

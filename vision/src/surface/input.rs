@@ -84,6 +84,10 @@ pub struct ReliefParams {
     /// frame's width when there is a frame): the surface drops from the nearer end's height to
     /// the farther end's within this distance of the nearer end.
     pub step_width_m: f64,
+    /// [`ReliefShape::Stepped`]: the steepest a step's wall may be (rise over width on the
+    /// area, > 0): a higher step gets a wider wall, so that the rendering's proxy holds the
+    /// finger on it.
+    pub step_max_wall_slope: f64,
 }
 
 /// How the relief spans the gaps between the 3-D segments.
@@ -104,7 +108,8 @@ impl ReliefParams {
     /// Defaults for a scene map: 0.3 mm merging, a 5 mm frame with a vertex every 2 cm, 2 mm
     /// crossing tolerance, one grid cell per triangle; depth steps kept as steps
     /// ([`ReliefShape::Stepped`]) where heights differ by more than 3 mm across a triangle
-    /// steeper than 0.5 (27 degrees), with 1 mm walls.
+    /// steeper than 0.5 (27 degrees), with walls 3 mm wide or
+    /// wider, at most 4 high for 1 wide (76 degrees).
     pub fn new(scene_map: SceneMap) -> ReliefParams {
         ReliefParams {
             scene_map,
@@ -116,7 +121,8 @@ impl ReliefParams {
             shape: ReliefShape::Stepped,
             step_min_height_m: 0.003,
             step_min_slope: 0.5,
-            step_width_m: 0.001,
+            step_width_m: 0.003,
+            step_max_wall_slope: 4.0,
         }
     }
 
@@ -188,6 +194,13 @@ impl ReliefParams {
                 "step_width_m",
                 self.step_width_m,
                 "> merge_distance_m and < frame_width_m (when there is a frame)",
+            );
+        }
+        if !(self.step_max_wall_slope > 0.0 && self.step_max_wall_slope.is_finite()) {
+            return err(
+                "step_max_wall_slope",
+                self.step_max_wall_slope,
+                "finite and > 0",
             );
         }
         if !(self.grid_cells_per_triangle > 0.0 && self.grid_cells_per_triangle <= 64.0) {

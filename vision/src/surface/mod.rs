@@ -17,6 +17,7 @@
 
 mod border;
 mod build;
+mod cell_hash;
 mod clip;
 pub mod export;
 mod grid;
