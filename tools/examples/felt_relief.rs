@@ -239,7 +239,7 @@ fn write_figure(path: &Path, runs: &[PairRun]) -> Result<(), Box<dyn std::error:
             ))
         };
         text(
-            "True surface | relief, interpolated (the paper's) | relief, stepped (the default) | \
+            "True surface | relief, interpolated (the paper's, the default) | relief, stepped | \
              felt on the stepped relief",
             margin,
             6,

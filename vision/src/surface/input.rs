@@ -106,10 +106,10 @@ pub enum ReliefShape {
 
 impl ReliefParams {
     /// Defaults for a scene map: 0.3 mm merging, a 5 mm frame with a vertex every 2 cm, 2 mm
-    /// crossing tolerance, one grid cell per triangle; depth steps kept as steps
-    /// ([`ReliefShape::Stepped`]) where heights differ by more than 3 mm across a triangle
-    /// steeper than 0.5 (27 degrees), with walls 3 mm wide or
-    /// wider, at most 4 high for 1 wide (76 degrees).
+    /// crossing tolerance, one grid cell per triangle; the paper's interpolated surface
+    /// ([`ReliefShape::Interpolated`]). For [`ReliefShape::Stepped`], the step settings: heights
+    /// differing by more than 3 mm across a triangle steeper than 0.5 (27 degrees), walls 3 mm
+    /// wide or wider, at most 4 high for 1 wide (76 degrees).
     pub fn new(scene_map: SceneMap) -> ReliefParams {
         ReliefParams {
             scene_map,
@@ -118,7 +118,7 @@ impl ReliefParams {
             border_spacing_m: 0.02,
             crossing_tolerance_m: 0.002,
             grid_cells_per_triangle: 1.0,
-            shape: ReliefShape::Stepped,
+            shape: ReliefShape::Interpolated,
             step_min_height_m: 0.003,
             step_min_slope: 0.5,
             step_width_m: 0.003,

@@ -4,10 +4,13 @@
 //! between a near segment (an occluding edge) and a far one (the background behind it)
 //! interpolates a ramp where the scene has a cliff. Here every such edge of the mesh gets a
 //! **foot** vertex close to its nearer end, at its farther end's height: the triangles on the
-//! edge are cut at their feet, so the surface holds the far height up to a wall of
-//! `step_width_m` beside the near vertex. The wall is steep but not vertical (the surface
-//! stays a height field, its normals within 90 degrees of the reference normal) and the cut
-//! keeps the mesh conforming: a foot belongs to its edge, shared by the two triangles on it.
+//! edge are cut at their feet, so the surface holds the far height up to a wall beside the
+//! near vertex: `step_width_m` wide across, wider where the rise would make it steeper than
+//! `step_max_wall_slope` (the rendering's proxy holds the finger on such walls), the foot
+//! placed further along an edge where a triangle's corner would thin the wall. The wall is
+//! steep but not vertical (the surface stays a height field, its normals within 90 degrees of
+//! the reference normal) and the cut keeps the mesh conforming: a foot belongs to its edge,
+//! shared by the two triangles on it.
 //!
 //! An edge is a step when its ends' heights differ by more than `step_min_height_m` and a
 //! triangle on it is steeper than `step_min_slope` (its height's gradient on the area); never

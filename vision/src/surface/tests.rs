@@ -48,6 +48,13 @@ fn interpolated() -> ReliefParams {
     p
 }
 
+/// Depth steps kept as steps, with the default step settings.
+fn stepped() -> ReliefParams {
+    let mut p = params();
+    p.shape = ReliefShape::Stepped;
+    p
+}
+
 /// The box scene: a 10 cm square top at `z = 0.38` on a 20 cm base outline at `0.43` (the
 /// paper's interpolated surface).
 fn box_scene() -> ReliefModel {
@@ -430,7 +437,7 @@ fn a_gentle_slope_is_not_a_step() {
         seg([0.15, 0.05, 0.40], [0.15, 0.25, 0.40]),
         seg([0.22, 0.05, 0.42], [0.22, 0.25, 0.42]),
     ];
-    let (m, _) = build_from_device(&segs, &[], &params()).unwrap();
+    let (m, _) = build_from_device(&segs, &[], &stepped()).unwrap();
     for y in [0.08, 0.15, 0.22] {
         let mid = m.height_at(0.185, y).unwrap().z_m;
         assert!((mid - 0.41).abs() < 1e-9, "{mid}");
@@ -442,10 +449,8 @@ fn the_area_keeps_the_height_near_its_border_and_only_the_frame_ramps() {
     // A plane of segments at z = 0.40 well inside the area (x 0.1..0.3, y 0.05..0.25).
     let mut segs = square(0.1, 0.05, 0.3, 0.25, 0.40).to_vec();
     segs.push(seg([0.1, 0.05, 0.40], [0.3, 0.25, 0.40]));
-    let stepped = build_from_device(&segs, &[], &params()).unwrap().0;
-    let mut p = params();
-    p.shape = ReliefShape::Interpolated;
-    let ramped = build_from_device(&segs, &[], &p).unwrap().0;
+    let stepped = build_from_device(&segs, &[], &stepped()).unwrap().0;
+    let ramped = build_from_device(&segs, &[], &interpolated()).unwrap().0;
     // Between the segments and the frame's inner edge (5 mm): the plane's height.
     for (x, y) in [
         (0.006, 0.15),
