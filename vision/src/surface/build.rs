@@ -464,24 +464,8 @@ fn build_mapped(
     let mut table = VertexTable::new(params.merge_distance_m);
 
     // The frame: the area's border at the back plane.
-    let [x0, y0, x1, y1] = area;
-    for (a, b) in [
-        ([x0, y0], [x1, y0]),
-        ([x1, y0], [x1, y1]),
-        ([x1, y1], [x0, y1]),
-        ([x0, y1], [x0, y0]),
-    ] {
-        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
-        let n = ((len / params.border_spacing_m).ceil() as usize).clamp(1, 1000);
-        for k in 0..n {
-            let s = k as f64 / n as f64;
-            table.insert(
-                a[0] + (b[0] - a[0]) * s,
-                a[1] + (b[1] - a[1]) * s,
-                back_z,
-                true,
-            );
-        }
+    for [x, y] in border_points(area, params.border_spacing_m) {
+        table.insert(x, y, back_z, true);
     }
     let frame_vertices = table.vertices.len();
 
@@ -657,6 +641,27 @@ fn build_mapped(
     Ok((model, report))
 }
 
+/// Points along the border of `rect = [x0, y0, x1, y1]`, counter-clockwise from its corner
+/// `(x0, y0)`, every `spacing_m` or a little less (each side in equal steps, corners included).
+fn border_points(rect: [f64; 4], spacing_m: f64) -> impl Iterator<Item = [f64; 2]> {
+    let [x0, y0, x1, y1] = rect;
+    [
+        ([x0, y0], [x1, y0]),
+        ([x1, y0], [x1, y1]),
+        ([x1, y1], [x0, y1]),
+        ([x0, y1], [x0, y0]),
+    ]
+    .into_iter()
+    .flat_map(move |(a, b)| {
+        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let n = ((len / spacing_m).ceil() as usize).clamp(1, 1000);
+        (0..n).map(move |k| {
+            let s = k as f64 / n as f64;
+            [a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s]
+        })
+    })
+}
+
 /// The `source` of the inner border's constraint pieces (not an input segment).
 const INNER_BORDER: usize = usize::MAX;
 
@@ -675,24 +680,12 @@ fn add_inner_border(
         .map(|v| [v.x, v.y, v.z])
         .collect();
     let nearest = NearestHeight::new(&geometry, inner);
-    let [x0, y0, x1, y1] = inner;
     let mut ring: Vec<u32> = Vec::with_capacity(64);
-    for (a, b) in [
-        ([x0, y0], [x1, y0]),
-        ([x1, y0], [x1, y1]),
-        ([x1, y1], [x0, y1]),
-        ([x0, y1], [x0, y0]),
-    ] {
-        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
-        let n = ((len / params.border_spacing_m).ceil() as usize).clamp(1, 1000);
-        for k in 0..n {
-            let s = k as f64 / n as f64;
-            let (x, y) = (a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s);
-            let Some(z) = nearest.at(x, y) else {
-                return;
-            };
-            ring.push(table.insert(x, y, z, true));
-        }
+    for [x, y] in border_points(inner, params.border_spacing_m) {
+        let Some(z) = nearest.at(x, y) else {
+            return;
+        };
+        ring.push(table.insert(x, y, z, true));
     }
     for k in 0..ring.len() {
         let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
