@@ -103,6 +103,8 @@ share() {
 }
 
 # boot PHASE: boot the guest once; its console goes to $OUT/console-PHASE.log.
+# Two CPUs: the guest's service gets both by a drop-in (scripts/kil/systemd/checks.sh,
+# configure_device); four hang the emulated kernel's boot on this host's two cores.
 boot() {
   local phase=$1 cpu=max
   [ "$ACCEL" = kvm ] && cpu=host

@@ -165,8 +165,21 @@ pub fn platform_warnings(control_cpu: Option<usize>) -> Vec<String> {
                 "control CPU {cpu} is not isolated (isolcpus/nohz_full): other tasks and interrupts share it"
             ));
         }
+        warnings.extend(control_cpu_alone_warning(cpu, &allowed_cpus()));
     }
     warnings
+}
+
+/// The warning when the process may run on the control CPU alone (`allowed`, its affinity
+/// mask): then every other thread of the service (vision, control socket, live view, the
+/// watchdog's supervisor) gets only what the control thread leaves of that CPU. A 2-CPU machine
+/// under the packaged unit's `CPUAffinity=1-3` is such a case.
+pub fn control_cpu_alone_warning(control_cpu: usize, allowed: &[usize]) -> Option<String> {
+    (allowed == [control_cpu]).then(|| {
+        format!(
+            "the service may run on CPU {control_cpu} only, the control CPU: its vision, socket, live-view and supervisor threads get only what the control thread leaves of it (late socket answers, watchdog restarts); allow it more CPUs (systemd's CPUAffinity=, taskset)"
+        )
+    })
 }
 
 /// The running kernel's version string (`uname -v`), from the system call: the service's
@@ -319,6 +332,20 @@ pub fn setup_control_thread(priority: u8, cpu: Option<usize>) -> RtReport {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    #[test]
+    fn a_process_confined_to_the_control_cpu_is_warned_of() {
+        let alone = control_cpu_alone_warning(1, &[1]).expect("warned");
+        assert!(
+            alone.contains("CPU 1 only") && alone.contains("CPUAffinity="),
+            "{alone}"
+        );
+        assert_eq!(control_cpu_alone_warning(1, &[1, 2, 3]), None);
+        assert_eq!(control_cpu_alone_warning(1, &[0, 1]), None);
+        // Not allowed at all is the pinning's own warning.
+        assert_eq!(control_cpu_alone_warning(1, &[2]), None);
+    }
 
     #[test]
     fn a_thread_kept_off_a_cpu_runs_on_the_others_only() {
@@ -341,7 +368,6 @@ mod tests {
         .join()
         .unwrap();
     }
-    use super::*;
 
     #[test]
     fn cpu_lists_are_written_as_the_kernel_writes_them() {
