@@ -47,6 +47,14 @@ fn the_check_prints_the_drives_units_and_what_a_torque_step_is_on_a_wire() {
         ),
         "{stdout}"
     );
+    // What the session logs keep, at the default limits and rate.
+    assert!(
+        stdout.contains(
+            "\n# session logs: kept up to 4096 MB, 30 days, 1024 MB left free: about 2.7 hours \
+             of sessions at 1000 Hz (1.5 GB per hour)\n"
+        ),
+        "{stdout}"
+    );
     // The resolved settings carry the file's values.
     assert!(stdout.contains("counts_per_motor_rev = 4096"), "{stdout}");
     assert!(stdout.contains("rated_torque_nm = 0.04"), "{stdout}");

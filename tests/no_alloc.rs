@@ -68,6 +68,7 @@ fn the_control_thread_allocates_and_frees_nothing() {
             image: None,
             calibrations: None,
             config: config.clone(),
+            session_log: None,
         },
     )
     .unwrap();

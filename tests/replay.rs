@@ -165,6 +165,7 @@ impl Session<'_> {
         let recording = SessionRecording {
             session: Some(self.info),
             surfaces: feed.recording(),
+            retention: None,
         };
         let (mut producer, writer) =
             telemetry::start_session(self.path, self.header, recording, 1 << 16).unwrap();

@@ -426,6 +426,14 @@ pub struct TelemetryConfig {
     pub directory: String,
     /// Capacity of the ring from the control thread to the writer, records (a full ring drops).
     pub ring_records: u32,
+    /// The directory's session logs together take at most this much, MB (1 MB = 10^6 bytes):
+    /// beyond it the oldest finished ones are removed.
+    pub max_total_mb: u64,
+    /// Finished session logs last modified longer ago than this are removed, days.
+    pub max_age_days: u32,
+    /// Keep at least this much free on the directory's filesystem, MB: below it the oldest
+    /// finished session logs are removed.
+    pub min_free_mb: u64,
 }
 
 /// The local control socket.
@@ -512,6 +520,9 @@ impl Default for TelemetryConfig {
             enabled: true,
             directory: "/var/log/videt".into(),
             ring_records: 16384,
+            max_total_mb: 4096,
+            max_age_days: 30,
+            min_free_mb: 1024,
         }
     }
 }

@@ -18,6 +18,76 @@ fn defaults_are_valid_and_the_example_file_parses() {
         SensorsConfig::default(),
         "the example shows the defaults"
     );
+    assert_eq!(
+        c.telemetry,
+        TelemetryConfig::default(),
+        "the example shows the defaults"
+    );
+}
+
+#[test]
+fn session_log_retention_is_read_and_checked_against_its_ranges() {
+    let t = TelemetryConfig::default();
+    assert_eq!(
+        (t.max_total_mb, t.max_age_days, t.min_free_mb),
+        (4096, 30, 1024)
+    );
+    let c = Config::from_toml_str(
+        "[telemetry]\nmax_total_mb = 16\nmax_age_days = 3650\nmin_free_mb = 0\n",
+        "t",
+    )
+    .unwrap();
+    assert_eq!(
+        (
+            c.telemetry.max_total_mb,
+            c.telemetry.max_age_days,
+            c.telemetry.min_free_mb
+        ),
+        (16, 3650, 0)
+    );
+    let c = Config::from_toml_str(
+        "[telemetry]\nmax_total_mb = 10000000\nmax_age_days = 1\nmin_free_mb = 10000000\n",
+        "t",
+    )
+    .unwrap();
+    assert_eq!(c.telemetry.min_free_mb, 10_000_000);
+    for (body, field, allowed) in [
+        (
+            "max_total_mb = 15",
+            "telemetry.max_total_mb = 15",
+            "[16, 10000000]",
+        ),
+        (
+            "max_total_mb = 10000001",
+            "telemetry.max_total_mb = 10000001",
+            "[16, 10000000]",
+        ),
+        (
+            "max_age_days = 0",
+            "telemetry.max_age_days = 0",
+            "[1, 3650]",
+        ),
+        (
+            "max_age_days = 3651",
+            "telemetry.max_age_days = 3651",
+            "[1, 3650]",
+        ),
+        (
+            "min_free_mb = 10000001",
+            "telemetry.min_free_mb = 10000001",
+            "[0, 10000000]",
+        ),
+    ] {
+        let e = Config::from_toml_str(&format!("[telemetry]\n{body}\n"), "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(field) && e.contains(allowed), "{body}: {e}");
+    }
+    // Negative and fractional values are not of the keys' type; an unknown key is refused.
+    for body in ["min_free_mb = -1", "max_age_days = 1.5", "max_total_gb = 4"] {
+        let e = Config::from_toml_str(&format!("[telemetry]\n{body}\n"), "t").unwrap_err();
+        assert!(matches!(e, ConfigError::Parse { .. }), "{body}: {e}");
+    }
 }
 
 #[test]
@@ -108,6 +178,10 @@ fn every_section_is_validated() {
         ),
         (
             "[realtime]\nmax_consecutive_overruns = 0\n",
+            "realtime.max_consecutive_overruns",
+        ),
+        (
+            "[realtime]\nmax_consecutive_overruns = 1000001\n",
             "realtime.max_consecutive_overruns",
         ),
         (

@@ -174,7 +174,7 @@ impl Config {
             "realtime.max_consecutive_overruns",
             f64::from(rt.max_consecutive_overruns),
             1.0,
-            10000.0,
+            1_000_000.0,
         )?;
         let d = &self.drives;
         if d.can_interface.is_empty() || d.can_interface.len() > 15 {
@@ -312,6 +312,24 @@ impl Config {
             f64::from(self.telemetry.ring_records),
             64.0,
             4_194_304.0,
+        )?;
+        in_range(
+            "telemetry.max_total_mb",
+            self.telemetry.max_total_mb as f64,
+            16.0,
+            10_000_000.0,
+        )?;
+        in_range(
+            "telemetry.max_age_days",
+            f64::from(self.telemetry.max_age_days),
+            1.0,
+            3650.0,
+        )?;
+        in_range(
+            "telemetry.min_free_mb",
+            self.telemetry.min_free_mb as f64,
+            0.0,
+            10_000_000.0,
         )?;
         if self.socket.path.is_empty() {
             return Err(ConfigError::Invalid {

@@ -26,7 +26,9 @@ use videt_runtime::rt;
 use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::snapshot::SurfaceFeed;
 use videt_runtime::status::{status_channel, StatusPublisher, StatusSnapshot};
-use videt_runtime::telemetry::{self, CalibrationInForce, EndReason, LogHeader, TelemetryProducer};
+use videt_runtime::telemetry::{
+    self, CalibrationInForce, EndReason, LogHeader, TelemetryProducer, WriterEvent,
+};
 
 /// Exit code after a panic in any thread.
 pub const EXIT_PANIC: u8 = 70;
@@ -172,6 +174,7 @@ fn start_live_view<const N: usize, D, F>(
     cycle: &ControlCycle<N, D>,
     feed: &F,
     image: Option<Arc<videt_viewers::live::ImageSlot>>,
+    session_log: Option<telemetry::SessionLogHealth>,
 ) -> (
     Option<StatusPublisher>,
     Option<rtrb::Producer<CalibrationInForce>>,
@@ -192,6 +195,7 @@ where
         image,
         calibrations: Some(calibration_rx),
         config: config.clone(),
+        session_log,
     };
     match LiveView::start(settings, setup, sources) {
         Ok(view) => {
@@ -307,6 +311,9 @@ where
                 telemetry::SessionRecording {
                     session: Some(telemetry::SessionInfo::new(&options.what, config.clone())),
                     surfaces: feed.recording(),
+                    retention: Some(telemetry::retention::RetentionLimits::from_config(
+                        &config.telemetry,
+                    )),
                 },
                 config.telemetry.ring_records as usize,
             )
@@ -398,7 +405,14 @@ where
     });
     let thimble_publisher = colour.is_some().then_some(thimble_publisher);
     let (live_publisher, live_calibrations, live_view) = match &options.live {
-        Some(settings) => start_live_view::<N, D, F>(settings, config, &cycle, &feed, live_image),
+        Some(settings) => start_live_view::<N, D, F>(
+            settings,
+            config,
+            &cycle,
+            &feed,
+            live_image,
+            telemetry_writer.as_ref().map(|w| w.health()),
+        ),
         None => (None, None, None),
     };
     let thread_stop = Arc::clone(&stop);
@@ -585,6 +599,9 @@ where
             }
         }
         let dropped = telemetry_writer.as_ref().map_or(0, |w| w.dropped());
+        if let Some(writer) = &telemetry_writer {
+            log_writer_events(writer);
+        }
         let procedure = shared.procedures.as_ref().and_then(|p| {
             if stop.load(Ordering::Relaxed) {
                 // Stopping: a procedure under way is cancelled (the loop then ramps out).
@@ -594,6 +611,10 @@ where
         });
         if let Ok(mut status) = shared.status.lock() {
             *status = StatusReport::from_snapshot(&snapshot, dropped);
+            if let Some(writer) = &telemetry_writer {
+                status.telemetry_lost = writer.lost();
+                status.telemetry_error = writer.failure();
+            }
             status.procedure = procedure.map(str::to_string);
             status.fault = fault_cause
                 .clone()
@@ -635,11 +656,12 @@ where
     }
     let panicked = SERVICE_PANICKED.load(Ordering::SeqCst);
     if let Some(writer) = telemetry_writer {
-        let dropped = writer.dropped();
+        log_writer_events(&writer);
+        let (dropped, lost) = (writer.dropped(), writer.lost());
         let reason = end_reason(&outcome, signalled.load(Ordering::SeqCst), panicked);
         let why = reason.to_string();
         match writer.finish(reason) {
-            Ok(written) => info!(written, dropped, end = %why, "telemetry log closed"),
+            Ok(written) => info!(written, dropped, lost, end = %why, "telemetry log closed"),
             Err(e) => error!("telemetry log incomplete: {e}"),
         }
     }
@@ -698,6 +720,35 @@ fn signal_name(signal: usize) -> String {
         Ok(signal_hook::consts::SIGINT) => "SIGINT".into(),
         Ok(signal_hook::consts::SIGTERM) => "SIGTERM".into(),
         _ => format!("signal {signal}"),
+    }
+}
+
+/// Log what the session log's writer said since the last call: a failing disk once when it
+/// starts failing, and once when the writes go through again.
+fn log_writer_events(writer: &telemetry::TelemetryWriter) {
+    for event in writer.take_events() {
+        match event {
+            WriterEvent::Failing { error } => error!(
+                log = %writer.path().display(),
+                "session log not written: {error}; the control loop goes on, periods are counted as lost and the write is tried again every {} s",
+                telemetry::RETRY_EVERY.as_secs()
+            ),
+            WriterEvent::Removed { path, bytes } => info!(
+                removed = %path.display(),
+                bytes,
+                "session log removed by retention (telemetry.max_total_mb, max_age_days, min_free_mb)"
+            ),
+            WriterEvent::NotRemoved { path, error } => warn!(
+                path = %path.display(),
+                "retention could not remove an older session log: {error}"
+            ),
+            WriterEvent::Writing { lost, after } => warn!(
+                log = %writer.path().display(),
+                lost,
+                "session log written again after {:.1} s: {lost} periods lost",
+                after.as_secs_f64()
+            ),
+        }
     }
 }
 

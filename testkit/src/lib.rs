@@ -1,6 +1,6 @@
-//! Test support for the real-time rules: a global allocator that counts, per thread, the
+//! Test support. For the real-time rules: a global allocator that counts, per thread, the
 //! allocations and frees made, so a test can prove that code running on a thread (the control
-//! thread, a warm pipeline) allocates and frees nothing.
+//! thread, a warm pipeline) allocates and frees nothing. For a full disk: [`SmallDisk`].
 //!
 //! ```ignore
 //! #[global_allocator]
@@ -9,6 +9,10 @@
 //! let (_, counts) = videt_testkit::count_allocations(|| run_the_loop());
 //! assert_eq!(counts, videt_testkit::AllocCounts::default());
 //! ```
+
+mod small_disk;
+
+pub use small_disk::SmallDisk;
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -20,7 +20,9 @@ use foxglove::schemas::RawImage;
 use foxglove::{Channel, Context};
 use videt_rt_config::Config;
 use videt_runtime::status::StatusReader;
-use videt_runtime::telemetry::{CalibrationInForce, FeedRecording, RecordedSurface};
+use videt_runtime::telemetry::{
+    CalibrationInForce, FeedRecording, RecordedSurface, SessionLogHealth,
+};
 
 use crate::topics::{timestamp, SceneSetup, SessionTopics};
 use crate::ws_server::WsServer;
@@ -123,6 +125,8 @@ pub struct LiveSources {
     pub calibrations: Option<rtrb::Consumer<CalibrationInForce>>,
     /// The configuration (the scene's device, guides and tension range).
     pub config: Config,
+    /// The session log's writes (`None`: no log): a failing disk shows on `/safety`.
+    pub session_log: Option<SessionLogHealth>,
 }
 
 /// A wait-free channel of calibrations for [`LiveSources::calibrations`]: the control thread
@@ -325,6 +329,9 @@ impl Sampler {
                 self.topics.set_guides(&setup);
             }
         }
+        if let Some(log) = &self.sources.session_log {
+            self.topics.set_session_log_error(log.failure());
+        }
         let snapshot = self.sources.status.latest();
         let record = snapshot.record;
         let running = record.cycle > 0;
@@ -407,6 +414,7 @@ mod tests {
                 image: None,
                 calibrations: Some(calibration_rx),
                 config: config.clone(),
+                session_log: None,
             },
             stats: LiveStats::default(),
             last_cycle: None,

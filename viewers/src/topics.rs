@@ -133,6 +133,9 @@ pub struct Safety {
     pub released_wire: i32,
     /// The surface is stale (no new model for longer than allowed): forces fade out.
     pub surface_stale: bool,
+    /// The session log cannot be written (a full disk): why; empty while it is written (and in
+    /// an export of a log).
+    pub session_log_error: String,
 }
 
 /// `/timing`: the period's timing, one message per period.
@@ -166,7 +169,9 @@ pub struct SessionTopics {
     forces_msg: SceneUpdate,
     tension_msg: Tension,
     timing_msg: Timing,
-    last_safety: Option<(SafetyState, i8, bool)>,
+    last_safety: Option<(SafetyState, i8, bool, bool)>,
+    /// The session log's write error, for the live view (empty: written, or an export).
+    session_log_error: String,
 }
 
 impl SessionTopics {
@@ -252,6 +257,7 @@ impl SessionTopics {
             tension_msg,
             timing_msg: Timing::default(),
             last_safety: None,
+            session_log_error: String::new(),
             setup,
         }
     }
@@ -362,7 +368,12 @@ impl SessionTopics {
     /// flag differs from the last one logged (or none was): an export that skips periods still
     /// logs every change. Returns whether it logged.
     pub fn log_safety_change(&mut self, record: &CycleRecord) -> bool {
-        let safety = (record.safety, record.released_wire, record.surface_stale);
+        let safety = (
+            record.safety,
+            record.released_wire,
+            record.surface_stale,
+            !self.session_log_error.is_empty(),
+        );
         if self.last_safety == Some(safety) {
             return false;
         }
@@ -381,6 +392,7 @@ impl SessionTopics {
                 reason_wire: reason.and_then(|r| r.wire()).map_or(-1, i32::from),
                 released_wire: i32::from(record.released_wire),
                 surface_stale: record.surface_stale,
+                session_log_error: self.session_log_error.clone(),
             },
             record.time.as_nanos(),
         );
@@ -398,6 +410,12 @@ impl SessionTopics {
                 *start = point(*guide);
             }
         }
+    }
+
+    /// The session log's write error now (`None`: written): the next safety message carries
+    /// it, and a change logs one (the live view).
+    pub fn set_session_log_error(&mut self, error: Option<String>) {
+        self.session_log_error = error.unwrap_or_default();
     }
 
     /// Forget the safety state last logged: the next period logs it again (a live view repeats
@@ -698,6 +716,20 @@ mod tests {
         config.rig.polar_guide_m = [0.1, 0.2, 0.0];
         let s = SceneSetup::new(&config, None);
         assert_eq!((s.wires, s.guides_m.clone()), (1, vec![[0.1, 0.2, 0.0]]));
+    }
+
+    #[test]
+    fn a_session_log_that_cannot_be_written_is_a_safety_message_of_its_own() {
+        let config = Config::default();
+        let mut topics = SessionTopics::new(&Context::new(), SceneSetup::new(&config, None));
+        let record = CycleRecord::default();
+        assert!(topics.log_safety_change(&record), "the first period logs");
+        assert!(!topics.log_safety_change(&record));
+        topics.set_session_log_error(Some("No space left on device".into()));
+        assert!(topics.log_safety_change(&record), "the failure logs");
+        assert!(!topics.log_safety_change(&record));
+        topics.set_session_log_error(None);
+        assert!(topics.log_safety_change(&record), "the recovery logs");
     }
 
     #[test]

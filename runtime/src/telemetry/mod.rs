@@ -11,16 +11,13 @@
 
 pub mod format;
 pub mod read;
+pub mod retention;
 pub mod session;
 pub mod surfaces;
+mod writer;
 
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, OnceLock};
-use std::thread::JoinHandle;
-use std::time::Duration;
+use std::sync::Arc;
 
 pub use format::{LogHeader, FORMAT_VERSION, HEADER_BYTES, MAGIC, PERIOD_BYTES, RECORD_BYTES};
 pub use read::{
@@ -28,10 +25,13 @@ pub use read::{
 };
 pub use session::{CalibrationInForce, EndReason, SessionEnd, SessionInfo};
 pub use surfaces::{FeedRecording, RecordSurface, RecordedSurface, SurfaceTap};
+pub use writer::{
+    start, start_session, SessionLogHealth, SessionRecording, TelemetryWriter, WriterEvent,
+    FREE_SPACE_EVERY, RESUME_FREE_BYTES, RETENTION_EVERY, RETRY_EVERY,
+};
 
 use crate::control_loop::{CycleObserver, WindowStats};
 use crate::cycle::CycleRecord;
-use format::{encode_calibration, encode_end, encode_header, encode_period, frame, FrameKind};
 
 /// What the control thread sends the writer. The ring's slots are preallocated at the size of
 /// the largest item: boxing the period would allocate on the control thread.
@@ -79,196 +79,16 @@ impl CycleObserver for TelemetryProducer {
     }
 }
 
-/// The running writer thread.
-pub struct TelemetryWriter {
-    handle: JoinHandle<io::Result<u64>>,
-    /// Set once, by [`TelemetryWriter::finish`]: the writer drains, closes and stops.
-    end: Arc<OnceLock<EndReason>>,
-    dropped: Arc<AtomicU64>,
-    path: PathBuf,
-}
-
-impl TelemetryWriter {
-    /// Records dropped so far because the ring was full.
-    pub fn dropped(&self) -> u64 {
-        self.dropped.load(Ordering::Relaxed)
-    }
-    /// The log file.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-    /// The session ended for `reason` (the control thread has stopped pushing): drain what is
-    /// left, write the end frame (the reason, the last period, the periods written and
-    /// dropped), flush, fsync and close; returns the number of period records written. A
-    /// writer dropped without this leaves the log without an end frame, as a killed service
-    /// does.
-    pub fn finish(self, reason: EndReason) -> io::Result<u64> {
-        // Only `finish` sets it, once: it consumes the writer.
-        let _ = self.end.set(reason);
-        self.handle
-            .join()
-            .map_err(|_| io::Error::other("telemetry writer panicked"))?
-    }
-}
-
-/// What a session log records besides the periods.
-#[derive(Default)]
-pub struct SessionRecording {
-    /// The session (`None`: a log that cannot be replayed).
-    pub session: Option<SessionInfo>,
-    /// The surface feed's surfaces.
-    pub surfaces: FeedRecording,
-}
-
-/// Create a session log at `path` recording periods only, and start the writer thread.
-pub fn start(
-    path: &Path,
-    header: LogHeader,
-    ring_records: usize,
-) -> io::Result<(TelemetryProducer, TelemetryWriter)> {
-    start_session(path, header, SessionRecording::default(), ring_records)
-}
-
-/// Create the session log at `path`, write the session and the initial surface, and start the
-/// writer thread; returns the control thread's producer (ring of `ring_records`) and the
-/// writer.
-pub fn start_session(
-    path: &Path,
-    header: LogHeader,
-    recording: SessionRecording,
-    ring_records: usize,
-) -> io::Result<(TelemetryProducer, TelemetryWriter)> {
-    let file = File::create(path)?;
-    let mut out = BufWriter::with_capacity(1 << 20, file);
-    out.write_all(&encode_header(&header))?;
-    if let Some(session) = &recording.session {
-        let text = session.to_toml().map_err(io::Error::other)?;
-        frame(FrameKind::Session, text.as_bytes(), &mut out)?;
-    }
-    let mut surfaces = SurfaceFrames::default();
-    if let Some(initial) = &recording.surfaces.initial {
-        surfaces.write(0, initial, &mut out)?;
-    }
-    // On disk before the first period: a log killed at once still has its header and session.
-    out.flush()?;
-    let tap = recording.surfaces.tap;
-    if let Some(tap) = &tap {
-        tap.start_recording();
-    }
-    let (producer, mut consumer) = rtrb::RingBuffer::<TelemetryItem>::new(ring_records.max(1));
-    let dropped = Arc::new(AtomicU64::new(0));
-    let last_cycle = Arc::new(AtomicU64::new(NO_CYCLE));
-    let end = Arc::new(OnceLock::<EndReason>::new());
-    let (writer_end, writer_dropped, writer_last_cycle) = (
-        Arc::clone(&end),
-        Arc::clone(&dropped),
-        Arc::clone(&last_cycle),
-    );
-    let handle = std::thread::Builder::new()
-        .name("videt-telemetry".into())
-        .spawn(move || {
-            let mut written = 0u64;
-            let mut buf = [0u8; PERIOD_BYTES];
-            let reason = loop {
-                // Everything pushed before `finish` is in the ring once the reason is seen.
-                let done = writer_end.get();
-                // Surfaces first: a period refers to a surface published before it.
-                if let Some(tap) = &tap {
-                    let drained = tap.drain();
-                    for (version, surface) in &drained.surfaces {
-                        surfaces.write(*version, surface, &mut out)?;
-                    }
-                    for version in drained.lost {
-                        frame(FrameKind::SurfaceLost, &version.to_le_bytes(), &mut out)?;
-                    }
-                }
-                let mut drained = 0;
-                while let Ok(item) = consumer.pop() {
-                    match item {
-                        TelemetryItem::Period(record) => {
-                            encode_period(&record, &mut buf);
-                            frame(FrameKind::Period, &buf, &mut out)?;
-                            written += 1;
-                        }
-                        TelemetryItem::Calibration(from_cycle, c) => {
-                            frame(
-                                FrameKind::Calibration,
-                                &encode_calibration(from_cycle, &c),
-                                &mut out,
-                            )?;
-                        }
-                    }
-                    drained += 1;
-                }
-                if let Some(reason) = done {
-                    break reason.clone();
-                }
-                if drained == 0 {
-                    out.flush()?;
-                    std::thread::sleep(Duration::from_millis(20));
-                }
-            };
-            let last_cycle = writer_last_cycle.load(Ordering::Relaxed);
-            let end = SessionEnd {
-                reason,
-                last_cycle: (last_cycle != NO_CYCLE).then_some(last_cycle),
-                periods: written,
-                dropped: writer_dropped.load(Ordering::Relaxed),
-            };
-            frame(FrameKind::End, &encode_end(&end), &mut out)?;
-            out.flush()?;
-            out.get_ref().sync_all()?;
-            Ok(written)
-        })?;
-    Ok((
-        TelemetryProducer {
-            producer,
-            dropped: Arc::clone(&dropped),
-            last_cycle,
-        },
-        TelemetryWriter {
-            handle,
-            end,
-            dropped,
-            path: path.to_path_buf(),
-        },
-    ))
-}
-
-/// Writes surface frames, a surface equal to the previous one as a short repeat.
-#[derive(Default)]
-struct SurfaceFrames {
-    last: Option<RecordedSurface>,
-    buf: Vec<u8>,
-}
-
-impl SurfaceFrames {
-    fn write(
-        &mut self,
-        version: u64,
-        surface: &RecordedSurface,
-        out: &mut impl Write,
-    ) -> io::Result<()> {
-        self.buf.clear();
-        self.buf.extend_from_slice(&version.to_le_bytes());
-        if self.last.as_ref() == Some(surface) {
-            self.buf.push(0);
-        } else {
-            self.buf.push(1);
-            surface.encode(&mut self.buf);
-            self.last = Some(surface.clone());
-        }
-        frame(FrameKind::Surface, &self.buf, out)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::format::tests::sample;
+    use super::format::FrameKind;
     use super::format::{
         encode_record, END_FIXED_BYTES, FORMAT_VERSION_2, FRAME_HEAD_BYTES, FRAME_TAIL_BYTES,
     };
     use super::*;
+    use std::path::Path;
+    use std::time::Duration;
     use videt_control::surface::Plane;
     use videt_control::Vec3;
 
@@ -303,6 +123,7 @@ mod tests {
                 initial: Some(plane(0.3)),
                 tap: Some(Arc::clone(&tap)),
             },
+            retention: None,
         };
         let (mut producer, writer) = start_session(path, HEADER, recording, 4096).unwrap();
         producer.calibration(

@@ -124,7 +124,8 @@ pub struct SessionEnd {
     pub last_cycle: Option<u64>,
     /// Periods written to the log.
     pub periods: u64,
-    /// Periods dropped because the ring was full.
+    /// Periods not in the log: dropped because the ring was full, or lost because the file
+    /// system refused them (a full disk).
     pub dropped: u64,
 }
 

@@ -222,8 +222,14 @@ pub struct StatusReport {
     pub released_wire: Option<u8>,
     /// The surface is stale (forces faded out).
     pub surface_stale: bool,
-    /// Telemetry records dropped so far.
+    /// Telemetry records dropped so far (a full ring).
     pub telemetry_dropped: u64,
+    /// Telemetry records lost so far because the session log's disk refused them.
+    #[serde(default)]
+    pub telemetry_lost: u64,
+    /// While the session log cannot be written: why (a full disk, an I/O error).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub telemetry_error: Option<String>,
     /// A procedure running on the service's hardware (`init`, `wire-replace`), if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub procedure: Option<String>,
@@ -307,6 +313,8 @@ impl StatusReport {
             released_wire: u8::try_from(r.released_wire).ok(),
             surface_stale: r.surface_stale,
             telemetry_dropped,
+            telemetry_lost: 0,
+            telemetry_error: None,
             procedure: None,
             tension_loop_gain_scale: s.tension_loop_degraded,
             fault: None,

@@ -1,13 +1,15 @@
 //! `videt config check FILE`: validate a configuration (ranges, the drives' units against the
 //! device description it names, what the configured CAN bus can carry, whether the tension
 //! loop is stable on the configured sensor) and print the drives' torque resolution, the bus
-//! load, the sensor's timing and the loop's margins, and the resolved settings.
+//! load, the sensor's timing and the loop's margins, what the session logs keep, and the
+//! resolved settings.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Subcommand;
 use videt_rt_config::Config;
+use videt_runtime::telemetry::retention::{bytes_per_hour, MB};
 
 use super::ToolResult;
 
@@ -114,6 +116,33 @@ fn example_layout() -> Vec<(String, Vec<String>)> {
     layout
 }
 
+/// What the session logs keep (`[telemetry]` retention) and how many hours of sessions at the
+/// control rate that is.
+pub fn describe_retention(config: &Config) -> String {
+    let t = &config.telemetry;
+    let rate = config.control.rate_hz;
+    let per_hour = bytes_per_hour(rate);
+    let hours = t.max_total_mb as f64 * MB as f64 / per_hour as f64;
+    let kept = format!(
+        "kept up to {} MB, {} days, {} MB left free: about {} hours of sessions at {rate} Hz \
+         ({:.1} GB per hour)",
+        t.max_total_mb,
+        t.max_age_days,
+        t.min_free_mb,
+        if hours < 10.0 {
+            format!("{hours:.1}")
+        } else {
+            format!("{hours:.0}")
+        },
+        per_hour as f64 / 1e9,
+    );
+    if t.enabled {
+        format!("session logs: {kept}")
+    } else {
+        format!("session logs: none recorded (telemetry.enabled = false); if enabled, {kept}")
+    }
+}
+
 /// Run a configuration subcommand.
 pub fn run(command: &ConfigCommand) -> ToolResult {
     match command {
@@ -123,11 +152,12 @@ pub fn run(command: &ConfigCommand) -> ToolResult {
             videt_runtime::tension_budget::plan(&config)?;
             let resolved = resolved_settings(&config)?;
             println!(
-                "# {}: valid\n# {}\n# {}\n# {}\n{resolved}",
+                "# {}: valid\n# {}\n# {}\n# {}\n# {}\n{resolved}",
                 file.display(),
                 videt_assembly::bus_budget::describe(&config),
                 videt_runtime::tension_budget::describe(&config),
                 config.describe_drive_units(),
+                describe_retention(&config),
             );
             Ok(ExitCode::SUCCESS)
         }
@@ -152,6 +182,33 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn the_retention_line_gives_the_limits_and_the_hours_they_hold() {
+        let mut config = Config::default();
+        // 4096 MB at 428 bytes per period, 1000 periods per second: 2.66 hours.
+        assert_eq!(
+            describe_retention(&config),
+            "session logs: kept up to 4096 MB, 30 days, 1024 MB left free: about 2.7 hours of \
+             sessions at 1000 Hz (1.5 GB per hour)"
+        );
+        config.control.rate_hz = 4000;
+        config.telemetry.max_total_mb = 64_000;
+        config.telemetry.max_age_days = 7;
+        config.telemetry.min_free_mb = 0;
+        assert_eq!(
+            describe_retention(&config),
+            "session logs: kept up to 64000 MB, 7 days, 0 MB left free: about 10 hours of \
+             sessions at 4000 Hz (6.2 GB per hour)"
+        );
+        config.telemetry.enabled = false;
+        assert!(
+            describe_retention(&config)
+                .starts_with("session logs: none recorded (telemetry.enabled = false); if enabled, kept up to 64000 MB"),
+            "{}",
+            describe_retention(&config)
+        );
     }
 
     #[test]

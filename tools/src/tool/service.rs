@@ -70,6 +70,17 @@ pub fn run(args: &ServiceArgs) -> ToolResult {
         if s.surface_stale {
             println!("surface stale: forces faded out");
         }
+        if let Some(e) = &s.telemetry_error {
+            println!(
+                "session log NOT WRITING: {e} (periods lost so far: {})",
+                s.telemetry_lost
+            );
+        } else if s.telemetry_lost + s.telemetry_dropped > 0 {
+            println!(
+                "session log: {} periods lost (disk), {} dropped (ring full)",
+                s.telemetry_lost, s.telemetry_dropped
+            );
+        }
     } else if reply.ok {
         println!("ok");
     }
