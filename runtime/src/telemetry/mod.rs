@@ -10,9 +10,11 @@
 //! read.
 
 pub mod format;
+mod health;
 pub mod read;
 pub mod retention;
 pub mod session;
+mod sink;
 pub mod surfaces;
 mod writer;
 
@@ -20,14 +22,15 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 pub use format::{LogHeader, FORMAT_VERSION, HEADER_BYTES, MAGIC, PERIOD_BYTES, RECORD_BYTES};
+pub use health::{SessionLogHealth, WriterEvent};
 pub use read::{
     frames, parse_log, read_log, CalibrationEntry, Damage, FrameAt, Log, LogError, SurfaceEntry,
 };
 pub use session::{CalibrationInForce, EndReason, SessionEnd, SessionInfo};
 pub use surfaces::{FeedRecording, RecordSurface, RecordedSurface, SurfaceTap};
 pub use writer::{
-    start, start_session, SessionLogHealth, SessionRecording, TelemetryWriter, WriterEvent,
-    FREE_SPACE_EVERY, RESUME_FREE_BYTES, RETENTION_EVERY, RETRY_EVERY,
+    start, start_session, SessionRecording, TelemetryWriter, FREE_SPACE_EVERY, RESUME_FREE_BYTES,
+    RETENTION_EVERY, RETRY_EVERY,
 };
 
 use crate::control_loop::{CycleObserver, WindowStats};

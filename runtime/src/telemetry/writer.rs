@@ -9,19 +9,20 @@
 //! ([`WriterEvent::Writing`]). The control thread is never held up: the ring is drained all the
 //! while.
 
-use std::fs::File;
-use std::io::{self, Seek, SeekFrom, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, OnceLock, PoisonError};
+use std::sync::{Arc, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use super::format::{
     encode_calibration, encode_end, encode_period, frame, FrameKind, LogHeader, PERIOD_BYTES,
 };
+use super::health::{SessionLogHealth, WriterEvent, WriterHealth};
 use super::retention::{self, RetentionLimits};
 use super::session::{CalibrationInForce, EndReason, SessionEnd, SessionInfo};
+use super::sink::{LogSink, SurfaceFrames};
 use super::surfaces::{FeedRecording, RecordedSurface};
 use super::{TelemetryItem, TelemetryProducer, NO_CYCLE};
 
@@ -29,44 +30,11 @@ use super::{TelemetryItem, TelemetryProducer, NO_CYCLE};
 pub const RETRY_EVERY: Duration = Duration::from_secs(1);
 
 /// A batch is written once it holds this many bytes, or whenever the ring is empty.
-const BATCH_BYTES: usize = 256 * 1024;
+pub(super) const BATCH_BYTES: usize = 256 * 1024;
 
 /// A writer whose writes failed writes again once this much is free (where the free space can
 /// be read): a disk with room for a batch or two only would fail again at once.
 pub const RESUME_FREE_BYTES: u64 = 4 * BATCH_BYTES as u64;
-
-/// What the writer has to say, as it happens; the service logs each
-/// ([`TelemetryWriter::take_events`]).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum WriterEvent {
-    /// The file system refused a write: from now on periods are counted as lost, and the
-    /// writer tries again every [`RETRY_EVERY`].
-    Failing {
-        /// The error, as the system gave it.
-        error: String,
-    },
-    /// Writing again after a failure.
-    Writing {
-        /// Period records lost while the writes failed.
-        lost: u64,
-        /// How long the writes failed.
-        after: Duration,
-    },
-    /// Retention removed an older session log.
-    Removed {
-        /// The log.
-        path: PathBuf,
-        /// Its size, bytes.
-        bytes: u64,
-    },
-    /// Retention could not remove an older session log, or read the directory.
-    NotRemoved {
-        /// The log (or the directory).
-        path: PathBuf,
-        /// Why.
-        error: String,
-    },
-}
 
 /// How often retention runs while a session is written (and once as it starts).
 pub const RETENTION_EVERY: Duration = Duration::from_secs(60);
@@ -74,56 +42,6 @@ pub const RETENTION_EVERY: Duration = Duration::from_secs(60);
 /// How often the free space is read while a session is written: below the retention's
 /// minimum, retention runs at once, and the writes pause if it cannot make room.
 pub const FREE_SPACE_EVERY: Duration = Duration::from_secs(1);
-
-/// What the writer thread shares with the service.
-#[derive(Default)]
-struct WriterHealth {
-    /// Period records not written because the file system refused them.
-    lost: AtomicU64,
-    /// The error while the writes fail.
-    failure: Mutex<Option<String>>,
-    /// Events not yet taken by the service.
-    events: Mutex<Vec<WriterEvent>>,
-}
-
-impl WriterHealth {
-    fn failing(&self, error: String) {
-        *self.failure.lock().unwrap_or_else(PoisonError::into_inner) = Some(error.clone());
-        self.event(WriterEvent::Failing { error });
-    }
-
-    fn writing(&self, lost: u64, after: Duration) {
-        *self.failure.lock().unwrap_or_else(PoisonError::into_inner) = None;
-        self.event(WriterEvent::Writing { lost, after });
-    }
-
-    fn event(&self, event: WriterEvent) {
-        self.events
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .push(event);
-    }
-}
-
-/// How the session log's writes are going, for another thread (the live view): a cheap
-/// clone of the writer's own state.
-#[derive(Clone)]
-pub struct SessionLogHealth(Arc<WriterHealth>);
-
-impl SessionLogHealth {
-    /// Period records lost so far because the file system refused them.
-    pub fn lost(&self) -> u64 {
-        self.0.lost.load(Ordering::Relaxed)
-    }
-    /// The error while the writes fail (`None`: writing).
-    pub fn failure(&self) -> Option<String> {
-        self.0
-            .failure
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone()
-    }
-}
 
 /// The running writer thread.
 pub struct TelemetryWriter {
@@ -154,13 +72,7 @@ impl TelemetryWriter {
     }
     /// What happened since the last call, oldest first.
     pub fn take_events(&self) -> Vec<WriterEvent> {
-        std::mem::take(
-            &mut *self
-                .health
-                .events
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner),
-        )
+        self.health.take_events()
     }
     /// The log file.
     pub fn path(&self) -> &Path {
@@ -291,59 +203,6 @@ pub fn start_session(
             path: path.to_path_buf(),
         },
     ))
-}
-
-/// The session log file as the writer appends to it: frames are gathered in `batch` (its
-/// `Write` implementation) and appended by [`LogSink::commit`], which takes a refused batch back
-/// to the last whole frame.
-struct LogSink {
-    file: File,
-    /// Bytes of the file known written: it ends on a frame boundary.
-    good_len: u64,
-    batch: Vec<u8>,
-}
-
-impl LogSink {
-    fn create(path: &Path) -> io::Result<LogSink> {
-        Ok(LogSink {
-            file: File::create(path)?,
-            good_len: 0,
-            batch: Vec::with_capacity(2 * BATCH_BYTES),
-        })
-    }
-
-    /// Append the batch to the file. On an error the file is cut back to where the batch
-    /// began and the batch is dropped.
-    fn commit(&mut self) -> io::Result<()> {
-        if self.batch.is_empty() {
-            return Ok(());
-        }
-        let written = self.file.write_all(&self.batch);
-        let taken = self.batch.len() as u64;
-        self.batch.clear();
-        match written {
-            Ok(()) => {
-                self.good_len += taken;
-                Ok(())
-            }
-            Err(e) => {
-                // A part of the batch may be in the file: take it back.
-                let _ = self.file.set_len(self.good_len);
-                let _ = self.file.seek(SeekFrom::Start(self.good_len));
-                Err(e)
-            }
-        }
-    }
-}
-
-impl Write for LogSink {
-    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
-        self.batch.extend_from_slice(bytes);
-        Ok(bytes.len())
-    }
-    fn flush(&mut self) -> io::Result<()> {
-        Ok(())
-    }
 }
 
 /// What the batch not yet committed holds besides periods: what a refused batch loses.
@@ -661,7 +520,7 @@ impl WriterThread {
             self.commit();
         }
         if let Some(f) = &self.failing {
-            let error = self.health.failure.lock().ok().and_then(|e| e.clone());
+            let error = self.health.failure();
             return Err(io::Error::other(format!(
                 "the last {} s of writes failed ({}): the log ends without its end frame",
                 f.since.elapsed().as_secs(),
@@ -684,33 +543,6 @@ fn low_space(free_bytes: u64, min_free_bytes: u64) -> String {
         min_free_bytes / retention::MB,
         free_bytes as f64 / retention::MB as f64
     )
-}
-
-/// Writes surface frames, a surface equal to the previous one as a short repeat.
-#[derive(Default)]
-struct SurfaceFrames {
-    last: Option<RecordedSurface>,
-    buf: Vec<u8>,
-}
-
-impl SurfaceFrames {
-    fn write(
-        &mut self,
-        version: u64,
-        surface: &RecordedSurface,
-        out: &mut impl Write,
-    ) -> io::Result<()> {
-        self.buf.clear();
-        self.buf.extend_from_slice(&version.to_le_bytes());
-        if self.last.as_ref() == Some(surface) {
-            self.buf.push(0);
-        } else {
-            self.buf.push(1);
-            surface.encode(&mut self.buf);
-            self.last = Some(surface.clone());
-        }
-        frame(FrameKind::Surface, &self.buf, out)
-    }
 }
 
 #[cfg(test)]
