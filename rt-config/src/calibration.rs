@@ -422,7 +422,11 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> io::Result<()> {
     if path.exists() {
         let old = fs::read(path)?;
         let bak_temp = temp("bak-tmp");
-        write_synced(&bak_temp, &old)?;
+        // A full disk refuses the backup first: nothing of it stays behind.
+        if let Err(e) = write_synced(&bak_temp, &old) {
+            let _ = fs::remove_file(&bak_temp);
+            return Err(e);
+        }
         fs::rename(&bak_temp, backup_path(path))?;
     }
     let new_temp = temp("tmp");
@@ -465,6 +469,54 @@ pub fn utc_timestamp(unix_s: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_full_disk_refuses_the_write_and_leaves_the_previous_file_and_no_temporary_one() {
+        let disk = match videt_testkit::SmallDisk::mount(1_000_000) {
+            Ok(disk) => disk,
+            Err(why) => {
+                eprintln!("skipped: {why}");
+                return;
+            }
+        };
+        let path = disk.path().join("calibration.toml");
+        write_atomically(&path, b"# the calibration in force\n").unwrap();
+        let filler = disk.fill_leaving(4096).unwrap();
+        let e = write_atomically(&path, &[b'#'; 200_000]).expect_err("no room");
+        assert_eq!(e.kind(), io::ErrorKind::StorageFull, "{e}");
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            b"# the calibration in force\n"
+        );
+        std::fs::remove_file(filler).unwrap();
+        // The previous file and its backup (written before the new file was refused), and no
+        // temporary file.
+        let mut left: Vec<_> = std::fs::read_dir(disk.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["calibration.toml", "calibration.toml.bak"]);
+        assert_eq!(
+            std::fs::read(backup_path(&path)).unwrap(),
+            b"# the calibration in force\n"
+        );
+
+        // A large previous file: its backup is what the disk refuses.
+        let large = vec![b'#'; 300_000];
+        write_atomically(&path, &large).unwrap();
+        std::fs::remove_file(backup_path(&path)).unwrap();
+        let filler = disk.fill_leaving(100_000).unwrap();
+        let e = write_atomically(&path, b"# new\n").expect_err("no room for the backup");
+        assert_eq!(e.kind(), io::ErrorKind::StorageFull, "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), large);
+        std::fs::remove_file(filler).unwrap();
+        let left: Vec<_> = std::fs::read_dir(disk.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(left, ["calibration.toml"], "no temporary file left");
+    }
 
     #[test]
     fn a_pipe_or_device_is_written_to_not_replaced() {

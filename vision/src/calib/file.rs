@@ -391,6 +391,33 @@ pub(crate) mod tests {
     use crate::calib::geometry::rodrigues_to_matrix;
     use crate::calib::rectification::stereo_rectify;
 
+    #[test]
+    fn a_full_disk_refuses_the_calibration_and_leaves_the_previous_one_and_nothing_else() {
+        let disk = match videt_testkit::SmallDisk::mount(1_000_000) {
+            Ok(disk) => disk,
+            Err(why) => {
+                eprintln!("skipped: {why}");
+                return;
+            }
+        };
+        let path = disk.path().join("stereo.json");
+        write_atomically(&path, b"{}").unwrap();
+        let filler = disk.fill_leaving(4096).unwrap();
+        let e = write_atomically(&path, &vec![b' '; 200_000]).expect_err("no room");
+        assert!(e.to_string().contains("No space left"), "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), b"{}");
+        std::fs::remove_file(filler).unwrap();
+        let left: Vec<_> = std::fs::read_dir(disk.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(
+            left,
+            vec!["stereo.json".to_string()],
+            "no temporary file left"
+        );
+    }
+
     /// A calibration shaped like the real rig's.
     pub(crate) fn sample() -> StereoCalibration {
         let left = CameraIntrinsics {
