@@ -600,7 +600,7 @@ where
         }
         let dropped = telemetry_writer.as_ref().map_or(0, |w| w.dropped());
         if let Some(writer) = &telemetry_writer {
-            log_writer_events(writer);
+            log_writer_events(&writer.health(), writer.path());
         }
         let procedure = shared.procedures.as_ref().and_then(|p| {
             if stop.load(Ordering::Relaxed) {
@@ -656,11 +656,15 @@ where
     }
     let panicked = SERVICE_PANICKED.load(Ordering::SeqCst);
     if let Some(writer) = telemetry_writer {
-        log_writer_events(&writer);
-        let (dropped, lost) = (writer.dropped(), writer.lost());
+        let (health, path) = (writer.health(), writer.path().to_path_buf());
+        let dropped = writer.dropped();
         let reason = end_reason(&outcome, signalled.load(Ordering::SeqCst), panicked);
         let why = reason.to_string();
-        match writer.finish(reason) {
+        let finished = writer.finish(reason);
+        // What the last writes and the closing retention said.
+        log_writer_events(&health, &path);
+        let lost = health.lost();
+        match finished {
             Ok(written) => info!(written, dropped, lost, end = %why, "telemetry log closed"),
             Err(e) => error!("telemetry log incomplete: {e}"),
         }
@@ -725,11 +729,11 @@ fn signal_name(signal: usize) -> String {
 
 /// Log what the session log's writer said since the last call: a failing disk once when it
 /// starts failing, and once when the writes go through again.
-fn log_writer_events(writer: &telemetry::TelemetryWriter) {
+fn log_writer_events(writer: &telemetry::SessionLogHealth, path: &std::path::Path) {
     for event in writer.take_events() {
         match event {
             WriterEvent::Failing { error } => error!(
-                log = %writer.path().display(),
+                log = %path.display(),
                 "session log not written: {error}; the control loop goes on, periods are counted as lost and the write is tried again every {} s",
                 telemetry::RETRY_EVERY.as_secs()
             ),
@@ -743,7 +747,7 @@ fn log_writer_events(writer: &telemetry::TelemetryWriter) {
                 "retention could not remove an older session log: {error}"
             ),
             WriterEvent::Writing { lost, after } => warn!(
-                log = %writer.path().display(),
+                log = %path.display(),
                 lost,
                 "session log written again after {:.1} s: {lost} periods lost",
                 after.as_secs_f64()

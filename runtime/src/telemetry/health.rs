@@ -94,4 +94,9 @@ impl SessionLogHealth {
     pub fn failure(&self) -> Option<String> {
         self.0.failure()
     }
+    /// What the writer said since the last call, oldest first (also after it finished: what
+    /// retention removed as the session closed).
+    pub fn take_events(&self) -> Vec<WriterEvent> {
+        self.0.take_events()
+    }
 }

@@ -532,6 +532,10 @@ impl WriterThread {
         frame(FrameKind::End, &encode_end(&end), &mut self.sink)?;
         self.sink.commit()?;
         self.sink.file.sync_all()?;
+        // The session's own growth since the last run: the directory ends within the limits.
+        if let Some(r) = &self.retention {
+            r.apply(&self.health);
+        }
         Ok(self.written)
     }
 }
