@@ -39,6 +39,13 @@ impl SmallDisk {
         Ok(SmallDisk { dir })
     }
 
+    /// [`SmallDisk::mount`], or `None` after printing why not (the test then skips).
+    pub fn mount_or_skip(bytes: u64) -> Option<SmallDisk> {
+        SmallDisk::mount(bytes)
+            .map_err(|why| eprintln!("skipped: {why}"))
+            .ok()
+    }
+
     /// Where it is mounted.
     pub fn path(&self) -> &Path {
         &self.dir

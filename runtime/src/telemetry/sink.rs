@@ -6,7 +6,9 @@ use std::path::Path;
 
 use super::format::{frame, FrameKind};
 use super::surfaces::RecordedSurface;
-use super::writer::BATCH_BYTES;
+
+/// A batch is written once it holds this many bytes, or whenever the ring is empty.
+pub(super) const BATCH_BYTES: usize = 256 * 1024;
 
 /// The session log file as the writer appends to it: frames are gathered in `batch` (its
 /// `Write` implementation) and appended by [`LogSink::commit`], which takes a refused batch back

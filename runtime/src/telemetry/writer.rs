@@ -22,15 +22,12 @@ use super::format::{
 use super::health::{SessionLogHealth, WriterEvent, WriterHealth};
 use super::retention::{self, RetentionLimits};
 use super::session::{CalibrationInForce, EndReason, SessionEnd, SessionInfo};
-use super::sink::{LogSink, SurfaceFrames};
+use super::sink::{LogSink, SurfaceFrames, BATCH_BYTES};
 use super::surfaces::{FeedRecording, RecordedSurface};
 use super::{TelemetryItem, TelemetryProducer, NO_CYCLE};
 
 /// How often a writer whose writes fail tries again.
 pub const RETRY_EVERY: Duration = Duration::from_secs(1);
-
-/// A batch is written once it holds this many bytes, or whenever the ring is empty.
-pub(super) const BATCH_BYTES: usize = 256 * 1024;
 
 /// A writer whose writes failed writes again once this much is free (where the free space can
 /// be read): a disk with room for a batch or two only would fail again at once.
@@ -580,12 +577,8 @@ mod tests {
 
     #[test]
     fn a_full_disk_loses_periods_not_the_log_and_the_writes_resume_when_there_is_room() {
-        let disk = match videt_testkit::SmallDisk::mount(4_000_000) {
-            Ok(disk) => disk,
-            Err(why) => {
-                eprintln!("skipped: {why}");
-                return;
-            }
+        let Some(disk) = videt_testkit::SmallDisk::mount_or_skip(4_000_000) else {
+            return;
         };
         let filler = disk.fill_leaving(400_000).unwrap();
         let path = disk.path().join("s.vlog");
@@ -674,12 +667,8 @@ mod tests {
 
     #[test]
     fn retention_removes_the_older_logs_for_room_then_pauses_the_writes_until_there_is_some() {
-        let disk = match videt_testkit::SmallDisk::mount(8_000_000) {
-            Ok(disk) => disk,
-            Err(why) => {
-                eprintln!("skipped: {why}");
-                return;
-            }
+        let Some(disk) = videt_testkit::SmallDisk::mount_or_skip(8_000_000) else {
+            return;
         };
         let logs = disk.path().join("logs");
         std::fs::create_dir(&logs).unwrap();
