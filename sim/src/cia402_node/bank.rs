@@ -219,6 +219,13 @@ impl SimDriveBank {
             .spawn(move || {
                 on_start();
                 let mut outbox: Vec<SimFrame> = Vec::with_capacity(64);
+                // Each node's power state and since when, kept here: the views are published
+                // only when their lock is free (below), and a change is still timed when it
+                // happened.
+                let mut powers: Vec<(DrivePower, Option<Instant>)> = nodes
+                    .iter()
+                    .map(|n| (n.power(), Some(Instant::now())))
+                    .collect();
                 while !stop_t.load(Ordering::Relaxed) {
                     // What arrived while this thread was not running is taken first: a real
                     // drive's controller takes frames off the bus as they come, so its
@@ -249,18 +256,22 @@ impl SimDriveBank {
                         Ok(None) => {}
                         Err(_) => std::thread::sleep(Duration::from_millis(1)),
                     }
-                    if let Ok(mut v) = views_t.lock() {
-                        for (view, n) in v.iter_mut().zip(&nodes) {
-                            let power = n.power();
+                    for (p, n) in powers.iter_mut().zip(&nodes) {
+                        if n.power() != p.0 {
+                            *p = (n.power(), Some(Instant::now()));
+                        }
+                    }
+                    // Never waits for the lock: a reader holding it (a thread of ordinary
+                    // priority, preempted on a busy CPU) would otherwise stop the drives
+                    // answering for as long, as a priority inversion. Contended, the views are
+                    // published the next time round.
+                    if let Ok(mut v) = views_t.try_lock() {
+                        for ((view, n), p) in v.iter_mut().zip(&nodes).zip(&powers) {
                             *view = NodeView {
-                                power,
+                                power: p.0,
                                 nmt: n.nmt_state(),
                                 applied_torque_nm: n.applied_torque_nm(),
-                                power_since: if power == view.power {
-                                    view.power_since
-                                } else {
-                                    Some(Instant::now())
-                                },
+                                power_since: p.1,
                             };
                         }
                     }
@@ -292,5 +303,68 @@ impl Drop for SimDriveBank {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::can_bus::{BusFaults, InProcessBus};
+
+    #[test]
+    fn a_reader_holding_the_views_does_not_stop_the_drives_answering() {
+        let faults = Arc::new(BusFaults::new(1));
+        let mut eps = InProcessBus::with_endpoints(2, 64, faults);
+        let mut host = eps.pop().unwrap();
+        let drives = eps.pop().unwrap();
+        let spec = |node_id| SimDriveSpec {
+            node_id,
+            axis: 0,
+            rated_torque_mnm: 100,
+            boot_delay: Duration::from_millis(5),
+        };
+        let bank = SimDriveBank::spawn(
+            drives,
+            &[spec(1), spec(2)],
+            FreeMotorPlant::new(1, 1e-5, 1e-5, 2000.0),
+        );
+        // A reader of ordinary priority, preempted while it holds the views' lock, for the
+        // whole exchange: the drives boot and answer an SDO read all the same.
+        let held = bank.views.lock().unwrap();
+        let mut booted = vec![];
+        let mut answered = false;
+        let t0 = Instant::now();
+        while !(booted.len() == 2 && answered) && t0.elapsed() < Duration::from_secs(2) {
+            if let Some(f) = host.receive_timeout(Duration::from_millis(50)).unwrap() {
+                if f.data() == [0] {
+                    booted.push(f.raw_id());
+                    if booted.len() == 2 {
+                        // Read node 1's device type (0x1000).
+                        let read = SimFrame::standard(0x601, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]);
+                        host.send(&read.unwrap()).unwrap();
+                    }
+                } else if f.raw_id() == 0x581 {
+                    answered = true;
+                }
+            }
+        }
+        booted.sort();
+        assert_eq!(
+            booted,
+            vec![0x701, 0x702],
+            "boot-ups while the views were held"
+        );
+        assert!(answered, "no SDO answer while the views were held");
+        drop(held);
+        // Published once the lock is free, with the time the power state was entered.
+        let t1 = Instant::now();
+        while bank.views()[0].nmt != NmtState::PreOperational {
+            assert!(
+                t1.elapsed() < Duration::from_secs(2),
+                "views never published"
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(bank.views()[0].power_since.unwrap() <= t1);
     }
 }
