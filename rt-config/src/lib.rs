@@ -101,6 +101,19 @@ pub enum ColourStatistic {
     Mean,
 }
 
+/// How the relief spans the gaps between the matched 3-D segments (`vision.relief_shape`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReliefShapeName {
+    /// The paper's surface: the height interpolated linearly between the segments, across
+    /// depth steps too (a ramp where the scene has a cliff), and down to the back plane at the
+    /// border of the area.
+    Interpolated,
+    /// Depth steps kept as steps (a wall the finger can follow, at the nearer side of an
+    /// occluding edge) and the border of the area at the height of what is near it.
+    Stepped,
+}
+
 /// The space the colour thresholds apply in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -414,6 +427,9 @@ pub struct VisionConfig {
     /// ... drop a match its matched neighbours contradict (an isolated 3-D segment off the
     /// surface around it).
     pub surface_check: bool,
+    /// How the relief built from the cameras spans the gaps between the matched segments:
+    /// `interpolated` (the paper's) or `stepped` (docs/stereo-accuracy.md, "Relief shape").
+    pub relief_shape: ReliefShapeName,
 }
 
 /// Per-cycle telemetry.
@@ -510,6 +526,7 @@ impl Default for VisionConfig {
             left_right_check: false,
             min_match_confidence: 0.0,
             surface_check: false,
+            relief_shape: ReliefShapeName::Interpolated,
         }
     }
 }

@@ -417,3 +417,20 @@ fn the_live_view_is_off_on_loopback_by_default_and_its_settings_are_checked() {
         .to_string();
     assert!(e.contains("live.client_backlog"), "{e}");
 }
+
+#[test]
+fn the_relief_shape_is_interpolated_unless_stepped_is_asked() {
+    assert_eq!(
+        Config::default().vision.relief_shape,
+        ReliefShapeName::Interpolated
+    );
+    let c = Config::from_toml_str("[vision]\nrelief_shape = \"stepped\"\n", "t").unwrap();
+    assert_eq!(c.vision.relief_shape, ReliefShapeName::Stepped);
+    let e = Config::from_toml_str("[vision]\nrelief_shape = \"smooth\"\n", "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("relief_shape") && e.contains("smooth") && e.contains("stepped"),
+        "{e}"
+    );
+}

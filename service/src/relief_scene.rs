@@ -6,7 +6,7 @@
 use videt_control::blend::BlendParams;
 use videt_control::proxy::ProxyParams;
 use videt_control::SceneMap;
-use videt_rt_config::Config;
+use videt_rt_config::{Config, ReliefShapeName};
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 use videt_vision::surface::{
     build_from_device, BuildError, BuildReport, DeviceSegment, ReliefModel, ReliefParams,
@@ -61,11 +61,13 @@ pub struct ReliefLayout {
     pub back_plane_z_m: f64,
     /// Relief depth `d_max`, metres.
     pub relief_depth_m: f64,
+    /// How the relief spans the gaps between the segments (`vision.relief_shape`).
+    pub shape: ReliefShape,
 }
 
 impl ReliefLayout {
     /// A 20 x 15 cm area centred in front of the configured guides, back plane at 36 cm, 4 cm
-    /// of relief.
+    /// of relief, the configured shape (`vision.relief_shape`).
     pub fn for_config(config: &Config) -> ReliefLayout {
         let g = &config.rig.guides_m;
         ReliefLayout {
@@ -76,6 +78,10 @@ impl ReliefLayout {
             size_m: [0.20, 0.15],
             back_plane_z_m: 0.36,
             relief_depth_m: 0.04,
+            shape: match config.vision.relief_shape {
+                ReliefShapeName::Interpolated => ReliefShape::Interpolated,
+                ReliefShapeName::Stepped => ReliefShape::Stepped,
+            },
         }
     }
 
@@ -98,7 +104,9 @@ impl ReliefLayout {
             scene_depth_range_m,
         )
         .map_err(|e| e.to_string())?;
-        Ok(ReliefParams::new(map))
+        let mut params = ReliefParams::new(map);
+        params.shape = self.shape;
+        Ok(params)
     }
 }
 

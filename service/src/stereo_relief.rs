@@ -927,6 +927,34 @@ mod tests {
     }
 
     #[test]
+    fn the_configured_relief_shape_builds_the_cameras_relief_but_not_the_demo_box() {
+        use videt_vision::surface::ReliefShape;
+        let mut config = videt_rt_config::Config::default();
+        let interpolated = ReliefLayout::for_config(&config);
+        assert_eq!(interpolated.shape, ReliefShape::Interpolated);
+        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Stepped;
+        let layout = ReliefLayout::for_config(&config);
+        let (relief, _, initial) = StereoRelief::build(
+            StereoPair::demo().unwrap(),
+            &layout,
+            LiveSettings::default(),
+        )
+        .unwrap();
+        assert_eq!(relief.relief_params().shape, ReliefShape::Stepped);
+        assert!(initial.report.depth_steps > 0, "{:?}", initial.report);
+        let (_, _, plain) = StereoRelief::build(
+            StereoPair::demo().unwrap(),
+            &interpolated,
+            LiveSettings::default(),
+        )
+        .unwrap();
+        assert_eq!(plain.report.depth_steps, 0, "{:?}", plain.report);
+        // The demo box's sides are slopes by design: interpolated whatever the setting.
+        let (_, report) = crate::relief_scene::box_relief(&layout, 0.0).unwrap();
+        assert_eq!(report.depth_steps, 0, "{report:?}");
+    }
+
+    #[test]
     fn demo_pair_builds_a_relief_and_updates_it_around_the_finger() {
         let config = videt_rt_config::Config::default();
         let layout = ReliefLayout::for_config(&config);
