@@ -304,23 +304,15 @@ pub fn socket_path(dir: &Path) -> PathBuf {
 
 /// The twin served as a rig on `can` (and its true calibration written beside the config),
 /// its drives on the control thread's CPU (`realtime.control_cpu`) as the CAN twin's are: the
-/// emulated CPU the cameras and the tests load does not delay their answers. They run above
-/// the control thread, as hardware answers whatever the host's CPU does (below it, the control
-/// thread preempted them at each answer frame, and under emulation their answers came after
-/// its wait for them); the physics runs below it.
+/// emulated CPU the cameras and the tests load does not delay their answers.
 pub fn start_rig(config: &Path, can: &str) -> Process {
     let dir = config.parent().unwrap();
-    let realtime = videt_rt_config::Config::load(config).unwrap().realtime;
-    let control_cpu = realtime.control_cpu;
-    let drives = (realtime.control_priority + 5).min(99).to_string();
-    let physics = realtime
-        .control_priority
-        .saturating_sub(10)
-        .max(1)
-        .to_string();
+    let control_cpu = videt_rt_config::Config::load(config)
+        .unwrap()
+        .realtime
+        .control_cpu;
     let mut rig = Command::new(videt_bin());
-    rig.args(["sim-rig", "--can", can]);
-    rig.args(["--priority", &drives, "--physics-priority", &physics]);
+    rig.args(["sim-rig", "--priority", "70", "--can", can]);
     // -1: the control thread is not pinned, nor are the drives.
     if control_cpu >= 0 {
         rig.args(["--cpu", &control_cpu.to_string()]);

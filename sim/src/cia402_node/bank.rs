@@ -237,6 +237,12 @@ impl SimDriveBank {
                             _ => break,
                         }
                     }
+                    // Answers first (a SYNC's process data: the host waits for them), the
+                    // nodes' own timers (heartbeats, event-driven PDOs) after: their upkeep
+                    // costs more than an answer, and on a slow CPU it made the answers late.
+                    for f in outbox.drain(..) {
+                        let _ = port.send_frame(&f);
+                    }
                     let now = Instant::now();
                     let mut next = now + Duration::from_millis(5);
                     for n in nodes.iter_mut() {

@@ -49,15 +49,10 @@ pub struct SimRigArgs {
     /// this file, as `videt init` would measure it, once the drives listen.
     #[arg(long)]
     pub calibration_out: Option<PathBuf>,
-    /// SCHED_FIFO priority of the drives' thread (0: normal scheduling). Above the service's
-    /// control thread (`realtime.control_priority`) the drives answer as hardware does, whatever
-    /// the host's CPU is doing: the control thread does not preempt them for each answer frame.
+    /// SCHED_FIFO priority of the drives' thread, the physics thread one below (0: normal
+    /// scheduling).
     #[arg(long, default_value_t = 0)]
     pub priority: u8,
-    /// SCHED_FIFO priority of the physics thread (default: one below the drives; 0: normal
-    /// scheduling). Below the control thread it does not take that thread's CPU.
-    #[arg(long)]
-    pub physics_priority: Option<u8>,
     /// Pin the drives' thread to this CPU. Give it the control thread's
     /// (`realtime.control_cpu`): each period's SYNC and answers are then handed over on one
     /// CPU, whatever load stalls the others, as hardware answers whatever the host does.
@@ -124,10 +119,9 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     // The physics runs on a thread of its own and hands encoders, analog inputs and torques to
     // the drives through wait-free mailboxes: the drives answer every SYNC at once whatever the
     // physics costs (on a slow machine the twin then moves in slow motion rather than the bus
-    // falling silent). With `--priority` it runs at real-time priority too (just below the
-    // drives unless `--physics-priority` says otherwise): a physics thread starved by the
-    // machine's ordinary work would catch up in bursts, and a burst of motion between two SYNCs
-    // reads as a spike of wire speed.
+    // falling silent). With `--priority` it runs just below the drives: a physics thread
+    // starved by the machine's ordinary work would catch up in bursts, and a burst of motion
+    // between two SYNCs reads as a spike of wire speed.
     let mut plant = RealTimeTwinPlant::new(scene.twin, scales);
     let motors = Arc::new(SharedMotors::new(WIREMAN_WIRES));
     publish(&plant, &motors);
@@ -140,9 +134,6 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         })
         .collect();
     let priority = args.priority;
-    let physics_priority = args
-        .physics_priority
-        .unwrap_or_else(|| priority.saturating_sub(1));
     let cpu = args.cpu;
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
@@ -180,8 +171,8 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     let physics = std::thread::Builder::new()
         .name("sim-rig-physics".into())
         .spawn(move || {
-            if physics_priority > 0 {
-                if let Err(e) = rt::set_fifo(physics_priority) {
+            if priority > 1 {
+                if let Err(e) = rt::set_fifo(priority - 1) {
                     eprintln!("videt sim-rig: the physics stays SCHED_OTHER: {e}");
                 }
             }
