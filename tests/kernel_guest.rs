@@ -336,6 +336,21 @@ mod cameras {
     /// The pulses of the three vibrotactor lines, sampled together every 200 µs for `span`:
     /// per line, each pulse's (rising edge, high time).
     fn sample_pulses(chip: &Simpleton, span: Duration) -> Vec<Vec<(Instant, Duration)>> {
+        // On a thread of its own at real-time priority (below the service's control thread and
+        // the rig's drives): of ordinary priority, the vision thread's work on the same emulated
+        // CPU held it off for longer than a pulse, and it saw no whole period.
+        std::thread::scope(|scope| {
+            scope
+                .spawn(|| {
+                    let _ = videt_runtime::rt::set_fifo(50);
+                    sample_pulses_here(chip, span)
+                })
+                .join()
+                .unwrap()
+        })
+    }
+
+    fn sample_pulses_here(chip: &Simpleton, span: Duration) -> Vec<Vec<(Instant, Duration)>> {
         let mut pulses = vec![Vec::new(); VIBROTACTOR_LINES.len()];
         let mut rose: Vec<Option<Instant>> = vec![None; VIBROTACTOR_LINES.len()];
         let mut last = vec![Level::Low; VIBROTACTOR_LINES.len()];
