@@ -90,23 +90,27 @@ fn session_log_retention_is_read_and_checked_against_its_ranges() {
     }
 }
 
+/// The error a configuration text is refused with.
+fn refusal(text: &str) -> String {
+    Config::from_toml_str(text, "t").unwrap_err().to_string()
+}
+
 #[test]
 fn errors_name_the_field_value_and_range() {
-    let e = Config::from_toml_str("[control]\nrate_hz = 50\n", "t")
-        .unwrap_err()
-        .to_string();
+    let e = refusal("[control]\nrate_hz = 50\n");
     assert!(
         e.contains("control.rate_hz") && e.contains("50") && e.contains("1000"),
         "{e}"
     );
-    let e = Config::from_toml_str("[control]\nt_max_n = 40.0\n", "t")
-        .unwrap_err()
-        .to_string();
+    let e = refusal("[control]\nt_max_n = 40.0\n");
     assert!(e.contains("control.t_max_n") && e.contains("40"), "{e}");
-    let e = Config::from_toml_str("[control]\nalgorithm = \"X9\"\n", "t")
-        .unwrap_err()
-        .to_string();
+    let e = refusal("[control]\nalgorithm = \"X9\"\n");
     assert!(e.contains("control.algorithm") && e.contains("X9"), "{e}");
+    let e = refusal("[vision]\nrelief_shape = \"smooth\"\n");
+    assert!(
+        e.contains("relief_shape") && e.contains("smooth") && e.contains("stepped"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -426,11 +430,4 @@ fn the_relief_shape_is_interpolated_unless_stepped_is_asked() {
     );
     let c = Config::from_toml_str("[vision]\nrelief_shape = \"stepped\"\n", "t").unwrap();
     assert_eq!(c.vision.relief_shape, ReliefShapeName::Stepped);
-    let e = Config::from_toml_str("[vision]\nrelief_shape = \"smooth\"\n", "t")
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("relief_shape") && e.contains("smooth") && e.contains("stepped"),
-        "{e}"
-    );
 }

@@ -46,6 +46,14 @@ fn hear<M: MotorPlant>(
     }
 }
 
+/// Put every frame of `outbox` on the bus, in order (a frame the bus refuses is lost, as on a
+/// bus that is off).
+fn send_all<P: SimPort>(port: &mut P, outbox: &mut Vec<SimFrame>) {
+    for f in outbox.drain(..) {
+        let _ = port.send_frame(&f);
+    }
+}
+
 /// Simulated drives answering inline, without a thread: frames sent to the bus reach the nodes
 /// at once and their answers wait in a preallocated queue. Deterministic, for tests on the
 /// twin's simulated clock (the threaded [`SimDriveBank`] is the real-time variant).
@@ -240,24 +248,18 @@ impl SimDriveBank {
                     // Answers first (a SYNC's process data: the host waits for them), the
                     // nodes' own timers (heartbeats, event-driven PDOs) after: their upkeep
                     // costs more than an answer, and on a slow CPU it made the answers late.
-                    for f in outbox.drain(..) {
-                        let _ = port.send_frame(&f);
-                    }
+                    send_all(&mut port, &mut outbox);
                     let now = Instant::now();
                     let mut next = now + Duration::from_millis(5);
                     for n in nodes.iter_mut() {
                         next = next.min(n.poll(now, &mut plant, &mut |f| outbox.push(f)));
                     }
-                    for f in outbox.drain(..) {
-                        let _ = port.send_frame(&f);
-                    }
+                    send_all(&mut port, &mut outbox);
                     let wait = next.saturating_duration_since(Instant::now());
                     match port.receive_frame(wait) {
                         Ok(Some(frame)) => {
                             hear(&mut nodes, &frame, &mut plant, &mut outbox);
-                            for f in outbox.drain(..) {
-                                let _ = port.send_frame(&f);
-                            }
+                            send_all(&mut port, &mut outbox);
                         }
                         Ok(None) => {}
                         Err(_) => std::thread::sleep(Duration::from_millis(1)),
