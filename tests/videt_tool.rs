@@ -250,6 +250,21 @@ fn sim_rig_refuses_a_cpu_the_process_may_not_run_on() {
 }
 
 #[test]
+fn sim_rig_refuses_a_time_scale_outside_zero_to_one() {
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
+    for scale in ["0", "1.5", "-0.25", "NaN"] {
+        let arg = format!("--time-scale={scale}");
+        let out = videt(&["sim-rig", "--config", example, "--can", "vcan-absent", &arg]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{scale}: {err}");
+        assert!(
+            err.contains("--time-scale") && err.contains("(0, 1]"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
 fn every_subcommand_has_help() {
     for args in [
         &["init", "--help"][..],

@@ -6,6 +6,12 @@
 //! SYNC), as a real rig moves between two bus exchanges. Each drive's analog input carries its
 //! wire's strain-gauge reading (the twin's sensor model: offset, gain error, noise), scaled as
 //! the load-cell amplifier of the configuration would scale it.
+//!
+//! On a machine too slow for the control loop's rate (an emulated CPU), the twin's world can
+//! run in slow motion ([`RealTimeTwinPlant::with_time_scale`]): its time then advances a fixed
+//! fraction of the wall clock's, so the loop's periods, as many as the machine manages, still
+//! come as often per second of the twin's world as on the backpack, where a wall-clock world
+//! would move three or four times as far between two periods as the loop is built for.
 
 use std::time::Instant;
 
@@ -45,7 +51,11 @@ pub struct RealTimeTwinPlant<const N: usize, D: WireDevice<N>> {
     analog: [i16; N],
     scale: [AnalogScale; N],
     sensor_failed: bool,
+    time_scale: f64,
 }
+
+/// The most of the twin's time one call catches up.
+const MAX_CATCH_UP_NS: u64 = 50_000_000;
 
 impl<const N: usize, D: WireDevice<N>> RealTimeTwinPlant<N, D> {
     /// Take `twin` (its drives are enabled: the simulated nodes decide which torque is applied),
@@ -64,9 +74,37 @@ impl<const N: usize, D: WireDevice<N>> RealTimeTwinPlant<N, D> {
             analog: [0; N],
             scale,
             sensor_failed: false,
+            time_scale: 1.0,
         };
         plant.sample();
         plant
+    }
+
+    /// The twin's world in slow motion: `scale` seconds of its time per second of the wall
+    /// clock, from now on (1: real time). Values outside (0, 1] are clamped into it.
+    pub fn with_time_scale(mut self, scale: f64) -> RealTimeTwinPlant<N, D> {
+        let scale = if scale.is_finite() {
+            scale.clamp(1e-3, 1.0)
+        } else {
+            1.0
+        };
+        // The world's time so far is kept: only what follows runs slower.
+        let world_ns = self.twin.sim_time().0 as f64;
+        self.origin = Instant::now()
+            .checked_sub(std::time::Duration::from_nanos((world_ns / scale) as u64))
+            .unwrap_or(self.origin);
+        self.time_scale = scale;
+        self
+    }
+
+    /// Seconds of the twin's world per second of the wall clock.
+    pub fn time_scale(&self) -> f64 {
+        self.time_scale
+    }
+
+    /// The twin's time the wall clock stands for now.
+    fn world_now(&self) -> MonoTime {
+        MonoTime((self.origin.elapsed().as_nanos() as f64 * self.time_scale) as u64)
     }
 
     /// The twin.
@@ -96,15 +134,17 @@ impl<const N: usize, D: WireDevice<N>> RealTimeTwinPlant<N, D> {
 
     /// Bring the physics up to the wall clock and read the encoders and strain gauges.
     fn sample(&mut self) {
-        let elapsed = self.origin.elapsed();
         // A process descheduled for long does not make the physics run a long burst of steps
-        // at once: at most 50 ms are caught up per call.
-        let now = MonoTime(elapsed.as_nanos() as u64);
-        let floor = MonoTime(now.0.saturating_sub(50_000_000));
+        // at once: at most 50 ms of the twin's time are caught up per call.
+        let now = self.world_now();
+        let floor = MonoTime(now.0.saturating_sub(MAX_CATCH_UP_NS));
         if self.twin.sim_time() < floor {
-            self.origin += std::time::Duration::from_nanos(floor.0 - self.twin.sim_time().0);
+            let behind_ns = (floor.0 - self.twin.sim_time().0) as f64 / self.time_scale;
+            self.origin += std::time::Duration::from_nanos(behind_ns as u64);
         }
-        let now = MonoTime(self.origin.elapsed().as_nanos() as u64);
+        let now = self
+            .world_now()
+            .min(MonoTime(self.twin.sim_time().0 + MAX_CATCH_UP_NS));
         self.twin.advance_to(now);
         let _ = self.twin.read_drives(&mut self.encoders);
         let mut tension = [0.0; N];
@@ -218,5 +258,39 @@ mod tests {
             [tension_n(0), tension_n(1), tension_n(2)]
         );
         assert!(p.twin().sim_time().0 > 100_000_000);
+    }
+
+    #[test]
+    fn a_slowed_world_advances_its_fraction_of_the_wall_clock() {
+        let scale = AnalogScale {
+            zero_counts: 0,
+            newtons_per_count: 0.001,
+        };
+        let started = Instant::now();
+        let mut p = RealTimeTwinPlant::new(twin(), [scale; WIRES]).with_time_scale(0.25);
+        assert_eq!(p.time_scale(), 0.25);
+        for _ in 0..20 {
+            std::thread::sleep(std::time::Duration::from_millis(10));
+            p.apply_torques(&[0.004; WIRES]);
+        }
+        let wall_ns = started.elapsed().as_nanos() as f64;
+        let world_ns = p.twin().sim_time().0 as f64;
+        // At least a quarter of the 200 ms slept (each call catches up at most 50 ms of the
+        // twin's time, more than a quarter of any sleep here), at most a quarter of the wall
+        // clock's time since the start (and a step).
+        assert!(
+            world_ns >= 0.25 * 200e6 - 1e5,
+            "{world_ns} ns after 200 ms of sleep"
+        );
+        assert!(
+            world_ns <= 0.25 * wall_ns + 1e5,
+            "{world_ns} ns in {wall_ns} ns"
+        );
+        assert_eq!(
+            RealTimeTwinPlant::new(twin(), [scale; WIRES])
+                .with_time_scale(f64::NAN)
+                .time_scale(),
+            1.0
+        );
     }
 }

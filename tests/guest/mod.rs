@@ -302,7 +302,15 @@ pub fn socket_path(dir: &Path) -> PathBuf {
     std::env::temp_dir().join(format!("videtd-{name}.sock"))
 }
 
+/// Seconds of the rig's world per wall-clock second in the guest. The emulated CPU runs the
+/// 1 kHz control loop at 250-400 Hz: in a world on the wall clock, the wires and the operator
+/// then move three or four times as far between two periods as on the backpack, and a slack
+/// wire wound in between two of them outruns the wire-speed trip. A quarter keeps about one
+/// period per millisecond of the rig's world, and a quarter of its physics to compute.
+pub const GUEST_TIME_SCALE: &str = "0.25";
+
 /// The twin served as a rig on `can` (and its true calibration written beside the config),
+/// its world in slow motion ([`GUEST_TIME_SCALE`]),
 /// its drives on the control thread's CPU (`realtime.control_cpu`) as the CAN twin's are: the
 /// emulated CPU the cameras and the tests load does not delay their answers.
 pub fn start_rig(config: &Path, can: &str) -> Process {
@@ -313,6 +321,7 @@ pub fn start_rig(config: &Path, can: &str) -> Process {
         .control_cpu;
     let mut rig = Command::new(videt_bin());
     rig.args(["sim-rig", "--priority", "70", "--can", can]);
+    rig.args(["--time-scale", GUEST_TIME_SCALE]);
     // -1: the control thread is not pinned, nor are the drives.
     if control_cpu >= 0 {
         rig.args(["--cpu", &control_cpu.to_string()]);

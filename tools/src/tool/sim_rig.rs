@@ -66,6 +66,12 @@ pub struct SimRigArgs {
     /// configuration's `drives.device_description`, else the generic CiA 402 profile).
     #[arg(long)]
     pub drive_description: Option<PathBuf>,
+    /// The twin's world in slow motion: seconds of its time per second of the wall clock, in
+    /// (0, 1]. For a machine that runs the control loop well below its rate (an emulated CPU):
+    /// at a quarter of the rate, 0.25 keeps a period per millisecond of the twin's world, as on
+    /// the backpack (the bus, its heartbeats and timeouts keep the wall clock).
+    #[arg(long, default_value_t = 1.0)]
+    pub time_scale: f64,
 }
 
 /// The twin's true calibration record for `config`'s rig.
@@ -95,6 +101,13 @@ pub fn true_calibration(
 /// Run `videt sim-rig`.
 pub fn run(args: &SimRigArgs) -> ToolResult {
     let config = Config::load(&args.config)?;
+    if !(args.time_scale > 0.0 && args.time_scale <= 1.0) {
+        return Err(format!(
+            "--time-scale {}: seconds of the twin's time per wall-clock second, in (0, 1]",
+            args.time_scale
+        )
+        .into());
+    }
     if let Some(cpu) = args.cpu {
         if !rt::cpu_allowed(cpu) {
             return Err(format!(
@@ -122,7 +135,7 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     // falling silent). With `--priority` it runs just below the drives: a physics thread
     // starved by the machine's ordinary work would catch up in bursts, and a burst of motion
     // between two SYNCs reads as a spike of wire speed.
-    let mut plant = RealTimeTwinPlant::new(scene.twin, scales);
+    let mut plant = RealTimeTwinPlant::new(scene.twin, scales).with_time_scale(args.time_scale);
     let motors = Arc::new(SharedMotors::new(WIREMAN_WIRES));
     publish(&plant, &motors);
     let specs: Vec<SimDriveSpec> = (0..WIREMAN_WIRES)
@@ -192,8 +205,13 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         );
     }
     eprintln!(
-        "videt sim-rig: drives {:?} on {interface} ({part}), the twin's wires and operator behind them",
+        "videt sim-rig: drives {:?} on {interface} ({part}), the twin's wires and operator behind them{}",
         config.drives.node_ids,
+        if args.time_scale < 1.0 {
+            format!(" (its world at {} of the wall clock's speed)", args.time_scale)
+        } else {
+            String::new()
+        },
     );
     let started = std::time::Instant::now();
     let mut powers = Vec::new();
