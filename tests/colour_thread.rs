@@ -11,7 +11,8 @@ use videt_hal::{Clock, MonoTime};
 use videt_rt_config::Config;
 use videt_runtime::control_loop::{CycleObserver, WindowStats};
 use videt_runtime::cycle::CycleRecord;
-use videt_runtime::snapshot::{snapshot_channel, thimble_channel};
+use videt_runtime::snapshot::snapshot_channel;
+use videt_runtime::thimble::thimble_channel;
 use videt_service::colour_thread::{demo_colour, spawn_colour_thread, ColourHandles};
 
 /// Wait (bounded) until the colour thread shows `want` in its status.

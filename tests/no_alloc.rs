@@ -14,9 +14,10 @@ use videt_runtime::control_loop::{
 };
 use videt_runtime::cycle::WireZero;
 use videt_runtime::setup;
-use videt_runtime::snapshot::{snapshot_channel, thimble_channel};
+use videt_runtime::snapshot::snapshot_channel;
 use videt_runtime::status::status_channel;
 use videt_runtime::telemetry::{self, LogHeader};
+use videt_runtime::thimble::thimble_channel;
 
 #[global_allocator]
 static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;

@@ -33,3 +33,4 @@ pub mod snapshot;
 pub mod status;
 pub mod telemetry;
 pub mod tension_budget;
+pub mod thimble;

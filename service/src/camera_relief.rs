@@ -30,7 +30,8 @@ use crate::relief_scene::ReliefLayout;
 use crate::stereo_relief::{
     InitialBuild, LiveSettings, PairCamera, RegionUpdate, StereoPair, StereoRelief,
 };
-use videt_runtime::snapshot::{SnapshotReader, SnapshotWriter, ThimbleState};
+use videt_runtime::snapshot::{SnapshotReader, SnapshotWriter};
+use videt_runtime::thimble::ThimbleState;
 
 /// A calibrated stereo rig: the remap tables of both cameras and the rectified geometry.
 #[derive(Debug, Clone)]

@@ -28,7 +28,8 @@ use videt_rt_config::{ColourConfig, ColourSpaceName, ColourStatistic};
 
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::rt::SystemClock;
-use videt_runtime::snapshot::{snapshot_channel, SnapshotReader, SnapshotWriter, ThimbleState};
+use videt_runtime::snapshot::{snapshot_channel, SnapshotReader, SnapshotWriter};
+use videt_runtime::thimble::ThimbleState;
 
 /// The demonstration image `videtd --sim` renders: a crop of the Middlebury "cones" left image
 /// (attribution in `assets/colour-demo/ATTRIBUTION.md`).

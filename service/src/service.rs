@@ -90,7 +90,7 @@ impl ServiceOptions {
 #[derive(Default)]
 pub struct ServiceExtras {
     /// Publishes the thimble state every period to a reader the caller keeps.
-    pub thimble: Option<videt_runtime::snapshot::ThimblePublisher>,
+    pub thimble: Option<videt_runtime::thimble::ThimblePublisher>,
     /// Text appended to each status line (called on the supervisor thread, once a second).
     pub status_suffix: Option<Box<dyn Fn() -> String + Send>>,
     /// On the twin: while set, the scene's vision thread publishes nothing (a stalled camera,
@@ -135,8 +135,8 @@ pub fn install_panic_hook() {
 struct Observers {
     status: StatusPublisher,
     telemetry: Option<TelemetryProducer>,
-    thimble: Option<videt_runtime::snapshot::ThimblePublisher>,
-    vision_thimble: Option<videt_runtime::snapshot::ThimblePublisher>,
+    thimble: Option<videt_runtime::thimble::ThimblePublisher>,
+    vision_thimble: Option<videt_runtime::thimble::ThimblePublisher>,
     /// The live view's copy of the status.
     live: Option<StatusPublisher>,
     /// The live view's calibrations (a re-initialization moves the guides it draws).
@@ -396,7 +396,7 @@ where
         publisher.set_tension_loop_degraded(Some(scale));
     }
     let priority = config.realtime.control_priority;
-    let (thimble_publisher, thimble_reader) = videt_runtime::snapshot::thimble_channel();
+    let (thimble_publisher, thimble_reader) = videt_runtime::thimble::thimble_channel();
     let colour = options.colour.as_ref().and_then(|source| {
         let colour_priority = Some(priority.saturating_sub(10).max(1));
         crate::colour_thread::ColourRuntime::start(source, thimble_reader, colour_priority)

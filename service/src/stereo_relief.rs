@@ -31,7 +31,8 @@ use videt_vision::{
 };
 
 use crate::relief_scene::ReliefLayout;
-use videt_runtime::snapshot::{SnapshotReader, SnapshotWriter, ThimbleState};
+use videt_runtime::snapshot::{SnapshotReader, SnapshotWriter};
+use videt_runtime::thimble::ThimbleState;
 
 /// The demo pair's left image (PNG, Middlebury "tsukuba", 384 x 288).
 pub const DEMO_LEFT_PNG: &[u8] = include_bytes!("../assets/demo-stereo/left.png");

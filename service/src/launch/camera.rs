@@ -137,7 +137,7 @@ where
     let (writer, feed) = relief_channel(config, model.clone())
         .map_err(|_| "invalid relief settings (see above)".to_string())?;
     let stats = Arc::new(CameraStats::default());
-    let (thimble_publisher, thimble_reader) = videt_runtime::snapshot::thimble_channel();
+    let (thimble_publisher, thimble_reader) = videt_runtime::thimble::thimble_channel();
     // The thread runs as long as the process: the service ends by exiting.
     let stop = Arc::new(AtomicBool::new(false));
     spawn_camera_updates(

@@ -295,7 +295,7 @@ pub(super) fn run_stereo_relief_demo(
     let start = scene.twin.plant().position_m();
     let (operator, _) = sweep_operator(&layout, &model, start, &SweepPath::default());
     scene.twin.set_operator(operator);
-    let (thimble_publisher, thimble_reader) = videt_runtime::snapshot::thimble_channel();
+    let (thimble_publisher, thimble_reader) = videt_runtime::thimble::thimble_channel();
     let stats = std::sync::Arc::new(LiveStats::default());
     let keepalive_s = (config.vision.surface_max_age_s / 4.0).max(0.05);
     if let Err(e) = spawn_live_updates(
