@@ -298,11 +298,15 @@ estop_latches_under_watchdog() {
   # Latched: released, still safe; the watchdog (2 s) keeps being petted meanwhile.
   gpio_pull pull-up
   sleep 6
-  local status why
+  # Each read once: what the line says is what is judged (a second status request of a loaded
+  # emulator may time out where the first answered).
+  local status why now_pid now_restarts
   status=$(safety_line)
   why=$(journal videtd warning | awk -v t="$t0" '$1 >= t && /safe state/ { $1 = ""; print; exit }')
-  DETAIL="$PRE""journal:$why; 6 s after release: $status; restarts $restarts -> $(prop videtd NRestarts), pid $pid -> $(main_pid)"
-  [ "$(main_pid)" = "$pid" ] && [ "$(prop videtd NRestarts)" = "$restarts" ] &&
+  now_pid=$(main_pid)
+  now_restarts=$(prop videtd NRestarts)
+  DETAIL="$PRE""journal:$why; 6 s after release: $status; restarts $restarts -> $now_restarts, pid $pid -> $now_pid"
+  [ "$now_pid" = "$pid" ] && [ "$now_restarts" = "$restarts" ] &&
     echo "$status" | grep -q "^safety: e-stop" && [ -n "$why" ]
 }
 # The faults an emulated CPU makes by itself, from the time of $1 (s) on, as "CAUSE" lines of

@@ -31,7 +31,7 @@ OVERRIDES = {
         "estop_line": 17,
         "vibrotactor_lines": [22, 23, 24],
         "newtons_per_count": [1e-3, 1e-3, 1e-3],
-        "stale_after_ms": 200,
+        "stale_after_ms": 1000,
     },
     "realtime": {"max_consecutive_overruns": 1000000},
     # The emulated loop runs at a quarter to a half of its rate, and a wall's Z-width falls with
