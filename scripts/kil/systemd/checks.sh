@@ -426,19 +426,26 @@ stop_ramps_out() {
   t1=$(mono)
   log=$(newest_log)
   ramp=$(config_value control ramp_down_s)
-  # The ramp: from the last period at full force to the last period of the log.
+  # The ramp: from the last period at full force to the first at zero (the loop runs on at zero
+  # until the drives are off). The logged scale is the ramp's times the stale-surface fade's: a
+  # fade under way when the stop came (the vision thread stalled by the emulator) starts the
+  # decline before the stop, and the ramp is then not timed, only its end judged.
   local figures
   videt log "$log" --csv /tmp/session.csv >/dev/null 2>&1
   figures=$(awk -F, '
-    NR == 1 { for (i = 1; i <= NF; i++) { if ($i == "time_s") t = i; if ($i == "force_scale") f = i }; next }
-    { if ($f >= 1) { full = $t; after = 0 } else if (full != "") { if (!after) start = $t; after = 1; last = $t; lastf = $f; n++ } }
-    END { printf "%.3f %.3f %s %d", start - full, last - full, lastf, n }' /tmp/session.csv)
-  read -r _ span final periods <<<"$figures"
+    NR == 1 { for (i = 1; i <= NF; i++) { if ($i == "time_s") t = i; if ($i == "force_scale") f = i; if ($i == "surface_stale") s = i }; next }
+    { if ($f >= 1) { full = $t; zero = ""; n = 0; stale = 0 }
+      else if (full != "") { lastf = $f; if (zero == "") { n++; if ($s == 1) stale = 1; if ($f == 0) zero = $t } } }
+    END { printf "%.3f %s %d %d", (zero == "" ? -1 : zero - full), lastf, n, stale }' /tmp/session.csv)
+  local span final periods stale
+  read -r span final periods stale <<<"$figures"
   local msg
   msg=$(journal videtd | awk -v t="$t0" '$1 >= t && /forces ramped out/ { print "yes"; exit }')
-  DETAIL="$PRE""stop took $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') s; session log: forces from full to ${final:-?} in ${span:-?} s over ${periods:-?} periods (ramp_down_s = $ramp); result $(prop videtd Result)"
+  local timed="in ${span:-?} s over ${periods:-?} periods (ramp_down_s = $ramp)"
+  [ "$stale" = 1 ] && timed="(not timed: a stale-surface fade was under way, the decline began before the stop)"
+  DETAIL="$PRE""stop took $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.2f", b - a }') s; session log: forces from full to ${final:-?} $timed; result $(prop videtd Result)"
   [ "$(prop videtd Result)" = success ] && [ "$msg" = yes ] && [ "$final" = "0.0000" ] &&
-    awk -v s="$span" -v r="$ramp" 'BEGIN { exit !(s <= r + 0.05) }'
+    awk -v s="$span" -v r="$ramp" -v st="$stale" 'BEGIN { exit !(s >= 0 && (st == 1 || s <= r + 0.05)) }'
 }
 start_again() {
   systemctl start videtd && is_active
