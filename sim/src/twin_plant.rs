@@ -139,13 +139,11 @@ impl<const N: usize, D: WireDevice<N>> RealTimeTwinPlant<N, D> {
         let now = self.world_now();
         let floor = MonoTime(now.0.saturating_sub(MAX_CATCH_UP_NS));
         if self.twin.sim_time() < floor {
+            // The time beyond the catch-up is dropped: the world starts again from there.
             let behind_ns = (floor.0 - self.twin.sim_time().0) as f64 / self.time_scale;
             self.origin += std::time::Duration::from_nanos(behind_ns as u64);
         }
-        let now = self
-            .world_now()
-            .min(MonoTime(self.twin.sim_time().0 + MAX_CATCH_UP_NS));
-        self.twin.advance_to(now);
+        self.twin.advance_to(self.world_now());
         let _ = self.twin.read_drives(&mut self.encoders);
         let mut tension = [0.0; N];
         self.sensor_failed = self.twin.read_tensions(&mut tension).is_err();
