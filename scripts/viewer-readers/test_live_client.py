@@ -302,7 +302,13 @@ def check_layout(channels, classes):
 def test_a_client_that_never_reads_does_not_raise_the_control_loops_overruns(tmp_path):
     """The same session twice, back to back: alone, then with a client that subscribes to
     everything and stops reading (a tiny receive buffer, so the server's queue fills at once).
-    The control loop's overruns do not rise, and the live view keeps sampling at its rate."""
+    The control loop's overruns do not rise, and the live view keeps sampling at its rate.
+
+    On a kernel without PREEMPT_RT the loop overruns now and then on the host's wake-up
+    latencies alone (a few to a few tens in 8000 periods, varying from run to run), so the
+    stalled session may show up to twice the lone session's overruns plus 0.5 % of its periods.
+    A loop held up by the client would overrun at the live view's 30 Hz publishing (about 240
+    in 8 s), or stop and fall short of its periods."""
     duration = 8
     (tmp_path / "alone").mkdir()
     (tmp_path / "stalled").mkdir()
@@ -315,7 +321,7 @@ def test_a_client_that_never_reads_does_not_raise_the_control_loops_overruns(tmp
         log = service.wait()
     periods, overruns = control_loop_figures(log)
     assert periods >= 0.95 * 1000 * duration, log
-    assert overruns <= 2 * overruns_alone + 5, (
+    assert overruns <= 2 * overruns_alone + periods // 200, (
         f"{overruns} overruns with a stalled client, {overruns_alone} alone:\n{log}")
     assert live_samples(log) >= 0.7 * 30 * (duration - 1), log
     # The stalled client lost messages (its queue overflowed) instead of holding anything up.
