@@ -63,6 +63,9 @@ pub fn sdo_abort_description(code: u32) -> &'static str {
         0x0503_0000 => "toggle bit not alternated",
         0x0504_0000 => "SDO protocol timed out",
         0x0504_0001 => "client/server command specifier not valid or unknown",
+        0x0504_0002 => "invalid block size (block transfer)",
+        0x0504_0003 => "invalid sequence number (block transfer)",
+        0x0504_0004 => "CRC error (block transfer)",
         0x0504_0005 => "out of memory",
         0x0601_0000 => "unsupported access to an object",
         0x0601_0001 => "attempt to read a write-only object",
@@ -80,10 +83,17 @@ pub fn sdo_abort_description(code: u32) -> &'static str {
         0x0609_0030 => "invalid value for parameter",
         0x0609_0031 => "value of parameter written too high",
         0x0609_0032 => "value of parameter written too low",
+        0x0609_0036 => "maximum value is less than minimum value",
+        0x060A_0023 => "resource not available: SDO connection",
         0x0800_0000 => "general error",
         0x0800_0020 => "data cannot be transferred or stored to the application",
         0x0800_0021 => "data cannot be transferred because of local control",
         0x0800_0022 => "data cannot be transferred because of the present device state",
+        0x0800_0023 => {
+            "object dictionary dynamic generation failed or no object dictionary is \
+                        present"
+        }
+        0x0800_0024 => "no data available",
         _ => "unknown SDO abort code",
     }
 }
@@ -105,5 +115,52 @@ mod tests {
             "object does not exist in the object dictionary"
         );
         assert_eq!(sdo_abort_description(0x1234_5678), "unknown SDO abort code");
+    }
+
+    /// Every abort code of CiA 301 (version 4.2, table 22) has its own text
+    /// (`scripts/canopen-peer/test_abort_codes.py` checks the table against python-canopen's).
+    #[test]
+    fn every_cia301_abort_code_is_named() {
+        const CIA301: [u32; 31] = [
+            0x0503_0000,
+            0x0504_0000,
+            0x0504_0001,
+            0x0504_0002,
+            0x0504_0003,
+            0x0504_0004,
+            0x0504_0005,
+            0x0601_0000,
+            0x0601_0001,
+            0x0601_0002,
+            0x0602_0000,
+            0x0604_0041,
+            0x0604_0042,
+            0x0604_0043,
+            0x0604_0047,
+            0x0606_0000,
+            0x0607_0010,
+            0x0607_0012,
+            0x0607_0013,
+            0x0609_0011,
+            0x0609_0030,
+            0x0609_0031,
+            0x0609_0032,
+            0x0609_0036,
+            0x060A_0023,
+            0x0800_0000,
+            0x0800_0020,
+            0x0800_0021,
+            0x0800_0022,
+            0x0800_0023,
+            0x0800_0024,
+        ];
+        let texts: std::collections::BTreeSet<_> =
+            CIA301.iter().map(|&c| sdo_abort_description(c)).collect();
+        assert!(!texts.contains("unknown SDO abort code"), "{texts:?}");
+        assert_eq!(texts.len(), CIA301.len(), "two codes share a text");
+        assert_eq!(
+            sdo_abort_description(0x060A_0023),
+            "resource not available: SDO connection"
+        );
     }
 }

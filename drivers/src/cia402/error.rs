@@ -315,8 +315,8 @@ fn abort_consequence(
         ),
         (_, Need::Optional { .. }) => write!(
             f,
-            "the service writes it because {}; a drive may lack it, but this one refused it \
-             otherwise: check the drive's settings for this object",
+            "the service uses it: {}; a drive may lack it, but this one refused it for another \
+             reason: check the drive's settings for this object",
             o.purpose
         ),
     }
@@ -561,3 +561,57 @@ impl core::fmt::Display for DriveError {
 }
 
 impl std::error::Error for DriveError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::canopen::objects::DRIVER_OBJECTS;
+
+    /// A refusal of any object the driver touches, with an abort code that means "absent" and
+    /// with others (the standard's "resource not available" among them), reads as sentences:
+    /// the code named, then what it means for the service, nothing left dangling.
+    #[test]
+    fn every_refusal_of_a_driver_object_reads_as_sentences() {
+        for o in DRIVER_OBJECTS {
+            for code in [
+                0x0602_0000,
+                0x0609_0011,
+                0x0800_0000,
+                0x060A_0023,
+                0x0609_0030,
+            ] {
+                let e = DriveError::SdoAbort {
+                    wire: 1,
+                    node: 2,
+                    index: o.index,
+                    subindex: o.subindex.unwrap_or(1),
+                    code,
+                };
+                let text = e.to_string();
+                assert!(text.starts_with("drive of wire 1 (node 2): "), "{text}");
+                assert!(!text.contains("unknown SDO abort code"), "{text}");
+                for broken in ["because to", "  ", ";;", "; ;", ": :", ":;", " ,", " ;"] {
+                    assert!(!text.contains(broken), "{broken:?} in: {text}");
+                }
+                let last = text.chars().last().unwrap();
+                assert!(last.is_alphanumeric() || last == ')', "{text}");
+                let (_, consequence) = text.split_once(&format!("({code:#010x}); ")).unwrap();
+                assert!(consequence.len() > 20, "{text}");
+            }
+        }
+        let e = DriveError::SdoAbort {
+            wire: 0,
+            node: 1,
+            index: 0x6502,
+            subindex: 0,
+            code: 0x0800_0000,
+        };
+        assert_eq!(
+            e.to_string(),
+            "drive of wire 0 (node 1): 0x6502:00 (supported drive modes): general error \
+             (0x08000000); the service uses it: to check that the drive offers cyclic synchronous \
+             torque mode before configuring it; a drive may lack it, but this one refused it for \
+             another reason: check the drive's settings for this object"
+        );
+    }
+}
