@@ -7,7 +7,9 @@
 #   scripts/felt-force-sessions.sh [SECONDS] [OUT_DIR]
 #
 # SECONDS per session (default 30). VIDETD and VIDET name the binaries (default: the release
-# builds of this tree, built first). The camera scene is the teddy_rig scene of
+# builds of this tree, built first). FELT_SIMS, FELT_DEVICES and FELT_SCENES pick the twins
+# (default "hal can"), the devices ("wireman3 planar2 polar1") and the scenes ("wall box stereo
+# camera"): runs of different picks may go side by side into different OUT_DIRs. The camera scene is the teddy_rig scene of
 # docs/frame-to-force.md (needs the shared stereo pairs). Exit status 1 when any session or
 # replay renders beyond the felt bound.
 set -euo pipefail
@@ -20,13 +22,22 @@ if [[ -z "${VIDETD:-}" || -z "${VIDET:-}" ]]; then
   VIDET=${VIDET:-target/release/videt}
 fi
 mkdir -p "$out"
-scenes=(wall box stereo)
-if [[ -x target/release/examples/teddy_rig_camera_scene ]]; then
-  if [[ ! -f "$out/teddyrig/stereo.json" ]]; then
-    target/release/examples/teddy_rig_camera_scene "$out/teddyrig" >&2 || true
+read -r -a sims <<<"${FELT_SIMS:-hal can}"
+read -r -a devices <<<"${FELT_DEVICES:-wireman3 planar2 polar1}"
+read -r -a wanted <<<"${FELT_SCENES:-wall box stereo camera}"
+scenes=()
+for scene in "${wanted[@]}"; do
+  if [[ $scene == camera ]]; then
+    if [[ ! -f "$out/teddyrig/stereo.json" && -x target/release/examples/teddy_rig_camera_scene ]]; then
+      target/release/examples/teddy_rig_camera_scene "$out/teddyrig" >&2 || true
+    fi
+    if [[ ! -f "$out/teddyrig/stereo.json" ]]; then
+      echo "camera scene skipped: no teddy_rig scene (needs the shared stereo pairs)"
+      continue
+    fi
   fi
-  [[ -f "$out/teddyrig/stereo.json" ]] && scenes+=(camera)
-fi
+  scenes+=("$scene")
+done
 
 failed=0
 session() { # sim device scene
@@ -58,15 +69,11 @@ session() { # sim device scene
   done
 }
 
-# The stereo and camera scenes run on the HAL twin only (the CAN twin touches the wall), and
-# the planar and one-wire devices touch the wall scene alone.
-for sim in hal can; do
-  for scene in "${scenes[@]}"; do
-    [[ $sim == can && ( $scene == stereo || $scene == camera ) ]] && continue
-    session "$sim" wireman3 "$scene"
-  done
-  for device in planar2 polar1; do
-    session "$sim" "$device" wall
+for sim in "${sims[@]}"; do
+  for device in "${devices[@]}"; do
+    for scene in "${scenes[@]}"; do
+      session "$sim" "$device" "$scene"
+    done
   done
 done
 exit $failed

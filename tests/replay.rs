@@ -784,43 +784,62 @@ fn surfaces_of(log: &telemetry::Log) -> (usize, usize) {
     (versions.len(), aged)
 }
 
-/// A device other than the WireMan: its wall session replays bit for bit; the scenes the
-/// service refuses for it are skipped with the service's reason.
+/// A device other than the WireMan on every scene: the wall, the box and the stereo relief on
+/// the HAL twin, the camera relief when the shared data is there, and the box on the CAN twin;
+/// each replays bit for bit and keeps to the felt bound with every algorithm.
 fn device_sessions_replay(device: &str) {
     let dir = tempfile::tempdir().unwrap();
-    for scene in ["wall", "box", "stereo", "camera:/nonexistent"] {
-        let name = scene.split(':').next().unwrap();
-        match videtd_session(dir.path(), name, "hal", device, scene, &[]) {
-            Ok(path) => {
-                assert_eq!(scene, "wall", "{device} ran the {scene} scene");
-                let log = telemetry::read_log(&path).unwrap();
-                let wires = log
-                    .session
-                    .as_ref()
-                    .unwrap()
-                    .as_ref()
-                    .unwrap()
-                    .config
-                    .rig
-                    .device
-                    .clone();
-                assert_eq!(wires, device);
-                assert_replays_every_cycle_period(&format!("{device} {scene}"), &log);
-            }
-            Err(why) => {
-                assert_ne!(scene, "wall", "{device}: {why}");
-                assert!(
-                    why.contains("rig.device") && why.contains("wall scene"),
-                    "{device} {scene}: {why}"
-                );
-                let reason = why.find("rig.device").map_or(why.as_str(), |at| &why[at..]);
-                eprintln!(
-                    "skipping {device} with --scene {name}: the service refuses it: {}",
-                    reason.lines().next().unwrap_or_default()
-                );
-            }
-        }
+    let camera = camera_scene(dir.path());
+    let mut sessions: Vec<(&str, String, Vec<&std::ffi::OsStr>)> = vec![
+        ("hal", "wall".into(), vec![]),
+        ("hal", "box".into(), vec![]),
+        ("hal", "stereo".into(), vec![]),
+        ("can", "box".into(), vec![]),
+    ];
+    if let Some((scene, calibration)) = &camera {
+        sessions.push((
+            "hal",
+            scene.clone(),
+            vec!["--stereo-calibration".as_ref(), calibration.as_os_str()],
+        ));
     }
+    for (sim, scene, extra) in &sessions {
+        let short = scene.split(':').next().unwrap();
+        let name = format!("{sim}-{short}");
+        let path = videtd_session(dir.path(), &name, sim, device, scene, extra)
+            .unwrap_or_else(|why| panic!("{device} {name}: {why}"));
+        let log = telemetry::read_log(&path).unwrap();
+        let recorded = &log.session.as_ref().unwrap().as_ref().unwrap().config;
+        assert_eq!(recorded.rig.device, device);
+        assert_replays_every_cycle_period(&format!("{device} {name}"), &log);
+    }
+}
+
+/// The camera scene of the tests, made in `dir`: the shared chessboard set's first pair as a
+/// folder played as a free-running camera (the file camera; V4L2 needs the device), calibrated by
+/// `videt calibrate-stereo`. Returns `--scene`'s argument and the calibration file; `None`
+/// (the test skips the scene, with the reason printed) without the shared data.
+fn camera_scene(dir: &Path) -> Option<(String, std::path::PathBuf)> {
+    let images = videt_testdata::data_dir("calib/chessboard")?;
+    let calibration = dir.join("stereo.json");
+    let (status, _, err) = videt(&[
+        "calibrate-stereo".as_ref(),
+        "--images".as_ref(),
+        images.as_os_str(),
+        "--board".as_ref(),
+        "9x6".as_ref(),
+        "--square".as_ref(),
+        "0.025".as_ref(),
+        "--out".as_ref(),
+        calibration.as_os_str(),
+    ]);
+    assert!(status.success(), "{err}");
+    let still = dir.join("still");
+    std::fs::create_dir(&still).unwrap();
+    for name in ["left01.jpg", "right01.jpg"] {
+        std::fs::copy(images.join(name), still.join(name)).unwrap();
+    }
+    Some((format!("camera:{}", still.display()), calibration))
 }
 
 #[test]
@@ -854,6 +873,21 @@ fn videtd_box_session_on_the_can_twin_replays_bit_for_bit() {
 }
 
 #[test]
+fn videtd_stereo_and_camera_sessions_on_the_can_twin_replay_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = videtd_session(dir.path(), "stereo-can", "can", "wireman3", "stereo", &[]).unwrap();
+    let log = telemetry::read_log(&path).unwrap();
+    assert_replays_every_cycle_period("wireman3 stereo (CAN twin)", &log);
+    let Some((scene, calibration)) = camera_scene(dir.path()) else {
+        return;
+    };
+    let extra = ["--stereo-calibration".as_ref(), calibration.as_os_str()];
+    let path = videtd_session(dir.path(), "camera-can", "can", "wireman3", &scene, &extra).unwrap();
+    let log = telemetry::read_log(&path).unwrap();
+    assert_replays_every_cycle_period("wireman3 camera (CAN twin)", &log);
+}
+
+#[test]
 fn a_videtd_stereo_session_replays_bit_for_bit_with_its_frame_ages() {
     let dir = tempfile::tempdir().unwrap();
     let path = videtd_session(dir.path(), "stereo", "hal", "wireman3", "stereo", &[]).unwrap();
@@ -868,32 +902,10 @@ fn a_videtd_stereo_session_replays_bit_for_bit_with_its_frame_ages() {
 
 #[test]
 fn a_videtd_camera_session_replays_bit_for_bit_with_its_frame_ages() {
-    // The twin's camera is a folder of raw pairs played as a free-running camera (the
-    // file camera; V4L2 needs the device): the shared chessboard set's first pair, calibrated
-    // by `videt calibrate-stereo`.
-    let Some(images) = videt_testdata::data_dir("calib/chessboard") else {
+    let dir = tempfile::tempdir().unwrap();
+    let Some((scene, calibration)) = camera_scene(dir.path()) else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let calibration = dir.path().join("stereo.json");
-    let (status, _, err) = videt(&[
-        "calibrate-stereo".as_ref(),
-        "--images".as_ref(),
-        images.as_os_str(),
-        "--board".as_ref(),
-        "9x6".as_ref(),
-        "--square".as_ref(),
-        "0.025".as_ref(),
-        "--out".as_ref(),
-        calibration.as_os_str(),
-    ]);
-    assert!(status.success(), "{err}");
-    let still = dir.path().join("still");
-    std::fs::create_dir(&still).unwrap();
-    for name in ["left01.jpg", "right01.jpg"] {
-        std::fs::copy(images.join(name), still.join(name)).unwrap();
-    }
-    let scene = format!("camera:{}", still.display());
     let path = videtd_session(
         dir.path(),
         "camera",

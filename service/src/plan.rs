@@ -257,23 +257,12 @@ impl ServicePlan {
             (None, None) => Some(PathBuf::from(&config.files.motors_lock)),
             (None, Some(_)) => None,
         };
-        let mut scene = request.scene.clone();
-        match (request.sim, &scene) {
-            (None, SimScene::Wall) => {}
-            (None, other) => {
-                return Err(PlanError::refused(format!(
-                    "--scene {other:?} needs --sim: on the device the surface is the cameras' \
-                     or the check wall"
-                )))
-            }
-            (Some(SimMode::Can), SimScene::Stereo(_) | SimScene::Camera(_)) => {
-                warn!(
-                    "--scene stereo and camera apply to the HAL twin only: the CAN twin \
-                     touches the wall"
-                );
-                scene = SimScene::Wall;
-            }
-            _ => {}
+        let scene = request.scene.clone();
+        if request.sim.is_none() && scene != SimScene::Wall {
+            return Err(PlanError::refused(format!(
+                "--scene {scene:?} needs --sim: on the device the surface is the cameras' or the \
+                 check wall"
+            )));
         }
         Ok(ServicePlan {
             config,
@@ -296,10 +285,10 @@ fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDe
     if name == "wireman3" {
         return Ok(PlannedDevice::WireMan(rig));
     }
-    if request.sim.is_none() || request.scene != SimScene::Wall {
+    if request.sim.is_none() {
         return Err(PlanError::refused(format!(
-            "rig.device = {name:?}: runs on the digital twin's wall scene (--sim or --sim can, \
-             --scene wall); the bas-relief scenes and the device mode drive the three-wire WireMan"
+            "rig.device = {name:?}: runs on the digital twin (--sim or --sim can); the device \
+             mode drives the three-wire WireMan"
         )));
     }
     let device = match name {
@@ -434,21 +423,30 @@ mod tests {
         let e = refused(config.clone(), &request);
         assert!(e.message.contains("base triangle"), "{e}");
         request.sim_calibration = SimCalibration::Config;
-        request.scene = SimScene::Box;
+        request.sim = None;
         let e = refused(config.clone(), &request);
-        assert!(e.message.contains("wall scene"), "{e}");
-        request.scene = SimScene::Wall;
-        let plan = ServicePlan::new(config, &request).unwrap();
-        assert!(matches!(plan.device, PlannedDevice::Planar(_)));
+        assert!(e.message.contains("runs on the digital twin"), "{e}");
+        request.sim = Some(SimMode::Hal);
+        for scene in [SimScene::Wall, SimScene::Box, SimScene::Stereo(None)] {
+            request.scene = scene;
+            let plan = ServicePlan::new(config.clone(), &request).unwrap();
+            assert!(matches!(plan.device, PlannedDevice::Planar(_)));
+        }
     }
 
     #[test]
-    fn the_can_twin_touches_the_wall_and_the_device_takes_the_lock() {
-        let mut request = twin_request();
-        request.sim = Some(SimMode::Can);
-        request.scene = SimScene::Stereo(None);
-        let plan = ServicePlan::new(Config::default(), &request).unwrap();
-        assert_eq!(plan.scene, SimScene::Wall);
+    fn the_can_twin_keeps_every_scene_and_the_device_takes_the_lock() {
+        for scene in [
+            SimScene::Stereo(None),
+            SimScene::Camera(PathBuf::from("pairs")),
+            SimScene::Box,
+        ] {
+            let mut request = twin_request();
+            request.sim = Some(SimMode::Can);
+            request.scene = scene.clone();
+            let plan = ServicePlan::new(Config::default(), &request).unwrap();
+            assert_eq!(plan.scene, scene);
+        }
 
         let mut request = twin_request();
         request.sim = None;

@@ -34,6 +34,17 @@ pub struct SweepPath {
     pub max_slope: f64,
 }
 
+impl SweepPath {
+    /// The default path with both sweeps along the area's centre line: for the planar device,
+    /// whose thimble moves in the `x`-`z` plane through it.
+    pub fn along_centre_line() -> SweepPath {
+        SweepPath {
+            rows_m: [0.0, 0.0],
+            ..SweepPath::default()
+        }
+    }
+}
+
 impl Default for SweepPath {
     /// Two 14 cm sweeps 4.5 cm apart, pressing 1 cm deep at 5 cm/s, waypoints every 4 mm, the
     /// hand's path no steeper than 1:1.
@@ -83,6 +94,12 @@ impl ReliefLayout {
                 ReliefShapeName::Stepped => ReliefShape::Stepped,
             },
         }
+    }
+
+    /// The same area centred at `centre_m` (`x`, `y`, metres): in front of another device's
+    /// guides.
+    pub fn centred_at(self, centre_m: [f64; 2]) -> ReliefLayout {
+        ReliefLayout { centre_m, ..self }
     }
 
     /// The build settings for a camera of `image_size_px` seeing scene depths in

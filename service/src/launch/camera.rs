@@ -43,6 +43,7 @@ pub fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
             camera,
             format!("cameras {left} + {right}"),
             rig,
+            crate::relief_scene::ReliefLayout::for_config(config),
             vibrotactors,
         )
     }
@@ -68,23 +69,23 @@ pub struct CameraFeed {
     pub colour: Option<ColourSource>,
 }
 
-/// Build the first relief from `camera` (rectified by `rig`), open the relief channel and
-/// start the thread that keeps it up to date (`camera_relief::spawn_camera_updates`).
+/// Build the first relief from `camera` (rectified by `rig`) over the area of `layout`, open
+/// the relief channel and start the thread that keeps it up to date
+/// (`camera_relief::spawn_camera_updates`).
 pub fn start_camera_feed<C>(
     config: &Config,
     camera: C,
     name: String,
     rig: CalibratedRig,
+    layout: crate::relief_scene::ReliefLayout,
     colour_outputs: ColourOutputs,
 ) -> Result<CameraFeed, String>
 where
     C: videt_hal::StereoCamera + Send + 'static,
 {
     use crate::camera_relief::{spawn_camera_updates, CameraRelief, CameraSchedule, CameraStats};
-    use crate::relief_scene::ReliefLayout;
     use std::sync::atomic::AtomicBool;
     use std::sync::Arc;
-    let layout = ReliefLayout::for_config(config);
     // The colour under the finger, from the same left frames, mapped as the relief is.
     let colour = colour_enabled(config).then(|| {
         crate::colour_thread::camera_colour(&layout, rig.size_px, &config.colour, colour_outputs)

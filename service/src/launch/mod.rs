@@ -4,13 +4,15 @@
 //! stops. `videtd` is a command line in front of [`launch`].
 //!
 //! - [`device`]: the device's hardware, the cameras' relief or the check wall.
-//! - [`twin`]: the twin's scenes (wall, box, stereo pair, camera folder; the other devices'
-//!   wall), each on the HAL or the CAN twin.
+//! - [`twin`]: the twin's wall scenes, and each device's twin calibrated for the relief scenes.
+//! - [`relief`]: the twin's relief scenes (box, stereo pair, camera folder) on every device,
+//!   each on the HAL or the CAN twin.
 //! - [`camera`]: the relief from a camera and the vision thread that keeps it up to date.
 //! - [`start`]: running the service on opened hardware, shared by all of them.
 
 pub mod camera;
 pub mod device;
+pub mod relief;
 pub mod start;
 pub mod twin;
 
@@ -42,21 +44,6 @@ pub fn launch(mut plan: ServicePlan) -> ExitCode {
     let options = &mut plan.options;
     let calibration = plan.twin_calibration;
     match (plan.device, &plan.scene) {
-        (PlannedDevice::Planar(device), _) => {
-            twin::device_wall_demo(config, device, sim, calibration, options)
-        }
-        (PlannedDevice::Polar(device), _) => {
-            twin::device_wall_demo(config, device, sim, calibration, options)
-        }
-        (PlannedDevice::WireMan(rig), SimScene::Camera(dir)) => {
-            twin::run_camera_relief_demo(config, rig, options, calibration, dir)
-        }
-        (PlannedDevice::WireMan(rig), SimScene::Stereo(dir)) => {
-            twin::run_stereo_relief_demo(config, rig, options, calibration, dir.as_deref())
-        }
-        (PlannedDevice::WireMan(rig), SimScene::Box) => {
-            twin::run_relief_demo(config, rig, options, calibration, sim)
-        }
         (PlannedDevice::WireMan(rig), SimScene::Wall) => twin::run_wall(
             config,
             rig,
@@ -65,5 +52,52 @@ pub fn launch(mut plan: ServicePlan) -> ExitCode {
             options,
             &plan.calibration_path,
         ),
+        (PlannedDevice::WireMan(rig), scene) => {
+            let twin = twin::wireman_scene_twin(config, rig, calibration);
+            run_relief_scene(config, twin, scene, sim, options)
+        }
+        (PlannedDevice::Planar(device), SimScene::Wall) => {
+            twin::device_wall_demo(config, device, sim, calibration, options)
+        }
+        (PlannedDevice::Planar(device), scene) => {
+            match twin::device_scene_twin(config, device, calibration) {
+                Ok(twin) => run_relief_scene(config, twin, scene, sim, options),
+                Err(code) => code,
+            }
+        }
+        (PlannedDevice::Polar(device), SimScene::Wall) => {
+            twin::device_wall_demo(config, device, sim, calibration, options)
+        }
+        (PlannedDevice::Polar(device), scene) => {
+            match twin::device_scene_twin(config, device, calibration) {
+                Ok(twin) => run_relief_scene(config, twin, scene, sim, options),
+                Err(code) => code,
+            }
+        }
+    }
+}
+
+/// A relief scene (the box, a stereo pair, a camera folder) on a device's twin.
+fn run_relief_scene<const N: usize, D>(
+    config: &videt_rt_config::Config,
+    twin: relief::SceneTwin<N, D>,
+    scene: &SimScene,
+    sim: crate::plan::SimMode,
+    options: &mut crate::service::ServiceOptions,
+) -> ExitCode
+where
+    D: videt_runtime::runtime_device::RuntimeDevice<N>,
+    videt_assembly::twin_rt::RealTimeTwin<N, D>: crate::service_hardware::ServiceHardware<N>,
+    videt_assembly::can_twin::CanTwin<N, videt_assembly::twin_rt::RealTimeTwin<N, D>>:
+        crate::service_hardware::ServiceHardware<N>,
+{
+    match scene {
+        SimScene::Box => relief::run_box(config, twin, options, sim),
+        SimScene::Stereo(dir) => relief::run_stereo(config, twin, options, sim, dir.as_deref()),
+        SimScene::Camera(dir) => relief::run_camera(config, twin, options, sim, dir),
+        SimScene::Wall => {
+            error!("the wall scene is not a relief");
+            ExitCode::from(2)
+        }
     }
 }
