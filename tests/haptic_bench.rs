@@ -3,8 +3,8 @@
 
 use videt_rt_config::Config;
 use videt_tools::haptic_bench::rig::Parts;
-use videt_tools::haptic_bench::wall_feel::feel_wall;
-use videt_tools::haptic_bench::{judge_wall, stiffness_sweep, BenchPlan, Region};
+use videt_tools::haptic_bench::wall_feel::{feel_wall, feel_wall_in};
+use videt_tools::haptic_bench::{judge_wall, judge_wall_in, stiffness_sweep, BenchPlan, Region};
 
 #[test]
 fn p2_renders_the_programmed_stiffness_where_the_wires_can_and_nothing_where_they_cannot() {
@@ -90,4 +90,25 @@ fn the_integral_gate_keeps_a_5_kn_per_m_wall_stable_on_the_default_parts() {
         (rendered / k - 1.0).abs() < 0.05,
         "rendered {rendered:.0} N/m"
     );
+}
+
+/// A side wall (region B: the wire that renders it pulls at a steep angle to its normal, the
+/// others idle at the floor) holds 5 kN/m at B = 5 N·s/m on the default parts, the goal the
+/// frame's wall meets: the tension loop's gain in contact follows the wires' alignment with
+/// the normal (`tension_pi::contact_gain_share`). It holds 10 s and lets go cleanly, and a wall
+/// several times stiffer oscillates: the criterion tells them apart there too.
+#[test]
+fn a_side_wall_holds_5_kn_per_m_on_the_default_parts() {
+    let config = Config::default();
+    let (k, b) = (5000.0, 5.0);
+    let short = judge_wall_in(&config, Region::B, k, b, Parts::Faithful).unwrap();
+    eprintln!("side wall, short criterion: {short:?}");
+    assert!(short.stable, "{short:?}");
+    assert_eq!(short.felt.over_bound, 0, "{short:?}");
+    let held = feel_wall_in(&config, Region::B, k, b, Parts::Faithful).unwrap();
+    eprintln!("side wall, held 10 s and released: {held:?}");
+    assert!(held.stable, "{held:?}");
+    let stiff = judge_wall_in(&config, Region::B, 3.0 * k, b, Parts::Faithful).unwrap();
+    eprintln!("stiff side wall: {stiff:?}");
+    assert!(!stiff.stable, "{stiff:?}");
 }

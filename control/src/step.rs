@@ -7,7 +7,7 @@ use crate::distribution::{Algorithm, ForceLimits};
 use crate::field::ForceField;
 use crate::measures::v_index;
 use crate::surface::{Contact, Surface};
-use crate::tension_pi::{TensionPi, TensionPiGains};
+use crate::tension_pi::{contact_gain_share, TensionPi, TensionPiGains};
 use crate::Vec3;
 
 /// Parameters of the control step.
@@ -287,10 +287,23 @@ impl<const N: usize, D: WireDevice<N>> ControlStep<N, D> {
         out.v_index = v_index(&out.distribution.rendered_n, &out.target_force_n);
         self.last_setpoint_n = out.distribution.tensions_n;
         let winding_speed_m_s: [f64; N] = core::array::from_fn(|i| -input.length_rates_m_s[i]);
-        self.pi.update_with_speed(
+        let kp_share = match out.contact {
+            Some(c) => {
+                let alignment = (0..N)
+                    .map(|i| {
+                        c.normal
+                            .dot(&self.device.pull_direction(&out.position_m, i))
+                    })
+                    .fold(f64::NEG_INFINITY, f64::max);
+                contact_gain_share(alignment, out.desired_force_n.norm())
+            }
+            None => 1.0,
+        };
+        self.pi.update_with_gain_share(
             &out.distribution.tensions_n,
             &input.measured_tension_n,
             &winding_speed_m_s,
+            kp_share,
             input.dt_s,
             &mut out.torque_nm,
         );

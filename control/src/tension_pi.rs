@@ -53,6 +53,38 @@ impl TensionPiGains {
     }
 }
 
+/// Alignment with the contact normal of the wire pulling most along it, `max_i n·u_i`, from which
+/// on the tension loop keeps its whole proportional gain in contact (see [`contact_gain_share`]).
+pub const FULL_GAIN_ALIGNMENT: f64 = 0.8;
+
+/// The least share of the proportional gain the tension loop keeps in contact.
+pub const MIN_GAIN_SHARE: f64 = 0.7;
+
+/// Contact force over which the contact's gain share is blended in, newtons.
+pub const GAIN_SHARE_BLEND_N: f64 = 1.0;
+
+/// The share of the tension loop's proportional gain to use in contact, from the alignment
+/// `alignment` = `max_i n·u_i` of the wire pulling most along the contact normal `n` and the
+/// contact force asked (newtons).
+///
+/// Facing the frame (the paper's region A) some wire pulls nearly along the normal and the
+/// whole gain is kept. On a side wall (region B) the wire that renders the normal force pulls
+/// at a steep angle to it, so its tension pulls the finger across the normal too, and the
+/// idle wires sit at the floor; with the drives' one-period command delay the whole gain makes
+/// such a wall oscillate at about half the stiffness the frame's wall holds (`videt
+/// bench-haptic`, docs/haptic-bench.md). The share falls in proportion to the alignment below
+/// [`FULL_GAIN_ALIGNMENT`], to no less than [`MIN_GAIN_SHARE`], and is blended in over the
+/// first [`GAIN_SHARE_BLEND_N`] of contact force, so it is continuous at the contact's onset
+/// and in the pose. A non-finite input keeps the whole gain.
+pub fn contact_gain_share(alignment: f64, contact_force_n: f64) -> f64 {
+    if !(alignment.is_finite() && contact_force_n.is_finite()) {
+        return 1.0;
+    }
+    let scheduled = (alignment / FULL_GAIN_ALIGNMENT).clamp(MIN_GAIN_SHARE, 1.0);
+    let blend = (contact_force_n / GAIN_SHARE_BLEND_N).clamp(0.0, 1.0);
+    1.0 - blend * (1.0 - scheduled)
+}
+
 /// Per-wire PI tension controller with anti-windup (conditional integration at the torque
 /// limit), slack take-up and a winding-speed limit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -104,7 +136,29 @@ impl<const N: usize> TensionPi<N> {
         dt_s: f64,
         torque_nm: &mut [f64; N],
     ) {
+        self.update_with_gain_share(
+            setpoint_n,
+            measured_n,
+            winding_speed_m_s,
+            1.0,
+            dt_s,
+            torque_nm,
+        );
+    }
+
+    /// [`update_with_speed`](Self::update_with_speed) with the proportional gain scaled by
+    /// `kp_share` (in `[0, 1]`; [`contact_gain_share`] in contact).
+    pub fn update_with_gain_share(
+        &mut self,
+        setpoint_n: &[f64; N],
+        measured_n: &[f64; N],
+        winding_speed_m_s: &[f64; N],
+        kp_share: f64,
+        dt_s: f64,
+        torque_nm: &mut [f64; N],
+    ) {
         let g = &self.gains;
+        let kp = g.kp_nm_per_n * kp_share.clamp(0.0, 1.0);
         for i in 0..N {
             let speed = if winding_speed_m_s[i].is_finite() {
                 winding_speed_m_s[i]
@@ -140,7 +194,7 @@ impl<const N: usize> TensionPi<N> {
                 };
                 let candidate_integral =
                     self.integral_nm[i] + g.ki_nm_per_n_s * error * dt_s * learning;
-                let unclamped = ff + g.kp_nm_per_n * error + candidate_integral;
+                let unclamped = ff + kp * error + candidate_integral;
                 let saturating =
                     unclamped.abs() > g.torque_limit_nm && unclamped.signum() == error.signum();
                 if !saturating && candidate_integral.is_finite() {
@@ -148,8 +202,7 @@ impl<const N: usize> TensionPi<N> {
                         candidate_integral.clamp(-g.torque_limit_nm, g.torque_limit_nm);
                 }
                 let overspeed = (speed - g.max_winding_speed_m_s).max(0.0);
-                ff + g.kp_nm_per_n * error + self.integral_nm[i]
-                    - g.speed_gain_nm_s_per_m * overspeed
+                ff + kp * error + self.integral_nm[i] - g.speed_gain_nm_s_per_m * overspeed
             };
             torque_nm[i] = if out.is_finite() {
                 out.clamp(-g.torque_limit_nm, g.torque_limit_nm)
@@ -178,6 +231,58 @@ mod tests {
             max_winding_speed_m_s: 0.6,
             integral_speed_gate_m_s: f64::INFINITY,
         }
+    }
+
+    #[test]
+    fn the_gain_share_scales_the_proportional_term_alone() {
+        let sp = [2.0, 1.0, 0.5];
+        let measured = [1.5, 1.2, 0.5];
+        let (mut whole, mut shared, mut plain) = (
+            TensionPi::<N>::new(gains()),
+            TensionPi::<N>::new(gains()),
+            TensionPi::<N>::new(gains()),
+        );
+        let (mut t_whole, mut t_shared, mut t_plain) = ([0.0; N], [0.0; N], [0.0; N]);
+        for _ in 0..5 {
+            whole.update_with_gain_share(&sp, &measured, &[0.0; N], 1.0, 1e-3, &mut t_whole);
+            shared.update_with_gain_share(&sp, &measured, &[0.0; N], 0.7, 1e-3, &mut t_shared);
+            plain.update_with_speed(&sp, &measured, &[0.0; N], 1e-3, &mut t_plain);
+        }
+        assert_eq!(t_whole, t_plain);
+        for i in 0..N {
+            let expected = 0.3 * gains().kp_nm_per_n * (sp[i] - measured[i]);
+            assert!(
+                ((t_whole[i] - t_shared[i]) - expected).abs() < 1e-15,
+                "{t_whole:?} {t_shared:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_contact_gain_share_falls_with_the_alignment_and_blends_in_with_the_force() {
+        // Facing the frame: the whole gain.
+        assert_eq!(contact_gain_share(0.95, 5.0), 1.0);
+        assert_eq!(contact_gain_share(FULL_GAIN_ALIGNMENT, 5.0), 1.0);
+        // A side wall (the best wire about 56° from the normal): the least share.
+        assert!((contact_gain_share(0.56, 5.0) - MIN_GAIN_SHARE).abs() < 1e-12);
+        assert!((contact_gain_share(-0.3, 5.0) - MIN_GAIN_SHARE).abs() < 1e-12);
+        assert!((contact_gain_share(0.72, 5.0) - 0.9).abs() < 1e-12);
+        // At the contact's onset the whole gain, blended in over the first newton.
+        assert_eq!(contact_gain_share(0.56, 0.0), 1.0);
+        assert!(
+            (contact_gain_share(0.56, 0.5) - (1.0 - 0.5 * (1.0 - MIN_GAIN_SHARE))).abs() < 1e-12
+        );
+        // Continuous: nearby inputs give nearby shares, everywhere on a grid.
+        for a in (-10..=10).map(|k| f64::from(k) / 10.0) {
+            for f in (0..=30).map(|k| f64::from(k) * 0.1) {
+                let s = contact_gain_share(a, f);
+                assert!((MIN_GAIN_SHARE..=1.0).contains(&s), "{a} {f} {s}");
+                let near = contact_gain_share(a + 1e-7, f + 1e-7);
+                assert!((near - s).abs() < 1e-5, "{a} {f}: {s} {near}");
+            }
+        }
+        assert_eq!(contact_gain_share(f64::NAN, 1.0), 1.0);
+        assert_eq!(contact_gain_share(0.5, f64::INFINITY), 1.0);
     }
 
     #[test]
