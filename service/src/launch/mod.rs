@@ -56,24 +56,36 @@ pub fn launch(mut plan: ServicePlan) -> ExitCode {
             let twin = twin::wireman_scene_twin(config, rig, calibration);
             run_relief_scene(config, twin, scene, sim, options)
         }
-        (PlannedDevice::Planar(device), SimScene::Wall) => {
-            twin::device_wall_demo(config, device, sim, calibration, options)
-        }
         (PlannedDevice::Planar(device), scene) => {
-            match twin::device_scene_twin(config, device, calibration) {
-                Ok(twin) => run_relief_scene(config, twin, scene, sim, options),
-                Err(code) => code,
-            }
-        }
-        (PlannedDevice::Polar(device), SimScene::Wall) => {
-            twin::device_wall_demo(config, device, sim, calibration, options)
+            run_other_device(config, device, scene, sim, calibration, options)
         }
         (PlannedDevice::Polar(device), scene) => {
-            match twin::device_scene_twin(config, device, calibration) {
-                Ok(twin) => run_relief_scene(config, twin, scene, sim, options),
-                Err(code) => code,
-            }
+            run_other_device(config, device, scene, sim, calibration, options)
         }
+    }
+}
+
+/// A scene on the twin of a device other than the WireMan: its wall, or a relief.
+fn run_other_device<const N: usize, D>(
+    config: &videt_rt_config::Config,
+    device: D,
+    scene: &SimScene,
+    sim: crate::plan::SimMode,
+    calibration: crate::plan::SimCalibration,
+    options: &mut crate::service::ServiceOptions,
+) -> ExitCode
+where
+    D: videt_runtime::runtime_device::RuntimeDevice<N>,
+    videt_assembly::twin_rt::RealTimeTwin<N, D>: crate::service_hardware::ServiceHardware<N>,
+    videt_assembly::can_twin::CanTwin<N, videt_assembly::twin_rt::RealTimeTwin<N, D>>:
+        crate::service_hardware::ServiceHardware<N>,
+{
+    if *scene == SimScene::Wall {
+        return twin::device_wall_demo(config, device, sim, calibration, options);
+    }
+    match twin::device_scene_twin(config, device, calibration) {
+        Ok(twin) => run_relief_scene(config, twin, scene, sim, options),
+        Err(code) => code,
     }
 }
 
