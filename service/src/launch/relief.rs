@@ -34,15 +34,21 @@ pub struct SceneTwin<const N: usize, D: RuntimeDevice<N>> {
     pub layout: ReliefLayout,
 }
 
+/// The explored area for a device whose guides are `guides_m`: the WireMan's layout
+/// (`ReliefLayout::for_config`), centred on the mean of the device's guides.
+pub fn layout_for(config: &Config, guides_m: &[[f64; 3]]) -> ReliefLayout {
+    let n = guides_m.len().max(1) as f64;
+    let centre = guides_m
+        .iter()
+        .fold([0.0, 0.0], |c, g| [c[0] + g[0] / n, c[1] + g[1] / n]);
+    ReliefLayout::for_config(config).centred_at(centre)
+}
+
 impl<const N: usize, D: RuntimeDevice<N>> SceneTwin<N, D> {
-    /// The explored area for a device whose guides are `guides_m` (the WireMan's layout
-    /// `for_config`, centred on the mean of the device's guides).
-    pub fn layout_for(config: &Config, guides_m: &[[f64; 3]]) -> ReliefLayout {
-        let n = guides_m.len().max(1) as f64;
-        let centre = guides_m
-            .iter()
-            .fold([0.0, 0.0], |c, g| [c[0] + g[0] / n, c[1] + g[1] / n]);
-        ReliefLayout::for_config(config).centred_at(centre)
+    /// The twin, the cycle, the area, and how the sweeping operator explores it.
+    fn into_parts(self) -> (Twin<N, D>, ControlCycle<N, D>, ReliefLayout, SweepPath) {
+        let sweep = self.sweep();
+        (self.twin, self.cycle, self.layout, sweep)
     }
 
     /// How the sweeping operator explores a relief on this device: across the area in two rows,
@@ -202,12 +208,7 @@ where
         }
     };
     let name = pair.name.clone();
-    let sweep = scene.sweep();
-    let SceneTwin {
-        mut twin,
-        cycle,
-        layout,
-    } = scene;
+    let (mut twin, cycle, layout, sweep) = scene.into_parts();
     let live = LiveSettings {
         checks: crate::stereo_relief::match_checks(&config.vision),
         ..LiveSettings::default()
@@ -306,12 +307,7 @@ where
             return ExitCode::from(2);
         }
     };
-    let sweep = scene.sweep();
-    let SceneTwin {
-        mut twin,
-        cycle,
-        layout,
-    } = scene;
+    let (mut twin, cycle, layout, sweep) = scene.into_parts();
     let camera_feed = match start_camera_feed(
         config,
         camera,

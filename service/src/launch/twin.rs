@@ -83,7 +83,7 @@ pub(super) fn wireman_scene_twin(
     SceneTwin {
         twin: scene.twin,
         cycle: setup::control_cycle(config, rig, wire_zero, calibrated),
-        layout: SceneTwin::<3, Rig3>::layout_for(config, &guides),
+        layout: super::relief::layout_for(config, &guides),
     }
 }
 
@@ -100,7 +100,7 @@ where
     let calibrated = device_calibrated(D::KIND.name(), calibration)?;
     let start = videt_assembly::twin_scene::demo_start(&device);
     let guides = device.logged_guides_m();
-    let layout = SceneTwin::<N, D>::layout_for(config, &guides[..N]);
+    let layout = super::relief::layout_for(config, &guides[..N]);
     let scene = videt_assembly::twin_scene::demo_scene_for(config, device, start, 1);
     Ok(SceneTwin {
         twin: scene.twin,
