@@ -20,8 +20,11 @@ def driver_abort_texts() -> dict[int, str]:
     source = CODES_RS.read_text()
     body = source[source.index("pub fn sdo_abort_description"):]
     body = body[:body.index("\n}\n")]
-    arms = re.findall(r'(0x[0-9A-Fa-f_]+)\s*=>\s*"((?:[^"\\]|\\.|\\\n)*)"', body)
+    # An arm is `CODE => "text"` or, where rustfmt wraps a long text, `CODE => { "text" }`.
+    arms = re.findall(r'(0x[0-9A-Fa-f_]+)\s*=>\s*\{?\s*"((?:[^"\\]|\\.|\\\n)*)"', body)
     texts = {int(code.replace("_", ""), 16): re.sub(r"\\\n\s*", "", text) for code, text in arms}
+    every_arm = re.findall(r'(0x[0-9A-Fa-f_]+)\s*=>', body)
+    assert len(texts) == len(every_arm), f"arms whose text was not read: {set(every_arm) - {code for code, _ in arms}}"
     assert len(texts) > 20, texts
     return texts
 
