@@ -19,6 +19,7 @@ pub mod evaluation;
 pub mod gray;
 pub mod io;
 pub mod matching;
+pub mod patch_stereo;
 pub mod pipeline;
 pub mod reconstruct;
 pub mod roi;
