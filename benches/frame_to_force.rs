@@ -51,6 +51,7 @@ fn bench_frame_to_force(c: &mut Criterion) {
                 &images,
                 rig,
                 config.vision.max_disparity_px as f32,
+                Variant::Default,
             );
         }
         None => {
@@ -61,21 +62,53 @@ fn bench_frame_to_force(c: &mut Criterion) {
     let (left, right) = common::raw_vga_pair();
     left.save(dir.path().join("left.png")).expect("write");
     right.save(dir.path().join("right.png")).expect("write");
-    let rig = CalibratedRig::from_calibration(&common::rig_calibration()).expect("rig");
     // Teddy upscaled to 640 px has disparities up to ~80 px.
-    scene(c, "teddy_rig", dir.path(), rig, 96.0);
+    for variant in [Variant::Default, Variant::SteppedPatches] {
+        let rig = CalibratedRig::from_calibration(&common::rig_calibration()).expect("rig");
+        scene(c, "teddy_rig", dir.path(), rig, 96.0, variant);
+    }
+}
+
+/// The relief's settings benched.
+#[derive(Clone, Copy, PartialEq)]
+enum Variant {
+    /// The configuration's defaults.
+    Default,
+    /// The stepped relief with depth from patches every 12 px (`vision.relief_shape =
+    /// "stepped"`, `vision.patch_spacing_px = 12`).
+    SteppedPatches,
 }
 
 /// The benches of one scene: the pairs of `images` through `rig`.
-fn scene(c: &mut Criterion, name: &str, images: &Path, rig: CalibratedRig, max_disparity_px: f32) {
-    let config = videt_rt_config::Config::default();
+fn scene(
+    c: &mut Criterion,
+    name: &str,
+    images: &Path,
+    rig: CalibratedRig,
+    max_disparity_px: f32,
+    variant: Variant,
+) {
+    let mut config = videt_rt_config::Config::default();
+    if variant == Variant::SteppedPatches {
+        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Stepped;
+        config.vision.patch_spacing_px = 12;
+    }
+    let name = match variant {
+        Variant::Default => name.to_string(),
+        Variant::SteppedPatches => format!("{name}_stepped_patches12"),
+    };
+    let name = name.as_str();
     let layout = ReliefLayout::for_config(&config);
     let camera = FileStereoSource::from_folder(images, Duration::from_millis(66))
         .expect("camera")
         .with_colour(false)
         .unpaced();
     let mut relief = CameraRelief::new(camera, name.into(), rig, max_disparity_px, layout)
-        .expect("camera relief");
+        .expect("camera relief")
+        .with_live_settings(videt_service::stereo_relief::LiveSettings {
+            patch_spacing_px: config.vision.patch_spacing_px,
+            ..Default::default()
+        });
     let (model, first) = relief.rebuild().expect("first relief");
     eprintln!(
         "{name}: {} matches, {} 3D segments, {} triangles; whole-image pipeline {:?}, build {:?}",

@@ -8,23 +8,35 @@ use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
 
 fn bench_stereo_relief(c: &mut Criterion) {
+    bench_variant(c, "", 0);
+    bench_variant(c, "_stepped_patches12", 12);
+}
+
+/// The benches with `patch_spacing_px` (0: the defaults; otherwise the stepped relief with
+/// depth from patches on that grid), named with `suffix`.
+fn bench_variant(c: &mut Criterion, suffix: &str, patch_spacing_px: u32) {
     let config = videt_rt_config::Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let mut layout = ReliefLayout::for_config(&config);
+    let live = LiveSettings {
+        patch_spacing_px,
+        ..LiveSettings::default()
+    };
+    if patch_spacing_px > 0 {
+        layout.shape = videt_vision::surface::ReliefShape::Stepped;
+    }
     let pair = StereoPair::demo().unwrap();
-    let (mut relief, _, initial) =
-        StereoRelief::build(pair.clone(), &layout, LiveSettings::default()).unwrap();
+    let (mut relief, _, initial) = StereoRelief::build(pair.clone(), &layout, live).unwrap();
     eprintln!(
-        "demo pair: {} matches, {} 3D segments, {} used as constraints, {} triangles",
+        "demo pair{suffix}: {} matches, {} 3D segments, {} used as constraints, {} triangles",
         initial.matches,
         initial.segments_3d,
         initial.report.constraints_kept,
         initial.report.triangles
     );
-    c.bench_function("stereo_relief_initial_build_demo_pair", |b| {
-        b.iter(|| {
-            StereoRelief::build(black_box(pair.clone()), &layout, LiveSettings::default()).unwrap()
-        })
-    });
+    c.bench_function(
+        &format!("stereo_relief_initial_build_demo_pair{suffix}"),
+        |b| b.iter(|| StereoRelief::build(black_box(pair.clone()), &layout, live).unwrap()),
+    );
     // The finger sweeping across the area, 2 mm between updates.
     let [cx, cy] = layout.centre_m;
     let positions: Vec<[f64; 3]> = (0..70)
@@ -42,17 +54,22 @@ fn bench_stereo_relief(c: &mut Criterion) {
         v.sort_unstable();
         v[v.len() / 2]
     });
-    eprintln!("live update stage medians: match {matching:?}, merge {merge:?}, rebuild {build:?}");
+    eprintln!(
+        "live update stage medians{suffix}: match {matching:?}, merge {merge:?}, rebuild {build:?}"
+    );
     let mut k = 0;
-    c.bench_function("stereo_relief_live_update_72px_region_demo_pair", |b| {
-        b.iter(|| {
-            k = (k + 1) % positions.len();
-            relief
-                .update_around(black_box(positions[k]), [0.03, 0.0, 0.0])
-                .unwrap()
-                .unwrap()
-        })
-    });
+    c.bench_function(
+        &format!("stereo_relief_live_update_72px_region_demo_pair{suffix}"),
+        |b| {
+            b.iter(|| {
+                k = (k + 1) % positions.len();
+                relief
+                    .update_around(black_box(positions[k]), [0.03, 0.0, 0.0])
+                    .unwrap()
+                    .unwrap()
+            })
+        },
+    );
 }
 
 criterion_group!(benches, bench_stereo_relief);

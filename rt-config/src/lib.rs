@@ -430,7 +430,15 @@ pub struct VisionConfig {
     /// How the relief built from the cameras spans the gaps between the matched segments:
     /// `interpolated` (the paper's) or `stepped` (docs/stereo-accuracy.md, "Relief shape").
     pub relief_shape: ReliefShapeName,
+    /// Depth from image patches besides the matched segments, pixels: the far side of each
+    /// occluding edge, and textured patches matched on a grid this many pixels apart, given to
+    /// the relief as points (docs/stereo-accuracy.md, "Depth from patches"); 0: the segments
+    /// alone.
+    pub patch_spacing_px: u32,
 }
+
+/// The default of `vision.patch_spacing_px`.
+pub const DEFAULT_PATCH_SPACING_PX: u32 = 0;
 
 /// Per-cycle telemetry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -527,6 +535,7 @@ impl Default for VisionConfig {
             min_match_confidence: 0.0,
             surface_check: false,
             relief_shape: ReliefShapeName::Interpolated,
+            patch_spacing_px: DEFAULT_PATCH_SPACING_PX,
         }
     }
 }

@@ -255,6 +255,8 @@ fn every_section_is_validated() {
         ("[vision]\nmax_disparity_px = 0.5\n", "vision.max_disparity_px"),
         ("[vision]\npair_tolerance_ms = 0\n", "vision.pair_tolerance_ms"),
         ("[vision]\nframe_rate_hz = 0\n", "vision.frame_rate_hz"),
+        ("[vision]\npatch_spacing_px = 3\n", "vision.patch_spacing_px"),
+        ("[vision]\npatch_spacing_px = 65\n", "vision.patch_spacing_px"),
         (
             "[vision]\nmin_match_confidence = 1.5\n",
             "vision.min_match_confidence",
@@ -430,4 +432,17 @@ fn the_relief_shape_is_interpolated_unless_stepped_is_asked() {
     );
     let c = Config::from_toml_str("[vision]\nrelief_shape = \"stepped\"\n", "t").unwrap();
     assert_eq!(c.vision.relief_shape, ReliefShapeName::Stepped);
+}
+
+#[test]
+fn the_patch_spacing_is_off_or_between_4_and_64_pixels() {
+    for ok in [0u32, 4, 12, 64] {
+        let c =
+            Config::from_toml_str(&format!("[vision]\npatch_spacing_px = {ok}\n"), "t").unwrap();
+        assert_eq!(c.vision.patch_spacing_px, ok);
+    }
+    let e = Config::from_toml_str("[vision]\npatch_spacing_px = 2\n", "t")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("0 (off) or in [4, 64]"), "{e}");
 }

@@ -295,6 +295,14 @@ impl Config {
             0.0,
             1.0,
         )?;
+        if !(self.vision.patch_spacing_px == 0 || (4..=64).contains(&self.vision.patch_spacing_px))
+        {
+            return Err(ConfigError::Invalid {
+                field: "vision.patch_spacing_px".into(),
+                value: self.vision.patch_spacing_px.to_string(),
+                allowed: "0 (off) or in [4, 64]".into(),
+            });
+        }
         in_range(
             "vision.pair_tolerance_ms",
             self.vision.pair_tolerance_ms,

@@ -119,6 +119,7 @@ where
     relief = relief.with_live_settings(crate::stereo_relief::LiveSettings {
         update_period_s: 1.0 / f64::from(config.vision.frame_rate_hz.max(1)),
         checks,
+        patch_spacing_px: config.vision.patch_spacing_px,
         ..Default::default()
     });
     let (model, first) = relief.rebuild()?;

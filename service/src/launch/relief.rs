@@ -211,6 +211,7 @@ where
     let (mut twin, cycle, layout, sweep) = scene.into_parts();
     let live = LiveSettings {
         checks: crate::stereo_relief::match_checks(&config.vision),
+        patch_spacing_px: config.vision.patch_spacing_px,
         ..LiveSettings::default()
     };
     let (relief, model, initial) = match StereoRelief::build(pair, &layout, live) {
