@@ -59,8 +59,11 @@
 //! `cargo run --release -p videt-service --example phantom_relief -- [--view] [--extra DIR]
 //! [--threshold-mm MM] [--after-checks LIST] [--figure FILE.png] [--figure-pairs a,b,c]
 //! [--pairs a,b,c] [--shape interpolated|stepped] [--step-height-mm MM] [--step-slope S]
-//! [--step-width-mm MM] [--step-wall-slope S]` (`--pairs`: only these pairs; `--shape` and `--step-*`: the relief
-//! builder's [`ReliefShape`] and step settings instead of the defaults')
+//! [--step-width-mm MM] [--step-wall-slope S] [--patch-spacing PX]` (`--pairs`: only these pairs; `--shape` and `--step-*`: the relief
+//! builder's [`ReliefShape`] and step settings instead of the defaults'; `--patch-spacing`:
+//! depth from image patches as `vision.patch_spacing_px` sets it, 0 off, the default the
+//! configuration's: the far sides of occluding edges join the segments of their matches, judged
+//! as their matches, and the support points join every row, the floor's too)
 //! (`--after-checks`: `after`'s checks instead of the defaults', `none` or a comma-separated
 //! list of `left-right`, `surface`, `confidence=T`).
 //!
@@ -80,6 +83,7 @@ use plotters::style::FontStyle;
 use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{
     pinhole, scene_depth_range, scene_segments, view_params, PairCamera, StereoPair,
+    DEFAULT_PATCH_SPACING_PX,
 };
 use videt_vision::disparity_range::choose_max_disparity;
 use videt_vision::evaluation::{
@@ -87,6 +91,7 @@ use videt_vision::evaluation::{
     PhantomArea, ReliefDeviation, TruthPair, MIDDLEBURY_PAIRS,
 };
 use videt_vision::matching::MatchChecks;
+use videt_vision::patch_stereo::{PatchDepth, PatchParams};
 use videt_vision::surface::{build_from_scene, ReliefParams, ReliefShape, SceneSegment3};
 use videt_vision::{GrayView, RectifiedGeometry, StereoPipeline, VisionParams};
 
@@ -159,6 +164,7 @@ fn as_stereo(p: TruthPair) -> Result<Pair, String> {
 struct Run {
     segments: Vec<SceneSegment3>,
     verdicts: Vec<MatchVerdict>,
+    points: Vec<[f64; 3]>,
 }
 
 impl Run {
@@ -171,7 +177,11 @@ impl Run {
             .filter(|(_, v)| **v == MatchVerdict::Correct)
             .map(|(s, v)| (*s, *v))
             .unzip();
-        Run { segments, verdicts }
+        Run {
+            segments,
+            verdicts,
+            points: self.points.clone(),
+        }
     }
 
     fn count(&self, verdict: MatchVerdict) -> usize {
@@ -187,6 +197,7 @@ fn run(
     pair: &Pair,
     geometry: &RectifiedGeometry,
     params: &VisionParams,
+    patches: Option<&PatchParams>,
 ) -> Result<Run, String> {
     let lv = GrayView::from_image(&pair.stereo.left).map_err(|e| e.to_string())?;
     let rv = GrayView::from_image(&pair.stereo.right).map_err(|e| e.to_string())?;
@@ -197,10 +208,25 @@ fn run(
     let out = pipeline
         .run(&lv, &rv, Some(geometry), &params)
         .map_err(|e| format!("stereo pipeline: {e}"))?;
-    let mut segments = Vec::with_capacity(out.segments_3d.len());
-    scene_segments(&out.segments_3d, &mut segments);
-    let verdicts = out
-        .segments_3d
+    let mut segments_3d = out.segments_3d.clone();
+    let mut patch_depth = PatchDepth::default();
+    if let Some(patches) = patches {
+        patch_depth.measure(
+            &lv,
+            &rv,
+            geometry,
+            out,
+            params.matching.disparity_max_px,
+            params.disparity_sigma_px,
+            None,
+            patches,
+        );
+        segments_3d.extend_from_slice(&patch_depth.far_sides);
+    }
+    let mut segments = Vec::with_capacity(segments_3d.len());
+    scene_segments(&segments_3d, &mut segments);
+    // A far side is judged as the match whose edge it is beside.
+    let verdicts = segments_3d
         .iter()
         .map(|s| {
             let m = &out.matches[s.match_index as usize];
@@ -212,7 +238,11 @@ fn run(
             )
         })
         .collect();
-    Ok(Run { segments, verdicts })
+    Ok(Run {
+        segments,
+        verdicts,
+        points: patch_depth.points,
+    })
 }
 
 /// The deviation from the truth of the relief of `segments` built with `params`.
@@ -220,10 +250,11 @@ fn deviation_of(
     pair: &Pair,
     params: &ReliefParams,
     segments: &[SceneSegment3],
+    points: &[[f64; 3]],
 ) -> Result<ReliefDeviation, String> {
     let geometry = pair.stereo.geometry();
-    let (model, _) =
-        build_from_scene(segments, &[], &pinhole(&geometry), params).map_err(|e| e.to_string())?;
+    let (model, _) = build_from_scene(segments, points, &pinhole(&geometry), params)
+        .map_err(|e| e.to_string())?;
     relief_deviation(&model, params, &geometry, &pair.truth).map_err(|e| e.to_string())
 }
 
@@ -273,9 +304,17 @@ fn measure(
     shape: &ShapeOptions,
 ) -> Result<PairResult, String> {
     let geometry = pair.stereo.geometry();
-    let before =
-        run(pipeline, pair, &geometry, &without_checks()).map_err(|e| format!("before: {e}"))?;
-    let after = run(pipeline, pair, &geometry, after_params).map_err(|e| format!("after: {e}"))?;
+    let patches = shape.patches();
+    let before = run(
+        pipeline,
+        pair,
+        &geometry,
+        &without_checks(),
+        patches.as_ref(),
+    )
+    .map_err(|e| format!("before: {e}"))?;
+    let after = run(pipeline, pair, &geometry, after_params, patches.as_ref())
+        .map_err(|e| format!("after: {e}"))?;
     let mut params = layout.params(&before.segments, pair.stereo.size_px())?;
     shape.apply(&mut params);
     let depth_range_m = scene_depth_range(&before.segments)?;
@@ -285,7 +324,7 @@ fn measure(
                floor: Option<&ReliefDeviation>,
                own_floor: Option<&ReliefDeviation>|
      -> Result<Row, String> {
-        let deviation = deviation_of(pair, &params, &r.segments)?;
+        let deviation = deviation_of(pair, &params, &r.segments, &r.points)?;
         let excess_over = |floor: &ReliefDeviation| {
             deviation
                 .excess_over(floor, threshold_m)
@@ -505,6 +544,8 @@ fn write_figure(
 #[derive(Debug, Clone, Copy, Default)]
 struct ShapeOptions {
     shape: Option<ReliefShape>,
+    /// `--patch-spacing`: depth from patches on a grid this many pixels apart (0: off).
+    patch_spacing_px: usize,
     step_min_height_m: Option<f64>,
     step_min_slope: Option<f64>,
     step_width_m: Option<f64>,
@@ -532,12 +573,28 @@ impl ShapeOptions {
                 ))
             }
         };
+        let patch_spacing_px = match value_of("--patch-spacing") {
+            None => DEFAULT_PATCH_SPACING_PX as usize,
+            Some(v) => match v.parse::<usize>() {
+                Ok(n) if n == 0 || (4..=64).contains(&n) => n,
+                _ => return Err(format!("--patch-spacing {v}: 0 (off) or in [4, 64]")),
+            },
+        };
         Ok(ShapeOptions {
             shape,
+            patch_spacing_px,
             step_min_height_m: number("--step-height-mm", 1e-3)?,
             step_min_slope: number("--step-slope", 1.0)?,
             step_width_m: number("--step-width-mm", 1e-3)?,
             step_max_wall_slope: number("--step-wall-slope", 1.0)?,
+        })
+    }
+
+    /// The patch settings (`None`: off).
+    fn patches(&self) -> Option<PatchParams> {
+        (self.patch_spacing_px > 0).then(|| PatchParams {
+            spacing_px: self.patch_spacing_px,
+            ..PatchParams::default()
         })
     }
 

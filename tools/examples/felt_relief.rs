@@ -1,11 +1,15 @@
 //! What the wearer touches on the relief of a stereo pair, against the true surface: the pixel
-//! comparison and the felt surface, for the paper's interpolated relief and the stepped one.
+//! comparison and the felt surface, for the paper's interpolated relief, the stepped one, and
+//! the stepped one with depth from image patches (`vision.patch_spacing_px`).
 //!
 //! Per pair with ground truth (the shared Middlebury pairs and every pair under the extra
 //! directory, default `target/extra-stereo`, as `phantom_relief` finds them), the relief is
 //! built as the service builds it (`StereoRelief::build`: the default matcher, laid out in front
 //! of the default rig, 20 x 15 cm, 4 cm of relief; the disparity bound measured on the pair)
-//! with each [`ReliefShape`], and:
+//! in three variants, `interpolated` (the paper's), `stepped` ([`ReliefShape::Stepped`]) and
+//! `stepped+patches` (the stepped relief of the segments, the far sides of occluding edges and
+//! the support points of `videt_vision::patch_stereo`, on a grid `--patch-spacing` px apart,
+//! default 12), and:
 //!
 //! - **pixels**: the fraction of the evaluated area more than 5 mm off the true surface
 //!   (`videt_vision::evaluation::relief_deviation`, as `phantom_relief` reports it);
@@ -16,11 +20,11 @@
 //!   cells more than 5 mm off, and the wires' force in contact (99th percentile, largest).
 //!
 //! `cargo run --release -p videt-tools --example felt_relief -- [--pairs a,b] [--extra DIR]
-//! [--rows-mm MM] [--figure FILE.png]`
+//! [--rows-mm MM] [--patch-spacing PX] [--figure FILE.png]`
 //!
-//! With `--figure` it writes one PNG, a row per pair: the true surface, the interpolated and the
-//! stepped relief, and the felt surface on the stepped relief (the median height the finger was
-//! held at per 2.5 mm cell), coloured by height.
+//! With `--figure` it writes one PNG, a row per pair: the true surface, the interpolated relief
+//! (before), the stepped relief with patches (after), and the felt surface on it (the median
+//! height the finger was held at per 2.5 mm cell), coloured by height.
 
 use std::path::{Path, PathBuf};
 
@@ -113,13 +117,40 @@ fn measure(
     })
 }
 
+/// The reliefs compared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Variant {
+    /// The paper's, from the segments.
+    Interpolated,
+    /// [`ReliefShape::Stepped`], from the segments.
+    Stepped,
+    /// [`ReliefShape::Stepped`], from the segments, the far sides and the support points.
+    SteppedPatches,
+}
+
+impl Variant {
+    const ALL: [Variant; 3] = [
+        Variant::Interpolated,
+        Variant::Stepped,
+        Variant::SteppedPatches,
+    ];
+
+    fn label(self) -> &'static str {
+        match self {
+            Variant::Interpolated => "interpolated",
+            Variant::Stepped => "stepped",
+            Variant::SteppedPatches => "stepped+patches",
+        }
+    }
+}
+
 /// A pair's reliefs, measured, with what its figure row needs.
 struct PairRun {
     name: String,
     params: ReliefParams,
     geometry: RectifiedGeometry,
     truth: DisparityMap,
-    shapes: Vec<(ReliefShape, Figures)>,
+    shapes: Vec<(Variant, Figures)>,
 }
 
 fn pair_figures(
@@ -127,6 +158,7 @@ fn pair_figures(
     layout: &ReliefLayout,
     p: TruthPair,
     rows_m: f64,
+    patch_spacing_px: u32,
 ) -> Result<PairRun, String> {
     let mut pipeline = StereoPipeline::new();
     let lv = GrayView::from_image(&p.left).map_err(|e| e.to_string())?;
@@ -138,17 +170,36 @@ fn pair_figures(
     let truth = p.truth;
     let pair = StereoPair::new(p.name, p.left, p.right, camera)?;
     let geometry = pair.geometry();
-    let (relief, _, _) = StereoRelief::build(pair, layout, LiveSettings::default())?;
+    let segments_only = LiveSettings {
+        patch_spacing_px: 0,
+        ..LiveSettings::default()
+    };
+    let with_patches = LiveSettings {
+        patch_spacing_px,
+        ..LiveSettings::default()
+    };
+    let (patched, _, _) = StereoRelief::build(pair.clone(), layout, with_patches)?;
+    let (relief, _, _) = StereoRelief::build(pair, layout, segments_only)?;
     let mut out = Vec::new();
-    for shape in [ReliefShape::Interpolated, ReliefShape::Stepped] {
+    for variant in Variant::ALL {
         let mut params = *relief.relief_params();
+        let (source, shape) = match variant {
+            Variant::Interpolated => (&relief, ReliefShape::Interpolated),
+            Variant::Stepped => (&relief, ReliefShape::Stepped),
+            Variant::SteppedPatches => (&patched, ReliefShape::Stepped),
+        };
         params.shape = shape;
         let t = std::time::Instant::now();
-        let (model, _) = build_from_scene(relief.segments(), &[], &pinhole(&geometry), &params)
-            .map_err(|e| e.to_string())?;
+        let (model, _) = build_from_scene(
+            source.segments(),
+            source.points(),
+            &pinhole(&geometry),
+            &params,
+        )
+        .map_err(|e| e.to_string())?;
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
         let figures = measure(config, &model, &params, &geometry, &truth, rows_m, build_ms)?;
-        out.push((shape, figures));
+        out.push((variant, figures));
     }
     Ok(PairRun {
         name: relief.pair().name.clone(),
@@ -206,18 +257,18 @@ fn write_figure(path: &Path, runs: &[PairRun]) -> Result<(), Box<dyn std::error:
         .iter()
         .map(|r| {
             let p = &r.params;
-            let shape = |s: ReliefShape| r.shapes.iter().find(|x| x.0 == s).map(|x| &x.1);
-            let relief = |s: ReliefShape| {
+            let shape = |s: Variant| r.shapes.iter().find(|x| x.0 == s).map(|x| &x.1);
+            let relief = |s: Variant| {
                 panel(p, |x, y| {
                     shape(s).and_then(|f| f.model.height_at(x, y).map(|h| h.z_m))
                 })
             };
             [
                 panel(p, |x, y| truth_z(p, &r.geometry, &r.truth, x, y)),
-                relief(ReliefShape::Interpolated),
-                relief(ReliefShape::Stepped),
+                relief(Variant::Interpolated),
+                relief(Variant::SteppedPatches),
                 panel(p, |x, y| {
-                    shape(ReliefShape::Stepped).and_then(|f| f.felt_map.at(x, y))
+                    shape(Variant::SteppedPatches).and_then(|f| f.felt_map.at(x, y))
                 }),
             ]
         })
@@ -239,8 +290,8 @@ fn write_figure(path: &Path, runs: &[PairRun]) -> Result<(), Box<dyn std::error:
             ))
         };
         text(
-            "True surface | relief, interpolated (the paper's, the default) | relief, stepped | \
-             felt on the stepped relief",
+            "True surface | relief, interpolated (the paper's) | relief, stepped with patches | \
+             felt on the stepped relief with patches",
             margin,
             6,
             15,
@@ -253,8 +304,8 @@ fn write_figure(path: &Path, runs: &[PairRun]) -> Result<(), Box<dyn std::error:
         )?;
         let mut y = title_h;
         for (r, row) in runs.iter().zip(&rows) {
-            let f = |s: ReliefShape| r.shapes.iter().find(|x| x.0 == s).map(|x| &x.1);
-            let (Some(a), Some(b)) = (f(ReliefShape::Interpolated), f(ReliefShape::Stepped)) else {
+            let f = |s: Variant| r.shapes.iter().find(|x| x.0 == s).map(|x| &x.1);
+            let (Some(a), Some(b)) = (f(Variant::Interpolated), f(Variant::SteppedPatches)) else {
                 continue;
             };
             text(
@@ -309,6 +360,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if !(rows_m.is_finite() && rows_m >= 0.001) {
         return Err("--rows-mm must be at least 1".into());
     }
+    let patch_spacing_px = match value_of("--patch-spacing") {
+        None => 12,
+        Some(v) => match v.parse::<u32>() {
+            Ok(n) if (4..=64).contains(&n) => n,
+            _ => return Err(format!("--patch-spacing {v}: in [4, 64]").into()),
+        },
+    };
     let config = Config::default();
     let layout = ReliefLayout::for_config(&config);
 
@@ -329,7 +387,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rows_m * 1e3
     );
     println!(
-        "{:<11} {:<13} {:>8} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9} {:>9}",
+        "{:<11} {:<15} {:>8} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9} {:>9}",
         "pair",
         "relief",
         "build ms",
@@ -345,12 +403,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut runs = Vec::new();
     for p in pairs {
         let name = p.name.clone();
-        let run = pair_figures(&config, &layout, p, rows_m).map_err(|e| format!("{name}: {e}"))?;
+        let run = pair_figures(&config, &layout, p, rows_m, patch_spacing_px)
+            .map_err(|e| format!("{name}: {e}"))?;
         for (shape, f) in &run.shapes {
             println!(
-                "{:<11} {:<13} {:>8.2} {:>8.1}% {:>6.1} mm {:>6.1} mm {:>7.1}% {:>9} {:>9.2} {:>9.2}",
+                "{:<11} {:<15} {:>8.2} {:>8.1}% {:>6.1} mm {:>6.1} mm {:>7.1}% {:>9} {:>9.2} {:>9.2}",
                 name,
-                format!("{shape:?}").to_lowercase(),
+                shape.label(),
                 f.build_ms,
                 100.0 * f.pixels_off,
                 f.felt.median_m * 1e3,
