@@ -440,6 +440,12 @@ pub struct VisionConfig {
 /// The default of `vision.patch_spacing_px`.
 pub const DEFAULT_PATCH_SPACING_PX: u32 = 0;
 
+/// The grid spacings `vision.patch_spacing_px` allows besides 0 (off), pixels.
+pub const PATCH_SPACING_RANGE_PX: core::ops::RangeInclusive<u32> = 4..=64;
+
+/// What `vision.patch_spacing_px` allows, as its errors say it.
+pub const PATCH_SPACING_ALLOWED: &str = "0 (off) or in [4, 64]";
+
 /// Per-cycle telemetry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -295,12 +295,12 @@ impl Config {
             0.0,
             1.0,
         )?;
-        if !(self.vision.patch_spacing_px == 0 || (4..=64).contains(&self.vision.patch_spacing_px))
-        {
+        let spacing = self.vision.patch_spacing_px;
+        if !(spacing == 0 || crate::PATCH_SPACING_RANGE_PX.contains(&spacing)) {
             return Err(ConfigError::Invalid {
                 field: "vision.patch_spacing_px".into(),
-                value: self.vision.patch_spacing_px.to_string(),
-                allowed: "0 (off) or in [4, 64]".into(),
+                value: spacing.to_string(),
+                allowed: crate::PATCH_SPACING_ALLOWED.into(),
             });
         }
         in_range(

@@ -80,6 +80,7 @@ use image::imageops::FilterType;
 use image::{GrayImage, Rgb, RgbImage};
 use plotters::prelude::*;
 use plotters::style::FontStyle;
+use videt_rt_config::{PATCH_SPACING_ALLOWED, PATCH_SPACING_RANGE_PX};
 use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{
     pinhole, scene_depth_range, scene_segments, view_params, PairCamera, StereoPair,
@@ -576,8 +577,8 @@ impl ShapeOptions {
         let patch_spacing_px = match value_of("--patch-spacing") {
             None => DEFAULT_PATCH_SPACING_PX as usize,
             Some(v) => match v.parse::<usize>() {
-                Ok(n) if n == 0 || (4..=64).contains(&n) => n,
-                _ => return Err(format!("--patch-spacing {v}: 0 (off) or in [4, 64]")),
+                Ok(n) if n == 0 || PATCH_SPACING_RANGE_PX.contains(&(n as u32)) => n,
+                _ => return Err(format!("--patch-spacing {v}: {PATCH_SPACING_ALLOWED}")),
             },
         };
         Ok(ShapeOptions {

@@ -483,11 +483,16 @@ pub const DEFAULT_PATCH_SPACING_PX: u32 = videt_rt_config::DEFAULT_PATCH_SPACING
 fn patch_params(live: &LiveSettings) -> Result<Option<PatchParams>, String> {
     match live.patch_spacing_px {
         0 => Ok(None),
-        spacing @ 4..=64 => Ok(Some(PatchParams {
-            spacing_px: spacing as usize,
-            ..PatchParams::default()
-        })),
-        other => Err(format!("patch spacing {other} px: 0 (off) or in [4, 64]")),
+        spacing if videt_rt_config::PATCH_SPACING_RANGE_PX.contains(&spacing) => {
+            Ok(Some(PatchParams {
+                spacing_px: spacing as usize,
+                ..PatchParams::default()
+            }))
+        }
+        other => Err(format!(
+            "patch spacing {other} px: {}",
+            videt_rt_config::PATCH_SPACING_ALLOWED
+        )),
     }
 }
 
@@ -559,6 +564,8 @@ pub struct StereoRelief {
     pipeline: StereoPipeline,
     segments: Vec<SceneSegment3>,
     fresh: Vec<SceneSegment3>,
+    /// The patch settings of `live` (`None`: off).
+    patches: Option<PatchParams>,
     /// The support points the relief is built with (left camera frame, metres).
     points: Vec<[f64; 3]>,
     patch_depth: PatchDepth,
@@ -643,6 +650,7 @@ impl StereoRelief {
                 pipeline,
                 segments,
                 fresh: Vec::new(),
+                patches,
                 points,
                 patch_depth,
             },
@@ -731,13 +739,12 @@ impl StereoRelief {
     /// Re-runs the whole-image pipeline and rebuilds the relief from its segments (the scene
     /// depth range of the first build is kept). Returns the relief and the builder's report.
     pub fn refresh_full(&mut self) -> Result<(ReliefModel, BuildReport), String> {
-        let patches = patch_params(&self.live)?;
         let (segments, _) = run_whole(
             &mut self.pipeline,
             &self.pair,
             &self.geometry,
             &self.vision,
-            patches.as_ref(),
+            self.patches.as_ref(),
             &mut self.patch_depth,
         )?;
         let (model, report) = build_from_scene(
@@ -775,9 +782,8 @@ impl StereoRelief {
             };
             self.fresh.clear();
             scene_segments(&out.segments_3d, &mut self.fresh);
-            let patches = patch_params(&self.live)?;
             measure_patches(
-                patches.as_ref(),
+                self.patches.as_ref(),
                 &mut self.patch_depth,
                 (&lv, &rv),
                 &self.geometry,

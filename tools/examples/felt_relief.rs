@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 use image::{Rgb, RgbImage};
 use plotters::prelude::*;
-use videt_rt_config::Config;
+use videt_rt_config::{Config, PATCH_SPACING_RANGE_PX};
 use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{pinhole, LiveSettings, PairCamera, StereoPair, StereoRelief};
 use videt_tools::felt_surface::{felt_map, felt_surface, FeltMap, FeltSettings, FeltSurface};
@@ -363,8 +363,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let patch_spacing_px = match value_of("--patch-spacing") {
         None => 12,
         Some(v) => match v.parse::<u32>() {
-            Ok(n) if (4..=64).contains(&n) => n,
-            _ => return Err(format!("--patch-spacing {v}: in [4, 64]").into()),
+            Ok(n) if PATCH_SPACING_RANGE_PX.contains(&n) => n,
+            _ => {
+                let (lo, hi) = (PATCH_SPACING_RANGE_PX.start(), PATCH_SPACING_RANGE_PX.end());
+                return Err(format!("--patch-spacing {v}: in [{lo}, {hi}]").into());
+            }
         },
     };
     let config = Config::default();

@@ -139,8 +139,7 @@ pub fn side_steps(
             continue;
         }
         let s = &left_segments[m.left as usize];
-        let dir = [s.end[0] - s.start[0], s.end[1] - s.start[1]];
-        let len = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
+        let (dir, len) = direction_and_length(s);
         if len < 1.0 {
             continue;
         }
@@ -197,9 +196,15 @@ pub fn side_steps(
     counts
 }
 
+/// A segment's `end - start` in the image, and its length, pixels.
+fn direction_and_length(s: &Segment) -> ([f32; 2], f32) {
+    let dir = [s.end[0] - s.start[0], s.end[1] - s.start[1]];
+    (dir, dir[0].hypot(dir[1]))
+}
+
 /// Reusable buffers of the patch search.
 #[derive(Debug, Default, Clone)]
-pub struct PatchScratch {
+struct PatchScratch {
     /// The patch's rows of the other image, as floats: `side` rows of `span` values.
     rows: Vec<f32>,
     /// Per column of the span: the sum and the sum of squares over the patch's rows.
@@ -232,11 +237,11 @@ fn patch_disparity(
         return None;
     }
     let side = (2 * r + 1) as usize;
-    let n = (side * side) as f32;
-    let mut patch = [0f32; 15 * 15];
     if side > 15 {
         return None;
     }
+    let n = (side * side) as f32;
+    let mut patch = [0f32; 15 * 15];
     let mut sum = 0.0;
     for (i, y) in (cy - r..=cy + r).enumerate() {
         let row = &reference.row(y as usize)[(cx - r) as usize..=(cx + r) as usize];
@@ -342,12 +347,13 @@ fn patch_disparity(
     }
     let mut d = disparity(best_k) as f32;
     if best_k > 0 && best_k + 1 < count {
-        let (a, b, c) = (
-            scores[disparity(disparity(best_k) - 1)],
-            best_score,
-            scores[disparity(disparity(best_k) + 1)],
-        );
-        let denom = a - 2.0 * b + c;
+        // The scores at d - 1 and d + 1 (k runs against d when searching leftwards).
+        let (a, c) = if direction > 0.0 {
+            (scores[best_k - 1], scores[best_k + 1])
+        } else {
+            (scores[best_k + 1], scores[best_k - 1])
+        };
+        let denom = a - 2.0 * best_score + c;
         if a.is_finite() && c.is_finite() && denom < -1e-6 {
             d += (0.5 * (a - c) / denom).clamp(-0.5, 0.5);
         }
@@ -435,8 +441,7 @@ pub fn far_side_segments(
     for step in steps {
         let m = &matches[step.match_index as usize];
         let s = &left_segments[m.left as usize];
-        let dir = [s.end[0] - s.start[0], s.end[1] - s.start[1]];
-        let len = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
+        let (dir, len) = direction_and_length(s);
         if len <= 2.0 * wall_px {
             continue;
         }
@@ -473,8 +478,6 @@ pub struct PatchDepth {
     pub far_sides: Vec<Segment3d>,
     /// The support points, left camera frame `(X, Y, Z)`, metres.
     pub points: Vec<[f64; 3]>,
-    /// What the side measurement saw.
-    pub sides: SideCounts,
     steps: Vec<SideStep>,
     grid: Vec<[f32; 3]>,
 }
@@ -494,7 +497,7 @@ impl PatchDepth {
         region: Option<PixelRect>,
         params: &PatchParams,
     ) {
-        self.sides = side_steps(
+        side_steps(
             left,
             right,
             &output.left_segments,
@@ -589,26 +592,39 @@ mod tests {
         (s, m)
     }
 
+    fn views<'a>(l: &'a [u8], r: &'a [u8], w: usize, h: usize) -> (GrayView<'a>, GrayView<'a>) {
+        (
+            GrayView::new(l, w, h).unwrap(),
+            GrayView::new(r, w, h).unwrap(),
+        )
+    }
+
+    /// The side steps of one vertical match at `edge_x` of disparity `d`, with the defaults.
+    fn sides_of(
+        (lv, rv): (GrayView<'_>, GrayView<'_>),
+        edge_x: f32,
+        d: f32,
+    ) -> (Vec<SideStep>, SideCounts) {
+        let (s, m) = vertical_match(edge_x, d);
+        let mut out = Vec::new();
+        let counts = side_steps(
+            &lv,
+            &rv,
+            &[s],
+            &[m],
+            24.0,
+            &PatchParams::default(),
+            &mut out,
+        );
+        (out, counts)
+    }
+
     #[test]
     fn an_occluding_edge_steps_down_on_the_background_side_only() {
         let (far, near) = (4usize, 16usize);
         let (l, r, w, h) = scene(far, near, 60, 110);
-        let (lv, rv) = (
-            GrayView::new(&l, w, h).unwrap(),
-            GrayView::new(&r, w, h).unwrap(),
-        );
-        let mut out = Vec::new();
         for edge_x in [59.5f32, 109.5] {
-            let (s, m) = vertical_match(edge_x, near as f32);
-            let counts = side_steps(
-                &lv,
-                &rv,
-                &[s],
-                &[m],
-                24.0,
-                &PatchParams::default(),
-                &mut out,
-            );
+            let (out, counts) = sides_of(views(&l, &r, w, h), edge_x, near as f32);
             assert_eq!(counts.sides, 2);
             assert_eq!(out.len(), 1, "edge at {edge_x}: {out:?}");
             // start -> end runs down: the positive normal (-dy, dx) points to the image's left.
@@ -629,21 +645,7 @@ mod tests {
     #[test]
     fn a_texture_edge_does_not_step() {
         let (l, r, w, h) = scene(10, 10, 60, 110);
-        let (lv, rv) = (
-            GrayView::new(&l, w, h).unwrap(),
-            GrayView::new(&r, w, h).unwrap(),
-        );
-        let (s, m) = vertical_match(59.5, 10.0);
-        let mut out = Vec::new();
-        let counts = side_steps(
-            &lv,
-            &rv,
-            &[s],
-            &[m],
-            24.0,
-            &PatchParams::default(),
-            &mut out,
-        );
+        let (out, counts) = sides_of(views(&l, &r, w, h), 59.5, 10.0);
         assert!(out.is_empty(), "{out:?}");
         assert_eq!(counts.unmeasured, 0);
     }
@@ -680,10 +682,7 @@ mod tests {
     fn support_points_find_the_object_and_the_background_at_their_disparities() {
         let (far, near) = (4usize, 16usize);
         let (l, r, w, h) = scene(far, near, 60, 110);
-        let (lv, rv) = (
-            GrayView::new(&l, w, h).unwrap(),
-            GrayView::new(&r, w, h).unwrap(),
-        );
+        let (lv, rv) = views(&l, &r, w, h);
         let params = PatchParams {
             spacing_px: 8,
             ..PatchParams::default()
