@@ -50,8 +50,8 @@ fn the_check_prints_the_drives_units_and_what_a_torque_step_is_on_a_wire() {
     // What the session logs keep, at the default limits and rate.
     assert!(
         stdout.contains(
-            "\n# session logs: kept up to 4096 MB, 30 days, 1024 MB left free: about 2.7 hours \
-             of sessions at 1000 Hz (1.5 GB per hour)\n"
+            "\n# session logs: kept up to 4096 MB, 30 days, 1024 MB left free: about 5.4 hours \
+             of sessions at 1000 Hz (0.8 GB per hour)\n"
         ),
         "{stdout}"
     );

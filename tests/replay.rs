@@ -350,12 +350,63 @@ fn cuts_from_frames(frames: &[telemetry::FrameAt]) -> Vec<(usize, bool)> {
     cuts
 }
 
-/// `bytes`, a closed log of a session whose duration elapsed, cut on every record boundary and
-/// inside records ([`cuts_from_frames`]): each cut reads as a session that ended without
-/// closing at its last whole record, with damage exactly when the cut is inside a frame, and
-/// its records a prefix of the whole log's; a cut log replays up to the cut at the period
-/// boundaries before and after every frame kind, at spread periods and inside records.
+/// The same log as version 3 wrote it (uncompressed frames, in the file's order).
+fn as_version_3(v4: &[u8]) -> Vec<u8> {
+    let reader = telemetry::LogReader::new(v4).unwrap();
+    let header = reader.header();
+    telemetry::version_3_bytes(&header, reader).unwrap()
+}
+
+/// `bytes`, a closed log (version 4) of a session whose duration elapsed, cut on every block
+/// boundary and inside every block: each cut reads as a session that ended without closing at
+/// the last record of the blocks before it, damaged exactly when the cut is inside a block,
+/// and replays up to there; then the same log as version 3 wrote it, cut on every record
+/// boundary and inside records ([`check_frame_cuts`]).
 fn check_cuts(bytes: &[u8]) {
+    let whole = telemetry::parse_log(bytes).unwrap();
+    let blocks = telemetry::frames(bytes).unwrap();
+    assert!(blocks
+        .iter()
+        .all(|b| b.kind == telemetry::format::FrameKind::Block));
+    let last = blocks.last().unwrap();
+    assert_eq!(last.offset + last.bytes, bytes.len());
+    let mut cuts: Vec<(usize, bool)> = blocks.iter().map(|b| (b.offset, true)).collect();
+    cuts.extend(
+        blocks
+            .iter()
+            .flat_map(|b| [b.offset + 1, b.offset + b.bytes / 2, b.offset + b.bytes - 1])
+            .map(|at| (at, false)),
+    );
+    for (cut, on_boundary) in cuts {
+        let log = telemetry::parse_log(&bytes[..cut]).unwrap();
+        assert!(!log.closed(), "cut at {cut}");
+        assert_eq!(log.damage.is_none(), on_boundary, "cut at {cut}");
+        assert_eq!(log.records[..], whole.records[..log.records.len()]);
+        let before = telemetry::parse_log(
+            &bytes[..blocks
+                .iter()
+                .rev()
+                .find(|b| b.offset <= cut)
+                .unwrap()
+                .offset],
+        )
+        .unwrap();
+        assert_eq!(log.records.len(), before.records.len(), "cut at {cut}");
+        if let Ok(r) = replay(&log, &ReplayOverrides::default()) {
+            assert!(r.identical(), "cut at {cut}: {:?}", r.first_divergence);
+        } else {
+            assert!(log.records.is_empty(), "cut at {cut}");
+        }
+    }
+    check_frame_cuts(&as_version_3(bytes));
+}
+
+/// `bytes`, a closed log (version 3) of a session whose duration elapsed, cut on every record
+/// boundary and inside records ([`cuts_from_frames`]): each cut reads as a session that ended
+/// without closing at its last whole record, with damage exactly when the cut is inside a
+/// frame, and its records a prefix of the whole log's; a cut log replays up to the cut at the
+/// period boundaries before and after every frame kind, at spread periods and inside records.
+fn check_frame_cuts(bytes: &[u8]) {
     // Hundreds of parses and replays: not while a videtd session records in real time.
     let _cpu = real_time();
     let started = Instant::now();
@@ -545,7 +596,7 @@ fn the_replay_tool_reports_plots_and_refuses_bad_logs_clearly() {
     let (status, _, err) = videt(&["replay".as_ref(), cut.as_os_str()]);
     assert_eq!(status.code(), Some(1));
     assert!(
-        err.contains("version 7") && err.contains("reads versions 1 to 3"),
+        err.contains("version 7") && err.contains("reads versions 1 to 4"),
         "{err}"
     );
     std::fs::write(&cut, "[control]\nrate_hz = 1000\n").unwrap();
@@ -587,17 +638,21 @@ fn videt_log_says_whether_the_session_closed_and_that_a_log_cut_on_a_record_boun
         )),
         "{out}"
     );
-    // Cut on record boundaries (the service gone between two writes): before the end frame,
-    // and in the middle of the session.
-    let frames = telemetry::frames(&bytes).unwrap();
+    // Cut on block boundaries (the service gone between two writes): before the last block
+    // (the end frame's); and the same log as version 3 wrote it, cut on record boundaries
+    // before the end frame and in the middle of the session.
+    let blocks = telemetry::frames(&bytes).unwrap();
+    let v3 = as_version_3(&bytes);
+    let frames = telemetry::frames(&v3).unwrap();
     let periods: Vec<&telemetry::FrameAt> = frames
         .iter()
         .filter(|f| f.kind == telemetry::format::FrameKind::Period)
         .collect();
     let cut = dir.path().join("cut.vlog");
-    for at in [
-        frames.last().unwrap().offset,
-        periods[periods.len() / 2].offset,
+    for (bytes, at) in [
+        (&bytes, blocks.last().unwrap().offset),
+        (&v3, frames.last().unwrap().offset),
+        (&v3, periods[periods.len() / 2].offset),
     ] {
         std::fs::write(&cut, &bytes[..at]).unwrap();
         let read = telemetry::parse_log(&bytes[..at]).unwrap();
@@ -952,7 +1007,7 @@ fn a_log_recorded_before_a_configuration_key_existed_names_it() {
     let mut config = Config::default();
     config.control.stretch_compensation = false;
     record_session(&path, &config, 2.0, false, Vec::new(), &[]);
-    let bytes = std::fs::read(&path).unwrap();
+    let bytes = as_version_3(&std::fs::read(&path).unwrap());
     assert_identical(&telemetry::parse_log(&bytes).unwrap());
     let old = with_session_text(&bytes, |text| {
         let kept: Vec<&str> = text

@@ -664,8 +664,20 @@ where
         // What the last writes and the closing retention said.
         log_writer_events(&health, &path);
         let lost = health.lost();
+        let (mb, writer_cpu_s) = (
+            health.bytes() as f64 * 1e-6,
+            health.writer_cpu().as_secs_f64(),
+        );
         match finished {
-            Ok(written) => info!(written, dropped, lost, end = %why, "telemetry log closed"),
+            Ok(written) => info!(
+                written,
+                dropped,
+                lost,
+                mb = format!("{mb:.1}"),
+                writer_cpu_s = format!("{writer_cpu_s:.2}"),
+                end = %why,
+                "telemetry log closed"
+            ),
             Err(e) => error!("telemetry log incomplete: {e}"),
         }
     }

@@ -1,6 +1,7 @@
 //! The session log's bytes (`docs/telemetry.md`): the header, the period record (its outputs,
-//! the same 256 bytes as in version 1, and its inputs), the framing of versions 2 and 3, and the
-//! end frame of version 3.
+//! the same 256 bytes as in version 1, and its inputs), the framing of versions 2 to 4, and the
+//! end frame of versions 3 and 4. Version 4 stores the frames in compressed blocks, whose
+//! layout is the block module's.
 
 use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::{DriveSample, DriveState, MonoTime};
@@ -12,8 +13,10 @@ use crate::cycle::{
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"VIDETLOG";
-/// The format version written: version 2's frames, and an end frame when the service stops.
-pub const FORMAT_VERSION: u32 = 3;
+/// The format version written: version 3's frames, stored in compressed blocks.
+pub const FORMAT_VERSION: u32 = 4;
+/// Version 2's frames and an end frame when the service stops, uncompressed (still read).
+pub const FORMAT_VERSION_3: u32 = 3;
 /// Frames without an end frame (still read; such a log never reads as closed).
 pub const FORMAT_VERSION_2: u32 = 2;
 /// The first format version: fixed 256-byte output records, no inputs (still read).
@@ -50,8 +53,10 @@ pub enum FrameKind {
     Period = 4,
     /// A surface version that could not be recorded.
     SurfaceLost = 5,
-    /// The session ended and the service closed the log (version 3; the last frame).
+    /// The session ended and the service closed the log (version 3 on; the last frame).
     End = 6,
+    /// Version 4: a compressed block of the frames above.
+    Block = 7,
 }
 
 impl FrameKind {
@@ -64,6 +69,7 @@ impl FrameKind {
             4 => FrameKind::Period,
             5 => FrameKind::SurfaceLost,
             6 => FrameKind::End,
+            7 => FrameKind::Block,
             _ => return None,
         })
     }
@@ -526,6 +532,28 @@ pub(crate) mod tests {
                 ops,
             },
         }
+    }
+
+    /// [`sample`] moving as a session's periods do: the thimble on a slow path, and the
+    /// measured tensions (as read and as recorded), the torques and the velocities with noise
+    /// of about a thousandth of their value in the low 40 bits of their mantissas.
+    pub(crate) fn noisy_sample(cycle: u64) -> CycleRecord {
+        let mut noise = cycle.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut noisy = |v: f64| {
+            noise ^= noise << 13;
+            noise ^= noise >> 7;
+            noise ^= noise << 17;
+            f64::from_bits(v.to_bits() ^ (noise & ((1 << 40) - 1)))
+        };
+        let t = cycle as f64 * 1e-3;
+        let mut r = sample(cycle);
+        r.position_m = [0.1 + 0.01 * t.sin(), 0.2, 0.3 - 0.001 * t];
+        r.lengths_m = [0.3 + 0.001 * t, 0.31 - 0.001 * t, 0.32];
+        r.tension_measured_n = r.tension_measured_n.map(&mut noisy);
+        r.torque_nm = r.torque_nm.map(&mut noisy);
+        r.velocity_m_s = r.velocity_m_s.map(&mut noisy);
+        r.inputs.tensions_read_n = r.tension_measured_n;
+        r
     }
 
     #[test]

@@ -48,6 +48,10 @@ pub(super) struct WriterHealth {
     pub(super) failure: Mutex<Option<String>>,
     /// Events not yet taken by the service.
     pub(super) events: Mutex<Vec<WriterEvent>>,
+    /// Bytes of the log on disk.
+    pub(super) bytes: AtomicU64,
+    /// The writer thread's CPU time so far (compressing and writing), nanoseconds.
+    pub(super) cpu_ns: AtomicU64,
 }
 
 impl WriterHealth {
@@ -93,6 +97,14 @@ impl SessionLogHealth {
     /// The error while the writes fail (`None`: writing).
     pub fn failure(&self) -> Option<String> {
         self.0.failure()
+    }
+    /// Bytes of the log on disk.
+    pub fn bytes(&self) -> u64 {
+        self.0.bytes.load(Ordering::Relaxed)
+    }
+    /// The writer thread's CPU time so far, as of its last write.
+    pub fn writer_cpu(&self) -> Duration {
+        Duration::from_nanos(self.0.cpu_ns.load(Ordering::Relaxed))
     }
     /// What the writer said since the last call, oldest first (also after it finished: what
     /// retention removed as the session closed).

@@ -9,12 +9,15 @@
 //! ended without closing. Version 1 (outputs only) and version 2 logs (no end frame) are still
 //! read.
 
+mod block;
 pub mod format;
 mod health;
+pub mod outline;
 pub mod read;
 pub mod retention;
 pub mod session;
 mod sink;
+pub use sink::{version_3_bytes, write_log};
 pub mod surfaces;
 mod writer;
 
@@ -23,8 +26,10 @@ use std::sync::Arc;
 
 pub use format::{LogHeader, FORMAT_VERSION, HEADER_BYTES, MAGIC, PERIOD_BYTES, RECORD_BYTES};
 pub use health::{SessionLogHealth, WriterEvent};
+pub use outline::{CalibrationAt, LogOutline};
 pub use read::{
-    frames, parse_log, read_log, CalibrationEntry, Damage, FrameAt, Log, LogError, SurfaceEntry,
+    frames, parse_log, read_log, CalibrationEntry, Damage, FrameAt, Log, LogError, LogItem,
+    LogReader, SurfaceEntry,
 };
 pub use session::{CalibrationInForce, EndReason, SessionEnd, SessionInfo};
 pub use surfaces::{FeedRecording, RecordSurface, RecordedSurface, SurfaceTap};
@@ -84,10 +89,11 @@ impl CycleObserver for TelemetryProducer {
 
 #[cfg(test)]
 mod tests {
-    use super::format::tests::sample;
-    use super::format::FrameKind;
+    use super::format::tests::{noisy_sample, sample};
+    use super::format::{self, FrameKind};
     use super::format::{
-        encode_record, END_FIXED_BYTES, FORMAT_VERSION_2, FRAME_HEAD_BYTES, FRAME_TAIL_BYTES,
+        encode_record, END_FIXED_BYTES, FORMAT_VERSION_2, FORMAT_VERSION_3, FRAME_HEAD_BYTES,
+        FRAME_TAIL_BYTES,
     };
     use super::*;
     use std::path::Path;
@@ -150,13 +156,30 @@ mod tests {
         writer.finish(EndReason::DurationElapsed).unwrap()
     }
 
+    /// The same log as version 3 wrote it: each block's frames uncompressed, each with its CRC.
+    fn as_version_3(v4: &[u8]) -> Vec<u8> {
+        let mut out = v4[..HEADER_BYTES].to_vec();
+        out[8..12].copy_from_slice(&FORMAT_VERSION_3.to_le_bytes());
+        let mut block = super::block::DecodedBlock::default();
+        for f in frames(v4).unwrap() {
+            assert_eq!(f.kind, FrameKind::Block);
+            let payload = &v4[f.offset + FRAME_HEAD_BYTES..f.offset + f.bytes - FRAME_TAIL_BYTES];
+            block.decode(payload).unwrap();
+            for frame in block.frames() {
+                let (kind, payload) = frame.unwrap();
+                format::frame(kind, payload, &mut out).unwrap();
+            }
+        }
+        out
+    }
+
     #[test]
     fn the_writer_records_the_session_surfaces_calibrations_and_every_period() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.vlog");
         assert_eq!(write_session(&path), 3000);
         let log = read_log(&path).unwrap();
-        assert_eq!((log.header, log.version), (HEADER, 3));
+        assert_eq!((log.header, log.version), (HEADER, FORMAT_VERSION));
         assert_eq!(log.records.len(), 3000);
         assert_eq!(log.records[2999], sample(2999));
         assert!(log.damage.is_none() && log.truncated_bytes == 0);
@@ -173,6 +196,119 @@ mod tests {
             log.surfaces[&0],
             SurfaceEntry::Recorded(Arc::new(plane(0.3)))
         );
+    }
+
+    #[test]
+    fn the_reader_gives_the_items_in_file_order_and_the_log_read_whole_is_the_same() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session(&path);
+        let whole = read_log(&path).unwrap();
+        let mut reader = LogReader::open(&path).unwrap();
+        assert_eq!(reader.version(), FORMAT_VERSION);
+        let items: Vec<LogItem> = (&mut reader).collect();
+        assert!(matches!(&items[0], LogItem::Session(s) if s.is_ok()));
+        assert!(matches!(items[1], LogItem::Surface(0, _)));
+        assert!(matches!(items.last(), Some(LogItem::End(_))));
+        let records: Vec<CycleRecord> = items
+            .iter()
+            .filter_map(|i| match i {
+                LogItem::Period(r) => Some(*r),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(records, whole.records);
+        assert_eq!(reader.records(), 3000);
+        assert_eq!(reader.end_note(), whole.end_note());
+        assert!(reader.damage().is_none() && reader.damage_note().is_none());
+        // Version 3's bytes give the same items, and are what `version_3_bytes` makes of them.
+        let v3 = as_version_3(&std::fs::read(&path).unwrap());
+        assert_eq!(version_3_bytes(&HEADER, items.clone()).unwrap(), v3);
+        let v3_items: Vec<LogItem> = LogReader::new(&v3[..]).unwrap().collect();
+        assert_eq!(v3_items, items);
+    }
+
+    #[test]
+    fn periods_that_move_as_a_sessions_do_take_a_third_of_version_3s_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        let (mut producer, writer) = start(&path, HEADER, 1 << 15).unwrap();
+        for c in 0..20_000 {
+            producer.observe(&noisy_sample(c), &WindowStats::default());
+            if c % 1000 == 0 {
+                std::thread::sleep(Duration::from_millis(2));
+            }
+        }
+        assert_eq!(writer.finish(EndReason::StopRequest).unwrap(), 20_000);
+        let v4 = std::fs::read(&path).unwrap();
+        let v3 = as_version_3(&v4);
+        assert_eq!(
+            parse_log(&v4).unwrap().records,
+            parse_log(&v3).unwrap().records
+        );
+        assert!(
+            v4.len() * 3 < v3.len(),
+            "{} bytes, uncompressed {}",
+            v4.len(),
+            v3.len()
+        );
+    }
+
+    #[test]
+    fn a_log_written_whole_from_the_items_of_another_reads_the_same() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session(&path);
+        // A version 3 log rewritten as version 4, through the gathered log's items.
+        let v3 = as_version_3(&std::fs::read(&path).unwrap());
+        let old = parse_log(&v3).unwrap();
+        let again = dir.path().join("again.vlog");
+        let bytes = write_log(&again, &old.header, old.items()).unwrap();
+        assert_eq!(bytes, std::fs::metadata(&again).unwrap().len());
+        let new = read_log(&again).unwrap();
+        assert_eq!(new.version, FORMAT_VERSION);
+        assert_eq!(new.records, old.records);
+        assert_eq!(new.calibrations, old.calibrations);
+        assert_eq!(new.surfaces, old.surfaces);
+        assert_eq!(new.end, old.end);
+        assert_eq!(
+            new.session.unwrap().unwrap().what,
+            old.session.unwrap().unwrap().what
+        );
+    }
+
+    #[test]
+    fn the_outline_read_as_a_stream_is_the_whole_logs() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session(&path);
+        let log = read_log(&path).unwrap();
+        let streamed = LogOutline::read(&path).unwrap();
+        let whole = LogOutline::of_log(&log);
+        for o in [&streamed, &whole] {
+            assert_eq!(o.records, 3000);
+            assert_eq!(o.first_ns, Some(0));
+            assert_eq!(o.last_ns, Some(2999 * 1_000_000));
+            assert_eq!(o.last_cycle, Some(2999));
+            assert_eq!(o.calibrations.len(), 1);
+            assert_eq!(o.calibrations[0].time_ns, Some(0));
+            assert_eq!(o.end, log.end);
+            assert_eq!(o.end_note, log.end_note());
+            assert!(o.damage_note.is_none() && o.lost_surfaces().is_empty());
+            // Every period renders version 9, published before them: versions 0 to 3 are
+            // shown at the start (0) or with the first period rendering a later version.
+            let times: Vec<(u64, u64)> = o.surface_times_ns().into_iter().collect();
+            assert_eq!(times, vec![(0, 0), (1, 0), (2, 0), (3, 0)]);
+        }
+        // A cut log: the damage and the notes as the whole log's.
+        let bytes = std::fs::read(&path).unwrap();
+        let cut = &bytes[..bytes.len() - 10];
+        let log = parse_log(cut).unwrap();
+        let streamed = LogOutline::of_reader(LogReader::new(cut).unwrap());
+        assert_eq!(streamed.damage, log.damage);
+        assert_eq!(streamed.damage_note, log.damage_note());
+        assert_eq!(streamed.end_note, log.end_note());
+        assert_eq!(streamed.records, log.records.len());
     }
 
     #[test]
@@ -196,11 +332,20 @@ mod tests {
             log.end_note(),
             "session closed at cycle 2999: its set duration elapsed"
         );
-        // The end frame is the last frame, after every period.
-        let frames = frames(&bytes).unwrap();
+        // Blocks one after the other to the end of the file.
+        let blocks = frames(&bytes).unwrap();
+        assert!(blocks.len() > 2, "{} blocks", blocks.len());
+        assert_eq!(blocks[0].offset, HEADER_BYTES);
+        assert_eq!(blocks.last().map(|b| b.offset + b.bytes), Some(bytes.len()));
+        for w in blocks.windows(2) {
+            assert_eq!(w[0].offset + w[0].bytes, w[1].offset);
+        }
+        // In them, the session first, the end frame last, after every period.
+        let v3 = as_version_3(&bytes);
+        let frames = frames(&v3).unwrap();
         let last = frames.last().unwrap();
         assert_eq!(last.kind, FrameKind::End);
-        assert_eq!(last.offset + last.bytes, bytes.len());
+        assert_eq!(last.offset + last.bytes, v3.len());
         assert_eq!(
             frames
                 .iter()
@@ -209,10 +354,6 @@ mod tests {
             3000
         );
         assert_eq!(frames[0].kind, FrameKind::Session);
-        assert_eq!(frames[0].offset, HEADER_BYTES);
-        for w in frames.windows(2) {
-            assert_eq!(w[0].offset + w[0].bytes, w[1].offset);
-        }
         // A session that ran no period and ended on a fault says so.
         let empty = dir.path().join("e.vlog");
         let (_producer, writer) = start(&empty, HEADER, 16).unwrap();
@@ -227,15 +368,20 @@ mod tests {
             log.end_note(),
             "session closed before its first period: a fatal fault: cannot start the control loop"
         );
-        // Anything after the end frame is damage.
-        let mut appended = bytes.clone();
-        appended.extend_from_slice(&bytes[bytes.len() - END_FRAME - PERIOD_FRAME..]);
-        let log = parse_log(&appended).unwrap();
-        assert_eq!(log.records.len(), 3000);
-        assert!(log.closed());
-        let damage = log.damage.unwrap();
-        assert_eq!(damage.offset as usize, bytes.len());
-        assert!(damage.what.contains("after the end frame"), "{damage:?}");
+        // Anything after the end frame is damage, in either version.
+        for (bytes, tail) in [
+            (&bytes, blocks.last().unwrap().bytes),
+            (&v3, END_FRAME + PERIOD_FRAME),
+        ] {
+            let mut appended = bytes.clone();
+            appended.extend_from_slice(&bytes[bytes.len() - tail..]);
+            let log = parse_log(&appended).unwrap();
+            assert_eq!(log.records.len(), 3000);
+            assert!(log.closed());
+            let damage = log.damage.unwrap();
+            assert_eq!(damage.offset as usize, bytes.len());
+            assert!(damage.what.contains("after the end frame"), "{damage:?}");
+        }
     }
 
     #[test]
@@ -243,35 +389,38 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.vlog");
         write_session_of(&path, 300);
-        let bytes = std::fs::read(&path).unwrap();
-        let whole = parse_log(&bytes).unwrap();
-        let frames = frames(&bytes).unwrap();
-        // Every frame boundary (a clean cut: power lost between two writes), the middle of
-        // every frame, and every byte of the end frame.
-        let end = frames.last().unwrap();
-        let cuts = frames
-            .iter()
-            .flat_map(|f| [f.offset, f.offset + f.bytes / 2])
-            .chain(end.offset..end.offset + end.bytes);
-        for cut in cuts {
-            let log = parse_log(&bytes[..cut]).unwrap();
-            assert!(!log.closed(), "cut at {cut}");
-            assert_eq!(log.records[..], whole.records[..log.records.len()]);
-            let on_boundary = frames.iter().any(|f| f.offset == cut);
-            assert_eq!(log.damage.is_none(), on_boundary, "cut at {cut}");
-            let last = log.records.last().map_or(0, |r| r.cycle);
-            assert!(
-                log.end_note().starts_with(&format!(
-                    "session ended without closing, at cycle {last} (no end frame"
-                )) || log.records.is_empty(),
-                "cut at {cut}: {}",
-                log.end_note()
-            );
+        let v4 = std::fs::read(&path).unwrap();
+        // Version 4 (blocks) and version 3 (frames).
+        for bytes in [as_version_3(&v4), v4] {
+            let whole = parse_log(&bytes).unwrap();
+            let frames = frames(&bytes).unwrap();
+            // Every frame boundary (a clean cut: power lost between two writes), the middle of
+            // every frame, and every byte of the last frame.
+            let end = frames.last().unwrap();
+            let cuts = frames
+                .iter()
+                .flat_map(|f| [f.offset, f.offset + f.bytes / 2])
+                .chain(end.offset..end.offset + end.bytes);
+            for cut in cuts {
+                let log = parse_log(&bytes[..cut]).unwrap();
+                assert!(!log.closed(), "cut at {cut}");
+                assert_eq!(log.records[..], whole.records[..log.records.len()]);
+                let on_boundary = frames.iter().any(|f| f.offset == cut);
+                assert_eq!(log.damage.is_none(), on_boundary, "cut at {cut}");
+                let last = log.records.last().map_or(0, |r| r.cycle);
+                assert!(
+                    log.end_note().starts_with(&format!(
+                        "session ended without closing, at cycle {last} (no end frame"
+                    )) || log.records.is_empty(),
+                    "cut at {cut}: {}",
+                    log.end_note()
+                );
+            }
+            let log = parse_log(&bytes[..HEADER_BYTES]).unwrap();
+            assert!(log
+                .end_note()
+                .contains("without closing, before its first period"));
         }
-        let log = parse_log(&bytes[..HEADER_BYTES]).unwrap();
-        assert!(log
-            .end_note()
-            .contains("without closing, before its first period"));
     }
 
     #[test]
@@ -279,9 +428,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.vlog");
         write_session(&path);
-        let bytes = std::fs::read(&path).unwrap();
-        // Cut inside the last period: one record fewer, the cut reported.
-        let cut = &bytes[..bytes.len() - END_FRAME - 100];
+        let v4 = std::fs::read(&path).unwrap();
+        let v3 = as_version_3(&v4);
+        // Cut inside the last period of version 3: one record fewer, the cut reported.
+        let cut = &v3[..v3.len() - END_FRAME - 100];
         let log = parse_log(cut).unwrap();
         assert_eq!(log.records.len(), 2999);
         assert_eq!(log.truncated_bytes, PERIOD_FRAME - 100);
@@ -290,47 +440,70 @@ mod tests {
             note.starts_with("read 2999 records, the rest is damaged"),
             "{note}"
         );
+        // Version 4 cut inside its last block: the periods of the blocks before it.
+        let blocks = frames(&v4).unwrap();
+        let last = blocks.last().unwrap();
+        let log = parse_log(&v4[..v4.len() - 10]).unwrap();
+        assert_eq!(log.truncated_bytes, last.bytes - 10);
+        assert_eq!(log.damage.as_ref().unwrap().offset as usize, last.offset);
+        assert_eq!(
+            log.records.len(),
+            parse_log(&v4[..last.offset]).unwrap().records.len()
+        );
         // Cut at every byte of the first frames, and at pseudo-random bytes: never a panic, and
         // the records are a prefix of the whole log's.
-        let whole = parse_log(&bytes).unwrap();
-        let mut rng = 0x9e37_79b9_7f4a_7c15u64;
-        let cuts = (HEADER_BYTES..HEADER_BYTES + 3000).chain((0..200).map(|_| {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            HEADER_BYTES + (rng as usize) % (bytes.len() - HEADER_BYTES)
-        }));
-        for cut in cuts {
-            let log = parse_log(&bytes[..cut]).unwrap();
-            assert_eq!(log.records[..], whole.records[..log.records.len()]);
-            assert_eq!(
-                log.truncated_bytes > 0,
-                log.damage.is_some(),
-                "cut at {cut}"
-            );
-            assert!(!log.closed(), "cut at {cut}");
+        for bytes in [&v3, &v4] {
+            let whole = parse_log(bytes).unwrap();
+            let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+            let cuts = (HEADER_BYTES..HEADER_BYTES + 3000).chain((0..200).map(|_| {
+                rng ^= rng << 13;
+                rng ^= rng >> 7;
+                rng ^= rng << 17;
+                HEADER_BYTES + (rng as usize) % (bytes.len() - HEADER_BYTES)
+            }));
+            for cut in cuts.filter(|c| *c < bytes.len()) {
+                let log = parse_log(&bytes[..cut]).unwrap();
+                assert_eq!(log.records[..], whole.records[..log.records.len()]);
+                assert_eq!(
+                    log.truncated_bytes > 0,
+                    log.damage.is_some(),
+                    "cut at {cut}"
+                );
+                assert!(!log.closed(), "cut at {cut}");
+            }
         }
         // A flipped byte in a period: the records before it are read.
-        let mut corrupt = bytes.clone();
-        let at = bytes.len() - END_FRAME - 10 * PERIOD_FRAME + 50;
+        let mut corrupt = v3.clone();
+        let at = v3.len() - END_FRAME - 10 * PERIOD_FRAME + 50;
         corrupt[at] ^= 0x40;
         let log = parse_log(&corrupt).unwrap();
         assert_eq!(log.records.len(), 2990);
         assert!(!log.closed());
         assert!(log.damage.unwrap().what.contains("CRC"));
+        // In version 4, the records of the blocks before it.
+        let mut corrupt = v4.clone();
+        let second = blocks[1];
+        corrupt[second.offset + second.bytes / 2] ^= 0x40;
+        let log = parse_log(&corrupt).unwrap();
+        assert_eq!(
+            log.records.len(),
+            parse_log(&v4[..second.offset]).unwrap().records.len()
+        );
+        assert_eq!(log.damage.as_ref().unwrap().offset as usize, second.offset);
+        assert!(log.damage.unwrap().what.contains("CRC"));
         // Another version, and not a log at all.
-        let mut other = bytes.clone();
+        let mut other = v4.clone();
         other[8] = 9;
         let e = parse_log(&other).unwrap_err().to_string();
         assert!(
-            e.contains("version 9") && e.contains("reads versions 1 to 3"),
+            e.contains("version 9") && e.contains("reads versions 1 to 4"),
             "{e}"
         );
         let e = parse_log(b"#!/bin/sh\necho hello\n")
             .unwrap_err()
             .to_string();
         assert!(e.contains("not a VIDET session log"), "{e}");
-        assert!(parse_log(&bytes[..10]).is_err());
+        assert!(parse_log(&v4[..10]).is_err());
     }
 
     #[test]
@@ -339,7 +512,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.vlog");
         write_session(&path);
-        let mut bytes = std::fs::read(&path).unwrap();
+        let mut bytes = as_version_3(&std::fs::read(&path).unwrap());
         bytes.truncate(bytes.len() - END_FRAME);
         bytes[8..12].copy_from_slice(&FORMAT_VERSION_2.to_le_bytes());
         let log = parse_log(&bytes).unwrap();
@@ -350,6 +523,28 @@ mod tests {
             log.end_note(),
             "session ended without closing, at cycle 2999 (a version 2 log: that format records no end)"
         );
+        // A block is not a frame of version 3.
+        let v4 = std::fs::read(&path).unwrap();
+        let mut relabelled = v4.clone();
+        relabelled[8..12].copy_from_slice(&FORMAT_VERSION_3.to_le_bytes());
+        let log = parse_log(&relabelled).unwrap();
+        assert!(log.records.is_empty());
+        assert!(log.damage.unwrap().what.contains("corrupt frame head"));
+    }
+
+    #[test]
+    fn the_logs_of_earlier_versions_kept_as_fuzzing_seeds_still_read() {
+        let seeds = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/session_log");
+        let read = |name: &str| read_log(&seeds.join(name)).unwrap();
+        let closed = read("wall_6_periods_closed.vlog");
+        assert_eq!((closed.version, closed.records.len()), (3, 6));
+        assert!(closed.closed() && closed.damage.is_none());
+        let open = read("box_6_periods.vlog");
+        assert_eq!(open.records.len(), 6);
+        assert!(!open.closed() && open.session.is_some());
+        let cut = read("box_cut.vlog");
+        assert!(cut.damage.is_some());
+        assert_eq!(read("version1_4_records.vlog").version, 1);
     }
 
     #[test]

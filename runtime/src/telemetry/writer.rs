@@ -9,7 +9,7 @@
 //! ([`WriterEvent::Writing`]). The control thread is never held up: the ring is drained all the
 //! while.
 
-use std::io::{self, Write};
+use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -17,7 +17,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use super::format::{
-    encode_calibration, encode_end, encode_period, frame, FrameKind, LogHeader, PERIOD_BYTES,
+    encode_calibration, encode_end, encode_period, FrameKind, LogHeader, PERIOD_BYTES,
 };
 use super::health::{SessionLogHealth, WriterEvent, WriterHealth};
 use super::retention::{self, RetentionLimits};
@@ -138,14 +138,14 @@ pub fn start_session(
         r.apply(&health);
     }
     let mut sink = LogSink::create(path)?;
-    sink.write_all(&super::format::encode_header(&header))?;
+    sink.header(&super::format::encode_header(&header));
     if let Some(session) = &recording.session {
         let text = session.to_toml().map_err(io::Error::other)?;
-        frame(FrameKind::Session, text.as_bytes(), &mut sink)?;
+        sink.frame(FrameKind::Session, text.as_bytes());
     }
     let mut surfaces = SurfaceFrames::default();
     if let Some(initial) = &recording.surfaces.initial {
-        surfaces.write(0, initial, &mut sink)?;
+        surfaces.write(0, initial, &mut sink);
     }
     // On disk before the first period: a log killed at once still has its header and session.
     sink.commit()?;
@@ -293,15 +293,7 @@ impl WriterThread {
             // Everything pushed before `finish` is in the ring once the reason is seen.
             let done = end.get();
             // Surfaces first: a period refers to a surface published before it.
-            if let Some(tap) = &self.tap {
-                let drained = tap.drain();
-                for (version, surface) in drained.surfaces {
-                    self.surface(version, surface);
-                }
-                for version in drained.lost {
-                    self.surface_lost(version);
-                }
-            }
+            self.drain_surfaces();
             let mut drained = 0;
             while let Ok(item) = self.consumer.pop() {
                 match item {
@@ -310,15 +302,18 @@ impl WriterThread {
                             self.health.lost.fetch_add(1, Ordering::Relaxed);
                         } else {
                             encode_period(&record, &mut period);
-                            let _ = frame(FrameKind::Period, &period, &mut self.sink);
+                            self.sink.frame(FrameKind::Period, &period);
                             self.batch.periods += 1;
                         }
                     }
                     TelemetryItem::Calibration(from_cycle, c) => self.calibration(from_cycle, c),
                 }
                 drained += 1;
-                if self.sink.batch.len() >= BATCH_BYTES {
+                if self.sink.batch_bytes() >= BATCH_BYTES {
                     self.commit();
+                    // A long drain (after a stall) seals block after block: the surfaces
+                    // published meanwhile are taken between them, before the tap fills.
+                    self.drain_surfaces();
                 }
             }
             if let Some(reason) = done {
@@ -326,8 +321,25 @@ impl WriterThread {
             }
             self.apply_retention_when_due();
             if drained == 0 {
-                self.commit();
+                // A batch is one compressed block: written when full, or when old enough.
+                if self.failing.is_some() || self.sink.batch_due() {
+                    self.commit();
+                }
                 std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+    }
+
+    /// Take the surfaces published since the last call (earlier than the periods rendering
+    /// them, as a surface must come).
+    fn drain_surfaces(&mut self) {
+        if let Some(tap) = &self.tap {
+            let drained = tap.drain();
+            for (version, surface) in drained.surfaces {
+                self.surface(version, surface);
+            }
+            for version in drained.lost {
+                self.surface_lost(version);
             }
         }
     }
@@ -340,7 +352,7 @@ impl WriterThread {
                 }
             }
             None => {
-                let _ = self.surfaces.write(version, &surface, &mut self.sink);
+                self.surfaces.write(version, &surface, &mut self.sink);
                 self.batch.surface_versions.push(version);
                 self.batch.newest_surface = Some((version, surface));
             }
@@ -350,13 +362,9 @@ impl WriterThread {
     fn surface_lost(&mut self, version: u64) {
         match &mut self.failing {
             Some(f) => f.lost_surfaces.push(version),
-            None => {
-                let _ = frame(
-                    FrameKind::SurfaceLost,
-                    &version.to_le_bytes(),
-                    &mut self.sink,
-                );
-            }
+            None => self
+                .sink
+                .frame(FrameKind::SurfaceLost, &version.to_le_bytes()),
         }
     }
 
@@ -364,11 +372,8 @@ impl WriterThread {
         match &mut self.failing {
             Some(f) => f.calibration = Some((from_cycle, c)),
             None => {
-                let _ = frame(
-                    FrameKind::Calibration,
-                    &encode_calibration(from_cycle, &c),
-                    &mut self.sink,
-                );
+                self.sink
+                    .frame(FrameKind::Calibration, &encode_calibration(from_cycle, &c));
                 self.batch.calibration = Some((from_cycle, c));
             }
         }
@@ -383,10 +388,20 @@ impl WriterThread {
             return;
         }
         let batch = std::mem::take(&mut self.batch);
-        match self.sink.commit() {
+        let committed = self.sink.commit();
+        self.account();
+        match committed {
             Ok(()) => self.written += batch.periods,
             Err(e) => self.start_failing(Cause::Refused, e.to_string(), batch),
         }
+    }
+
+    /// Publish the log's size and the thread's CPU time so far.
+    fn account(&self) {
+        self.health
+            .bytes
+            .store(self.sink.written_bytes(), Ordering::Relaxed);
+        self.health.cpu_ns.store(thread_cpu_ns(), Ordering::Relaxed);
     }
 
     /// Run retention when it is due: remove the older logs it chooses (said as events), and
@@ -479,21 +494,15 @@ impl WriterThread {
             }
         }
         for version in &f.lost_surfaces {
-            let _ = frame(
-                FrameKind::SurfaceLost,
-                &version.to_le_bytes(),
-                &mut self.sink,
-            );
+            self.sink
+                .frame(FrameKind::SurfaceLost, &version.to_le_bytes());
         }
         if let Some((from_cycle, c)) = &f.calibration {
-            let _ = frame(
-                FrameKind::Calibration,
-                &encode_calibration(*from_cycle, c),
-                &mut self.sink,
-            );
+            self.sink
+                .frame(FrameKind::Calibration, &encode_calibration(*from_cycle, c));
         }
         if let Some((version, surface)) = &f.surface {
-            let _ = self.surfaces.write(*version, surface, &mut self.sink);
+            self.surfaces.write(*version, surface, &mut self.sink);
         }
         match self.sink.commit() {
             Ok(()) => {
@@ -526,15 +535,29 @@ impl WriterThread {
         }
         end.periods = self.written;
         end.dropped += self.health.lost.load(Ordering::Relaxed);
-        frame(FrameKind::End, &encode_end(&end), &mut self.sink)?;
+        self.sink.frame(FrameKind::End, &encode_end(&end));
         self.sink.commit()?;
         self.sink.file.sync_all()?;
+        self.account();
         // The session's own growth since the last run: the directory ends within the limits.
         if let Some(r) = &self.retention {
             r.apply(&self.health);
         }
         Ok(self.written)
     }
+}
+
+/// The calling thread's CPU time, nanoseconds (0 where the clock cannot be read).
+fn thread_cpu_ns() -> u64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `t` is a valid timespec for the call to fill.
+    if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) } != 0 {
+        return 0;
+    }
+    (t.tv_sec as u64) * 1_000_000_000 + t.tv_nsec as u64
 }
 
 /// Why the writes pause for space.
@@ -550,7 +573,7 @@ fn low_space(free_bytes: u64, min_free_bytes: u64) -> String {
 mod tests {
     use super::*;
     use crate::control_loop::{CycleObserver, WindowStats};
-    use crate::telemetry::format::tests::sample;
+    use crate::telemetry::format::tests::noisy_sample;
     use crate::telemetry::{read_log, SurfaceEntry, SurfaceTap};
     use videt_control::surface::Plane;
     use videt_control::Vec3;
@@ -561,7 +584,7 @@ mod tests {
 
     /// Push period `cycle`, pausing now and then as a 1 kHz loop would.
     fn push(producer: &mut TelemetryProducer, cycle: &mut u64) {
-        producer.observe(&sample(*cycle), &WindowStats::default());
+        producer.observe(&noisy_sample(*cycle), &WindowStats::default());
         *cycle += 1;
         if cycle.is_multiple_of(10) {
             std::thread::sleep(Duration::from_millis(1));
@@ -570,7 +593,7 @@ mod tests {
 
     /// Push period `cycle` and wait a period, as the control loop at 1 kHz.
     fn push_in_real_time(producer: &mut TelemetryProducer, cycle: &mut u64) {
-        producer.observe(&sample(*cycle), &WindowStats::default());
+        producer.observe(&noisy_sample(*cycle), &WindowStats::default());
         *cycle += 1;
         std::thread::sleep(Duration::from_millis(1));
     }
@@ -698,12 +721,13 @@ mod tests {
             start_unix_ns: 5,
         };
         let (mut producer, writer) = start_session(&path, header, recording, 1 << 14).unwrap();
-        // About 1 MB/s: the free space falls below the minimum within a second; retention
-        // removes the older logs one check after another, then the writes pause.
+        // About ten periods a millisecond, some 1 MB/s compressed: the free space falls below
+        // the minimum within a second; retention removes the older logs one check after
+        // another, then the writes pause.
         let mut cycle = 0;
         let give_up = Instant::now() + Duration::from_secs(20);
         while writer.failure().is_none() && Instant::now() < give_up {
-            push_in_real_time(&mut producer, &mut cycle);
+            push(&mut producer, &mut cycle);
         }
         let paused = writer.failure().expect("paused for space");
         assert!(paused.contains("telemetry.min_free_mb"), "{paused}");

@@ -187,11 +187,11 @@ mod tests {
     #[test]
     fn the_retention_line_gives_the_limits_and_the_hours_they_hold() {
         let mut config = Config::default();
-        // 4096 MB at 428 bytes per period, 1000 periods per second: 2.66 hours.
+        // 4096 MB at 210 bytes per period, 1000 periods per second: 5.42 hours.
         assert_eq!(
             describe_retention(&config),
-            "session logs: kept up to 4096 MB, 30 days, 1024 MB left free: about 2.7 hours of \
-             sessions at 1000 Hz (1.5 GB per hour)"
+            "session logs: kept up to 4096 MB, 30 days, 1024 MB left free: about 5.4 hours of \
+             sessions at 1000 Hz (0.8 GB per hour)"
         );
         config.control.rate_hz = 4000;
         config.telemetry.max_total_mb = 64_000;
@@ -199,8 +199,8 @@ mod tests {
         config.telemetry.min_free_mb = 0;
         assert_eq!(
             describe_retention(&config),
-            "session logs: kept up to 64000 MB, 7 days, 0 MB left free: about 10 hours of \
-             sessions at 4000 Hz (6.2 GB per hour)"
+            "session logs: kept up to 64000 MB, 7 days, 0 MB left free: about 21 hours of \
+             sessions at 4000 Hz (3.0 GB per hour)"
         );
         config.telemetry.enabled = false;
         assert!(
