@@ -12,7 +12,7 @@ use videt_control::{
 use videt_rt_config::Config;
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::runtime_device::RuntimeDevice;
-use videt_runtime::telemetry::Log;
+use videt_runtime::telemetry::{CalibrationInForce, Log};
 
 /// The measure over `records` (the log's own, or a replay's, with their indices into
 /// `log.records` for the calibration in force) under `config`. Periods of the procedures
@@ -22,34 +22,93 @@ pub fn felt_report<'a>(
     config: &Config,
     records: impl Iterator<Item = (usize, &'a CycleRecord)>,
 ) -> Result<FeltTally, String> {
-    match config.rig.device.as_str() {
-        "planar2" => tally::<2, videt_control::PlanarDevice>(log, config, records),
-        "polar1" => tally::<1, videt_control::PolarDevice>(log, config, records),
-        "wireman3" | "" => tally::<3, videt_control::Rig3>(log, config, records),
-        other => Err(format!(
-            "rig.device = {other:?}: no session of it is recorded"
-        )),
-    }
-}
-
-fn tally<'a, const N: usize, D: RuntimeDevice<N>>(
-    log: &Log,
-    config: &Config,
-    records: impl Iterator<Item = (usize, &'a CycleRecord)>,
-) -> Result<FeltTally, String> {
-    let mut tally = FeltTally::new();
+    let mut counter = FeltCounter::new(config)?;
     let mut calibrations = log.calibrations.iter().peekable();
-    let mut step = None;
     for (i, record) in records {
         while let Some(c) = calibrations.next_if(|c| c.before_record <= i) {
-            let (device, _zero) = c.calibration.device::<N, D>()?;
-            step = Some(videt_runtime::setup::control_step_for(config, device));
+            counter.calibration(&c.calibration);
         }
-        if let Some(period) = step.as_ref().and_then(|s| felt_period(s, record)) {
-            tally.add(&period);
+        counter.period(record);
+    }
+    counter.finish()
+}
+
+/// The measure taken as a log is read: each calibration as it comes, then the periods it
+/// applies to.
+pub struct FeltCounter {
+    config: Config,
+    step: DeviceStep,
+    tally: FeltTally,
+    error: Option<String>,
+}
+
+/// The control step of the calibration in force, of the session's device.
+enum DeviceStep {
+    Wireman(Option<ControlStep<3, videt_control::Rig3>>),
+    Planar(Option<ControlStep<2, videt_control::PlanarDevice>>),
+    Polar(Option<ControlStep<1, videt_control::PolarDevice>>),
+}
+
+impl FeltCounter {
+    /// A counter for the sessions of `config`'s device.
+    pub fn new(config: &Config) -> Result<FeltCounter, String> {
+        let step = match config.rig.device.as_str() {
+            "planar2" => DeviceStep::Planar(None),
+            "polar1" => DeviceStep::Polar(None),
+            "wireman3" | "" => DeviceStep::Wireman(None),
+            other => {
+                return Err(format!(
+                    "rig.device = {other:?}: no session of it is recorded"
+                ))
+            }
+        };
+        Ok(FeltCounter {
+            config: config.clone(),
+            step,
+            tally: FeltTally::new(),
+            error: None,
+        })
+    }
+
+    /// The calibration in force from the next period on.
+    pub fn calibration(&mut self, calibration: &CalibrationInForce) {
+        fn step_of<const N: usize, D: RuntimeDevice<N>>(
+            config: &Config,
+            calibration: &CalibrationInForce,
+        ) -> Result<ControlStep<N, D>, String> {
+            let (device, _zero) = calibration.device::<N, D>()?;
+            Ok(videt_runtime::setup::control_step_for(config, device))
+        }
+        let config = &self.config;
+        let made = match &mut self.step {
+            DeviceStep::Wireman(s) => step_of(config, calibration).map(|n| *s = Some(n)),
+            DeviceStep::Planar(s) => step_of(config, calibration).map(|n| *s = Some(n)),
+            DeviceStep::Polar(s) => step_of(config, calibration).map(|n| *s = Some(n)),
+        };
+        if let Err(e) = made {
+            self.error.get_or_insert(e);
         }
     }
-    Ok(tally)
+
+    /// One period of the log.
+    pub fn period(&mut self, record: &CycleRecord) {
+        let period = match &self.step {
+            DeviceStep::Wireman(s) => s.as_ref().and_then(|s| felt_period(s, record)),
+            DeviceStep::Planar(s) => s.as_ref().and_then(|s| felt_period(s, record)),
+            DeviceStep::Polar(s) => s.as_ref().and_then(|s| felt_period(s, record)),
+        };
+        if let Some(period) = period {
+            self.tally.add(&period);
+        }
+    }
+
+    /// The measure, or the first calibration that could not be used.
+    pub fn finish(self) -> Result<FeltTally, String> {
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok(self.tally),
+        }
+    }
 }
 
 /// A control period as the measure sees it, with what `step`'s algorithm added and the floor's

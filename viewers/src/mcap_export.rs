@@ -3,18 +3,21 @@
 //! as attachments and metadata. The file appears whole or not at all: it is written beside the
 //! output as `OUT.partial` and renamed when complete.
 
-use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{self, BufWriter, Seek, SeekFrom, Write};
+use std::io::{self, Seek, Write};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::Arc;
 use std::time::Instant;
 
-use foxglove::{Context, McapAttachment, McapCompression, McapWriteOptions};
+use foxglove::{Context, McapCompression, McapWriteOptions};
 use videt_rt_config::Config;
-use videt_runtime::telemetry::{CalibrationEntry, Log, SurfaceEntry};
+use videt_runtime::telemetry::{
+    Log, LogError, LogItem, LogOutline, LogReader, RecordedSurface, SurfaceEntry,
+};
 
+use crate::checked_writer::{take_error, CheckedWriter};
+use crate::mcap_session::write_session_records;
 use crate::topics::{SceneSetup, SessionTopics};
 
 /// How to export.
@@ -59,6 +62,14 @@ pub enum ExportError {
     /// The options cannot be used.
     #[error("{0}")]
     Options(String),
+    /// The log cannot be read.
+    #[error("{path}: {what}")]
+    Input {
+        /// The log.
+        path: PathBuf,
+        /// Why.
+        what: String,
+    },
     /// The output path cannot be used.
     #[error("{path}: {what}")]
     Output {
@@ -103,6 +114,45 @@ pub fn export_mcap(
     log: &Log,
     out: &Path,
     options: &ExportOptions,
+    progress: impl FnMut(usize, usize),
+) -> Result<ExportSummary, ExportError> {
+    export(
+        &LogOutline::of_log(log),
+        || Ok(log.items()),
+        out,
+        options,
+        progress,
+    )
+}
+
+/// [`export_mcap`] of the log file `log`, read twice as a stream (its outline, then its items):
+/// the memory the export takes does not grow with the session's length.
+pub fn export_mcap_file(
+    log: &Path,
+    out: &Path,
+    options: &ExportOptions,
+    progress: impl FnMut(usize, usize),
+) -> Result<ExportSummary, ExportError> {
+    let input = |e: LogError| ExportError::Input {
+        path: log.to_path_buf(),
+        what: e.to_string(),
+    };
+    let outline = LogOutline::read(log).map_err(input)?;
+    export(
+        &outline,
+        || LogReader::open(log).map_err(input),
+        out,
+        options,
+        progress,
+    )
+}
+
+/// Export the log of `outline`, whose items `items` gives.
+fn export<I: Iterator<Item = LogItem>>(
+    outline: &LogOutline,
+    items: impl FnOnce() -> Result<I, ExportError>,
+    out: &Path,
+    options: &ExportOptions,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<ExportSummary, ExportError> {
     let started = Instant::now();
@@ -125,18 +175,20 @@ pub fn export_mcap(
             });
         }
     }
+    let items = items()?;
     let partial = partial_path(out);
     let file = File::create(&partial).map_err(|source| ExportError::Io {
         path: partial.clone(),
         source,
     })?;
-    let written = write_mcap(log, file, &partial, options, &mut progress).and_then(|(s, file)| {
-        file.sync_all().map_err(|source| ExportError::Io {
-            path: partial.clone(),
-            source,
-        })?;
-        Ok(s)
-    });
+    let written =
+        write_mcap(outline, items, file, &partial, options, &mut progress).and_then(|(s, file)| {
+            file.sync_all().map_err(|source| ExportError::Io {
+                path: partial.clone(),
+                source,
+            })?;
+            Ok(s)
+        });
     match written {
         Ok(mut summary) => {
             if let Err(source) = std::fs::rename(&partial, out) {
@@ -160,14 +212,15 @@ pub fn export_mcap(
 
 /// Write the whole MCAP to `file`, named `path` in errors; returns `file` back, flushed.
 fn write_mcap<W: Write + Seek + Send + 'static>(
-    log: &Log,
+    outline: &LogOutline,
+    items: impl Iterator<Item = LogItem>,
     file: W,
     path: &Path,
     options: &ExportOptions,
     progress: &mut impl FnMut(usize, usize),
 ) -> Result<(ExportSummary, W), ExportError> {
     let mut notes = Vec::new();
-    let config = match &log.session {
+    let config = match &outline.session {
         Some(Ok(session)) => session.config.clone(),
         Some(Err(e)) => {
             notes.push(format!(
@@ -178,23 +231,18 @@ fn write_mcap<W: Write + Seek + Send + 'static>(
         None => {
             notes.push(format!(
                 "no session recorded (format version {}): the scene uses the built-in configuration",
-                log.version
+                outline.version
             ));
             Config::default()
         }
     };
-    if let Some(note) = log.damage_note() {
-        notes.push(note);
+    if let Some(note) = &outline.damage_note {
+        notes.push(note.clone());
     }
-    if !log.closed() {
-        notes.push(log.end_note());
+    if !outline.closed() {
+        notes.push(outline.end_note.clone());
     }
-    let lost: Vec<u64> = log
-        .surfaces
-        .iter()
-        .filter(|(_, s)| matches!(s, SurfaceEntry::Lost))
-        .map(|(v, _)| *v)
-        .collect();
+    let lost = outline.lost_surfaces();
     if !lost.is_empty() {
         notes.push(format!(
             "{} surface version{} published but not recorded: {}",
@@ -228,49 +276,65 @@ fn write_mcap<W: Write + Seek + Send + 'static>(
         .create(writer)
         .map_err(mcap_error)?;
 
-    let first_calibration = log.calibrations.first().map(|c| &c.calibration);
+    let first_calibration = outline.calibrations.first().map(|c| &c.entry.calibration);
     let setup = SceneSetup::new(&config, first_calibration);
-    let start_ns = log.records.first().map_or(0, |r| r.time.as_nanos());
+    let start_ns = outline.first_ns.unwrap_or(0);
     // The recorded configuration (not the built-in one a log without a session is drawn with).
-    let config_toml = match &log.session {
+    let config_toml = match &outline.session {
         Some(Ok(_)) => Some(toml::to_string(&config).map_err(|e| ExportError::Mcap {
             path: path.to_path_buf(),
             what: format!("the configuration as TOML: {e}"),
         })?),
         _ => None,
     };
-    write_session_records(log, config_toml, &setup, start_ns, &mcap).map_err(mcap_error)?;
+    write_session_records(outline, config_toml, &setup, start_ns, &mcap).map_err(mcap_error)?;
 
     let mut topics = SessionTopics::new(&ctx, setup);
-    // Each later calibration (a re-initialization) moves the guides from its first period on.
-    let mut recalibrations = log.calibrations.iter().skip(1).peekable();
-    let surface_times = surface_times(log, start_ns);
-    let mut next_surface = 0;
-    let mut messages = 0u64;
-    let mut periods = 0usize;
-    let total = log.records.len();
+    let surface_times = outline.surface_times_ns();
+    // Surfaces read and not yet written, by the time they are shown: a surface comes in the
+    // log before the periods that render it.
+    let mut waiting: BTreeMap<(u64, u64), Arc<RecordedSurface>> = BTreeMap::new();
+    let mut calibrations = 0usize;
+    let (mut messages, mut periods, mut surfaces) = (0u64, 0usize, 0usize);
+    let total = outline.records;
     let every = options.every as usize;
-    for (i, record) in log.records.iter().enumerate() {
-        while let Some(c) = recalibrations.next_if(|c| c.before_record <= i) {
-            topics.set_guides(&SceneSetup::new(&config, Some(&c.calibration)));
-        }
-        let time = record.time.as_nanos();
-        while let Some((version, at, surface)) = surface_times.get(next_surface) {
-            if *at > time {
-                break;
+    let mut i = 0usize;
+    for item in items {
+        let record = match item {
+            LogItem::Period(record) => record,
+            LogItem::Calibration { calibration, .. } => {
+                // Each later calibration (a re-initialization) moves the guides from its first
+                // period on.
+                if calibrations > 0 {
+                    topics.set_guides(&SceneSetup::new(&config, Some(&calibration)));
+                }
+                calibrations += 1;
+                continue;
             }
-            topics.log_surface(*version, surface, *at);
+            LogItem::Surface(version, SurfaceEntry::Recorded(surface)) => {
+                if let Some(at) = surface_times.get(&version) {
+                    waiting.insert((*at, version), surface);
+                }
+                continue;
+            }
+            _ => continue,
+        };
+        let time = record.time.as_nanos();
+        while let Some(entry) = waiting.first_entry().filter(|e| e.key().0 <= time) {
+            let ((at, version), surface) = entry.remove_entry();
+            topics.log_surface(version, &surface, at);
             messages += 1;
-            next_surface += 1;
+            surfaces += 1;
         }
-        if i % every == 0 {
-            messages += topics.log_period(record) as u64;
+        if i.is_multiple_of(every) {
+            messages += topics.log_period(&record) as u64;
             periods += 1;
         } else {
-            messages += u64::from(topics.log_safety_change(record));
+            messages += u64::from(topics.log_safety_change(&record));
         }
-        if i % 4096 == 4095 {
-            progress(i + 1, total);
+        i += 1;
+        if i.is_multiple_of(4096) {
+            progress(i, total);
             if let Some(e) = take_error(&write_error) {
                 return Err(ExportError::Io {
                     path: path.to_path_buf(),
@@ -279,9 +343,10 @@ fn write_mcap<W: Write + Seek + Send + 'static>(
             }
         }
     }
-    for (version, at, surface) in &surface_times[next_surface..] {
-        topics.log_surface(*version, surface, *at);
+    for ((at, version), surface) in waiting {
+        topics.log_surface(version, &surface, at);
         messages += 1;
+        surfaces += 1;
     }
     progress(total, total);
 
@@ -298,145 +363,17 @@ fn write_mcap<W: Write + Seek + Send + 'static>(
         source,
     })?;
 
-    let session_s = match (log.records.first(), log.records.last()) {
-        (Some(a), Some(b)) => b.time.nanos_since(a.time) as f64 * 1e-9,
-        _ => 0.0,
-    };
     let summary = ExportSummary {
         path: path.to_path_buf(),
         periods,
         messages,
-        surfaces: surface_times.len(),
+        surfaces,
         bytes: 0,
-        session_s,
+        session_s: outline.duration_s(),
         elapsed_s: 0.0,
         notes,
     };
     Ok((summary, file))
-}
-
-/// The session's metadata, the configuration and the calibrations.
-fn write_session_records<W: Write + Seek + Send + 'static>(
-    log: &Log,
-    config_toml: Option<String>,
-    setup: &SceneSetup,
-    start_ns: u64,
-    mcap: &foxglove::McapWriterHandle<W>,
-) -> Result<(), foxglove::FoxgloveError> {
-    let mut meta = BTreeMap::new();
-    let mut put = |k: &str, v: String| {
-        meta.insert(k.to_string(), v);
-    };
-    put("format_version", log.version.to_string());
-    put("rate_hz", log.header.rate_hz.to_string());
-    put("start_unix_ns", log.header.start_unix_ns.to_string());
-    put("first_record_monotonic_ns", start_ns.to_string());
-    put(
-        "clock",
-        "log times are the service's monotonic clock, ns; start_unix_ns is the wall-clock start"
-            .into(),
-    );
-    put("records", log.records.len().to_string());
-    put("device", setup.device.clone());
-    put("wires", setup.wires.to_string());
-    put(
-        "guides_m",
-        serde_json::to_string(&setup.guides_m).unwrap_or_default(),
-    );
-    put("calibrations", log.calibrations.len().to_string());
-    match &log.session {
-        Some(Ok(s)) => {
-            put("videt_version", s.videt_version.clone());
-            put("what", s.what.clone());
-            put("algorithm", s.config.control.algorithm.to_string());
-        }
-        Some(Err(e)) => put("session", format!("unreadable: {e}")),
-        None => put("session", "not recorded".into()),
-    }
-    if let Some(note) = log.damage_note() {
-        put("damage", note);
-    }
-    put("closed", log.closed().to_string());
-    put("end", log.end_note());
-    mcap.write_metadata("videt.session", meta)?;
-
-    if let Some(text) = config_toml {
-        mcap.attach(&McapAttachment {
-            log_time: start_ns,
-            create_time: start_ns,
-            name: "config.toml".into(),
-            media_type: "application/toml".into(),
-            data: Cow::Owned(text.into_bytes()),
-        })?;
-    }
-    for (n, entry) in log.calibrations.iter().enumerate() {
-        let time = log
-            .records
-            .get(entry.before_record)
-            .or(log.records.last())
-            .map_or(start_ns, |r| r.time.as_nanos());
-        let json = calibration_json(entry);
-        mcap.attach(&McapAttachment {
-            log_time: time,
-            create_time: time,
-            name: format!("calibration-{n}.json"),
-            media_type: "application/json".into(),
-            data: Cow::Owned(json.clone().into_bytes()),
-        })?;
-        let mut meta = BTreeMap::new();
-        meta.insert("calibration".to_string(), json);
-        mcap.write_metadata(&format!("videt.calibration.{n}"), meta)?;
-    }
-    Ok(())
-}
-
-fn calibration_json(entry: &CalibrationEntry) -> String {
-    let c = &entry.calibration;
-    let value = serde_json::json!({
-        "from_cycle": entry.from_cycle,
-        "before_record": entry.before_record,
-        "calibrated": c.calibrated,
-        "guides_m": c.guides_m,
-        "length_at_zero_m": c.length_at_zero_m,
-    });
-    serde_json::to_string_pretty(&value).unwrap_or_default()
-}
-
-/// Every recorded surface version with the time it is exported at: the first period that
-/// renders it; the session start for version 0; for a version no period rendered, the first
-/// period rendering a later one (it was published before), else the last period.
-fn surface_times(
-    log: &Log,
-    start_ns: u64,
-) -> Vec<(u64, u64, &videt_runtime::telemetry::RecordedSurface)> {
-    let mut first_render: BTreeMap<u64, u64> = BTreeMap::new();
-    for r in &log.records {
-        first_render
-            .entry(r.surface_version)
-            .or_insert(r.time.as_nanos());
-    }
-    let end_ns = log.records.last().map_or(start_ns, |r| r.time.as_nanos());
-    let mut out: Vec<_> = log
-        .surfaces
-        .iter()
-        .filter_map(|(version, entry)| match entry {
-            SurfaceEntry::Recorded(s) => {
-                let at = if *version == 0 {
-                    start_ns
-                } else {
-                    first_render
-                        .range(*version..)
-                        .map(|(_, t)| *t)
-                        .min()
-                        .unwrap_or(end_ns)
-                };
-                Some((*version, at, s.as_ref()))
-            }
-            SurfaceEntry::Lost => None,
-        })
-        .collect();
-    out.sort_by_key(|(version, at, _)| (*at, *version));
-    out
 }
 
 /// A short list of numbers (the first ten).
@@ -448,72 +385,18 @@ fn list(v: &[u64]) -> String {
     s.join(", ")
 }
 
-/// The first write error, kept: the MCAP sink reports a failed message write only to the
-/// tracing log, so the file writer remembers it for the export to report.
-type SharedError = Arc<Mutex<Option<io::Error>>>;
-
-fn take_error(e: &SharedError) -> Option<io::Error> {
-    e.lock().unwrap_or_else(PoisonError::into_inner).take()
-}
-
-/// A buffered file that remembers its first error.
-struct CheckedWriter<W: Write> {
-    inner: BufWriter<W>,
-    error: SharedError,
-}
-
-impl<W: Write> CheckedWriter<W> {
-    fn new(file: W) -> CheckedWriter<W> {
-        CheckedWriter {
-            inner: BufWriter::with_capacity(1 << 20, file),
-            error: Arc::default(),
-        }
-    }
-
-    fn keep<T>(&self, r: io::Result<T>) -> io::Result<T> {
-        if let Err(e) = &r {
-            let mut slot = self.error.lock().unwrap_or_else(PoisonError::into_inner);
-            if slot.is_none() {
-                *slot = Some(io::Error::new(e.kind(), e.to_string()));
-            }
-        }
-        r
-    }
-
-    /// Flush, and the file back.
-    fn finish(self) -> io::Result<W> {
-        self.inner.into_inner().map_err(|e| e.into_error())
-    }
-}
-
-impl<W: Write> Write for CheckedWriter<W> {
-    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        let r = self.inner.write(buf);
-        self.keep(r)
-    }
-    fn flush(&mut self) -> io::Result<()> {
-        let r = self.inner.flush();
-        self.keep(r)
-    }
-}
-
-impl<W: Write + Seek> Seek for CheckedWriter<W> {
-    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
-        let r = self.inner.seek(pos);
-        self.keep(r)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::collections::HashMap;
+    use std::io::SeekFrom;
     use videt_control::safety::{SafetyReason, SafetyState};
     use videt_control::surface::Plane;
     use videt_control::Vec3;
     use videt_runtime::cycle::CycleRecord;
     use videt_runtime::telemetry::{
-        CalibrationInForce, EndReason, LogHeader, RecordedSurface, SessionEnd, SessionInfo,
+        CalibrationEntry, CalibrationInForce, EndReason, LogHeader, RecordedSurface, SessionEnd,
+        SessionInfo,
     };
     use videt_vision::surface::ReliefModel;
 
@@ -622,6 +505,31 @@ mod tests {
                 .push(m.log_time);
         }
         topics
+    }
+
+    #[test]
+    fn a_log_file_exported_as_a_stream_gives_the_same_messages_as_the_log_read_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let log = session_log();
+        let file = dir.path().join("s.vlog");
+        videt_runtime::telemetry::write_log(&file, &log.header, log.items()).unwrap();
+        let (whole, streamed) = (
+            dir.path().join("whole.mcap"),
+            dir.path().join("stream.mcap"),
+        );
+        let a = export_mcap(&log, &whole, &ExportOptions::default(), |_, _| {}).unwrap();
+        let b = export_mcap_file(&file, &streamed, &ExportOptions::default(), |_, _| {}).unwrap();
+        assert_eq!(
+            (a.periods, a.messages, a.surfaces, &a.notes),
+            (b.periods, b.messages, b.surfaces, &b.notes)
+        );
+        assert_eq!(
+            read_back(&std::fs::read(&whole).unwrap()),
+            read_back(&std::fs::read(&streamed).unwrap())
+        );
+        // A file that is not a log: an input error, and no output.
+        let e = export_mcap_file(&whole, &streamed, &ExportOptions::default(), |_, _| {});
+        assert!(matches!(e, Err(ExportError::Input { .. })), "{e:?}");
     }
 
     #[test]
@@ -851,8 +759,10 @@ mod tests {
             data: io::Cursor::new(Vec::new()),
             room: 4096,
         };
+        let log = session_log();
         let e = write_mcap(
-            &session_log(),
+            &LogOutline::of_log(&log),
+            log.items(),
             disk,
             Path::new("x.mcap.partial"),
             &ExportOptions::default(),

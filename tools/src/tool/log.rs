@@ -9,7 +9,9 @@ use serde::Serialize;
 
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::histogram::Histogram;
-use videt_runtime::telemetry::read_log;
+use videt_runtime::telemetry::{read_log, LogError, LogItem, LogOutline, LogReader, SessionInfo};
+
+use crate::felt::FeltCounter;
 
 use super::ToolResult;
 
@@ -104,10 +106,16 @@ pub struct FrameToForce {
 impl FrameToForce {
     /// The latency of the periods that first rendered a version made from a camera frame.
     pub fn of(records: &[CycleRecord]) -> Option<FrameToForce> {
-        let mut ages: Vec<u64> = records
-            .iter()
-            .filter_map(|r| r.inputs.surface_frame_age_ns)
-            .collect();
+        FrameToForce::of_ages(
+            records
+                .iter()
+                .filter_map(|r| r.inputs.surface_frame_age_ns)
+                .collect(),
+        )
+    }
+
+    /// The latency over these frame ages, ns.
+    pub fn of_ages(mut ages: Vec<u64>) -> Option<FrameToForce> {
         if ages.is_empty() {
             return None;
         }
@@ -133,73 +141,120 @@ fn percentiles_us(h: &Histogram) -> [f64; 4] {
     .map(|ns| ns as f64 * 1e-3)
 }
 
-/// Summarise `args.logfile`.
-pub fn summarise(
-    args: &LogArgs,
-) -> Result<(LogSummary, videt_runtime::telemetry::Log), super::ToolError> {
-    let log = read_log(&args.logfile)?;
-    let (mut wake, mut compute) = (Histogram::new(), Histogram::new());
-    let mut dropped = 0;
-    let mut contact = 0usize;
-    let (mut max_tension, mut max_force) = (0.0f64, 0.0f64);
-    let mut events = Vec::new();
-    let mut last_state = None;
-    for (i, r) in log.records.iter().enumerate() {
-        if i > 0 {
-            dropped += r
-                .cycle
-                .saturating_sub(log.records[i - 1].cycle.saturating_add(1));
+/// The summary's tallies, period by period.
+#[derive(Default)]
+struct Tallies {
+    wake: Histogram,
+    compute: Histogram,
+    dropped: u64,
+    contact: usize,
+    max_tension: f64,
+    max_force: f64,
+    events: Vec<(f64, String)>,
+    last_state: Option<videt_control::SafetyState>,
+    last_cycle: Option<u64>,
+    frame_ages: Vec<u64>,
+}
+
+impl Tallies {
+    fn add(&mut self, r: &CycleRecord) {
+        if let Some(last) = self.last_cycle {
+            self.dropped += r.cycle.saturating_sub(last.saturating_add(1));
         }
-        wake.record(r.wake_latency_ns);
-        compute.record(r.compute_ns);
-        contact += usize::from(r.in_contact);
-        max_tension = r
+        self.last_cycle = Some(r.cycle);
+        self.wake.record(r.wake_latency_ns);
+        self.compute.record(r.compute_ns);
+        self.contact += usize::from(r.in_contact);
+        self.max_tension = r
             .tension_measured_n
             .iter()
             .cloned()
-            .fold(max_tension, f64::max);
+            .fold(self.max_tension, f64::max);
         let f = r.rendered_force_n;
-        max_force = max_force.max((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt());
-        if last_state != Some(r.safety) {
-            if last_state.is_some() || r.safety.reason().is_some() {
-                events.push((r.time.as_secs_f64(), r.safety.as_str().to_string()));
+        self.max_force = self
+            .max_force
+            .max((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt());
+        if self.last_state != Some(r.safety) {
+            if self.last_state.is_some() || r.safety.reason().is_some() {
+                self.events
+                    .push((r.time.as_secs_f64(), r.safety.as_str().to_string()));
             }
-            last_state = Some(r.safety);
+            self.last_state = Some(r.safety);
+        }
+        self.frame_ages.extend(r.inputs.surface_frame_age_ns);
+    }
+}
+
+/// Summarise `args.logfile`, read once as a stream (the memory it takes does not grow with the
+/// session's length); returns the summary and the log's outline.
+pub fn summarise(args: &LogArgs) -> Result<(LogSummary, LogOutline), super::ToolError> {
+    let mut reader = LogReader::open(&args.logfile)?;
+    let mut outline = LogOutline::new(reader.header(), reader.version());
+    let mut tallies = Tallies {
+        wake: Histogram::new(),
+        compute: Histogram::new(),
+        ..Tallies::default()
+    };
+    // Made at the first calibration or period: the session frame comes before either.
+    let mut felt: Option<Result<FeltCounter, String>> = None;
+    for item in &mut reader {
+        outline.add(&item);
+        let counter = match &item {
+            LogItem::Period(_) | LogItem::Calibration { .. } => felt.get_or_insert_with(|| {
+                session_config(args, outline.session.as_ref())
+                    .map_err(|e| e.to_string())
+                    .and_then(|config| FeltCounter::new(&config))
+            }),
+            _ => continue,
+        };
+        match &item {
+            LogItem::Period(r) => {
+                tallies.add(r);
+                if let Ok(c) = counter {
+                    c.period(r);
+                }
+            }
+            LogItem::Calibration { calibration, .. } => {
+                if let Ok(c) = counter {
+                    c.calibration(calibration);
+                }
+            }
+            _ => {}
         }
     }
-    let duration_s = match (log.records.first(), log.records.last()) {
-        (Some(a), Some(b)) => b.time.nanos_since(a.time) as f64 * 1e-9,
-        _ => 0.0,
-    };
+    outline.finish(&reader);
+    // A --config that cannot be read is an error, as when the log has no period.
+    session_config(args, outline.session.as_ref())?;
+    let records = outline.records;
     let summary = LogSummary {
-        rate_hz: log.header.rate_hz,
-        records: log.records.len(),
-        duration_s,
-        dropped,
-        truncated_bytes: log.truncated_bytes,
-        closed: log.closed(),
-        end: log.end_note(),
-        wake_latency_us: percentiles_us(&wake),
-        compute_us: percentiles_us(&compute),
-        contact_fraction: if log.records.is_empty() {
+        rate_hz: outline.header.rate_hz,
+        records,
+        duration_s: outline.duration_s(),
+        dropped: tallies.dropped,
+        truncated_bytes: outline.truncated_bytes as usize,
+        closed: outline.closed(),
+        end: outline.end_note.clone(),
+        wake_latency_us: percentiles_us(&tallies.wake),
+        compute_us: percentiles_us(&tallies.compute),
+        contact_fraction: if records == 0 {
             0.0
         } else {
-            contact as f64 / log.records.len() as f64
+            tallies.contact as f64 / records as f64
         },
-        max_tension_n: max_tension,
-        max_force_n: max_force,
-        safety_events: events,
-        frame_to_force: FrameToForce::of(&log.records),
-        felt: None,
+        max_tension_n: tallies.max_tension,
+        max_force_n: tallies.max_force,
+        safety_events: tallies.events,
+        frame_to_force: FrameToForce::of_ages(tallies.frame_ages),
+        felt: felt.and_then(|c| c.ok()).and_then(|c| c.finish().ok()),
     };
-    let mut summary = summary;
-    let config = session_config(args, &log)?;
-    summary.felt = crate::felt::felt_report(&log, &config, log.records.iter().enumerate()).ok();
-    Ok((summary, log))
+    Ok((summary, outline))
 }
 
 /// Write the records as CSV.
-pub fn write_csv(log: &videt_runtime::telemetry::Log, out: &mut dyn Write) -> std::io::Result<()> {
+pub fn write_csv(
+    records: impl IntoIterator<Item = CycleRecord>,
+    out: &mut dyn Write,
+) -> std::io::Result<()> {
     let mut header = String::from("cycle,time_s,wake_latency_us,compute_us");
     for name in CycleRecord::VECTOR_NAMES {
         for axis in 0..3 {
@@ -210,7 +265,7 @@ pub fn write_csv(log: &videt_runtime::telemetry::Log, out: &mut dyn Write) -> st
         ",contact,depth_m,force_scale,surface_version,surface_stale,safety,released_wire,frame_age_ms",
     );
     writeln!(out, "{header}")?;
-    for r in &log.records {
+    for r in records {
         write!(
             out,
             "{},{:.9},{:.3},{:.3}",
@@ -248,31 +303,44 @@ pub fn write_csv(log: &videt_runtime::telemetry::Log, out: &mut dyn Write) -> st
 /// built-in defaults).
 fn session_config(
     args: &LogArgs,
-    log: &videt_runtime::telemetry::Log,
+    session: Option<&Result<SessionInfo, String>>,
 ) -> Result<videt_rt_config::Config, super::ToolError> {
-    Ok(match (&args.config, &log.session) {
+    Ok(match (&args.config, session) {
         (Some(path), _) => videt_rt_config::Config::load(path)?,
         (None, Some(Ok(session))) => session.config.clone(),
         (None, _) => videt_rt_config::Config::default(),
     })
 }
 
+/// The records of `path`, read as a stream.
+fn records(path: &std::path::Path) -> Result<impl Iterator<Item = CycleRecord>, LogError> {
+    Ok(LogReader::open(path)?.filter_map(|item| match item {
+        LogItem::Period(r) => Some(r),
+        _ => None,
+    }))
+}
+
 /// Run `videt log`.
 pub fn run(args: &LogArgs) -> ToolResult {
-    let (s, log) = summarise(args)?;
-    let config = || session_config(args, &log);
-    if let Some(out) = &args.view_figure {
-        let shown = super::view_figure::write_view_figure(out, &log, &config()?, args.at)?;
-        eprintln!("wrote {} (the session at {shown:.3} s)", out.display());
-    }
-    if let Some(dir) = &args.plot {
-        let config = config()?;
-        let limits = super::log_plots::TensionLimits {
-            t_min_n: config.control.t_min_n,
-            t_max_n: config.control.t_max_n,
-        };
-        for path in super::log_plots::write_all(dir, &log, limits)? {
-            eprintln!("wrote {}", path.display());
+    let (s, outline) = summarise(args)?;
+    let config = || session_config(args, outline.session.as_ref());
+    // The figures need the whole log in memory; the summary, the CSV and the MCAP export read
+    // it as a stream.
+    if args.view_figure.is_some() || args.plot.is_some() {
+        let log = read_log(&args.logfile)?;
+        if let Some(out) = &args.view_figure {
+            let shown = super::view_figure::write_view_figure(out, &log, &config()?, args.at)?;
+            eprintln!("wrote {} (the session at {shown:.3} s)", out.display());
+        }
+        if let Some(dir) = &args.plot {
+            let config = config()?;
+            let limits = super::log_plots::TensionLimits {
+                t_min_n: config.control.t_min_n,
+                t_max_n: config.control.t_max_n,
+            };
+            for path in super::log_plots::write_all(dir, &log, limits)? {
+                eprintln!("wrote {}", path.display());
+            }
         }
     }
     if args.json {
@@ -286,27 +354,24 @@ pub fn run(args: &LogArgs) -> ToolResult {
             s.duration_s
         );
         println!("  dropped records: {}", s.dropped);
-        if let Some(note) = log.damage_note() {
+        if let Some(note) = &outline.damage_note {
             println!("  {note}");
         }
         println!("  {}", s.end);
-        match &log.session {
+        match &outline.session {
             Some(Ok(session)) => println!(
                 "  session: {} (videtd {}, algorithm {})",
                 session.what, session.videt_version, session.config.control.algorithm
             ),
             Some(Err(e)) => println!("  session: {e}"),
-            None => println!("  session: not recorded (format version {})", log.version),
+            None => println!(
+                "  session: not recorded (format version {})",
+                outline.version
+            ),
         }
-        if !log.surfaces.is_empty() {
-            let lost = log
-                .surfaces
-                .values()
-                .filter(|s| matches!(s, videt_runtime::telemetry::SurfaceEntry::Lost))
-                .count();
-            let rendered: std::collections::BTreeSet<u64> =
-                log.records.iter().map(|r| r.surface_version).collect();
-            let recorded = log.surfaces.len() - lost;
+        if !outline.surfaces.is_empty() {
+            let lost = outline.lost_surfaces().len();
+            let recorded = outline.surfaces.len() - lost;
             println!(
                 "  surfaces: {recorded} version{} recorded{}, {} rendered by the periods",
                 if recorded == 1 { "" } else { "s" },
@@ -315,7 +380,7 @@ pub fn run(args: &LogArgs) -> ToolResult {
                 } else {
                     String::new()
                 },
-                rendered.len()
+                outline.first_render_ns.len()
             );
         }
         let p = |v: [f64; 4]| {
@@ -349,14 +414,14 @@ pub fn run(args: &LogArgs) -> ToolResult {
         }
     }
     if let Some(out) = &args.mcap {
-        export_mcap(args, &log, out)?;
+        export_mcap(args, outline.records, out)?;
     }
     if let Some(csv) = &args.csv {
         if csv.as_os_str() == "-" {
-            write_csv(&log, &mut std::io::stdout().lock())?;
+            write_csv(records(&args.logfile)?, &mut std::io::stdout().lock())?;
         } else {
             let mut out = std::io::BufWriter::new(std::fs::File::create(csv)?);
-            write_csv(&log, &mut out)?;
+            write_csv(records(&args.logfile)?, &mut out)?;
             out.flush()?;
             if !args.json {
                 println!("  CSV written to {}", csv.display());
@@ -366,22 +431,23 @@ pub fn run(args: &LogArgs) -> ToolResult {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Export `log` to `out` as MCAP, with a progress bar on a terminal and a one-line summary.
+/// Export `args.logfile` (of `records` periods) to `out` as MCAP, read as a stream, with a
+/// progress bar on a terminal and a one-line summary.
 fn export_mcap(
     args: &LogArgs,
-    log: &videt_runtime::telemetry::Log,
+    records: usize,
     out: &std::path::Path,
 ) -> Result<(), super::ToolError> {
-    use videt_viewers::mcap_export::{export_mcap, ExportOptions};
+    use videt_viewers::mcap_export::{export_mcap_file, ExportOptions};
 
     // On standard error, drawn only when it is a terminal.
-    let bar = indicatif::ProgressBar::new(log.records.len() as u64).with_style(
+    let bar = indicatif::ProgressBar::new(records as u64).with_style(
         indicatif::ProgressStyle::with_template("MCAP [{bar:40}] {percent:>3}% {pos}/{len}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
             .progress_chars("#> "),
     );
-    let summary = export_mcap(
-        log,
+    let summary = export_mcap_file(
+        &args.logfile,
         out,
         &ExportOptions { every: args.every },
         |done, total| {
