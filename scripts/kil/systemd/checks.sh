@@ -475,6 +475,47 @@ writes_confined() {
   DETAIL="writable:$ok; refused elsewhere${bad:+; WRITABLE:$bad}"
   [ -z "$bad" ]
 }
+# The session log's directory on a small disk that fills under the running service (retention
+# on, keeping no free space): an error in the journal at once, `videt service status` says the
+# log is not written, the control loop runs on (safety normal), the writes resume once there is
+# room (a warning), and the log reads whole and closed. The directory and the configuration
+# are then put back and the service started again.
+log_disk_not_written() { videt service status 2>/dev/null | grep -q 'session log NOT WRITING'; }
+log_disk_written() {
+  local s
+  s=$(videt service status 2>/dev/null) && ! grep -q 'NOT WRITING' <<<"$s"
+}
+log_disk_fills_and_recovers() {
+  local t0 err back log read free
+  systemctl stop videtd
+  cp "$CONFIG" /tmp/videt.toml.kept
+  sed -i 's/^min_free_mb = .*/min_free_mb = 0/' "$CONFIG"
+  mount -t tmpfs -o "size=6m,mode=0750,uid=$(id -u videt),gid=$(id -g videt)" videt-logs /var/log/videt ||
+    fail "cannot mount a tmpfs on /var/log/videt" || return 1
+  # Room for some seconds of session log only.
+  dd if=/dev/zero of=/var/log/videt/filler bs=64k count=88 status=none
+  free=$(df -k --output=avail /var/log/videt | tail -n 1)
+  t0=$(mono)
+  systemctl start videtd
+  local ok=1
+  wait_for 120 log_disk_not_written || ok=0
+  err=$(journal videtd err | awk -v t="$t0" '$1 >= t && /session log not written/ { $1 = ""; print; exit }')
+  local normal=no
+  safety_is normal && normal=yes
+  rm -f /var/log/videt/filler
+  wait_for 30 log_disk_written || ok=0
+  back=$(journal videtd warning | awk -v t="$t0" '$1 >= t && /session log written again/ { $1 = ""; print; exit }')
+  systemctl stop videtd
+  log=$(newest_log)
+  read=$(videt log "$log" 2>&1)
+  DETAIL="${free} kB free; error:${err:- NONE}; safety $normal; again:${back:- NONE}; log: $(grep -o 'session closed[^:]*' <<<"$read")$(grep -o ', the rest is damaged' <<<"$read")"
+  umount /var/log/videt
+  cp /tmp/videt.toml.kept "$CONFIG"
+  systemctl start videtd
+  wait_for 120 ready_and_normal || fail "$DETAIL; not ready again: $(safety_line)" || return 1
+  [ "$ok" = 1 ] && [ -n "$err" ] && [ -n "$back" ] && [ "$normal" = yes ] &&
+    grep -q 'session closed' <<<"$read" && ! grep -q 'damaged' <<<"$read"
+}
 upgrade_keeps_conffile_and_service() {
   local pid restarts out
   echo "# edited on this device" >>"$CONFIG"
@@ -539,6 +580,7 @@ case $PHASE in
     check "systemctl stop ramps the forces out (session log)" stop_ramps_out
     check "systemctl start" start_again
     check "writes only to its state, log and run directories" writes_confined
+    check "a full log disk: said at once, loop on, writes resume, log whole" log_disk_fills_and_recovers
     check "upgrade keeps the edited conffile, leaves videtd running" upgrade_keeps_conffile_and_service
     check "dpkg -r stops videtd cleanly (forces ramped out)" remove_stops_cleanly
     check "dpkg -P removes the enablement link" purge_leaves_no_link
