@@ -4,7 +4,8 @@ decodes every message from the schema stored in the file.
 
 Two twin sessions are recorded by `videtd` (a wall, and the bas-relief box), converted with
 `videt`, and the MCAP files are checked against the session logs, which this file parses on its
-own from the documented format (docs/telemetry.md): the channels and schemas, one message per
+own from the documented format (docs/telemetry.md, versions 3 and 4, the compressed blocks
+decoded with the PyPI `zstandard` package): the channels and schemas, one message per
 period on every fast topic, non-decreasing log times, one `/scene/relief` message per recorded
 surface version, the safety messages, the attachments and metadata, and at least one decoded
 message per schema.
@@ -33,6 +34,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
+import zstandard
 
 ROOT = Path(__file__).resolve().parents[2]
 FAST_TOPICS = ["/thimble/pose", "/scene/wires", "/scene/forces", "/tension", "/timing"]
@@ -67,7 +69,7 @@ def binaries() -> tuple[Path, Path]:
 
 @dataclass
 class VlogFacts:
-    """What a session log holds, read from its frames (docs/telemetry.md, version 3)."""
+    """What a session log holds, read from its frames (docs/telemetry.md, versions 3 and 4)."""
 
     periods: int = 0
     first_time_ns: int | None = None
@@ -80,14 +82,70 @@ class VlogFacts:
     end: tuple[int, int, int, int] | None = None
 
 
+MASK = (1 << 64) - 1
+FIELDS = 52  # eight-byte fields of a 416-byte period
+
+
+def unzigzag(z: int) -> int:
+    return (z >> 1) ^ (-(z & 1) & MASK)
+
+
+def block_frames(payload: bytes) -> list[tuple[int, bytes]]:
+    """The frames of a version 4 block, decoded from its documented layout (docs/telemetry.md,
+    "Format (version 4)"): the frame stream and the period table, each a zstd frame; each
+    field's residuals undone by its prediction."""
+    stream_len, rows, stream_zlen = struct.unpack_from("<III", payload, 0)
+    predictions = payload[12:12 + FIELDS]
+    unzstd = zstandard.ZstdDecompressor()
+    stream = unzstd.decompress(payload[64:64 + stream_zlen], max_output_size=stream_len)
+    assert len(stream) == stream_len
+    table = unzstd.decompress(payload[64 + stream_zlen:], max_output_size=rows * 416) if rows else b""
+    assert len(table) == rows * 416
+    values = [[0] * FIELDS for _ in range(rows)]
+    for f in range(FIELDS):
+        column = table[f * 8 * rows:(f + 1) * 8 * rows]
+        planes = [column[b * rows:(b + 1) * rows] for b in range(8)]
+        p = predictions[f]
+        before = before2 = 0
+        for row in range(rows):
+            r = sum(planes[b][row] << (8 * b) for b in range(8))
+            if p == 0:
+                v = r ^ before
+            elif p == 1:
+                v = (unzigzag(r) + before) & MASK
+            elif p == 2:
+                v = (unzigzag(r) + 2 * before - before2) & MASK
+            else:
+                g = p - 3
+                assert g < f, f"field {f} follows field {g}"
+                step = (values[row][g] - (values[row - 1][g] if row else 0)) & MASK
+                v = (unzigzag(r) + before + step) & MASK
+            values[row][f] = v
+            before2, before = before, v
+    periods = [b"".join(v.to_bytes(8, "little") for v in row) for row in values]
+    frames, at, taken = [], 0, 0
+    while at < len(stream):
+        kind = stream[at]
+        (n,) = struct.unpack_from("<I", stream, at + 4)
+        if kind == 4 and n == 0:
+            frames.append((kind, periods[taken]))
+            taken += 1
+        else:
+            frames.append((kind, stream[at + 8:at + 8 + n]))
+        at += 8 + n
+    assert taken == rows, f"{rows} periods in the table, {taken} period frames"
+    return frames
+
+
 def read_vlog(path: Path) -> VlogFacts:
     data = path.read_bytes()
     assert data[:8] == b"VIDETLOG", "not a session log"
     version, period_bytes = struct.unpack_from("<II", data, 8)
-    assert (version, period_bytes) == (3, 416)
+    assert version in (3, 4) and period_bytes == 416, (version, period_bytes)
     facts = VlogFacts()
     at = 32
     last_safety = None
+    frames: list[tuple[int, bytes]] = []
     while at + 8 <= len(data):
         kind = data[at]
         (n,) = struct.unpack_from("<I", data, at + 4)
@@ -97,6 +155,13 @@ def read_vlog(path: Path) -> VlogFacts:
         (crc,) = struct.unpack_from("<I", data, end)
         assert zlib.crc32(data[at:end]) == crc, f"CRC mismatch at byte {at}"
         payload = data[at + 8 : end]
+        if version == 4:
+            assert kind == 7, f"a frame of kind {kind} outside a block at byte {at}"
+            frames.extend(block_frames(payload))
+        else:
+            frames.append((kind, payload))
+        at = end + 4
+    for kind, payload in frames:
         if kind == 1:
             facts.session = True
         elif kind == 2:
@@ -118,7 +183,6 @@ def read_vlog(path: Path) -> VlogFacts:
             facts.lost.append(struct.unpack_from("<Q", payload, 0)[0])
         elif kind == 6:
             facts.end = (*struct.unpack_from("<QQQ", payload, 0), payload[24])
-        at = end + 4
     return facts
 
 
