@@ -124,9 +124,11 @@ impl Prediction {
     }
 }
 
-/// The context of field `f` in period `row` of `periods` (whole or decoded so far) under `p`.
-fn context(periods: &[u8], row: usize, f: usize, p: Prediction) -> Context {
-    let at = |row: Option<usize>, f: usize| row.map_or(0, |row| field(periods, row, f));
+/// The context of field `f` in period `row` under `p`, from `columns`: the block's fields as
+/// numbers, field after field, `rows` each (those of the periods before `row`, and of the
+/// fields before `f` in period `row`, are all it reads).
+fn context(columns: &[u64], rows: usize, row: usize, f: usize, p: Prediction) -> Context {
+    let at = |row: Option<usize>, f: usize| row.map_or(0, |row| columns[f * rows + row]);
     let step = match p {
         Prediction::Along(g) => {
             let g = usize::from(g);
@@ -262,17 +264,7 @@ impl BlockBuilder {
         }
         let (columns, steps) = (&self.columns, &self.steps);
         let residual = |f: usize, p: Prediction, row: usize| {
-            let column = &columns[f * rows..(f + 1) * rows];
-            let step = match p {
-                Prediction::Along(g) => steps[usize::from(g) * rows + row],
-                _ => 0,
-            };
-            let c = Context {
-                before: row.checked_sub(1).map_or(0, |r| column[r]),
-                before2: row.checked_sub(2).map_or(0, |r| column[r]),
-                step,
-            };
-            p.residual(column[row], c)
+            p.residual(columns[f * rows + row], context(columns, rows, row, f, p))
         };
         // The significant bits of a residual: a measure of what is left to store.
         let bits = |r: u64| u64::from(64 - r.leading_zeros());
@@ -326,6 +318,8 @@ impl BlockBuilder {
 pub struct DecodedBlock {
     stream: Vec<u8>,
     table: Vec<u8>,
+    /// The fields decoded, field after field.
+    columns: Vec<u64>,
     periods: Vec<u8>,
 }
 
@@ -377,13 +371,18 @@ impl DecodedBlock {
         self.periods.clear();
         self.periods.resize(rows * PERIOD_BYTES, 0);
         // Field by field: a field followed by another is decoded before it.
+        self.columns.clear();
+        self.columns.resize(FIELDS * rows, 0);
         for (f, p) in predictions.iter().enumerate() {
             let column = &self.table[f * 8 * rows..(f + 1) * 8 * rows];
             for row in 0..rows {
                 let r = u64::from_le_bytes(core::array::from_fn(|byte| column[byte * rows + row]));
-                let v = p.value(r, context(&self.periods, row, f, *p));
-                let at = row * PERIOD_BYTES + f * 8;
-                self.periods[at..at + 8].copy_from_slice(&v.to_le_bytes());
+                self.columns[f * rows + row] = p.value(r, context(&self.columns, rows, row, f, *p));
+            }
+        }
+        for (row, period) in self.periods.chunks_exact_mut(PERIOD_BYTES).enumerate() {
+            for (f, value) in period.chunks_exact_mut(8).enumerate() {
+                value.copy_from_slice(&self.columns[f * rows + row].to_le_bytes());
             }
         }
         Ok(())

@@ -122,6 +122,14 @@ mod tests {
         write_session_of(path, 3000)
     }
 
+    /// A directory holding `s.vlog`, a session written by [`write_session`], and its path.
+    fn session_file() -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        write_session(&path);
+        (dir, path)
+    }
+
     /// [`write_session`] of `periods` periods, the surfaces published at a third of them.
     fn write_session_of(path: &Path, periods: u64) -> u64 {
         let tap = Arc::new(SurfaceTap::default());
@@ -200,9 +208,7 @@ mod tests {
 
     #[test]
     fn the_reader_gives_the_items_in_file_order_and_the_log_read_whole_is_the_same() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.vlog");
-        write_session(&path);
+        let (_dir, path) = session_file();
         let whole = read_log(&path).unwrap();
         let mut reader = LogReader::open(&path).unwrap();
         assert_eq!(reader.version(), FORMAT_VERSION);
@@ -256,9 +262,7 @@ mod tests {
 
     #[test]
     fn a_log_written_whole_from_the_items_of_another_reads_the_same() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.vlog");
-        write_session(&path);
+        let (dir, path) = session_file();
         // A version 3 log rewritten as version 4, through the gathered log's items.
         let v3 = as_version_3(&std::fs::read(&path).unwrap());
         let old = parse_log(&v3).unwrap();
@@ -279,9 +283,7 @@ mod tests {
 
     #[test]
     fn the_outline_read_as_a_stream_is_the_whole_logs() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.vlog");
-        write_session(&path);
+        let (_dir, path) = session_file();
         let log = read_log(&path).unwrap();
         let streamed = LogOutline::read(&path).unwrap();
         let whole = LogOutline::of_log(&log);
@@ -313,9 +315,7 @@ mod tests {
 
     #[test]
     fn the_writer_closes_the_log_with_the_reason_and_the_last_period() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.vlog");
-        write_session(&path);
+        let (dir, path) = session_file();
         let bytes = std::fs::read(&path).unwrap();
         let log = parse_log(&bytes).unwrap();
         assert!(log.closed());
@@ -425,9 +425,7 @@ mod tests {
 
     #[test]
     fn a_log_cut_anywhere_or_corrupted_reads_up_to_the_damage_and_says_so() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.vlog");
-        write_session(&path);
+        let (_dir, path) = session_file();
         let v4 = std::fs::read(&path).unwrap();
         let v3 = as_version_3(&v4);
         // Cut inside the last period of version 3: one record fewer, the cut reported.
@@ -509,9 +507,7 @@ mod tests {
     #[test]
     fn a_version_2_log_reads_whole_and_as_not_closed() {
         // What a version 2 writer wrote: the same frames, no end frame.
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.vlog");
-        write_session(&path);
+        let (_dir, path) = session_file();
         let mut bytes = as_version_3(&std::fs::read(&path).unwrap());
         bytes.truncate(bytes.len() - END_FRAME);
         bytes[8..12].copy_from_slice(&FORMAT_VERSION_2.to_le_bytes());

@@ -32,7 +32,7 @@ pub struct LogOutline {
     pub session: Option<Result<SessionInfo, String>>,
     /// Period records.
     pub records: usize,
-    /// The first and the last record's time, ns.
+    /// The first record's time, ns.
     pub first_ns: Option<u64>,
     /// The last record's time, ns.
     pub last_ns: Option<u64>,

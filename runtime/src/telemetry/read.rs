@@ -370,10 +370,6 @@ impl<R: Read> LogReader<R> {
     pub fn records(&self) -> u64 {
         self.records
     }
-    /// The end frame, once read.
-    pub fn end(&self) -> Option<&SessionEnd> {
-        self.end.as_ref()
-    }
     /// [`Log::end_note`] of what was read so far.
     pub fn end_note(&self) -> String {
         end_note(self.end.as_ref(), self.version, self.last_cycle)
@@ -424,11 +420,7 @@ impl<R: Read> LogReader<R> {
             self.damaged(at, got as u64, "an incomplete frame".into());
             return Ok(());
         }
-        let len = u32::from_le_bytes(head[4..8].try_into().expect("4 bytes")) as usize;
-        let kind = FrameKind::from_byte(head[0])
-            .filter(|k| *k != FrameKind::Block || self.version >= FORMAT_VERSION);
-        let Some(kind) = kind.filter(|_| head[1..4] == [0, 0, 0] && len <= MAX_FRAME_PAYLOAD)
-        else {
+        let Some((kind, len)) = frame_head(&head, self.version) else {
             self.damaged(
                 at,
                 got as u64,
@@ -447,8 +439,7 @@ impl<R: Read> LogReader<R> {
             return Ok(());
         }
         let total = self.frame.len();
-        let crc = u32::from_le_bytes(self.frame[total - 4..].try_into().expect("4 bytes"));
-        if frame_crc(&self.frame[..total - FRAME_TAIL_BYTES]) != crc {
+        if !crc_holds(&self.frame) {
             self.damaged(at, total as u64, "a corrupt frame (CRC mismatch)".into());
             return Ok(());
         }
@@ -617,21 +608,28 @@ pub fn frames(bytes: &[u8]) -> Result<Vec<FrameAt>, LogError> {
 
 /// The whole frame at the start of `rest` in a log of `version` (its offset 0), if there is one.
 fn whole_frame(rest: &[u8], version: u32) -> Option<FrameAt> {
-    let head = rest.get(..FRAME_HEAD_BYTES)?;
-    let len = u32::from_le_bytes(head[4..8].try_into().expect("4 bytes")) as usize;
-    let kind = FrameKind::from_byte(head[0])
-        .filter(|k| *k != FrameKind::Block || version >= FORMAT_VERSION)
-        .filter(|_| head[1..4] == [0, 0, 0] && len <= MAX_FRAME_PAYLOAD)?;
+    let (kind, len) = frame_head(rest.get(..FRAME_HEAD_BYTES)?, version)?;
     let total = FRAME_HEAD_BYTES + len + FRAME_TAIL_BYTES;
-    let frame = rest.get(..total)?;
-    let crc = u32::from_le_bytes(
-        frame[total - FRAME_TAIL_BYTES..]
-            .try_into()
-            .expect("4 bytes"),
-    );
-    (frame_crc(&frame[..total - FRAME_TAIL_BYTES]) == crc).then_some(FrameAt {
+    crc_holds(rest.get(..total)?).then_some(FrameAt {
         offset: 0,
         kind,
         bytes: total,
     })
+}
+
+/// The kind and payload length of a frame head in a log of `version`, unless the head is
+/// corrupt: an unknown kind (a block before version 4), reserved bytes set, or a payload
+/// longer than a reader accepts.
+fn frame_head(head: &[u8], version: u32) -> Option<(FrameKind, usize)> {
+    let len = u32::from_le_bytes(head[4..8].try_into().expect("4 bytes")) as usize;
+    FrameKind::from_byte(head[0])
+        .filter(|k| *k != FrameKind::Block || version >= FORMAT_VERSION)
+        .filter(|_| head[1..4] == [0, 0, 0] && len <= MAX_FRAME_PAYLOAD)
+        .map(|kind| (kind, len))
+}
+
+/// Whether a whole frame's CRC matches its head and payload.
+fn crc_holds(frame: &[u8]) -> bool {
+    let (body, tail) = frame.split_at(frame.len() - FRAME_TAIL_BYTES);
+    frame_crc(body) == u32::from_le_bytes(tail.try_into().expect("4 bytes"))
 }

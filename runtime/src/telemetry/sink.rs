@@ -110,6 +110,27 @@ impl LogSink {
     }
 }
 
+/// Where frames go: the writer's compressed blocks, or version 3's frames.
+pub(super) trait FrameOut {
+    /// Add a frame.
+    fn frame(&mut self, kind: FrameKind, payload: &[u8]);
+}
+
+impl FrameOut for LogSink {
+    fn frame(&mut self, kind: FrameKind, payload: &[u8]) {
+        LogSink::frame(self, kind, payload);
+    }
+}
+
+/// A version 3 log's bytes: frames one after the other, each with its CRC.
+struct Version3(Vec<u8>);
+
+impl FrameOut for Version3 {
+    fn frame(&mut self, kind: FrameKind, payload: &[u8]) {
+        frame(kind, payload, &mut self.0).expect("writing to memory");
+    }
+}
+
 /// Writes surface frames, a surface equal to the previous one as a short repeat.
 #[derive(Default)]
 pub(super) struct SurfaceFrames {
@@ -118,7 +139,12 @@ pub(super) struct SurfaceFrames {
 }
 
 impl SurfaceFrames {
-    pub(super) fn write(&mut self, version: u64, surface: &RecordedSurface, out: &mut LogSink) {
+    pub(super) fn write(
+        &mut self,
+        version: u64,
+        surface: &RecordedSurface,
+        out: &mut impl FrameOut,
+    ) {
         self.buf.clear();
         self.buf.extend_from_slice(&version.to_le_bytes());
         if self.last.as_ref() == Some(surface) {
@@ -129,6 +155,46 @@ impl SurfaceFrames {
             self.last = Some(surface.clone());
         }
         out.frame(FrameKind::Surface, &self.buf);
+    }
+}
+
+/// Turns a log's items back into its frames.
+#[derive(Default)]
+struct ItemFrames {
+    surfaces: SurfaceFrames,
+}
+
+impl ItemFrames {
+    /// The frame of `item` into `out`; a session that could not be read is left out.
+    fn put(&mut self, item: LogItem, out: &mut impl FrameOut) -> io::Result<()> {
+        match item {
+            LogItem::Session(session) => {
+                if let Ok(session) = *session {
+                    let text = session.to_toml().map_err(io::Error::other)?;
+                    out.frame(FrameKind::Session, text.as_bytes());
+                }
+            }
+            LogItem::Calibration {
+                from_cycle,
+                calibration,
+            } => out.frame(
+                FrameKind::Calibration,
+                &encode_calibration(from_cycle, &calibration),
+            ),
+            LogItem::Surface(version, SurfaceEntry::Recorded(surface)) => {
+                self.surfaces.write(version, &surface, out);
+            }
+            LogItem::Surface(version, SurfaceEntry::Lost) => {
+                out.frame(FrameKind::SurfaceLost, &version.to_le_bytes());
+            }
+            LogItem::Period(record) => {
+                let mut period = [0u8; PERIOD_BYTES];
+                encode_period(&record, &mut period);
+                out.frame(FrameKind::Period, &period);
+            }
+            LogItem::End(end) => out.frame(FrameKind::End, &encode_end(&end)),
+        }
+        Ok(())
     }
 }
 
@@ -143,36 +209,9 @@ pub fn write_log(
 ) -> io::Result<u64> {
     let mut sink = LogSink::create(path)?;
     sink.header(&encode_header(header));
-    let mut surfaces = SurfaceFrames::default();
-    let mut period = [0u8; PERIOD_BYTES];
+    let mut frames = ItemFrames::default();
     for item in items {
-        match item {
-            LogItem::Session(session) => {
-                // One that could not be read is left out.
-                if let Ok(session) = *session {
-                    let text = session.to_toml().map_err(io::Error::other)?;
-                    sink.frame(FrameKind::Session, text.as_bytes());
-                }
-            }
-            LogItem::Calibration {
-                from_cycle,
-                calibration,
-            } => sink.frame(
-                FrameKind::Calibration,
-                &encode_calibration(from_cycle, &calibration),
-            ),
-            LogItem::Surface(version, SurfaceEntry::Recorded(surface)) => {
-                surfaces.write(version, &surface, &mut sink);
-            }
-            LogItem::Surface(version, SurfaceEntry::Lost) => {
-                sink.frame(FrameKind::SurfaceLost, &version.to_le_bytes());
-            }
-            LogItem::Period(record) => {
-                encode_period(&record, &mut period);
-                sink.frame(FrameKind::Period, &period);
-            }
-            LogItem::End(end) => sink.frame(FrameKind::End, &encode_end(&end)),
-        }
+        frames.put(item, &mut sink)?;
         if sink.batch_bytes() >= BATCH_BYTES {
             sink.commit()?;
         }
@@ -189,48 +228,11 @@ pub fn version_3_bytes(
     header: &LogHeader,
     items: impl IntoIterator<Item = LogItem>,
 ) -> io::Result<Vec<u8>> {
-    let mut out = encode_header(header).to_vec();
-    out[8..12].copy_from_slice(&FORMAT_VERSION_3.to_le_bytes());
-    let mut last_surface: Option<std::sync::Arc<RecordedSurface>> = None;
-    let mut buf = Vec::new();
+    let mut out = Version3(encode_header(header).to_vec());
+    out.0[8..12].copy_from_slice(&FORMAT_VERSION_3.to_le_bytes());
+    let mut frames = ItemFrames::default();
     for item in items {
-        match item {
-            LogItem::Session(session) => {
-                if let Ok(session) = *session {
-                    let text = session.to_toml().map_err(io::Error::other)?;
-                    frame(FrameKind::Session, text.as_bytes(), &mut out)?;
-                }
-            }
-            LogItem::Calibration {
-                from_cycle,
-                calibration,
-            } => frame(
-                FrameKind::Calibration,
-                &encode_calibration(from_cycle, &calibration),
-                &mut out,
-            )?,
-            LogItem::Surface(version, SurfaceEntry::Recorded(surface)) => {
-                buf.clear();
-                buf.extend_from_slice(&version.to_le_bytes());
-                if last_surface.as_deref() == Some(&*surface) {
-                    buf.push(0);
-                } else {
-                    buf.push(1);
-                    surface.encode(&mut buf);
-                    last_surface = Some(surface);
-                }
-                frame(FrameKind::Surface, &buf, &mut out)?;
-            }
-            LogItem::Surface(version, SurfaceEntry::Lost) => {
-                frame(FrameKind::SurfaceLost, &version.to_le_bytes(), &mut out)?;
-            }
-            LogItem::Period(record) => {
-                let mut period = [0u8; PERIOD_BYTES];
-                encode_period(&record, &mut period);
-                frame(FrameKind::Period, &period, &mut out)?;
-            }
-            LogItem::End(end) => frame(FrameKind::End, &encode_end(&end), &mut out)?,
-        }
+        frames.put(item, &mut out)?;
     }
-    Ok(out)
+    Ok(out.0)
 }

@@ -186,36 +186,38 @@ impl Tallies {
 }
 
 /// Summarise `args.logfile`, read once as a stream (the memory it takes does not grow with the
-/// session's length); returns the summary and the log's outline.
-pub fn summarise(args: &LogArgs) -> Result<(LogSummary, LogOutline), super::ToolError> {
+/// session's length); returns the summary, the log's outline and the configuration the session
+/// ran (`--config` when given).
+pub fn summarise(
+    args: &LogArgs,
+) -> Result<(LogSummary, LogOutline, videt_rt_config::Config), super::ToolError> {
+    let explicit = args
+        .config
+        .as_deref()
+        .map(videt_rt_config::Config::load)
+        .transpose()?;
     let mut reader = LogReader::open(&args.logfile)?;
     let mut outline = LogOutline::new(reader.header(), reader.version());
-    let mut tallies = Tallies {
-        wake: Histogram::new(),
-        compute: Histogram::new(),
-        ..Tallies::default()
-    };
-    // Made at the first calibration or period: the session frame comes before either.
+    let mut tallies = Tallies::default();
     let mut felt: Option<Result<FeltCounter, String>> = None;
     for item in &mut reader {
         outline.add(&item);
-        let counter = match &item {
-            LogItem::Period(_) | LogItem::Calibration { .. } => felt.get_or_insert_with(|| {
-                session_config(args, outline.session.as_ref())
-                    .map_err(|e| e.to_string())
-                    .and_then(|config| FeltCounter::new(&config))
-            }),
-            _ => continue,
-        };
+        let counted = matches!(item, LogItem::Period(_) | LogItem::Calibration { .. });
+        // Made at the first calibration or period: the session frame comes before either.
+        if counted && felt.is_none() {
+            let config = session_config(explicit.as_ref(), outline.session.as_ref());
+            felt = Some(FeltCounter::new(&config));
+        }
+        let counter = felt.as_mut().and_then(|c| c.as_mut().ok());
         match &item {
             LogItem::Period(r) => {
                 tallies.add(r);
-                if let Ok(c) = counter {
+                if let Some(c) = counter {
                     c.period(r);
                 }
             }
             LogItem::Calibration { calibration, .. } => {
-                if let Ok(c) = counter {
+                if let Some(c) = counter {
                     c.calibration(calibration);
                 }
             }
@@ -223,8 +225,7 @@ pub fn summarise(args: &LogArgs) -> Result<(LogSummary, LogOutline), super::Tool
         }
     }
     outline.finish(&reader);
-    // A --config that cannot be read is an error, as when the log has no period.
-    session_config(args, outline.session.as_ref())?;
+    let config = session_config(explicit.as_ref(), outline.session.as_ref());
     let records = outline.records;
     let summary = LogSummary {
         rate_hz: outline.header.rate_hz,
@@ -247,7 +248,7 @@ pub fn summarise(args: &LogArgs) -> Result<(LogSummary, LogOutline), super::Tool
         frame_to_force: FrameToForce::of_ages(tallies.frame_ages),
         felt: felt.and_then(|c| c.ok()).and_then(|c| c.finish().ok()),
     };
-    Ok((summary, outline))
+    Ok((summary, outline, config))
 }
 
 /// Write the records as CSV.
@@ -299,17 +300,17 @@ pub fn write_csv(
     Ok(())
 }
 
-/// The configuration the session ran (`--config` overrides it; an old log without one: the
-/// built-in defaults).
+/// The configuration the session ran: `explicit` (`--config`) when given, else the one it
+/// recorded, else (an old log without one) the built-in defaults.
 fn session_config(
-    args: &LogArgs,
+    explicit: Option<&videt_rt_config::Config>,
     session: Option<&Result<SessionInfo, String>>,
-) -> Result<videt_rt_config::Config, super::ToolError> {
-    Ok(match (&args.config, session) {
-        (Some(path), _) => videt_rt_config::Config::load(path)?,
+) -> videt_rt_config::Config {
+    match (explicit, session) {
+        (Some(config), _) => config.clone(),
         (None, Some(Ok(session))) => session.config.clone(),
         (None, _) => videt_rt_config::Config::default(),
-    })
+    }
 }
 
 /// The records of `path`, read as a stream.
@@ -322,18 +323,16 @@ fn records(path: &std::path::Path) -> Result<impl Iterator<Item = CycleRecord>, 
 
 /// Run `videt log`.
 pub fn run(args: &LogArgs) -> ToolResult {
-    let (s, outline) = summarise(args)?;
-    let config = || session_config(args, outline.session.as_ref());
+    let (s, outline, config) = summarise(args)?;
     // The figures need the whole log in memory; the summary, the CSV and the MCAP export read
     // it as a stream.
     if args.view_figure.is_some() || args.plot.is_some() {
         let log = read_log(&args.logfile)?;
         if let Some(out) = &args.view_figure {
-            let shown = super::view_figure::write_view_figure(out, &log, &config()?, args.at)?;
+            let shown = super::view_figure::write_view_figure(out, &log, &config, args.at)?;
             eprintln!("wrote {} (the session at {shown:.3} s)", out.display());
         }
         if let Some(dir) = &args.plot {
-            let config = config()?;
             let limits = super::log_plots::TensionLimits {
                 t_min_n: config.control.t_min_n,
                 t_max_n: config.control.t_max_n,
