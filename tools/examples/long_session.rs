@@ -1,8 +1,9 @@
 //! A long session log made of a short one, to measure what reading an hour of session costs
 //! without running the twin for an hour: the short log's periods repeated end to end, their
 //! period numbers and times carried on, written as `videtd` writes a log (the same compressed
-//! blocks, `videt_runtime::telemetry::write_log`). The session, the calibrations and the
-//! surfaces of the short log are kept once; the end frame says the set duration elapsed.
+//! blocks, `videt_runtime::telemetry::write_log`). The session and the calibrations of the short
+//! log are kept once; its surfaces are published again in every repetition under new version
+//! numbers, as a session keeps publishing them; the end frame says the set duration elapsed.
 //!
 //! `cargo run --release -p videt-tools --example long_session -- IN.vlog OUT.vlog [MINUTES]`
 //! (default 60), then for example `/usr/bin/time -v videt log OUT.vlog --mcap OUT.mcap`.
@@ -22,12 +23,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The short log's span and its number of periods, read once.
     let reader = LogReader::open(&input)?;
     let header = reader.header();
-    let (mut first, mut last, mut periods) = (None, None, 0u64);
+    let (mut first, mut last, mut periods, mut versions) = (None, None, 0u64, 0u64);
     for item in reader {
-        if let LogItem::Period(r) = item {
-            first.get_or_insert((r.cycle, r.time.as_nanos()));
-            last = Some((r.cycle, r.time.as_nanos()));
-            periods += 1;
+        match item {
+            LogItem::Period(r) => {
+                first.get_or_insert((r.cycle, r.time.as_nanos()));
+                last = Some((r.cycle, r.time.as_nanos()));
+                periods += 1;
+                versions = versions.max(r.surface_version + 1);
+            }
+            LogItem::Surface(v, _) => versions = versions.max(v + 1),
+            _ => {}
         }
     }
     let (Some((first_cycle, first_ns)), Some((last_cycle, last_ns))) = (first, last) else {
@@ -44,8 +50,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             LogItem::Period(mut r) => {
                 r.cycle += n * cycles;
                 r.time.0 += n * span_ns;
+                r.surface_version += n * versions;
                 Some(LogItem::Period(r))
             }
+            LogItem::Surface(v, entry) => Some(LogItem::Surface(v + n * versions, entry)),
             LogItem::End(_) => None,
             other => (n == 0).then_some(other),
         }))
