@@ -247,7 +247,32 @@ fn a_relief_session_with_swaps_from_a_vision_thread_replays_bit_for_bit() {
         "surface versions rendered: {rendered:?}"
     );
     assert!(log.records.iter().filter(|r| r.in_contact).count() > 300);
-    assert_identical(&log);
+    let whole = assert_identical(&log);
+    // Read as a stream, holding only the surfaces not yet rendered: the same periods.
+    struct Kept(Vec<(usize, CycleRecord)>);
+    impl videt_tools::replay::ReplayObserver for Kept {
+        fn period(&mut self, i: usize, _recorded: &CycleRecord, replayed: &CycleRecord) {
+            self.0.push((i, *replayed));
+        }
+    }
+    let mut reader = telemetry::LogReader::open(&path).unwrap();
+    let mut kept = Kept(Vec::new());
+    let streamed = videt_tools::replay::replay_items(
+        reader.version(),
+        &mut reader,
+        &ReplayOverrides::default(),
+        &mut kept,
+    )
+    .unwrap();
+    assert!(streamed.identical() && streamed.stopped_early.is_none());
+    assert_eq!(
+        (streamed.records, streamed.replayed),
+        (log.records.len(), log.records.len())
+    );
+    assert!(
+        kept.0 == whole.replayed,
+        "the streamed replay differs from the whole one"
+    );
 }
 
 #[test]
@@ -556,6 +581,24 @@ fn the_replay_tool_reports_plots_and_refuses_bad_logs_clearly() {
         csv.starts_with("cycle,time_s,recorded_tension_setpoint_n_0,replayed_tension_setpoint_n_0")
     );
     assert!(csv.lines().count() > 2000);
+    // Every replayed period, and nothing left of the file it was written through.
+    let replayed = out
+        .lines()
+        .find_map(|l| {
+            l.split("replayed ")
+                .nth(1)?
+                .split(' ')
+                .next()?
+                .parse::<usize>()
+                .ok()
+        })
+        .unwrap();
+    assert_eq!(csv.lines().count(), replayed + 1, "{out}");
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
     for name in [
         "path.png",
         "tensions.png",

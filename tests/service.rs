@@ -387,10 +387,35 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
             .arg(only_log(dir.path()))
             .arg("--plot")
             .arg(&plots)
+            .arg("--view-figure")
+            .arg(plots.join("still.png"))
             .output()
             .unwrap();
         assert!(out.status.success(), "{out:?}");
-        for name in ["path.png", "tensions.png", "forces.png", "timing.png"] {
+        let still = image::open(plots.join("still.png")).unwrap().to_rgb8();
+        assert_eq!(still.dimensions(), (1600, 900), "--sim {sim}");
+        // At a moment asked for: the period at or after it.
+        let out = Command::new(env!("CARGO_BIN_EXE_videt"))
+            .arg("log")
+            .arg(only_log(dir.path()))
+            .arg("--view-figure")
+            .arg(plots.join("at.png"))
+            .args(["--at", "0.5"])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.success() && err.contains("(the session at 0.50"),
+            "--sim {sim}: {err}"
+        );
+        for name in [
+            "path.png",
+            "tensions.png",
+            "forces.png",
+            "timing.png",
+            "still.png",
+            "at.png",
+        ] {
             let img = image::open(plots.join(name)).unwrap().to_rgb8();
             let background = *img.get_pixel(0, 0);
             let drawn = img.pixels().filter(|p| **p != background).count();

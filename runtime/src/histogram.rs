@@ -113,6 +113,23 @@ impl Histogram {
         self.max_ns
     }
 
+    /// The buckets holding values, in order: lower edge, upper edge (`u64::MAX` for the
+    /// overflow bucket) and count.
+    pub fn buckets(&self) -> impl Iterator<Item = (u64, u64, u64)> + '_ {
+        self.counts
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c > 0)
+            .map(|(i, c)| {
+                let lower = if i == 0 {
+                    0
+                } else {
+                    Self::upper_edge_ns(i - 1)
+                };
+                (lower, Self::upper_edge_ns(i), *c)
+            })
+    }
+
     /// How many values exceeded `ns` (at bucket resolution).
     pub fn count_above(&self, ns: u64) -> u64 {
         let b = Self::bucket(ns);
@@ -131,6 +148,38 @@ impl Histogram {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_buckets_hold_every_value_between_their_edges() {
+        let mut h = Histogram::new();
+        let values = [
+            0,
+            999,
+            1_000,
+            1_500_000,
+            2_050_000,
+            99_999_999,
+            100_000_000,
+            u64::MAX,
+        ];
+        for v in values {
+            h.record(v);
+        }
+        let buckets: Vec<(u64, u64, u64)> = h.buckets().collect();
+        assert_eq!(
+            buckets.iter().map(|b| b.2).sum::<u64>(),
+            values.len() as u64
+        );
+        for v in values {
+            assert!(
+                buckets
+                    .iter()
+                    .any(|&(lo, hi, _)| lo <= v && (v < hi || hi == u64::MAX)),
+                "{v} in no bucket: {buckets:?}"
+            );
+        }
+        assert!(buckets.windows(2).all(|w| w[0].1 <= w[1].0));
+    }
 
     #[test]
     fn quantiles_of_a_known_distribution() {

@@ -11,6 +11,7 @@ pub mod felt;
 pub mod felt_surface;
 pub mod haptic_bench;
 pub mod manual;
+pub mod plot_data;
 pub mod plotting;
 pub mod replay;
 pub mod tool;

@@ -370,6 +370,10 @@ impl<R: Read> LogReader<R> {
     pub fn records(&self) -> u64 {
         self.records
     }
+    /// Whether the session closed its log: an end frame was read.
+    pub fn closed(&self) -> bool {
+        self.end.is_some()
+    }
     /// [`Log::end_note`] of what was read so far.
     pub fn end_note(&self) -> String {
         end_note(self.end.as_ref(), self.version, self.last_cycle)

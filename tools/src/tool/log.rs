@@ -9,9 +9,12 @@ use serde::Serialize;
 
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::histogram::Histogram;
-use videt_runtime::telemetry::{read_log, LogError, LogItem, LogOutline, LogReader, SessionInfo};
+use videt_runtime::telemetry::{
+    LogError, LogItem, LogOutline, LogReader, RecordedSurface, SessionInfo, SurfaceEntry,
+};
 
 use crate::felt::FeltCounter;
+use crate::plot_data::SessionFigureData;
 
 use super::ToolResult;
 
@@ -185,12 +188,22 @@ impl Tallies {
     }
 }
 
+/// What one pass over a log gathers for `videt log`.
+pub struct Summarised {
+    /// The summary.
+    pub summary: LogSummary,
+    /// The outline.
+    pub outline: LogOutline,
+    /// The configuration the session ran (or `--config`).
+    pub config: videt_rt_config::Config,
+    /// What the figures draw (with `--plot`).
+    pub figures: Option<SessionFigureData>,
+}
+
 /// Summarise `args.logfile`, read once as a stream (the memory it takes does not grow with the
-/// session's length); returns the summary, the log's outline and the configuration the session
-/// ran (`--config` when given).
-pub fn summarise(
-    args: &LogArgs,
-) -> Result<(LogSummary, LogOutline, videt_rt_config::Config), super::ToolError> {
+/// session's length); returns the summary, the log's outline, the configuration the session
+/// ran (`--config` when given) and, with `--plot`, what the figures draw.
+pub fn summarise(args: &LogArgs) -> Result<Summarised, super::ToolError> {
     let explicit = args
         .config
         .as_deref()
@@ -200,6 +213,7 @@ pub fn summarise(
     let mut outline = LogOutline::new(reader.header(), reader.version());
     let mut tallies = Tallies::default();
     let mut felt: Option<Result<FeltCounter, String>> = None;
+    let mut figures = args.plot.as_ref().map(|_| SessionFigureData::default());
     for item in &mut reader {
         outline.add(&item);
         let counted = matches!(item, LogItem::Period(_) | LogItem::Calibration { .. });
@@ -212,6 +226,9 @@ pub fn summarise(
         match &item {
             LogItem::Period(r) => {
                 tallies.add(r);
+                if let Some(f) = figures.as_mut() {
+                    f.add(r);
+                }
                 if let Some(c) = counter {
                     c.period(r);
                 }
@@ -248,7 +265,12 @@ pub fn summarise(
         frame_to_force: FrameToForce::of_ages(tallies.frame_ages),
         felt: felt.and_then(|c| c.ok()).and_then(|c| c.finish().ok()),
     };
-    Ok((summary, outline, config))
+    Ok(Summarised {
+        summary,
+        outline,
+        config,
+        figures,
+    })
 }
 
 /// Write the records as CSV.
@@ -313,6 +335,24 @@ fn session_config(
     }
 }
 
+/// The surface `version` as `path` recorded it (`None`: published but not recorded, or not in
+/// the log), read as a stream up to it.
+pub fn recorded_surface(
+    path: &std::path::Path,
+    version: u64,
+) -> Result<Option<std::sync::Arc<RecordedSurface>>, LogError> {
+    for item in LogReader::open(path)? {
+        if let LogItem::Surface(v, entry) = item {
+            match entry {
+                SurfaceEntry::Recorded(s) if v == version => return Ok(Some(s)),
+                _ if v >= version => return Ok(None),
+                _ => {}
+            }
+        }
+    }
+    Ok(None)
+}
+
 /// The records of `path`, read as a stream.
 fn records(path: &std::path::Path) -> Result<impl Iterator<Item = CycleRecord>, LogError> {
     Ok(LogReader::open(path)?.filter_map(|item| match item {
@@ -323,23 +363,28 @@ fn records(path: &std::path::Path) -> Result<impl Iterator<Item = CycleRecord>, 
 
 /// Run `videt log`.
 pub fn run(args: &LogArgs) -> ToolResult {
-    let (s, outline, config) = summarise(args)?;
-    // The figures need the whole log in memory; the summary, the CSV and the MCAP export read
-    // it as a stream.
-    if args.view_figure.is_some() || args.plot.is_some() {
-        let log = read_log(&args.logfile)?;
-        if let Some(out) = &args.view_figure {
-            let shown = super::view_figure::write_view_figure(out, &log, &config, args.at)?;
-            eprintln!("wrote {} (the session at {shown:.3} s)", out.display());
-        }
-        if let Some(dir) = &args.plot {
-            let limits = super::log_plots::TensionLimits {
-                t_min_n: config.control.t_min_n,
-                t_max_n: config.control.t_max_n,
-            };
-            for path in super::log_plots::write_all(dir, &log, limits)? {
-                eprintln!("wrote {}", path.display());
-            }
+    let Summarised {
+        summary: s,
+        outline,
+        config,
+        figures,
+    } = summarise(args)?;
+    if let Some(out) = &args.view_figure {
+        let shown = super::view_figure::write_view_figure(out, &args.logfile, &config, args.at)?;
+        eprintln!("wrote {} (the session at {shown:.3} s)", out.display());
+    }
+    if let (Some(dir), Some(figures)) = (&args.plot, &figures) {
+        let limits = super::log_plots::TensionLimits {
+            t_min_n: config.control.t_min_n,
+            t_max_n: config.control.t_max_n,
+        };
+        let surface = match figures.session_surface_version() {
+            Some(version) => recorded_surface(&args.logfile, version)?.map(|s| (version, s)),
+            None => None,
+        };
+        let surface = surface.as_ref().map(|(v, s)| (*v, s.as_ref()));
+        for path in super::log_plots::write_all(dir, figures, surface, limits)? {
+            eprintln!("wrote {}", path.display());
         }
     }
     if args.json {

@@ -9,11 +9,12 @@ use plotters::prelude::*;
 use videt_control::measures::v_index;
 use videt_control::safety::SafetyState;
 
+use crate::plot_data::{DrawnPeriod, Marks, SessionFigureData};
 use crate::plotting::{
     draw_legend, line_mark, register_font, write_error as e, PlotError, TimeChart,
 };
-use videt_runtime::cycle::CycleRecord;
-use videt_runtime::telemetry::{Log, RecordedSurface, SurfaceEntry};
+use videt_runtime::histogram::Histogram;
+use videt_runtime::telemetry::RecordedSurface;
 
 const WIRE_COLOURS: [RGBColor; 3] = [
     RGBColor(31, 119, 180),
@@ -33,56 +34,35 @@ pub struct TensionLimits {
     pub t_max_n: f64,
 }
 
-/// A safety transition: time (s) and the new state.
-fn safety_events(records: &[CycleRecord], t0: f64) -> Vec<(f64, SafetyState)> {
-    let mut events = Vec::new();
-    let mut last = SafetyState::Normal;
-    for r in records {
-        if r.safety != last {
-            events.push((r.time.as_secs_f64() - t0, r.safety));
-            last = r.safety;
-        }
-    }
-    events
-}
-
-/// Draw every figure of `log` into `dir`; returns the files written.
-pub fn write_all(dir: &Path, log: &Log, limits: TensionLimits) -> Result<Vec<PathBuf>, PlotError> {
-    if log.records.is_empty() {
+/// Draw every figure of a session (`data`, gathered as its log was read; `surface`: the
+/// surface most of its periods rendered, with its version, when the log recorded it) into
+/// `dir`; returns the files written.
+pub fn write_all(
+    dir: &Path,
+    data: &SessionFigureData,
+    surface: Option<(u64, &RecordedSurface)>,
+    limits: TensionLimits,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let (Some(t0), records) = (data.t0_s, data.drawn_periods()) else {
         return Err("the log has no records to plot".into());
-    }
+    };
     register_font();
     std::fs::create_dir_all(dir).map_err(e(dir))?;
-    let t0 = log.records[0].time.as_secs_f64();
-    let events = safety_events(&log.records, t0);
+    let events = &data.events;
     let mut written = Vec::new();
     let path = dir.join("path.png");
-    path_plot(&path, &log.records, session_surface(log))?;
+    path_plot(&path, &records, &data.first_contacts, surface)?;
     written.push(path);
     let path = dir.join("tensions.png");
-    tensions_plot(&path, &log.records, t0, limits, &events)?;
+    tensions_plot(&path, &records, t0, limits, events)?;
     written.push(path);
     let path = dir.join("forces.png");
-    forces_plot(&path, &log.records, t0, &events)?;
+    forces_plot(&path, &records, t0, events)?;
     written.push(path);
     let path = dir.join("timing.png");
-    timing_plot(&path, &log.records)?;
+    timing_plot(&path, [&data.wake, &data.compute])?;
     written.push(path);
     Ok(written)
-}
-
-/// The surface most of the session's periods rendered (with its version), when the log
-/// recorded it.
-fn session_surface(log: &Log) -> Option<(u64, &RecordedSurface)> {
-    let mut counts = std::collections::BTreeMap::<u64, usize>::new();
-    for r in &log.records {
-        *counts.entry(r.surface_version).or_default() += 1;
-    }
-    let (&version, _) = counts.iter().max_by_key(|(v, n)| (**n, **v))?;
-    match log.surfaces.get(&version)? {
-        SurfaceEntry::Recorded(s) => Some((version, s.as_ref())),
-        SurfaceEntry::Lost => None,
-    }
 }
 
 /// The surface's section by the plane `y = y_m`, as (x, z) in metres, at `xs`.
@@ -124,7 +104,8 @@ fn span(values: impl Iterator<Item = f64>) -> (f64, f64) {
 /// section by the plane of the path (at its median y) when the log recorded the surface.
 fn path_plot(
     path: &Path,
-    records: &[CycleRecord],
+    records: &[DrawnPeriod],
+    first_contacts: &Marks<(f64, f64)>,
     surface: Option<(u64, &RecordedSurface)>,
 ) -> Result<(), PlotError> {
     let root = BitMapBackend::new(path, (900, 700)).into_drawing_area();
@@ -191,24 +172,21 @@ fn path_plot(
     }
     chart
         .draw_series(
-            records
-                .windows(2)
-                .filter(|w| w[1].in_contact && !w[0].in_contact)
-                .map(|w| {
-                    Circle::new(
-                        (mm(w[1].position_m[0]), mm(w[1].position_m[2])),
-                        3,
-                        GREY.filled(),
-                    )
-                }),
+            first_contacts
+                .kept
+                .iter()
+                .map(|&(x, z)| Circle::new((mm(x), mm(z)), 3, GREY.filled())),
         )
         .map_err(e(path))?
-        .label("first contact")
+        .label(match first_contacts.beyond {
+            0 => "first contact".to_string(),
+            n => format!("first contact ({n} later ones not drawn)"),
+        })
         .legend(|(x, y)| Circle::new((x, y), 3, GREY.filled()));
     // Arrows: 1 N is drawn as 5 % of the plot's width.
     let scale_mm_per_n = half * 0.1;
     let every = (records.len() / 80).max(1);
-    let arrows = |pick: fn(&CycleRecord) -> [f64; 3]| -> Vec<[(f64, f64); 2]> {
+    let arrows = |pick: fn(&DrawnPeriod) -> [f64; 3]| -> Vec<[(f64, f64); 2]> {
         records
             .iter()
             .step_by(every)
@@ -275,10 +253,10 @@ fn time_chart<'a>(
 /// Vertical lines at the safety events, labelled with the new state.
 fn draw_events(
     chart: &mut TimeChart<'_>,
-    events: &[(f64, SafetyState)],
+    events: &Marks<(f64, SafetyState)>,
     (y_lo, y_hi): (f64, f64),
 ) -> Result<(), String> {
-    for &(t, state) in events {
+    for &(t, state) in &events.kept {
         let colour = if state == SafetyState::Normal {
             WIRE_COLOURS[2]
         } else {
@@ -303,15 +281,15 @@ fn draw_events(
 
 fn tensions_plot(
     path: &Path,
-    records: &[CycleRecord],
+    records: &[DrawnPeriod],
     t0: f64,
     limits: TensionLimits,
-    events: &[(f64, SafetyState)],
+    events: &Marks<(f64, SafetyState)>,
 ) -> Result<(), PlotError> {
     let root = BitMapBackend::new(path, (1000, 900)).into_drawing_area();
     root.fill(&WHITE).map_err(e(path))?;
     let panels = root.split_evenly((3, 1));
-    let t_end = records[records.len() - 1].time.as_secs_f64() - t0;
+    let t_end = records[records.len() - 1].time_s - t0;
     for (w, panel) in panels.iter().enumerate() {
         let (_, hi) = span(
             records
@@ -331,7 +309,7 @@ fn tensions_plot(
             .draw_series(LineSeries::new(
                 records
                     .iter()
-                    .map(|r| (r.time.as_secs_f64() - t0, r.tension_setpoint_n[w])),
+                    .map(|r| (r.time_s - t0, r.tension_setpoint_n[w])),
                 ORANGE.stroke_width(1),
             ))
             .map_err(e(path))?
@@ -341,7 +319,7 @@ fn tensions_plot(
             .draw_series(LineSeries::new(
                 records
                     .iter()
-                    .map(|r| (r.time.as_secs_f64() - t0, r.tension_measured_n[w])),
+                    .map(|r| (r.time_s - t0, r.tension_measured_n[w])),
                 WIRE_COLOURS[w].stroke_width(1),
             ))
             .map_err(e(path))?
@@ -372,14 +350,14 @@ fn norm(v: [f64; 3]) -> f64 {
 
 fn forces_plot(
     path: &Path,
-    records: &[CycleRecord],
+    records: &[DrawnPeriod],
     t0: f64,
-    events: &[(f64, SafetyState)],
+    events: &Marks<(f64, SafetyState)>,
 ) -> Result<(), PlotError> {
     let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(e(path))?;
     let (top, bottom) = root.split_vertically(420);
-    let t_end = records[records.len() - 1].time.as_secs_f64() - t0;
+    let t_end = records[records.len() - 1].time_s - t0;
     let (_, f_hi) = span(
         records
             .iter()
@@ -397,7 +375,7 @@ fn forces_plot(
         .draw_series(LineSeries::new(
             records
                 .iter()
-                .map(|r| (r.time.as_secs_f64() - t0, norm(r.desired_force_n))),
+                .map(|r| (r.time_s - t0, norm(r.desired_force_n))),
             ORANGE.stroke_width(2),
         ))
         .map_err(e(path))?
@@ -407,7 +385,7 @@ fn forces_plot(
         .draw_series(LineSeries::new(
             records
                 .iter()
-                .map(|r| (r.time.as_secs_f64() - t0, norm(r.rendered_force_n))),
+                .map(|r| (r.time_s - t0, norm(r.rendered_force_n))),
             WIRE_COLOURS[0].stroke_width(1),
         ))
         .map_err(e(path))?
@@ -434,7 +412,7 @@ fn forces_plot(
                         &nalgebra::Vector3::from(r.desired_force_n),
                     );
                     Circle::new(
-                        (r.time.as_secs_f64() - t0, v.clamp(-0.1, 1.3)),
+                        (r.time_s - t0, v.clamp(-0.1, 1.3)),
                         1,
                         WIRE_COLOURS[2].filled(),
                     )
@@ -445,25 +423,16 @@ fn forces_plot(
     Ok(())
 }
 
-fn histogram(values_us: &[f64], bins: usize) -> (f64, Vec<(f64, u32)>) {
-    let mut sorted: Vec<f64> = values_us
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .collect();
-    sorted.sort_by(f64::total_cmp);
-    // Up to the 99.9th percentile: the rare spikes are in the summary's maximum.
-    let top = sorted
-        .get(((sorted.len() as f64) * 0.999) as usize)
-        .or(sorted.last())
-        .copied()
-        .unwrap_or(1.0)
-        .max(1.0);
+/// `h` in `bins` bars of equal width up to its 99.9th percentile (the last bar holds the
+/// 0.1 % beyond), µs: (the bars' width, each bar's left edge and count).
+fn histogram(h: &Histogram, bins: usize) -> (f64, Vec<(f64, u64)>) {
+    let top = (h.quantile_ns(0.999) as f64 * 1e-3).max(1.0);
     let width = top / bins as f64;
-    let mut counts = vec![0u32; bins];
-    for v in &sorted {
-        let b = ((v / width) as usize).min(bins - 1);
-        counts[b] += 1;
+    let mut counts = vec![0u64; bins];
+    for (lower_ns, upper_ns, count) in h.buckets() {
+        // A bucket is placed by its middle (its values are within a microsecond below 2 ms).
+        let middle_us = (lower_ns as f64 + upper_ns.min(h.max_ns().max(lower_ns)) as f64) * 0.5e-3;
+        counts[((middle_us / width) as usize).min(bins - 1)] += count;
     }
     (
         width,
@@ -475,18 +444,13 @@ fn histogram(values_us: &[f64], bins: usize) -> (f64, Vec<(f64, u32)>) {
     )
 }
 
-fn timing_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
+fn timing_plot(path: &Path, [wake, compute]: [&Histogram; 2]) -> Result<(), PlotError> {
     let root = BitMapBackend::new(path, (1000, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(e(path))?;
     let (left, right) = root.split_horizontally(500);
-    let wake: Vec<f64> = records
-        .iter()
-        .map(|r| r.wake_latency_ns as f64 * 1e-3)
-        .collect();
-    let compute: Vec<f64> = records.iter().map(|r| r.compute_ns as f64 * 1e-3).collect();
     for (area, values, title, colour) in [
-        (&left, &wake, "wake-up latency", WIRE_COLOURS[0]),
-        (&right, &compute, "compute time", WIRE_COLOURS[1]),
+        (&left, wake, "wake-up latency", WIRE_COLOURS[0]),
+        (&right, compute, "compute time", WIRE_COLOURS[1]),
     ] {
         let (width, bins) = histogram(values, 60);
         let max_count = bins.iter().map(|b| b.1).max().unwrap_or(1).max(1);
@@ -499,7 +463,7 @@ fn timing_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(60)
-            .build_cartesian_2d(0.0..x_hi, (1u32..max_count * 2).log_scale())
+            .build_cartesian_2d(0.0..x_hi, (1u64..max_count * 2).log_scale())
             .map_err(e(path))?;
         chart
             .configure_mesh()
@@ -522,42 +486,54 @@ fn timing_plot(path: &Path, records: &[CycleRecord]) -> Result<(), PlotError> {
 /// recorded |f| against the replayed one, with the first divergence marked.
 pub fn replay_plot(
     path: &Path,
-    recorded: &[CycleRecord],
-    replayed: &[CycleRecord],
+    pairs: &[(DrawnPeriod, DrawnPeriod)],
     first_divergence_s: Option<f64>,
 ) -> Result<(), PlotError> {
-    if recorded.is_empty() || recorded.len() != replayed.len() {
+    if pairs.is_empty() {
         return Err("nothing replayed to plot".into());
     }
+    let recorded: Vec<&DrawnPeriod> = pairs.iter().map(|p| &p.0).collect();
+    let replayed: Vec<&DrawnPeriod> = pairs.iter().map(|p| &p.1).collect();
     register_font();
     let root = BitMapBackend::new(path, (1000, 1100)).into_drawing_area();
     root.fill(&WHITE).map_err(e(path))?;
     let panels = root.split_evenly((4, 1));
-    let t0 = recorded[0].time.as_secs_f64();
-    let t_end = recorded[recorded.len() - 1].time.as_secs_f64() - t0;
-    let t = |r: &CycleRecord| r.time.as_secs_f64() - t0;
-    type Pick = Box<dyn Fn(&CycleRecord) -> f64>;
+    let t0 = recorded[0].time_s;
+    let t_end = recorded[recorded.len() - 1].time_s - t0;
+    let t = |r: &DrawnPeriod| r.time_s - t0;
+    type Pick = Box<dyn Fn(&DrawnPeriod) -> f64>;
     let series: Vec<(String, &str, Pick)> = (0..3)
         .map(|w| {
             (
                 format!("wire {w}: tension set-point, recorded and replayed"),
                 "N",
-                Box::new(move |r: &CycleRecord| r.tension_setpoint_n[w]) as Pick,
+                Box::new(move |r: &DrawnPeriod| r.tension_setpoint_n[w]) as Pick,
             )
         })
         .chain(std::iter::once((
             "|f|, the force the set-points render: recorded and replayed".to_string(),
             "N",
-            Box::new(|r: &CycleRecord| norm(r.rendered_force_n)) as Pick,
+            Box::new(|r: &DrawnPeriod| norm(r.rendered_force_n)) as Pick,
         )))
         .collect();
     for (panel, (caption, unit, pick)) in panels.iter().zip(&series) {
-        let (lo, hi) = span(recorded.iter().chain(replayed).map(pick));
+        let (lo, hi) = span(recorded.iter().chain(&replayed).map(|r| pick(r)));
         let mut chart = time_chart(panel, caption, t_end, lo..hi, unit, path)?;
+        // The recorded line three pixels thick, as three one-pixel lines: a thick line's
+        // mitred corners would spike far out of the panel where the tension is noisy.
+        let pixel = (hi - lo) / f64::from(chart.plotting_area().dim_in_pixel().1.max(1));
+        for offset in [-pixel, pixel] {
+            chart
+                .draw_series(LineSeries::new(
+                    recorded.iter().map(|r| (t(r), pick(r) + offset)),
+                    GREY.stroke_width(1),
+                ))
+                .map_err(e(path))?;
+        }
         chart
             .draw_series(LineSeries::new(
                 recorded.iter().map(|r| (t(r), pick(r))),
-                GREY.stroke_width(3),
+                GREY.stroke_width(1),
             ))
             .map_err(e(path))?
             .label("recorded")
@@ -589,33 +565,118 @@ pub fn replay_plot(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use videt_runtime::telemetry::LogHeader;
+    use videt_runtime::cycle::CycleRecord;
 
     #[test]
     fn an_empty_log_is_a_clear_error_and_writes_nothing() {
         let dir = tempfile::tempdir().unwrap();
-        let log = Log::of_records(
-            LogHeader {
-                rate_hz: 1000,
-                start_unix_ns: 0,
-            },
-            Vec::new(),
-        );
         let limits = TensionLimits {
             t_min_n: 0.3,
             t_max_n: 15.0,
         };
-        let err = write_all(&dir.path().join("plots"), &log, limits).unwrap_err();
+        let data = SessionFigureData::default();
+        let err = write_all(&dir.path().join("plots"), &data, None, limits).unwrap_err();
         assert!(err.to_string().contains("no records"), "{err}");
         assert!(!dir.path().join("plots").exists());
     }
 
     #[test]
     fn the_histogram_keeps_every_value_and_bins_the_tail_last() {
-        let values: Vec<f64> = (0..1000).map(f64::from).chain([1e6]).collect();
-        let (width, bins) = histogram(&values, 10);
-        assert_eq!(bins.iter().map(|b| b.1).sum::<u32>(), 1001);
+        let mut h = Histogram::new();
+        for v in (0..1000u64).map(|us| us * 1000).chain([1_000_000_000]) {
+            h.record(v);
+        }
+        let (width, bins) = histogram(&h, 10);
+        assert_eq!(bins.iter().map(|b| b.1).sum::<u64>(), 1001);
         assert!(width > 90.0 && width < 110.0, "{width}");
         assert!(bins[9].1 >= 1);
+        // A value lands in the bar that holds it: 0-99 µs in the first.
+        assert_eq!(
+            bins[0].1,
+            (0..1000).filter(|us| (*us as f64 + 0.5) < width).count() as u64
+        );
+    }
+
+    /// A minute at 1 kHz with noisy tensions and forces, contacts and spikes.
+    fn noisy_session(periods: u64) -> Vec<CycleRecord> {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut noise = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % 10_000) as f64 / 10_000.0 - 0.5
+        };
+        (0..periods)
+            .map(|i| {
+                let t = i as f64 * 1e-3;
+                let in_contact = (t * 0.4).sin() > 0.2;
+                let push = if in_contact {
+                    3.0 + 2.0 * (t * 3.0).sin()
+                } else {
+                    0.0
+                };
+                let spike = if i % 7919 == 0 { 6.0 } else { 0.0 };
+                let mut r = CycleRecord {
+                    cycle: i,
+                    time: videt_hal::MonoTime(5_000_000_000 + i * 1_000_000),
+                    in_contact,
+                    position_m: [0.1 * (t * 0.3).sin(), 0.0, 0.3 + 0.02 * (t * 0.4).sin()],
+                    desired_force_n: [0.0, 0.0, push],
+                    rendered_force_n: [0.1 * noise(), 0.0, push + 0.3 * noise()],
+                    ..CycleRecord::default()
+                };
+                for w in 0..3 {
+                    r.tension_setpoint_n[w] = 1.0 + push * (0.3 + 0.2 * w as f64) + spike;
+                    r.tension_measured_n[w] = r.tension_setpoint_n[w] + 0.4 * noise();
+                }
+                r
+            })
+            .collect()
+    }
+
+    fn differing_pixels(a: &Path, b: &Path) -> f64 {
+        let (a, b) = (
+            image::open(a).unwrap().to_rgb8(),
+            image::open(b).unwrap().to_rgb8(),
+        );
+        assert_eq!(a.dimensions(), b.dimensions());
+        let differ = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+        differ as f64 / a.pixels().len() as f64
+    }
+
+    #[test]
+    fn a_long_session_draws_the_same_time_figures_from_the_periods_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let records = noisy_session(60_000);
+        let mut data = SessionFigureData::default();
+        records.iter().for_each(|r| data.add(r));
+        let all: Vec<DrawnPeriod> = records.iter().map(DrawnPeriod::of).collect();
+        let kept = data.drawn_periods();
+        assert!(
+            kept.len() * 4 < all.len(),
+            "{} of {} kept",
+            kept.len(),
+            all.len()
+        );
+        let t0 = all[0].time_s;
+        let limits = TensionLimits {
+            t_min_n: 0.3,
+            t_max_n: 15.0,
+        };
+        let events = Marks::default();
+        register_font();
+        let (full, thin) = (dir.path().join("full.png"), dir.path().join("thin.png"));
+        tensions_plot(&full, &all, t0, limits, &events).unwrap();
+        tensions_plot(&thin, &kept, t0, limits, &events).unwrap();
+        let tensions = differing_pixels(&full, &thin);
+        forces_plot(&full, &all, t0, &events).unwrap();
+        forces_plot(&thin, &kept, t0, &events).unwrap();
+        let forces = differing_pixels(&full, &thin);
+        eprintln!(
+            "{} of {} periods kept; pixels differing: tensions {tensions:.5}, forces {forces:.5}",
+            kept.len(),
+            all.len()
+        );
+        assert!(tensions < 0.01 && forces < 0.01, "{tensions} {forces}");
     }
 }

@@ -3,17 +3,21 @@
 //! settings would have commanded along the same session.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::Args;
 use serde::Serialize;
 
+use crate::felt::FeltCounter;
+use crate::plot_data::{Decimator, DrawnPeriod, SessionFigureData};
 use crate::replay::{
-    replay, session_text, unrecorded_config_keys, Replay, ReplayOverrides, UnrecordedKey,
+    replay_items, session_text, unrecorded_config_keys, ReplayObserver, ReplayOutcome,
+    ReplayOverrides, UnrecordedKey,
 };
 use videt_runtime::cycle::CycleRecord;
-use videt_runtime::telemetry::{parse_log, Log};
+use videt_runtime::telemetry::{CalibrationInForce, LogReader};
 
 use super::ToolResult;
 
@@ -81,22 +85,184 @@ pub struct ReplayReport {
     pub felt: Option<videt_control::FeltTally>,
 }
 
-fn report(log: &Log, r: &Replay, unrecorded: &[UnrecordedKey]) -> ReplayReport {
-    let (mut sp, mut tq, mut f) = ([0.0f64; 3], [0.0f64; 3], 0.0f64);
-    for (i, out) in &r.replayed {
-        let rec = &log.records[*i];
+/// The largest differences between replayed and recorded outputs.
+#[derive(Debug, Default)]
+struct Differences {
+    setpoint_n: [f64; 3],
+    torque_nm: [f64; 3],
+    force_n: f64,
+}
+
+impl Differences {
+    fn add(&mut self, rec: &CycleRecord, out: &CycleRecord) {
         for w in 0..3 {
-            sp[w] = sp[w].max((out.tension_setpoint_n[w] - rec.tension_setpoint_n[w]).abs());
-            tq[w] = tq[w].max((out.torque_nm[w] - rec.torque_nm[w]).abs());
+            let sp = (out.tension_setpoint_n[w] - rec.tension_setpoint_n[w]).abs();
+            self.setpoint_n[w] = self.setpoint_n[w].max(sp);
+            let tq = (out.torque_nm[w] - rec.torque_nm[w]).abs();
+            self.torque_nm[w] = self.torque_nm[w].max(tq);
         }
         let d: f64 = (0..3)
             .map(|k| (out.rendered_force_n[k] - rec.rendered_force_n[k]).powi(2))
             .sum();
-        f = f.max(d.sqrt());
+        self.force_n = self.force_n.max(d.sqrt());
     }
+}
+
+/// The recorded and replayed outputs side by side, written as the replay runs to a file
+/// beside the destination that takes its place when complete.
+struct SideBySideCsv {
+    path: PathBuf,
+    temp: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+    error: Option<std::io::Error>,
+}
+
+const CSV_OUTPUTS: [&str; 4] = [
+    "tension_setpoint_n",
+    "torque_nm",
+    "rendered_force_n",
+    "desired_force_n",
+];
+
+impl SideBySideCsv {
+    fn create(path: &Path) -> Result<SideBySideCsv, String> {
+        let name = path
+            .file_name()
+            .map_or_else(|| "replay.csv".into(), |n| n.to_string_lossy().into_owned());
+        let temp = path.with_file_name(format!(".{name}.tmp.{}", std::process::id()));
+        let file = std::fs::File::create(&temp).map_err(|e| format!("{}: {e}", temp.display()))?;
+        let mut csv = SideBySideCsv {
+            path: path.to_path_buf(),
+            temp,
+            out: std::io::BufWriter::new(file),
+            error: None,
+        };
+        let mut head = String::from("cycle,time_s");
+        for name in CSV_OUTPUTS {
+            for w in 0..3 {
+                let _ = write!(head, ",recorded_{name}_{w},replayed_{name}_{w}");
+            }
+        }
+        head.push_str(",recorded_safety,replayed_safety");
+        csv.line(format_args!("{head}"));
+        Ok(csv)
+    }
+
+    fn line(&mut self, text: std::fmt::Arguments<'_>) {
+        if self.error.is_none() {
+            if let Err(e) = writeln!(self.out, "{text}") {
+                self.error = Some(e);
+            }
+        }
+    }
+
+    fn period(&mut self, old: &CycleRecord, new: &CycleRecord) {
+        let pick = |r: &CycleRecord, k: usize| match k {
+            0 => r.tension_setpoint_n,
+            1 => r.torque_nm,
+            2 => r.rendered_force_n,
+            _ => r.desired_force_n,
+        };
+        let mut row = format!("{},{:.9}", old.cycle, old.time.as_secs_f64());
+        for k in 0..CSV_OUTPUTS.len() {
+            for w in 0..3 {
+                let _ = write!(row, ",{:.9e},{:.9e}", pick(old, k)[w], pick(new, k)[w]);
+            }
+        }
+        let _ = write!(row, ",{},{}", old.safety.as_str(), new.safety.as_str());
+        self.line(format_args!("{row}"));
+    }
+
+    /// Flush, sync and put the file in place (or remove it and say why).
+    fn finish(self) -> Result<PathBuf, String> {
+        let SideBySideCsv {
+            path,
+            temp,
+            out,
+            error,
+        } = self;
+        let done = match error {
+            Some(e) => Err(e),
+            None => out
+                .into_inner()
+                .map_err(|e| e.into_error())
+                .and_then(|f| f.sync_all())
+                .and_then(|()| std::fs::rename(&temp, &path)),
+        };
+        done.map(|()| path.clone()).map_err(|e| {
+            let _ = std::fs::remove_file(&temp);
+            format!("{}: {e}", path.display())
+        })
+    }
+}
+
+/// What the figures of a replay draw: the replayed session's, and the recorded and replayed
+/// outputs side by side.
+struct ReplayFigures {
+    replayed: SessionFigureData,
+    pairs: Decimator<(DrawnPeriod, DrawnPeriod), 8>,
+}
+
+/// What `videt replay` gathers as the replay runs: the differences, the felt force, the CSV
+/// and the figures, none of which keeps the periods.
+struct Gathered {
+    differences: Differences,
+    felt: Option<Result<FeltCounter, String>>,
+    csv: Option<SideBySideCsv>,
+    figures: Option<ReplayFigures>,
+}
+
+impl ReplayObserver for Gathered {
+    fn session(&mut self, config: &videt_rt_config::Config) {
+        self.felt = Some(FeltCounter::new(config));
+    }
+
+    fn calibration(&mut self, calibration: &CalibrationInForce) {
+        if let Some(Ok(felt)) = self.felt.as_mut() {
+            felt.calibration(calibration);
+        }
+    }
+
+    fn period(&mut self, _index: usize, recorded: &CycleRecord, replayed: &CycleRecord) {
+        self.differences.add(recorded, replayed);
+        if let Some(Ok(felt)) = self.felt.as_mut() {
+            felt.period(replayed);
+        }
+        if let Some(csv) = self.csv.as_mut() {
+            csv.period(recorded, replayed);
+        }
+        if let Some(f) = self.figures.as_mut() {
+            f.replayed.add(replayed);
+            let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let (a, b) = (recorded, replayed);
+            f.pairs.add(
+                a.time.as_secs_f64(),
+                (DrawnPeriod::of(a), DrawnPeriod::of(b)),
+                [
+                    Some(a.tension_setpoint_n[0]),
+                    Some(b.tension_setpoint_n[0]),
+                    Some(a.tension_setpoint_n[1]),
+                    Some(b.tension_setpoint_n[1]),
+                    Some(a.tension_setpoint_n[2]),
+                    Some(b.tension_setpoint_n[2]),
+                    Some(norm(a.rendered_force_n)),
+                    Some(norm(b.rendered_force_n)),
+                ],
+            );
+        }
+    }
+}
+
+fn report(
+    reader: &LogReader<std::io::BufReader<std::fs::File>>,
+    r: &ReplayOutcome,
+    gathered: &mut Gathered,
+    unrecorded: &[UnrecordedKey],
+) -> ReplayReport {
+    let d = &gathered.differences;
     ReplayReport {
-        records: log.records.len(),
-        replayed: r.replayed.len(),
+        records: r.records,
+        replayed: r.replayed,
         procedure_periods: r.procedure_periods,
         divergent_periods: r.divergent_periods,
         first_divergence: r.first_divergence.as_ref().map(|d| {
@@ -112,16 +278,19 @@ fn report(log: &Log, r: &Replay, unrecorded: &[UnrecordedKey]) -> ReplayReport {
             }
         }),
         stopped_early: r.stopped_early.clone(),
-        damage: log.damage_note(),
-        closed: log.closed(),
-        end: log.end_note(),
-        max_setpoint_difference_n: sp,
-        max_torque_difference_nm: tq,
-        max_force_difference_n: f,
+        damage: reader.damage_note(),
+        closed: reader.closed(),
+        end: reader.end_note(),
+        max_setpoint_difference_n: d.setpoint_n,
+        max_torque_difference_nm: d.torque_nm,
+        max_force_difference_n: d.force_n,
         algorithm: r.config.control.algorithm.clone(),
         unrecorded_config: unrecorded.iter().map(|k| k.to_string()).collect(),
-        felt: crate::felt::felt_report(log, &r.config, r.replayed.iter().map(|(i, o)| (*i, o)))
-            .ok(),
+        felt: gathered
+            .felt
+            .take()
+            .and_then(|c| c.ok())
+            .and_then(|c| c.finish().ok()),
     }
 }
 
@@ -129,45 +298,28 @@ fn join_keys(keys: &[UnrecordedKey], text: impl Fn(&UnrecordedKey) -> String) ->
     keys.iter().map(text).collect::<Vec<_>>().join(", ")
 }
 
-/// The recorded and replayed outputs side by side.
-pub fn side_by_side_csv(log: &Log, r: &Replay) -> String {
-    let mut out = String::from("cycle,time_s");
-    let outputs = [
-        "tension_setpoint_n",
-        "torque_nm",
-        "rendered_force_n",
-        "desired_force_n",
-    ];
-    for name in outputs {
-        for w in 0..3 {
-            let _ = write!(out, ",recorded_{name}_{w},replayed_{name}_{w}");
-        }
+/// The text of the session frame at the start of the log file `path` (read up to its end).
+fn session_text_of(path: &Path) -> Option<String> {
+    use std::io::Read;
+    use videt_runtime::telemetry::HEADER_BYTES;
+    let mut file = std::fs::File::open(path).ok()?;
+    let mut head = vec![0u8; HEADER_BYTES + 8];
+    file.read_exact(&mut head).ok()?;
+    let len = u32::from_le_bytes(head[HEADER_BYTES + 4..].try_into().ok()?) as usize;
+    // A session frame is a configuration's text: anything larger is not one.
+    if len > 1 << 20 {
+        return None;
     }
-    out.push_str(",recorded_safety,replayed_safety\n");
-    let pick = |r: &CycleRecord, k: usize| match k {
-        0 => r.tension_setpoint_n,
-        1 => r.torque_nm,
-        2 => r.rendered_force_n,
-        _ => r.desired_force_n,
-    };
-    for (i, new) in &r.replayed {
-        let old = &log.records[*i];
-        let _ = write!(out, "{},{:.9}", old.cycle, old.time.as_secs_f64());
-        for k in 0..outputs.len() {
-            for w in 0..3 {
-                let _ = write!(out, ",{:.9e},{:.9e}", pick(old, k)[w], pick(new, k)[w]);
-            }
-        }
-        let _ = writeln!(out, ",{},{}", old.safety.as_str(), new.safety.as_str());
-    }
-    out
+    let mut bytes = head;
+    bytes.resize(HEADER_BYTES + 8 + len, 0);
+    file.read_exact(&mut bytes[HEADER_BYTES + 8..]).ok()?;
+    session_text(&bytes).map(str::to_string)
 }
 
 /// Run `videt replay`.
 pub fn run(args: &ReplayArgs) -> ToolResult {
-    let bytes =
-        std::fs::read(&args.logfile).map_err(|e| format!("{}: {e}", args.logfile.display()))?;
-    let log = parse_log(&bytes).map_err(|e| format!("{}: {e}", args.logfile.display()))?;
+    let named = |e: &dyn std::fmt::Display| format!("{}: {e}", args.logfile.display());
+    let mut reader = LogReader::open(&args.logfile).map_err(|e| named(&e))?;
     let overrides = ReplayOverrides {
         config: args
             .config
@@ -176,18 +328,6 @@ pub fn run(args: &ReplayArgs) -> ToolResult {
             .transpose()?,
         algorithm: args.algorithm.clone(),
     };
-    let r = replay(&log, &overrides).map_err(|e| format!("{}: {e}", args.logfile.display()))?;
-    // A configuration given in full replaces the recorded one: nothing of it is missing then.
-    let unrecorded = match (&args.config, session_text(&bytes)) {
-        (None, Some(text)) => unrecorded_config_keys(text),
-        _ => Vec::new(),
-    };
-    let rep = report(&log, &r, &unrecorded);
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&rep)?);
-    } else {
-        print_report(args, &log, &rep, overrides.any());
-    }
     let csv = args.csv.clone().or_else(|| {
         overrides.any().then(|| {
             let mut p = args.logfile.clone().into_os_string();
@@ -195,31 +335,59 @@ pub fn run(args: &ReplayArgs) -> ToolResult {
             PathBuf::from(p)
         })
     });
-    if let Some(path) = csv {
-        videt_rt_config::calibration::write_atomically(
-            &path,
-            side_by_side_csv(&log, &r).as_bytes(),
-        )
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+    let mut gathered = Gathered {
+        differences: Differences::default(),
+        felt: None,
+        csv: csv.as_deref().map(SideBySideCsv::create).transpose()?,
+        figures: args.plot.as_ref().map(|_| ReplayFigures {
+            replayed: SessionFigureData::default(),
+            pairs: Decimator::new(),
+        }),
+    };
+    let (version, rate_hz) = (reader.version(), reader.header().rate_hz);
+    let r = replay_items(version, &mut reader, &overrides, &mut gathered);
+    let r = match r {
+        Ok(r) => r,
+        Err(e) => {
+            if let Some(csv) = gathered.csv.take() {
+                let _ = std::fs::remove_file(&csv.temp);
+            }
+            return Err(named(&e).into());
+        }
+    };
+    // A configuration given in full replaces the recorded one: nothing of it is missing then.
+    let unrecorded = match (&args.config, session_text_of(&args.logfile)) {
+        (None, Some(text)) => unrecorded_config_keys(&text),
+        _ => Vec::new(),
+    };
+    let rep = report(&reader, &r, &mut gathered, &unrecorded);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rep)?);
+    } else {
+        print_report(args, &r.what, rate_hz, &rep, overrides.any());
     }
-    if let Some(dir) = &args.plot {
-        let mut replayed =
-            Log::of_records(log.header, r.replayed.iter().map(|(_, out)| *out).collect());
-        replayed.surfaces = log.surfaces.clone();
+    if let Some(csv) = gathered.csv.take() {
+        eprintln!("wrote {}", csv.finish()?.display());
+    }
+    if let (Some(dir), Some(figures)) = (&args.plot, &gathered.figures) {
         let limits = super::log_plots::TensionLimits {
             t_min_n: r.config.control.t_min_n,
             t_max_n: r.config.control.t_max_n,
         };
-        for path in super::log_plots::write_all(dir, &replayed, limits)? {
+        let surface = match figures.replayed.session_surface_version() {
+            Some(version) => {
+                super::log::recorded_surface(&args.logfile, version)?.map(|s| (version, s))
+            }
+            None => None,
+        };
+        let surface = surface.as_ref().map(|(v, s)| (*v, s.as_ref()));
+        for path in super::log_plots::write_all(dir, &figures.replayed, surface, limits)? {
             eprintln!("wrote {}", path.display());
         }
-        let recorded: Vec<CycleRecord> = r.replayed.iter().map(|(i, _)| log.records[*i]).collect();
         let path = dir.join("replay.png");
         super::log_plots::replay_plot(
             &path,
-            &recorded,
-            &replayed.records,
+            &figures.pairs.kept(),
             r.first_divergence.as_ref().map(|d| d.time_s),
         )?;
         eprintln!("wrote {}", path.display());
@@ -231,18 +399,14 @@ pub fn run(args: &ReplayArgs) -> ToolResult {
     })
 }
 
-fn print_report(args: &ReplayArgs, log: &Log, rep: &ReplayReport, overridden: bool) {
-    let what = match &log.session {
-        Some(Ok(s)) => s.what.as_str(),
-        _ => "",
-    };
+fn print_report(args: &ReplayArgs, what: &str, rate_hz: u32, rep: &ReplayReport, overridden: bool) {
     println!(
         "{}: replayed {} of {} records ({what}; algorithm {}, {} Hz)",
         args.logfile.display(),
         rep.replayed,
         rep.records,
         rep.algorithm,
-        log.header.rate_hz
+        rate_hz
     );
     if let Some(d) = &rep.damage {
         println!("  {d}");

@@ -4,12 +4,14 @@
 //! the last ten seconds of tensions, of the thimble's speed and the force, and the safety
 //! state. For the documentation and for a report, where a live window cannot go.
 
+use std::collections::{BTreeMap, VecDeque};
 use std::path::Path;
+use std::sync::Arc;
 
 use plotters::prelude::*;
 use videt_control::safety::SafetyState;
 use videt_runtime::cycle::CycleRecord;
-use videt_runtime::telemetry::{Log, RecordedSurface, SurfaceEntry};
+use videt_runtime::telemetry::{LogItem, LogReader, RecordedSurface, SurfaceEntry};
 use videt_viewers::topics::{surface_triangles, tension_colour, SceneSetup, FORCE_ARROW_M_PER_N};
 
 use crate::plotting::{draw_legend, line_mark, register_font, write_error, PlotError, TimeChart};
@@ -30,43 +32,123 @@ const WIRE_COLOURS: [RGBColor; 3] = [
     RGBColor(98, 195, 112),
 ];
 
-/// The period the still shows: the one at `at_s` seconds into the session, or else the moment
-/// in contact with the largest desired force (the surface pressed hardest), or without contact
-/// the largest rendered force.
-fn chosen_period(records: &[CycleRecord], at_s: Option<f64>) -> usize {
-    let t0 = records[0].time.as_secs_f64();
-    match at_s {
-        Some(at) => records
-            .iter()
-            .position(|r| r.time.as_secs_f64() - t0 >= at)
-            .unwrap_or(records.len() - 1),
-        None => {
-            let in_contact = records.iter().any(|r| r.in_contact);
-            let force = |r: &CycleRecord| match in_contact {
-                true if r.in_contact => norm(r.desired_force_n),
-                true => -1.0,
-                false => norm(r.rendered_force_n),
-            };
-            (0..records.len())
-                .max_by(|&a, &b| force(&records[a]).total_cmp(&force(&records[b])))
-                .unwrap_or(0)
+/// Chooses, as the periods come, the one the still shows: the one at `at_s` seconds into the
+/// session, or else the moment in contact with the largest desired force (the surface pressed
+/// hardest), or without contact the largest rendered force.
+struct MomentChooser {
+    at_s: Option<f64>,
+    t0_s: Option<f64>,
+    periods: usize,
+    at: Option<usize>,
+    /// The largest desired force in contact and the largest rendered force, with their
+    /// periods (the later of equals).
+    pressed: Option<(f64, usize)>,
+    rendered: Option<(f64, usize)>,
+}
+
+impl MomentChooser {
+    fn new(at_s: Option<f64>) -> MomentChooser {
+        MomentChooser {
+            at_s,
+            t0_s: None,
+            periods: 0,
+            at: None,
+            pressed: None,
+            rendered: None,
         }
+    }
+
+    fn add(&mut self, r: &CycleRecord) {
+        let i = self.periods;
+        self.periods += 1;
+        let t = r.time.as_secs_f64();
+        let t0 = *self.t0_s.get_or_insert(t);
+        if self.at.is_none() && self.at_s.is_some_and(|at| t - t0 >= at) {
+            self.at = Some(i);
+        }
+        let larger = |best: Option<(f64, usize)>, f: f64| best.is_none_or(|(b, _)| f >= b);
+        let desired = norm(r.desired_force_n);
+        if r.in_contact && larger(self.pressed, desired) {
+            self.pressed = Some((desired, i));
+        }
+        let rendered = norm(r.rendered_force_n);
+        if larger(self.rendered, rendered) {
+            self.rendered = Some((rendered, i));
+        }
+    }
+
+    /// The period chosen (`None`: no period).
+    fn chosen(&self) -> Option<usize> {
+        let last = self.periods.checked_sub(1)?;
+        Some(match self.at_s {
+            Some(_) => self.at.unwrap_or(last),
+            None => self.pressed.or(self.rendered).map_or(0, |(_, i)| i),
+        })
+    }
+}
+
+/// The moment the still shows, read from the log: the period, the ten seconds before it, the
+/// calibration in force and the surface it rendered.
+struct Moment {
+    window: Vec<CycleRecord>,
+    calibration: Option<videt_runtime::telemetry::CalibrationInForce>,
+    surface: Option<Arc<RecordedSurface>>,
+}
+
+impl Moment {
+    /// Read `logfile` up to its period number `now` (counted from 0).
+    fn read(logfile: &Path, now: usize) -> Result<Moment, PlotError> {
+        let mut window = VecDeque::new();
+        let mut calibration = None;
+        // Recorded surfaces not older than the newest one a period has rendered.
+        let mut surfaces: BTreeMap<u64, Arc<RecordedSurface>> = BTreeMap::new();
+        let mut periods = 0;
+        let reader = LogReader::open(logfile).map_err(|e| format!("{}: {e}", logfile.display()))?;
+        for item in reader {
+            match item {
+                LogItem::Calibration { calibration: c, .. } => calibration = Some(c),
+                LogItem::Surface(version, SurfaceEntry::Recorded(s)) => {
+                    surfaces.insert(version, s);
+                }
+                LogItem::Period(r) => {
+                    let t = r.time.as_secs_f64();
+                    while window
+                        .front()
+                        .is_some_and(|f: &CycleRecord| f.time.as_secs_f64() < t - WINDOW_S)
+                    {
+                        window.pop_front();
+                    }
+                    // The newest recorded surface at or before the one rendered is kept; the
+                    // older ones are not shown again.
+                    let shown = surfaces.range(..=r.surface_version).next_back();
+                    if let Some(&shown) = shown.map(|(v, _)| v) {
+                        if surfaces.first_key_value().is_some_and(|(v, _)| *v < shown) {
+                            surfaces = surfaces.split_off(&shown);
+                        }
+                    }
+                    window.push_back(r);
+                    if periods == now {
+                        let surface = surfaces
+                            .range(..=r.surface_version)
+                            .next_back()
+                            .map(|(_, s)| s.clone());
+                        return Ok(Moment {
+                            window: window.into(),
+                            calibration,
+                            surface,
+                        });
+                    }
+                    periods += 1;
+                }
+                _ => {}
+            }
+        }
+        Err(format!("{}: the log changed while it was read", logfile.display()).into())
     }
 }
 
 fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
-/// The newest recorded surface at or before `version`.
-fn surface_at(log: &Log, version: u64) -> Option<&RecordedSurface> {
-    log.surfaces
-        .range(..=version)
-        .rev()
-        .find_map(|(_, e)| match e {
-            SurfaceEntry::Recorded(s) => Some(s.as_ref()),
-            SurfaceEntry::Lost => None,
-        })
 }
 
 /// Orthographic projection of the rig's frame: x to the right, the frame's y up, z (away
@@ -86,44 +168,46 @@ fn colour_of(c: &foxglove::schemas::Color) -> RGBColor {
     RGBColor(byte(c.r), byte(c.g), byte(c.b))
 }
 
-/// Write the still of `log` (recorded with `config`) at `at_s` seconds into the session
-/// (default: the moment of the largest desired force in contact) to `path`, 1600 × 900 pixels; returns the time
-/// shown, seconds into the session.
+/// Write the still of the session log `logfile` (recorded with `config`) at `at_s` seconds
+/// into the session (default: the moment of the largest desired force in contact) to `path`,
+/// 1600 × 900 pixels; returns the time shown, seconds into the session. The log is read twice
+/// as a stream: to choose the moment, then up to it.
 pub fn write_view_figure(
     path: &Path,
-    log: &Log,
+    logfile: &Path,
     config: &videt_rt_config::Config,
     at_s: Option<f64>,
 ) -> Result<f64, PlotError> {
-    if log.records.is_empty() {
+    let mut chooser = MomentChooser::new(at_s);
+    let mut bands = SafetyBands::default();
+    let reader = LogReader::open(logfile).map_err(|e| format!("{}: {e}", logfile.display()))?;
+    for item in reader {
+        if let LogItem::Period(r) = item {
+            chooser.add(&r);
+            bands.add(&r);
+        }
+    }
+    let Some(now) = chooser.chosen() else {
         return Err("the log has no period to draw".into());
+    };
+    let moment = Moment::read(logfile, now)?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(write_error(dir))?;
     }
     register_font();
     let e = write_error(path);
-    let records = &log.records;
-    let now = chosen_period(records, at_s);
-    let r = &records[now];
-    let calibration = log
-        .calibrations
-        .iter()
-        .rev()
-        .find(|c| c.before_record <= now)
-        .map(|c| &c.calibration);
-    let setup = &SceneSetup::new(config, calibration);
-    let t0 = records[0].time.as_secs_f64();
+    let window = &moment.window;
+    let r = &window[window.len() - 1];
+    let setup = &SceneSetup::new(config, moment.calibration.as_ref());
+    let t0 = bands.t0_s;
     let t_now = r.time.as_secs_f64() - t0;
     let root = BitMapBackend::new(path, (1600, 900)).into_drawing_area();
     root.fill(&BACKGROUND).map_err(e)?;
     let (left, right) = root.split_horizontally(880);
     let (scene_area, state_area) = left.split_vertically(770);
-    scene_panel(&scene_area, log, setup, r, path)?;
-    state_panel(&state_area, records, now, t0, path)?;
+    scene_panel(&scene_area, moment.surface.as_deref(), setup, r, path)?;
+    state_panel(&state_area, &bands, r, path)?;
     let plots = right.split_evenly((3, 1));
-    let from = records
-        .iter()
-        .position(|x| x.time.as_secs_f64() - t0 >= t_now - WINDOW_S)
-        .unwrap_or(0);
-    let window = &records[from..=now];
     tension_plot(&plots[0], window, t0, setup, path)?;
     motion_plot(&plots[1], window, t0, path)?;
     timing_plot(&plots[2], window, t0, path)?;
@@ -131,9 +215,33 @@ pub fn write_view_figure(
     Ok(t_now)
 }
 
+/// The safety state over the session, as bands: where each state began (s from the first
+/// period), kept up to a bound, and the session's end.
+#[derive(Default)]
+struct SafetyBands {
+    t0_s: f64,
+    t_end_s: f64,
+    starts: crate::plot_data::Marks<(f64, SafetyState)>,
+    last: Option<SafetyState>,
+}
+
+impl SafetyBands {
+    fn add(&mut self, r: &CycleRecord) {
+        let t = r.time.as_secs_f64();
+        if self.last.is_none() {
+            self.t0_s = t;
+        }
+        self.t_end_s = t - self.t0_s;
+        if self.last != Some(r.safety) {
+            self.starts.push((t - self.t0_s, r.safety));
+            self.last = Some(r.safety);
+        }
+    }
+}
+
 fn scene_panel(
     area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
-    log: &Log,
+    surface: Option<&RecordedSurface>,
     setup: &SceneSetup,
     r: &CycleRecord,
     path: &Path,
@@ -144,7 +252,6 @@ fn scene_panel(
     // The view spans the guides, the thimble and the surface.
     let mut points: Vec<[f64; 3]> = setup.guides_m[..wires].to_vec();
     points.push(r.position_m);
-    let surface = surface_at(log, r.surface_version);
     // The surface as the /scene/relief topic draws it.
     let triangles: Vec<[[f64; 3]; 3]> = surface.map_or_else(Vec::new, |s| {
         let mesh = surface_triangles(s);
@@ -294,23 +401,18 @@ fn scene_panel(
 
 fn state_panel(
     area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
-    records: &[CycleRecord],
-    now: usize,
-    t0: f64,
+    bands: &SafetyBands,
+    r: &CycleRecord,
     path: &Path,
 ) -> Result<(), PlotError> {
     let e = |x| write_error(path)(x);
     area.fill(&PANEL).map_err(e)?;
-    let r = &records[now];
+    let t0 = bands.t0_s;
     let state = match r.safety.reason() {
         Some(reason) => format!("{} ({})", r.safety.as_str(), reason.as_str()),
         None => r.safety.as_str().to_string(),
     };
-    let colour = match r.safety {
-        SafetyState::Normal => RGBColor(98, 195, 112),
-        SafetyState::MinimumTension(_) => RGBColor(230, 190, 60),
-        SafetyState::PowerOff(_) => RGBColor(230, 80, 80),
-    };
+    let colour = state_colour(r.safety);
     let font = ("sans-serif", 16).into_font().color(&TEXT);
     area.draw(&Text::new(
         format!(
@@ -324,28 +426,17 @@ fn state_panel(
     .map_err(e)?;
     // A band per state over the session, as the state-transitions panel draws it.
     let (w_px, _) = area.dim_in_pixel();
-    let span = (records[records.len() - 1].time.as_secs_f64() - t0).max(1e-6);
-    let x_of =
-        |r: &CycleRecord| 12 + ((r.time.as_secs_f64() - t0) / span * f64::from(w_px - 24)) as i32;
-    let mut start = 0;
-    for i in 1..=records.len() {
-        if i == records.len() || records[i].safety != records[start].safety {
-            let c = match records[start].safety {
-                SafetyState::Normal => RGBColor(98, 195, 112),
-                SafetyState::MinimumTension(_) => RGBColor(230, 190, 60),
-                SafetyState::PowerOff(_) => RGBColor(230, 80, 80),
-            };
-            let end = records.get(i).unwrap_or(&records[records.len() - 1]);
-            area.draw(&Rectangle::new(
-                [
-                    (x_of(&records[start]), 40),
-                    (x_of(end).max(x_of(&records[start]) + 1), 62),
-                ],
-                c.filled(),
-            ))
-            .map_err(e)?;
-            start = i;
-        }
+    let span = bands.t_end_s.max(1e-6);
+    let x_at = |t: f64| 12 + (t / span * f64::from(w_px - 24)) as i32;
+    let x_of = |r: &CycleRecord| x_at(r.time.as_secs_f64() - t0);
+    let starts = &bands.starts.kept;
+    for (i, &(start, state)) in starts.iter().enumerate() {
+        let end = starts.get(i + 1).map_or(bands.t_end_s, |b| b.0);
+        area.draw(&Rectangle::new(
+            [(x_at(start), 40), (x_at(end).max(x_at(start) + 1), 62)],
+            state_colour(state).filled(),
+        ))
+        .map_err(e)?;
     }
     area.draw(&Rectangle::new(
         [(x_of(r) - 1, 36), (x_of(r) + 1, 66)],
@@ -367,6 +458,14 @@ fn state_panel(
     ))
     .map_err(e)?;
     Ok(())
+}
+
+fn state_colour(state: SafetyState) -> RGBColor {
+    match state {
+        SafetyState::Normal => RGBColor(98, 195, 112),
+        SafetyState::MinimumTension(_) => RGBColor(230, 190, 60),
+        SafetyState::PowerOff(_) => RGBColor(230, 80, 80),
+    }
 }
 
 fn dark_chart<'a>(
@@ -555,6 +654,12 @@ mod tests {
         for (i, r) in records.iter_mut().enumerate() {
             r.time = videt_hal::MonoTime(1_000_000_000 + i as u64 * 1_000_000_000);
         }
+        let chosen_period = |records: &[CycleRecord], at: Option<f64>| {
+            let mut chooser = MomentChooser::new(at);
+            records.iter().for_each(|r| chooser.add(r));
+            chooser.chosen().unwrap()
+        };
+        assert_eq!(MomentChooser::new(None).chosen(), None);
         records[3].rendered_force_n = [0.0, 0.0, 2.5];
         assert_eq!(chosen_period(&records, None), 3);
         // In contact, the desired force decides (a transient of the rendered one elsewhere
