@@ -55,12 +55,17 @@ pub struct PatchParams {
     pub wall_px: f32,
     /// Spacing of the support points' grid, pixels (>= 2).
     pub spacing_px: usize,
+    /// The patches are searched up to the largest disparity of the run's matches plus this,
+    /// pixels (> 0; see [`search_bound_px`]): a surface nearer than every matched edge by more
+    /// than this is not looked for.
+    pub search_margin_px: f32,
 }
 
 impl Default for PatchParams {
     /// 7 x 7 patches, correlation 0.8 or more on at least 4 grey levels of texture. Sides:
     /// 5 px from the edge, 6 a side, a step when two thirds of them see the side 1.5 px
-    /// farther; walls 3 px wide. Support points every 12 px.
+    /// farther; walls 3 px wide. Support points every 12 px. The search up to 8 px past the
+    /// largest matched disparity.
     fn default() -> Self {
         PatchParams {
             patch_radius_px: 3,
@@ -72,7 +77,24 @@ impl Default for PatchParams {
             min_agreement: 0.66,
             wall_px: 3.0,
             spacing_px: 12,
+            search_margin_px: 8.0,
         }
+    }
+}
+
+/// The largest disparity the patches of a run are searched at: the largest disparity of its
+/// `matches` plus `margin_px`, or `disparity_max_px` when that is smaller or nothing matched.
+/// The matched edges bound the scene's nearest surfaces; the configured range beyond them is
+/// most of what a search would otherwise cover.
+pub fn search_bound_px(matches: &[SegmentMatch], disparity_max_px: f32, margin_px: f32) -> f32 {
+    let largest = matches
+        .iter()
+        .flat_map(|m| m.disparity_px)
+        .filter(|d| d.is_finite())
+        .fold(None, |m: Option<f32>, d| Some(m.map_or(d, |m| m.max(d))));
+    match largest {
+        Some(d) => disparity_max_px.min(d + margin_px.max(0.0)),
+        None => disparity_max_px,
     }
 }
 
@@ -497,6 +519,8 @@ impl PatchDepth {
         region: Option<PixelRect>,
         params: &PatchParams,
     ) {
+        let disparity_max_px =
+            search_bound_px(&output.matches, disparity_max_px, params.search_margin_px);
         side_steps(
             left,
             right,
@@ -722,5 +746,29 @@ mod tests {
             .collect();
         assert!(!inside.is_empty());
         assert_eq!(inside, expected);
+    }
+
+    #[test]
+    fn the_search_stops_a_margin_past_the_largest_matched_disparity() {
+        let (_, near) = vertical_match(59.5, 16.0);
+        let (_, far) = vertical_match(109.5, 4.0);
+        assert_eq!(search_bound_px(&[far, near], 97.0, 8.0), 24.0);
+        assert_eq!(search_bound_px(&[far, near], 20.0, 8.0), 20.0);
+        // Nothing matched: nothing bounds the scene.
+        assert_eq!(search_bound_px(&[], 97.0, 8.0), 97.0);
+        // Only the background's edge matched: the object 12 px nearer is past the bound, and
+        // its patches are not found at the object's disparity.
+        let (l, r, w, h) = scene(4, 16, 60, 110);
+        let (lv, rv) = views(&l, &r, w, h);
+        let params = PatchParams {
+            spacing_px: 8,
+            ..PatchParams::default()
+        };
+        let bound = search_bound_px(&[far], 24.0, params.search_margin_px);
+        assert_eq!(bound, 12.0);
+        let mut out = Vec::new();
+        support_points(&lv, &rv, bound, None, &params, &mut out);
+        assert!(!out.is_empty());
+        assert!(out.iter().all(|p| p[2] <= bound), "{out:?}");
     }
 }
