@@ -231,7 +231,22 @@ pub struct DrawnPeriod {
     pub in_contact: bool,
 }
 
+/// The length of a vector.
+pub fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
 impl DrawnPeriod {
+    /// The index V (eq. 8) in contact, where a force was asked (`None` elsewhere).
+    pub fn contact_v(&self) -> Option<f64> {
+        (self.in_contact && norm(self.desired_force_n) > 0.05).then(|| {
+            videt_control::measures::v_index(
+                &nalgebra::Vector3::from(self.rendered_force_n),
+                &nalgebra::Vector3::from(self.desired_force_n),
+            )
+        })
+    }
+
     /// What the figures draw of `r`.
     pub fn of(r: &CycleRecord) -> DrawnPeriod {
         DrawnPeriod {
@@ -248,28 +263,21 @@ impl DrawnPeriod {
 
 /// The quantities of a period the session's figures draw: per wire the measured tension and
 /// the set-point, |f_e| and |f|, the thimble's x and z, and the index V in contact.
-fn drawn_quantities(r: &CycleRecord) -> [Option<f64>; 11] {
-    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let desired = norm(r.desired_force_n);
-    let v = (r.in_contact && desired > 0.05).then(|| {
-        videt_control::measures::v_index(
-            &nalgebra::Vector3::from(r.rendered_force_n),
-            &nalgebra::Vector3::from(r.desired_force_n),
-        )
-    });
-    let t = |a: [f64; videt_runtime::cycle::LOG_WIRE_SLOTS], w: usize| Some(a[w]);
+fn drawn_quantities(p: &DrawnPeriod) -> [Option<f64>; 11] {
+    let [m0, m1, m2] = p.tension_measured_n.map(Some);
+    let [s0, s1, s2] = p.tension_setpoint_n.map(Some);
     [
-        t(r.tension_measured_n, 0),
-        t(r.tension_measured_n, 1),
-        t(r.tension_measured_n, 2),
-        t(r.tension_setpoint_n, 0),
-        t(r.tension_setpoint_n, 1),
-        t(r.tension_setpoint_n, 2),
-        Some(desired),
-        Some(norm(r.rendered_force_n)),
-        Some(r.position_m[0]),
-        Some(r.position_m[2]),
-        v,
+        m0,
+        m1,
+        m2,
+        s0,
+        s1,
+        s2,
+        Some(norm(p.desired_force_n)),
+        Some(norm(p.rendered_force_n)),
+        Some(p.position_m[0]),
+        Some(p.position_m[2]),
+        p.contact_v(),
     ]
 }
 
@@ -293,57 +301,54 @@ impl<T> Marks<T> {
     }
 }
 
-/// What the session's figures draw, gathered period by period.
-#[derive(Debug, Clone)]
-pub struct SessionFigureData {
-    periods: Decimator<DrawnPeriod, 11>,
-    /// The first period's time, s.
+/// The safety state over a session, as its periods come: the transitions, kept up to a bound.
+#[derive(Debug, Clone, Default)]
+pub struct SafetyTimeline {
+    /// The first period's time, s (`None`: no period yet).
     pub t0_s: Option<f64>,
     /// The last period's time, s.
     pub t_end_s: f64,
-    /// Safety transitions: time from the first period (s) and the new state.
-    pub events: Marks<(f64, SafetyState)>,
+    /// Transitions: time from the first period (s) and the new state. The state before the
+    /// first period counts as `Normal`.
+    pub transitions: Marks<(f64, SafetyState)>,
+    last: SafetyState,
+}
+
+impl SafetyTimeline {
+    /// One period, in the log's order.
+    pub fn add(&mut self, r: &CycleRecord) {
+        let t = r.time.as_secs_f64();
+        let t0 = *self.t0_s.get_or_insert(t);
+        self.t_end_s = t;
+        if r.safety != self.last {
+            self.transitions.push((t - t0, r.safety));
+            self.last = r.safety;
+        }
+    }
+}
+
+/// What the session's figures draw, gathered period by period.
+#[derive(Debug, Clone, Default)]
+pub struct SessionFigureData {
+    periods: Decimator<DrawnPeriod, 11>,
+    /// The safety state over the session (and its first and last period's times).
+    pub safety: SafetyTimeline,
     /// Where the finger met the surface (a period in contact after one out of it): x and z, m.
     pub first_contacts: Marks<(f64, f64)>,
     /// Wake-up latency of every period.
     pub wake: Histogram,
     /// Compute time of every period.
     pub compute: Histogram,
-    last_safety: SafetyState,
     last_in_contact: bool,
     /// The surface version rendered longest and for how many periods, and the current run.
     longest_surface: Option<(u64, u64)>,
     run: Option<(u64, u64)>,
 }
 
-impl Default for SessionFigureData {
-    fn default() -> Self {
-        SessionFigureData {
-            periods: Decimator::new(),
-            t0_s: None,
-            t_end_s: 0.0,
-            events: Marks::default(),
-            first_contacts: Marks::default(),
-            wake: Histogram::new(),
-            compute: Histogram::new(),
-            last_safety: SafetyState::Normal,
-            last_in_contact: false,
-            longest_surface: None,
-            run: None,
-        }
-    }
-}
-
 impl SessionFigureData {
     /// One period, in the log's order.
     pub fn add(&mut self, r: &CycleRecord) {
-        let t = r.time.as_secs_f64();
-        let t0 = *self.t0_s.get_or_insert(t);
-        self.t_end_s = t;
-        if r.safety != self.last_safety {
-            self.events.push((t - t0, r.safety));
-            self.last_safety = r.safety;
-        }
+        self.safety.add(r);
         if r.in_contact && !self.last_in_contact && self.periods.offered() > 0 {
             self.first_contacts.push((r.position_m[0], r.position_m[2]));
         }
@@ -360,7 +365,9 @@ impl SessionFigureData {
         if self.longest_surface.is_none_or(|(_, n)| run.1 > n) {
             self.longest_surface = Some(run);
         }
-        self.periods.add(t, DrawnPeriod::of(r), drawn_quantities(r));
+        let drawn = DrawnPeriod::of(r);
+        self.periods
+            .add(drawn.time_s, drawn, drawn_quantities(&drawn));
     }
 
     /// Periods offered.
@@ -452,10 +459,10 @@ mod tests {
         }
         assert_eq!(data.periods(), 10_000);
         assert_eq!(data.wake.count(), 10_000);
-        assert_eq!(data.events.kept.len(), 2);
+        assert_eq!(data.safety.transitions.kept.len(), 2);
         assert_eq!(data.first_contacts.kept.len(), 10);
         assert_eq!(data.session_surface_version(), Some(1));
         assert!(data.drawn_periods().len() < 10_000);
-        assert!((data.t_end_s - 9.999).abs() < 1e-9);
+        assert!((data.safety.t_end_s - 9.999).abs() < 1e-9);
     }
 }

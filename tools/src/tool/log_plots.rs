@@ -6,10 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
-use videt_control::measures::v_index;
 use videt_control::safety::SafetyState;
 
-use crate::plot_data::{DrawnPeriod, Marks, SessionFigureData};
+use crate::plot_data::{norm, DrawnPeriod, Marks, SessionFigureData};
 use crate::plotting::{
     draw_legend, line_mark, register_font, write_error as e, PlotError, TimeChart,
 };
@@ -43,12 +42,12 @@ pub fn write_all(
     surface: Option<(u64, &RecordedSurface)>,
     limits: TensionLimits,
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let (Some(t0), records) = (data.t0_s, data.drawn_periods()) else {
+    let (Some(t0), records) = (data.safety.t0_s, data.drawn_periods()) else {
         return Err("the log has no records to plot".into());
     };
     register_font();
     std::fs::create_dir_all(dir).map_err(e(dir))?;
-    let events = &data.events;
+    let events = &data.safety.transitions;
     let mut written = Vec::new();
     let path = dir.join("path.png");
     path_plot(&path, &records, &data.first_contacts, surface)?;
@@ -344,10 +343,6 @@ fn tensions_plot(
     Ok(())
 }
 
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
 fn forces_plot(
     path: &Path,
     records: &[DrawnPeriod],
@@ -402,22 +397,14 @@ fn forces_plot(
         path,
     )?;
     chart
-        .draw_series(
-            records
-                .iter()
-                .filter(|r| r.in_contact && norm(r.desired_force_n) > 0.05)
-                .map(|r| {
-                    let v = v_index(
-                        &nalgebra::Vector3::from(r.rendered_force_n),
-                        &nalgebra::Vector3::from(r.desired_force_n),
-                    );
-                    Circle::new(
-                        (r.time_s - t0, v.clamp(-0.1, 1.3)),
-                        1,
-                        WIRE_COLOURS[2].filled(),
-                    )
-                }),
-        )
+        .draw_series(records.iter().filter_map(|r| {
+            let v = r.contact_v()?;
+            Some(Circle::new(
+                (r.time_s - t0, v.clamp(-0.1, 1.3)),
+                1,
+                WIRE_COLOURS[2].filled(),
+            ))
+        }))
         .map_err(e(path))?;
     root.present().map_err(e(path))?;
     Ok(())

@@ -11,7 +11,7 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::felt::FeltCounter;
-use crate::plot_data::{Decimator, DrawnPeriod, SessionFigureData};
+use crate::plot_data::{norm, Decimator, DrawnPeriod, SessionFigureData};
 use crate::replay::{
     replay_items, session_text, unrecorded_config_keys, ReplayObserver, ReplayOutcome,
     ReplayOverrides, UnrecordedKey,
@@ -233,11 +233,10 @@ impl ReplayObserver for Gathered {
         }
         if let Some(f) = self.figures.as_mut() {
             f.replayed.add(replayed);
-            let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let (a, b) = (recorded, replayed);
+            let (a, b) = (DrawnPeriod::of(recorded), DrawnPeriod::of(replayed));
             f.pairs.add(
-                a.time.as_secs_f64(),
-                (DrawnPeriod::of(a), DrawnPeriod::of(b)),
+                a.time_s,
+                (a, b),
                 [
                     Some(a.tension_setpoint_n[0]),
                     Some(b.tension_setpoint_n[0]),

@@ -14,6 +14,7 @@ use videt_runtime::cycle::CycleRecord;
 use videt_runtime::telemetry::{LogItem, LogReader, RecordedSurface, SurfaceEntry};
 use videt_viewers::topics::{surface_triangles, tension_colour, SceneSetup, FORCE_ARROW_M_PER_N};
 
+use crate::plot_data::{norm, SafetyTimeline};
 use crate::plotting::{draw_legend, line_mark, register_font, write_error, PlotError, TimeChart};
 
 /// Seconds of history the plots show (the layout's plots follow the last 10 s).
@@ -103,8 +104,7 @@ impl Moment {
         // Recorded surfaces not older than the newest one a period has rendered.
         let mut surfaces: BTreeMap<u64, Arc<RecordedSurface>> = BTreeMap::new();
         let mut periods = 0;
-        let reader = LogReader::open(logfile).map_err(|e| format!("{}: {e}", logfile.display()))?;
-        for item in reader {
+        for item in open_log(logfile)? {
             match item {
                 LogItem::Calibration { calibration: c, .. } => calibration = Some(c),
                 LogItem::Surface(version, SurfaceEntry::Recorded(s)) => {
@@ -147,8 +147,9 @@ impl Moment {
     }
 }
 
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+/// `logfile` opened for reading, or an error naming it.
+fn open_log(logfile: &Path) -> Result<LogReader<std::io::BufReader<std::fs::File>>, PlotError> {
+    LogReader::open(logfile).map_err(|e| format!("{}: {e}", logfile.display()).into())
 }
 
 /// Orthographic projection of the rig's frame: x to the right, the frame's y up, z (away
@@ -179,12 +180,11 @@ pub fn write_view_figure(
     at_s: Option<f64>,
 ) -> Result<f64, PlotError> {
     let mut chooser = MomentChooser::new(at_s);
-    let mut bands = SafetyBands::default();
-    let reader = LogReader::open(logfile).map_err(|e| format!("{}: {e}", logfile.display()))?;
-    for item in reader {
+    let mut safety = SafetyTimeline::default();
+    for item in open_log(logfile)? {
         if let LogItem::Period(r) = item {
             chooser.add(&r);
-            bands.add(&r);
+            safety.add(&r);
         }
     }
     let Some(now) = chooser.chosen() else {
@@ -199,44 +199,20 @@ pub fn write_view_figure(
     let window = &moment.window;
     let r = &window[window.len() - 1];
     let setup = &SceneSetup::new(config, moment.calibration.as_ref());
-    let t0 = bands.t0_s;
+    let t0 = safety.t0_s.unwrap_or_default();
     let t_now = r.time.as_secs_f64() - t0;
     let root = BitMapBackend::new(path, (1600, 900)).into_drawing_area();
     root.fill(&BACKGROUND).map_err(e)?;
     let (left, right) = root.split_horizontally(880);
     let (scene_area, state_area) = left.split_vertically(770);
     scene_panel(&scene_area, moment.surface.as_deref(), setup, r, path)?;
-    state_panel(&state_area, &bands, r, path)?;
+    state_panel(&state_area, &safety, r, path)?;
     let plots = right.split_evenly((3, 1));
     tension_plot(&plots[0], window, t0, setup, path)?;
     motion_plot(&plots[1], window, t0, path)?;
     timing_plot(&plots[2], window, t0, path)?;
     root.present().map_err(write_error(path))?;
     Ok(t_now)
-}
-
-/// The safety state over the session, as bands: where each state began (s from the first
-/// period), kept up to a bound, and the session's end.
-#[derive(Default)]
-struct SafetyBands {
-    t0_s: f64,
-    t_end_s: f64,
-    starts: crate::plot_data::Marks<(f64, SafetyState)>,
-    last: Option<SafetyState>,
-}
-
-impl SafetyBands {
-    fn add(&mut self, r: &CycleRecord) {
-        let t = r.time.as_secs_f64();
-        if self.last.is_none() {
-            self.t0_s = t;
-        }
-        self.t_end_s = t - self.t0_s;
-        if self.last != Some(r.safety) {
-            self.starts.push((t - self.t0_s, r.safety));
-            self.last = Some(r.safety);
-        }
-    }
 }
 
 fn scene_panel(
@@ -401,13 +377,13 @@ fn scene_panel(
 
 fn state_panel(
     area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
-    bands: &SafetyBands,
+    safety: &SafetyTimeline,
     r: &CycleRecord,
     path: &Path,
 ) -> Result<(), PlotError> {
     let e = |x| write_error(path)(x);
     area.fill(&PANEL).map_err(e)?;
-    let t0 = bands.t0_s;
+    let t0 = safety.t0_s.unwrap_or_default();
     let state = match r.safety.reason() {
         Some(reason) => format!("{} ({})", r.safety.as_str(), reason.as_str()),
         None => r.safety.as_str().to_string(),
@@ -426,12 +402,21 @@ fn state_panel(
     .map_err(e)?;
     // A band per state over the session, as the state-transitions panel draws it.
     let (w_px, _) = area.dim_in_pixel();
-    let span = bands.t_end_s.max(1e-6);
+    let t_end = safety.t_end_s - t0;
+    let span = t_end.max(1e-6);
     let x_at = |t: f64| 12 + (t / span * f64::from(w_px - 24)) as i32;
     let x_of = |r: &CycleRecord| x_at(r.time.as_secs_f64() - t0);
-    let starts = &bands.starts.kept;
+    // The session opens in the state of its first period (`Normal` unless a transition is at
+    // its start).
+    let transitions = &safety.transitions.kept;
+    let opens_normal = transitions.first().is_none_or(|t| t.0 > 0.0);
+    let starts: Vec<(f64, SafetyState)> = opens_normal
+        .then_some((0.0, SafetyState::Normal))
+        .into_iter()
+        .chain(transitions.iter().copied())
+        .collect();
     for (i, &(start, state)) in starts.iter().enumerate() {
-        let end = starts.get(i + 1).map_or(bands.t_end_s, |b| b.0);
+        let end = starts.get(i + 1).map_or(t_end, |b| b.0);
         area.draw(&Rectangle::new(
             [(x_at(start), 40), (x_at(end).max(x_at(start) + 1), 62)],
             state_colour(state).filled(),
