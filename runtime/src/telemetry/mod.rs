@@ -215,6 +215,12 @@ mod tests {
         let items: Vec<LogItem> = (&mut reader).collect();
         assert!(matches!(&items[0], LogItem::Session(s) if s.is_ok()));
         assert!(matches!(items[1], LogItem::Surface(0, _)));
+        // The session frame's text, as recorded, from inside a block.
+        let LogItem::Session(session) = &items[0] else {
+            unreachable!("the first item is the session")
+        };
+        let text = reader.session_text().expect("the session's text");
+        assert_eq!(SessionInfo::from_toml(text).ok(), (**session).clone().ok());
         assert!(matches!(items.last(), Some(LogItem::End(_))));
         let records: Vec<CycleRecord> = items
             .iter()

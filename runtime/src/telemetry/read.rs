@@ -290,6 +290,7 @@ pub struct LogReader<R: Read> {
     last_cycle: Option<u64>,
     end: Option<SessionEnd>,
     last_surface: Option<Arc<RecordedSurface>>,
+    session_text: Option<String>,
     frame: Vec<u8>,
     block: DecodedBlock,
 }
@@ -345,6 +346,7 @@ impl<R: Read> LogReader<R> {
             last_cycle: None,
             end: None,
             last_surface: None,
+            session_text: None,
             frame: Vec::new(),
             block: DecodedBlock::default(),
         })
@@ -373,6 +375,11 @@ impl<R: Read> LogReader<R> {
     /// Whether the session closed its log: an end frame was read.
     pub fn closed(&self) -> bool {
         self.end.is_some()
+    }
+    /// The session frame's text (its TOML, as recorded) once read: what a replay compares
+    /// with today's configuration keys.
+    pub fn session_text(&self) -> Option<&str> {
+        self.session_text.as_deref()
     }
     /// [`Log::end_note`] of what was read so far.
     pub fn end_note(&self) -> String {
@@ -490,12 +497,14 @@ impl<R: Read> LogReader<R> {
                 self.last_cycle = Some(record.cycle);
                 LogItem::Period(record)
             }
-            FrameKind::Session => LogItem::Session(Box::new(
-                std::str::from_utf8(payload)
-                    .map_err(|e| e.to_string())
-                    .and_then(SessionInfo::from_toml)
-                    .map_err(|e| format!("the session's configuration cannot be used: {e}")),
-            )),
+            FrameKind::Session => {
+                let text = std::str::from_utf8(payload).map_err(|e| e.to_string());
+                self.session_text = text.as_ref().ok().map(|t| t.to_string());
+                LogItem::Session(Box::new(
+                    text.and_then(SessionInfo::from_toml)
+                        .map_err(|e| format!("the session's configuration cannot be used: {e}")),
+                ))
+            }
             FrameKind::Calibration => {
                 let b: &[u8; CALIBRATION_BYTES] = payload
                     .try_into()

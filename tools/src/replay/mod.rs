@@ -20,9 +20,7 @@ mod feed;
 mod recorded_config;
 
 pub use compare::{first_difference, first_input_difference};
-pub use recorded_config::{
-    replay_config, session_text, unrecorded_config_keys, ReplayOverrides, UnrecordedKey,
-};
+pub use recorded_config::{replay_config, unrecorded_config_keys, ReplayOverrides, UnrecordedKey};
 
 use videt_control::WireDevice;
 use videt_rt_config::Config;

@@ -37,22 +37,8 @@ impl std::fmt::Display for UnrecordedKey {
     }
 }
 
-/// The session frame's text (TOML) of a version 2 log's bytes: the first frame after the
-/// header, when it is a session frame.
-pub fn session_text(bytes: &[u8]) -> Option<&str> {
-    use videt_runtime::telemetry::HEADER_BYTES;
-    const SESSION_KIND: u8 = 1;
-    let head = bytes.get(HEADER_BYTES..HEADER_BYTES + 8)?;
-    if head[0] != SESSION_KIND {
-        return None;
-    }
-    let len = u32::from_le_bytes(head[4..8].try_into().ok()?) as usize;
-    let start = HEADER_BYTES + 8;
-    std::str::from_utf8(bytes.get(start..start.checked_add(len)?)?).ok()
-}
-
 /// The keys of today's configuration that the recorded session's `[config]` (its TOML text,
-/// [`session_text`]) does not have, with the defaults a replay takes for them. A section missing
+/// `LogReader::session_text`) does not have, with the defaults a replay takes for them. A section missing
 /// as a whole is named once.
 pub fn unrecorded_config_keys(session_toml: &str) -> Vec<UnrecordedKey> {
     fn walk(

@@ -2,8 +2,6 @@
 //! compare every output with the recorded one; with `--config`/`--algorithm`, what other
 //! settings would have commanded along the same session.
 
-use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -13,8 +11,8 @@ use serde::Serialize;
 use crate::felt::FeltCounter;
 use crate::plot_data::{norm, Decimator, DrawnPeriod, SessionFigureData};
 use crate::replay::{
-    replay_items, session_text, unrecorded_config_keys, ReplayObserver, ReplayOutcome,
-    ReplayOverrides, UnrecordedKey,
+    replay_items, unrecorded_config_keys, ReplayObserver, ReplayOutcome, ReplayOverrides,
+    UnrecordedKey,
 };
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::telemetry::{CalibrationInForce, LogReader};
@@ -108,12 +106,11 @@ impl Differences {
     }
 }
 
-/// The recorded and replayed outputs side by side, written as the replay runs to a file
-/// beside the destination that takes its place when complete.
+/// The recorded and replayed outputs side by side, written as the replay runs to a temporary
+/// file beside the destination that takes its place when complete (and is removed otherwise).
 struct SideBySideCsv {
     path: PathBuf,
-    temp: PathBuf,
-    out: std::io::BufWriter<std::fs::File>,
+    out: std::io::BufWriter<tempfile::NamedTempFile>,
     error: Option<std::io::Error>,
 }
 
@@ -126,31 +123,33 @@ const CSV_OUTPUTS: [&str; 4] = [
 
 impl SideBySideCsv {
     fn create(path: &Path) -> Result<SideBySideCsv, String> {
-        let name = path
-            .file_name()
-            .map_or_else(|| "replay.csv".into(), |n| n.to_string_lossy().into_owned());
-        let temp = path.with_file_name(format!(".{name}.tmp.{}", std::process::id()));
-        let file = std::fs::File::create(&temp).map_err(|e| format!("{}: {e}", temp.display()))?;
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let file =
+            tempfile::NamedTempFile::new_in(dir).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut csv = SideBySideCsv {
             path: path.to_path_buf(),
-            temp,
             out: std::io::BufWriter::new(file),
             error: None,
         };
-        let mut head = String::from("cycle,time_s");
-        for name in CSV_OUTPUTS {
-            for w in 0..3 {
-                let _ = write!(head, ",recorded_{name}_{w},replayed_{name}_{w}");
+        csv.write(|out| {
+            write!(out, "cycle,time_s")?;
+            for name in CSV_OUTPUTS {
+                for w in 0..3 {
+                    write!(out, ",recorded_{name}_{w},replayed_{name}_{w}")?;
+                }
             }
-        }
-        head.push_str(",recorded_safety,replayed_safety");
-        csv.line(format_args!("{head}"));
+            writeln!(out, ",recorded_safety,replayed_safety")
+        });
         Ok(csv)
     }
 
-    fn line(&mut self, text: std::fmt::Arguments<'_>) {
+    /// Write with `f`, unless a write failed before; the first error is kept.
+    fn write(&mut self, f: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>) {
         if self.error.is_none() {
-            if let Err(e) = writeln!(self.out, "{text}") {
+            if let Err(e) = f(&mut self.out) {
                 self.error = Some(e);
             }
         }
@@ -163,36 +162,31 @@ impl SideBySideCsv {
             2 => r.rendered_force_n,
             _ => r.desired_force_n,
         };
-        let mut row = format!("{},{:.9}", old.cycle, old.time.as_secs_f64());
-        for k in 0..CSV_OUTPUTS.len() {
-            for w in 0..3 {
-                let _ = write!(row, ",{:.9e},{:.9e}", pick(old, k)[w], pick(new, k)[w]);
+        self.write(|out| {
+            write!(out, "{},{:.9}", old.cycle, old.time.as_secs_f64())?;
+            for k in 0..CSV_OUTPUTS.len() {
+                for w in 0..3 {
+                    write!(out, ",{:.9e},{:.9e}", pick(old, k)[w], pick(new, k)[w])?;
+                }
             }
-        }
-        let _ = write!(row, ",{},{}", old.safety.as_str(), new.safety.as_str());
-        self.line(format_args!("{row}"));
+            writeln!(out, ",{},{}", old.safety.as_str(), new.safety.as_str())
+        });
     }
 
-    /// Flush, sync and put the file in place (or remove it and say why).
+    /// Flush, sync and put the file in place.
     fn finish(self) -> Result<PathBuf, String> {
-        let SideBySideCsv {
-            path,
-            temp,
-            out,
-            error,
-        } = self;
-        let done = match error {
+        let SideBySideCsv { path, out, error } = self;
+        let placed = match error {
             Some(e) => Err(e),
             None => out
                 .into_inner()
                 .map_err(|e| e.into_error())
-                .and_then(|f| f.sync_all())
-                .and_then(|()| std::fs::rename(&temp, &path)),
+                .and_then(|f| f.as_file().sync_all().map(|()| f))
+                .and_then(|f| f.persist(&path).map_err(|e| e.error)),
         };
-        done.map(|()| path.clone()).map_err(|e| {
-            let _ = std::fs::remove_file(&temp);
-            format!("{}: {e}", path.display())
-        })
+        placed
+            .map(|_| path.clone())
+            .map_err(|e| format!("{}: {e}", path.display()))
     }
 }
 
@@ -297,24 +291,6 @@ fn join_keys(keys: &[UnrecordedKey], text: impl Fn(&UnrecordedKey) -> String) ->
     keys.iter().map(text).collect::<Vec<_>>().join(", ")
 }
 
-/// The text of the session frame at the start of the log file `path` (read up to its end).
-fn session_text_of(path: &Path) -> Option<String> {
-    use std::io::Read;
-    use videt_runtime::telemetry::HEADER_BYTES;
-    let mut file = std::fs::File::open(path).ok()?;
-    let mut head = vec![0u8; HEADER_BYTES + 8];
-    file.read_exact(&mut head).ok()?;
-    let len = u32::from_le_bytes(head[HEADER_BYTES + 4..].try_into().ok()?) as usize;
-    // A session frame is a configuration's text: anything larger is not one.
-    if len > 1 << 20 {
-        return None;
-    }
-    let mut bytes = head;
-    bytes.resize(HEADER_BYTES + 8 + len, 0);
-    file.read_exact(&mut bytes[HEADER_BYTES + 8..]).ok()?;
-    session_text(&bytes).map(str::to_string)
-}
-
 /// Run `videt replay`.
 pub fn run(args: &ReplayArgs) -> ToolResult {
     let named = |e: &dyn std::fmt::Display| format!("{}: {e}", args.logfile.display());
@@ -345,18 +321,11 @@ pub fn run(args: &ReplayArgs) -> ToolResult {
     };
     let (version, rate_hz) = (reader.version(), reader.header().rate_hz);
     let r = replay_items(version, &mut reader, &overrides, &mut gathered);
-    let r = match r {
-        Ok(r) => r,
-        Err(e) => {
-            if let Some(csv) = gathered.csv.take() {
-                let _ = std::fs::remove_file(&csv.temp);
-            }
-            return Err(named(&e).into());
-        }
-    };
+    // On an error the CSV's temporary file goes with it.
+    let r = r.map_err(|e| named(&e))?;
     // A configuration given in full replaces the recorded one: nothing of it is missing then.
-    let unrecorded = match (&args.config, session_text_of(&args.logfile)) {
-        (None, Some(text)) => unrecorded_config_keys(&text),
+    let unrecorded = match (&args.config, reader.session_text()) {
+        (None, Some(text)) => unrecorded_config_keys(text),
         _ => Vec::new(),
     };
     let rep = report(&reader, &r, &mut gathered, &unrecorded);
