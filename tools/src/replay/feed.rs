@@ -14,8 +14,31 @@ use videt_vision::surface::ReliefModel;
 
 use super::devices::RecordedDevices;
 
-/// How the session's surfaces were rendered: a fixed plane, or the relief feed.
-enum Render {
+/// The recorded surfaces the log has given and no period has yet passed: a version is held
+/// from the moment the log gives it (before the first period that renders it) until a period
+/// renders a later one, so the memory held does not grow with the session's length.
+#[derive(Default)]
+pub(super) struct HeldSurfaces(BTreeMap<u64, SurfaceEntry>);
+
+impl HeldSurfaces {
+    /// The log gave surface `version`.
+    pub(super) fn hold(&mut self, version: u64, entry: SurfaceEntry) {
+        self.0.insert(version, entry);
+    }
+
+    fn surface(&self, version: u64) -> Result<&Arc<RecordedSurface>, String> {
+        match self.0.get(&version) {
+            Some(SurfaceEntry::Recorded(s)) => Ok(s),
+            Some(SurfaceEntry::Lost) => Err(format!(
+                "surface version {version} was published but not recorded (the log writer fell behind)"
+            )),
+            None => Err(format!("surface version {version} is not in the log")),
+        }
+    }
+}
+
+/// The recorded surfaces as the control thread found them: a fixed plane, or the relief feed.
+pub(super) enum ReplayFeed {
     Plane(FixedSurface<Plane>),
     Relief {
         writer: SnapshotWriter<ReliefModel>,
@@ -24,95 +47,53 @@ enum Render {
     },
 }
 
-/// The recorded surfaces as the control thread found them. A version is held from the moment
-/// the log gives it (before the first period that renders it) until a period renders a later
-/// one, so the memory held does not grow with the session's length.
-pub(super) struct ReplayFeed {
-    config: Config,
-    held: BTreeMap<u64, SurfaceEntry>,
-    render: Option<Render>,
-}
-
 impl ReplayFeed {
-    /// A feed rendering as `config` says, holding no surface yet.
-    pub(super) fn new(config: &Config) -> ReplayFeed {
-        ReplayFeed {
-            config: config.clone(),
-            held: BTreeMap::new(),
-            render: None,
-        }
-    }
-
-    /// The log gave surface `version`.
-    pub(super) fn hold(&mut self, version: u64, entry: SurfaceEntry) {
-        self.held.insert(version, entry);
-    }
-
-    fn surface(&self, version: u64) -> Result<&Arc<RecordedSurface>, String> {
-        match self.held.get(&version) {
-            Some(SurfaceEntry::Recorded(s)) => Ok(s),
-            Some(SurfaceEntry::Lost) => Err(format!(
-                "surface version {version} was published but not recorded (the log writer fell behind)"
-            )),
-            None => Err(format!("surface version {version} is not in the log")),
-        }
-    }
-
-    /// Start rendering the session's first surface (version 0), as the service started.
-    pub(super) fn start(&mut self) -> Result<(), String> {
-        if self.render.is_some() {
-            return Ok(());
-        }
-        self.render = Some(match self.surface(0)?.as_ref() {
-            RecordedSurface::Plane(p) => Render::Plane(FixedSurface(*p)),
+    /// Render the session's first surface (version 0), as the service started, with
+    /// `config`'s settings.
+    pub(super) fn start(held: &HeldSurfaces, config: &Config) -> Result<ReplayFeed, String> {
+        Ok(match held.surface(0)?.as_ref() {
+            RecordedSurface::Plane(p) => ReplayFeed::Plane(FixedSurface(*p)),
             RecordedSurface::Relief(m) => {
                 let (writer, feed) =
-                    videt_service::relief_feed::relief_channel_for(&self.config, m.clone())
+                    videt_service::relief_feed::relief_channel_for(config, m.clone())
                         .map_err(|e| format!("relief rendering settings: {e}"))?;
-                Render::Relief {
+                ReplayFeed::Relief {
                     writer,
                     feed: Box::new(feed),
                     published: 0,
                 }
             }
-        });
-        Ok(())
+        })
     }
 
-    /// Make `version` the newest surface, as the control thread found it.
-    pub(super) fn show(&mut self, version: u64) -> Result<(), String> {
-        self.start()?;
-        let model = match &self.render {
-            Some(Render::Relief { published, .. }) if version != *published => {
-                let RecordedSurface::Relief(m) = self.surface(version)?.as_ref() else {
-                    return Err(format!("surface version {version} is not a relief"));
-                };
-                if version < *published {
-                    return Err(format!(
-                        "surface version {version} after version {published} (a corrupt record)"
-                    ));
-                }
-                Some(m.clone())
-            }
-            Some(Render::Plane(_)) if version != 0 => {
+    /// Make `version` the newest surface, as the control thread found it; the versions before
+    /// it are let go.
+    pub(super) fn show(&mut self, held: &mut HeldSurfaces, version: u64) -> Result<(), String> {
+        match self {
+            ReplayFeed::Plane(_) if version != 0 => {
                 return Err(format!(
                     "surface version {version} on a fixed surface (a corrupt record)"
                 ))
             }
-            _ => None,
-        };
-        if let (
-            Some(model),
-            Some(Render::Relief {
+            ReplayFeed::Plane(_) => {}
+            ReplayFeed::Relief {
                 writer, published, ..
-            }),
-        ) = (model, &mut self.render)
-        {
-            writer.publish_as(version, model);
-            *published = version;
+            } => {
+                if version != *published {
+                    let RecordedSurface::Relief(m) = held.surface(version)?.as_ref() else {
+                        return Err(format!("surface version {version} is not a relief"));
+                    };
+                    if version < *published {
+                        return Err(format!(
+                            "surface version {version} after version {published} (a corrupt record)"
+                        ));
+                    }
+                    writer.publish_as(version, m.clone());
+                    *published = version;
+                }
+            }
         }
-        // The versions before it are never rendered again.
-        self.held = self.held.split_off(&version);
+        held.0 = held.0.split_off(&version);
         Ok(())
     }
 
@@ -130,15 +111,13 @@ impl ReplayFeed {
         // clock either).
         let (now, overrun) = (record.time, record.inputs.deadline_overrun);
         let age = record.inputs.surface_frame_age_ns;
-        match &mut self.render {
-            Some(Render::Plane(f)) => {
+        match self {
+            ReplayFeed::Plane(f) => {
                 cycle.run(devices, with_age(f.current(), age), now, overrun, out)
             }
-            Some(Render::Relief { feed, .. }) => {
+            ReplayFeed::Relief { feed, .. } => {
                 cycle.run(devices, with_age(feed.current(), age), now, overrun, out)
             }
-            // `show` starts the rendering before any period runs.
-            None => {}
         }
     }
 }

@@ -29,7 +29,7 @@ use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::telemetry::{CalibrationInForce, Log, LogItem};
 
 use devices::RecordedDevices;
-use feed::ReplayFeed;
+use feed::{HeldSurfaces, ReplayFeed};
 
 /// The first output that differs.
 #[derive(Debug, Clone, PartialEq)]
@@ -219,7 +219,8 @@ fn replay_device<const N: usize, D: RuntimeDevice<N>>(
     replay: &mut ReplayOutcome,
     observer: &mut dyn ReplayObserver,
 ) -> Result<(), ReplayError> {
-    let mut feed = ReplayFeed::new(&replay.config);
+    let mut held = HeldSurfaces::default();
+    let mut feed: Option<ReplayFeed> = None;
     let mut cycle: Option<ControlCycle<N, D>> = None;
     let mut previous: Option<u64> = None;
     let mut resume = true;
@@ -241,7 +242,7 @@ fn replay_device<const N: usize, D: RuntimeDevice<N>>(
             }
             LogItem::Surface(version, entry) => {
                 if replay.stopped_early.is_none() {
-                    feed.hold(version, entry);
+                    held.hold(version, entry);
                 }
                 continue;
             }
@@ -254,10 +255,11 @@ fn replay_device<const N: usize, D: RuntimeDevice<N>>(
             // Counted, not replayed: the state after the stop is unknown.
             continue;
         }
-        if replay.replayed == 0 && replay.procedure_periods == 0 {
-            // The service rendered its first surface from its start.
-            feed.start().map_err(ReplayError)?;
-        }
+        // The service rendered its first surface from its start.
+        let feed = match &mut feed {
+            Some(feed) => feed,
+            None => feed.insert(ReplayFeed::start(&held, &replay.config).map_err(ReplayError)?),
+        };
         if !record.inputs.from_cycle {
             replay.procedure_periods += 1;
             resume = true;
@@ -279,7 +281,7 @@ fn replay_device<const N: usize, D: RuntimeDevice<N>>(
             replay.stopped_early = stop("more supervisor operations than were recorded".into());
             continue;
         }
-        if let Err(why) = feed.show(record.surface_version) {
+        if let Err(why) = feed.show(&mut held, record.surface_version) {
             replay.stopped_early = stop(why);
             continue;
         }
