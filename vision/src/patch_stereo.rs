@@ -91,7 +91,7 @@ pub fn search_bound_px(matches: &[SegmentMatch], disparity_max_px: f32, margin_p
         .iter()
         .flat_map(|m| m.disparity_px)
         .filter(|d| d.is_finite())
-        .fold(None, |m: Option<f32>, d| Some(m.map_or(d, |m| m.max(d))));
+        .reduce(f32::max);
     match largest {
         Some(d) => disparity_max_px.min(d + margin_px.max(0.0)),
         None => disparity_max_px,
