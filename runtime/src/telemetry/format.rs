@@ -29,6 +29,10 @@ pub const RECORD_BYTES: usize = 256;
 pub const INPUTS_BYTES: usize = 160;
 /// Size of a period frame's payload, bytes.
 pub const PERIOD_BYTES: usize = RECORD_BYTES + INPUTS_BYTES;
+
+/// A batch (one compressed block) is written once its frames take this many bytes before
+/// compression (about 0.6 s of periods at 1 kHz), or once it is `BATCH_AGE` old.
+pub(super) const BATCH_BYTES: usize = 256 * 1024;
 /// Size of a calibration frame's payload, bytes.
 pub const CALIBRATION_BYTES: usize = 112;
 /// Size of an end frame's payload before its text, bytes.

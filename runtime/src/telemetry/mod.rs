@@ -603,4 +603,117 @@ mod tests {
             );
         }
     }
+
+    /// The surface versions and the periods' rendered versions of a version 4 log's bytes, in
+    /// the order its frames are in the file.
+    fn surface_order_in_file(v4: &[u8]) -> Vec<(FrameKind, u64)> {
+        let mut order = Vec::new();
+        let mut block = super::block::DecodedBlock::default();
+        for f in frames(v4).unwrap() {
+            let payload = &v4[f.offset + FRAME_HEAD_BYTES..f.offset + f.bytes - FRAME_TAIL_BYTES];
+            block.decode(payload).unwrap();
+            for frame in block.frames() {
+                let (kind, payload) = frame.unwrap();
+                let version = match kind {
+                    FrameKind::Period => {
+                        let b: &[u8; PERIOD_BYTES] = payload.try_into().unwrap();
+                        format::decode_period(b).unwrap().surface_version
+                    }
+                    FrameKind::Surface | FrameKind::SurfaceLost => {
+                        u64::from_le_bytes(payload[0..8].try_into().unwrap())
+                    }
+                    _ => continue,
+                };
+                order.push((kind, version));
+            }
+        }
+        order
+    }
+
+    #[test]
+    fn the_writer_puts_each_surface_before_the_first_period_rendering_it() {
+        // As a relief session runs: the vision thread publishes (the tap first), and the control
+        // thread renders the new version at once, while the writer is taking periods.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.vlog");
+        let tap = Arc::new(SurfaceTap::default());
+        let recording = SessionRecording {
+            session: Some(SessionInfo::new("test", videt_rt_config::Config::default())),
+            surfaces: FeedRecording {
+                initial: Some(plane(0.3)),
+                tap: Some(Arc::clone(&tap)),
+            },
+            retention: None,
+        };
+        let (mut producer, writer) = start_session(&path, HEADER, recording, 1 << 16).unwrap();
+        producer.calibration(0, &CalibrationInForce::default());
+        let mut cycle = 0;
+        for version in 1..=1000u64 {
+            tap.published(version, plane(0.3 + version as f64 * 1e-4));
+            for _ in 0..25 {
+                let mut r = noisy_sample(cycle);
+                r.surface_version = version;
+                producer.observe(&r, &WindowStats::default());
+                cycle += 1;
+            }
+            if version % 40 == 0 {
+                std::thread::sleep(Duration::from_millis(2));
+            }
+        }
+        assert_eq!(writer.dropped(), 0);
+        writer.finish(EndReason::StopRequest).unwrap();
+        let order = surface_order_in_file(&std::fs::read(&path).unwrap());
+        let mut newest = None;
+        for (at, (kind, version)) in order.iter().enumerate() {
+            if *kind == FrameKind::Period {
+                assert!(
+                    newest.is_some_and(|n| *version <= n),
+                    "frame {at}: a period renders surface {version} before it is written (newest {newest:?})"
+                );
+            } else {
+                newest = newest.max(Some(*version));
+            }
+        }
+        assert_eq!(newest, Some(1000));
+    }
+
+    #[test]
+    fn a_surface_written_after_the_first_period_rendering_it_is_read_before_that_period() {
+        // An earlier writer took a surface published while it was taking periods after them.
+        let period = |cycle: u64, version: u64| {
+            let mut r = sample(cycle);
+            r.surface_version = version;
+            LogItem::Period(r)
+        };
+        let surface =
+            |v: u64| LogItem::Surface(v, SurfaceEntry::Recorded(Arc::new(plane(0.3 + v as f64))));
+        let session = LogItem::Session(Box::new(Ok(SessionInfo::new(
+            "test",
+            videt_rt_config::Config::default(),
+        ))));
+        let mut written = vec![session, surface(0)];
+        written.extend((0..10).map(|c| period(c, 0)));
+        written.extend((10..15).map(|c| period(c, 1)));
+        written.push(surface(1));
+        written.push(LogItem::Surface(2, SurfaceEntry::Lost));
+        written.extend((15..20).map(|c| period(c, 2)));
+        // Version 3 never comes: its periods are given as they are, after one look ahead.
+        written.extend((20..3000).map(|c| period(c, 3)));
+        let mut expected = written.clone();
+        let moved = expected.remove(17);
+        expected.insert(12, moved);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("late.vlog");
+        write_log(&path, &HEADER, written.clone()).unwrap();
+        let v4: Vec<LogItem> = LogReader::open(&path).unwrap().collect();
+        assert_eq!(v4, expected);
+        let v3 = version_3_bytes(&HEADER, written).unwrap();
+        let v3: Vec<LogItem> = LogReader::new(&v3[..]).unwrap().collect();
+        assert_eq!(v3, expected);
+        // The order of the log read whole.
+        assert_eq!(
+            read_log(&path).unwrap().items().collect::<Vec<_>>(),
+            expected
+        );
+    }
 }

@@ -13,9 +13,9 @@ use std::sync::Arc;
 use super::block::DecodedBlock;
 use super::format::{
     decode_calibration, decode_end, decode_period, decode_record, frame_crc, FrameKind, LogHeader,
-    CALIBRATION_BYTES, FORMAT_VERSION, FORMAT_VERSION_1, FORMAT_VERSION_2, FORMAT_VERSION_3,
-    FRAME_HEAD_BYTES, FRAME_TAIL_BYTES, HEADER_BYTES, MAGIC, MAX_FRAME_PAYLOAD, PERIOD_BYTES,
-    RECORD_BYTES,
+    BATCH_BYTES, CALIBRATION_BYTES, FORMAT_VERSION, FORMAT_VERSION_1, FORMAT_VERSION_2,
+    FORMAT_VERSION_3, FRAME_HEAD_BYTES, FRAME_TAIL_BYTES, HEADER_BYTES, MAGIC, MAX_FRAME_PAYLOAD,
+    PERIOD_BYTES, RECORD_BYTES,
 };
 use super::session::{CalibrationInForce, SessionEnd, SessionInfo};
 use super::surfaces::RecordedSurface;
@@ -248,7 +248,12 @@ pub fn parse_log(bytes: &[u8]) -> Result<Log, LogError> {
     Ok(Log::gather(LogReader::new(bytes)?))
 }
 
-/// One thing a log records, in the order it was written.
+/// How many items a [`LogReader`] reads ahead for a surface written after the first period
+/// rendering it: two batches of periods.
+const SURFACE_LOOKAHEAD_ITEMS: usize = 2 * BATCH_BYTES / PERIOD_BYTES + 64;
+
+/// One thing a log records, in the order it was written (a surface the writer took after the
+/// first period rendering it comes before that period).
 // Nearly every item is a period: boxing it would allocate for each.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
@@ -272,7 +277,9 @@ pub enum LogItem {
 }
 
 /// Reads a log item by item from any reader, holding one frame (or one block of version 4) at
-/// a time: its memory does not grow with the session's length. After the last item,
+/// a time: its memory does not grow with the session's length. The items come in the log's
+/// order, but for a surface written after the first period rendering it: that surface is
+/// given before the period, as [`Log::items`] gives it. After the last item,
 /// [`LogReader::damage`] says whether and where the log stopped being readable.
 pub struct LogReader<R: Read> {
     input: R,
@@ -290,6 +297,10 @@ pub struct LogReader<R: Read> {
     last_cycle: Option<u64>,
     end: Option<SessionEnd>,
     last_surface: Option<Arc<RecordedSurface>>,
+    /// The newest surface version returned so far.
+    newest_surface_given: Option<u64>,
+    /// A surface version looked ahead for and not found: not looked for again.
+    surface_not_found: Option<u64>,
     session_text: Option<String>,
     frame: Vec<u8>,
     block: DecodedBlock,
@@ -346,6 +357,8 @@ impl<R: Read> LogReader<R> {
             last_cycle: None,
             end: None,
             last_surface: None,
+            newest_surface_given: None,
+            surface_not_found: None,
             session_text: None,
             frame: Vec::new(),
             block: DecodedBlock::default(),
@@ -397,6 +410,48 @@ impl<R: Read> LogReader<R> {
         self.truncated_bytes = read + rest;
         self.damage = Some(Damage { offset, what });
         self.finished = true;
+    }
+
+    /// [`Self::read_more`], a read error taken as damage.
+    fn read_more_or_stop(&mut self) {
+        if let Err(e) = self.read_more() {
+            let at = self.offset;
+            self.damaged(at, 0, format!("a read error ({e})"));
+        }
+    }
+
+    /// The period at the front of `pending` renders surface version `needed`, not yet given:
+    /// read ahead (at most [`SURFACE_LOOKAHEAD_ITEMS`]) for it and, when it is there, put the
+    /// surfaces up to it before that period, as [`Log::items`] gives them. A writer takes the surfaces published
+    /// between its batches, so a surface published while it was taking a batch's periods is
+    /// written after the first period rendering it, within the next batch at the latest.
+    fn bring_surface_forward(&mut self, needed: u64) {
+        let found = |pending: &VecDeque<LogItem>| {
+            pending
+                .iter()
+                .any(|i| matches!(i, LogItem::Surface(v, _) if *v >= needed))
+        };
+        while !self.finished
+            && self.pending.len() < SURFACE_LOOKAHEAD_ITEMS
+            && !found(&self.pending)
+        {
+            self.read_more_or_stop();
+        }
+        if !self
+            .pending
+            .iter()
+            .any(|i| matches!(i, LogItem::Surface(v, _) if *v == needed))
+        {
+            // Not in the log (or too far on): the items stay in the log's order.
+            self.surface_not_found = Some(needed);
+            return;
+        }
+        let (mut ahead, rest): (VecDeque<LogItem>, VecDeque<LogItem>) = self
+            .pending
+            .drain(..)
+            .partition(|i| matches!(i, LogItem::Surface(v, _) if *v <= needed));
+        ahead.extend(rest);
+        self.pending = ahead;
     }
 
     /// Read the next record, frame or block into `pending`, or finish.
@@ -559,16 +614,28 @@ impl<R: Read> Iterator for LogReader<R> {
 
     fn next(&mut self) -> Option<LogItem> {
         loop {
+            if let Some(LogItem::Period(record)) = self.pending.front() {
+                let needed = record.surface_version;
+                let given = self.newest_surface_given;
+                if given.is_some_and(|newest| needed > newest)
+                    && self.surface_not_found.is_none_or(|v| needed > v)
+                {
+                    self.bring_surface_forward(needed);
+                }
+            }
             if let Some(item) = self.pending.pop_front() {
+                if let LogItem::Surface(version, _) = &item {
+                    self.newest_surface_given = Some(
+                        self.newest_surface_given
+                            .map_or(*version, |v| v.max(*version)),
+                    );
+                }
                 return Some(item);
             }
             if self.finished {
                 return None;
             }
-            if let Err(e) = self.read_more() {
-                let at = self.offset;
-                self.damaged(at, 0, format!("a read error ({e})"));
-            }
+            self.read_more_or_stop();
         }
     }
 }

@@ -9,14 +9,10 @@ use std::time::{Duration, Instant};
 use super::block::BlockBuilder;
 use super::format::{
     encode_calibration, encode_end, encode_header, encode_period, frame, FrameKind, LogHeader,
-    FORMAT_VERSION_3, PERIOD_BYTES,
+    BATCH_BYTES, FORMAT_VERSION_3, PERIOD_BYTES,
 };
 use super::read::{LogItem, SurfaceEntry};
 use super::surfaces::RecordedSurface;
-
-/// A batch (one compressed block) is written once its frames take this many bytes before
-/// compression (about 0.6 s of periods at 1 kHz), or once it is [`BATCH_AGE`] old.
-pub(super) const BATCH_BYTES: usize = 256 * 1024;
 
 /// The oldest a batch gets before it is written, when the periods come slower than
 /// [`BATCH_BYTES`] fills: what a session killed or cut off loses at most, besides the ring.

@@ -17,12 +17,12 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use super::format::{
-    encode_calibration, encode_end, encode_period, FrameKind, LogHeader, PERIOD_BYTES,
+    encode_calibration, encode_end, encode_period, FrameKind, LogHeader, BATCH_BYTES, PERIOD_BYTES,
 };
 use super::health::{SessionLogHealth, WriterEvent, WriterHealth};
 use super::retention::{self, RetentionLimits};
 use super::session::{CalibrationInForce, EndReason, SessionEnd, SessionInfo};
-use super::sink::{LogSink, SurfaceFrames, BATCH_BYTES};
+use super::sink::{LogSink, SurfaceFrames};
 use super::surfaces::{FeedRecording, RecordedSurface};
 use super::{TelemetryItem, TelemetryProducer, NO_CYCLE};
 
@@ -168,6 +168,7 @@ pub fn start_session(
         written: 0,
         batch: BatchContents::default(),
         failing: None,
+        newest_surface: 0,
     };
     let (writer_end, writer_dropped, writer_last_cycle) = (
         Arc::clone(&end),
@@ -283,6 +284,8 @@ struct WriterThread {
     written: u64,
     batch: BatchContents,
     failing: Option<Failing>,
+    /// The newest surface version taken from the tap (0: the initial one).
+    newest_surface: u64,
 }
 
 impl WriterThread {
@@ -298,6 +301,11 @@ impl WriterThread {
             while let Ok(item) = self.consumer.pop() {
                 match item {
                     TelemetryItem::Period(record) => {
+                        if record.surface_version > self.newest_surface {
+                            // Published since the last take, after this loop began: the
+                            // surface goes before the first period rendering it.
+                            self.drain_surfaces();
+                        }
                         if self.failing.is_some() {
                             self.health.lost.fetch_add(1, Ordering::Relaxed);
                         } else {
@@ -345,6 +353,7 @@ impl WriterThread {
     }
 
     fn surface(&mut self, version: u64, surface: Arc<RecordedSurface>) {
+        self.newest_surface = self.newest_surface.max(version);
         match &mut self.failing {
             Some(f) => {
                 if let Some((older, _)) = f.surface.replace((version, surface)) {
@@ -360,6 +369,7 @@ impl WriterThread {
     }
 
     fn surface_lost(&mut self, version: u64) {
+        self.newest_surface = self.newest_surface.max(version);
         match &mut self.failing {
             Some(f) => f.lost_surfaces.push(version),
             None => self
