@@ -215,6 +215,8 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig<WIREMAN_WIRES> {
         config.control.t_max_n,
     );
     c.transmission = videt_runtime::setup::transmission(config);
+    c.motor_reversed = d.motor_reversed;
+    c.encoder_reversed = d.encoder_reversed;
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
     c.drive_heartbeat_ms = d.heartbeat_ms;
     c.drive_heartbeat_timeout = Duration::from_millis(u64::from(d.heartbeat_timeout_ms));
@@ -300,9 +302,13 @@ mod linux {
     /// to look at.
     pub fn open_device(config: &Config) -> Result<LinuxDevice, String> {
         let s = &config.sensors;
-        let estop =
-            videt_drivers::gpio::linux::estop(&s.gpio_chip, s.estop_line, ESTOP_DEBOUNCE_SAMPLES)
-                .map_err(|e| format!("{e} (sensors.gpio_chip, sensors.estop_line)"))?;
+        let estop = videt_drivers::gpio::linux::estop(
+            &s.gpio_chip,
+            s.estop_line,
+            ESTOP_DEBOUNCE_SAMPLES,
+            s.estop_pressed_level == videt_rt_config::LineLevel::High,
+        )
+        .map_err(|e| format!("{e} (sensors.gpio_chip, sensors.estop_line)"))?;
         let open_drives = || {
             let interface = &config.drives.can_interface;
             let port = SocketCanPort::open(interface)
@@ -510,8 +516,12 @@ mod tests {
         config.drives.heartbeat_timeout_ms = 70;
         config.control.rate_hz = 2000;
         config.drives.pdo_wait_fraction = 0.9;
+        config.drives.motor_reversed = [false, true, false];
+        config.drives.encoder_reversed = [true, true, false];
         let c = drive_set_config(&config);
         assert_eq!(c.node_ids, [4, 5, 6]);
+        assert_eq!(c.motor_reversed, [false, true, false]);
+        assert_eq!(c.encoder_reversed, [true, true, false]);
         assert_eq!(c.pdo_timeout, Duration::from_micros(450));
         assert_eq!(c.power_timeout, Duration::from_millis(500));
         assert_eq!(c.rated_torque_nm, 0.08);

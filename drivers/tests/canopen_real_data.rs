@@ -114,10 +114,11 @@ fn the_simulated_drive_dictionary_matches_a_real_drive() {
     for (index, sub) in node.object_addresses() {
         let value = node.read_object(index, sub).unwrap();
         let Some(real) = epos.entry(index, sub) else {
-            // Objects a real EPOS4 lacks are allowed only for the optional torque limit and the
-            // CiA 401 analog input (the EPOS4 has its analog inputs at 0x3160).
+            // Objects a real EPOS4 lacks are allowed only for the optional torque limit, the
+            // optional polarity (an EPOS4 keeps its directions in its own axis configuration)
+            // and the CiA 401 analog input (the EPOS4 has its analog inputs at 0x3160).
             assert!(
-                index == 0x6072 || index == 0x6401,
+                index == 0x6072 || index == 0x607E || index == 0x6401,
                 "{index:#06x}:{sub} not in the EPOS4 dictionary"
             );
             continue;

@@ -251,8 +251,18 @@ impl Default for FilesConfig {
 pub struct DrivesConfig {
     /// SocketCAN interface name.
     pub can_interface: String,
-    /// CANopen node ids of the drives of wires 0, 1, 2 (1..=127).
+    /// CANopen node ids of the drives of wires 0, 1, 2 (1..=127): which drive moves which
+    /// wire. Drives whose ids are on the wrong wires are fixed by reordering this list.
     pub node_ids: [u8; 3],
+    /// Per wire (in wire order): the motor turns the other way, so a positive torque unwinds
+    /// the wire instead of winding it (a motor mounted mirrored, or the yarn wound the other
+    /// way round the pulley). The driver negates the wire's torque (CiA 402 defines no torque
+    /// polarity). A yarn wound the other way reverses the encoder too (`encoder_reversed`).
+    pub motor_reversed: [bool; 3],
+    /// Per wire: the encoder counts down as the wire winds in (its channels swapped, or the
+    /// yarn wound the other way). Written to the drive's polarity (0x607E, position and
+    /// velocity) where it has that object; negated by the driver where it does not.
+    pub encoder_reversed: [bool; 3],
     /// Motor rated torque (CiA 402 object 0x6076), N·m: target torque is in per-mille of it.
     /// With `device_description` giving it, the file's value is used and this, when set, must
     /// agree with it within 1 %.
@@ -321,6 +331,16 @@ pub enum TensionAdc {
     Drive,
 }
 
+/// The level of a digital input line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LineLevel {
+    /// Low (0).
+    Low,
+    /// High (1).
+    High,
+}
+
 /// The ADS1220's operating mode (its data rates depend on it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -354,8 +374,11 @@ pub struct SensorsConfig {
     pub stale_after_ms: u16,
     /// GPIO chip device of the e-stop and vibrotactor lines.
     pub gpio_chip: String,
-    /// GPIO line of the (active-low) e-stop input.
+    /// GPIO line of the e-stop input.
     pub estop_line: u32,
+    /// The e-stop line's level while the button is pressed: "low" (a normally-closed button
+    /// to a pulled-up input, the default: a broken wire reads as pressed) or "high".
+    pub estop_pressed_level: LineLevel,
     /// GPIO lines of the three vibrotactors (red, green, blue channels).
     pub vibrotactor_lines: [u32; 3],
     /// ADS1220: the spidev device of each wire's converter.
@@ -483,6 +506,8 @@ impl Default for DrivesConfig {
         DrivesConfig {
             can_interface: "can0".into(),
             node_ids: [1, 2, 3],
+            motor_reversed: [false; 3],
+            encoder_reversed: [false; 3],
             rated_torque_nm: 0.05,
             device_description: None,
             description: None,
@@ -508,6 +533,7 @@ impl Default for SensorsConfig {
             stale_after_ms: 20,
             gpio_chip: "/dev/gpiochip0".into(),
             estop_line: 17,
+            estop_pressed_level: LineLevel::Low,
             vibrotactor_lines: [22, 23, 24],
             spi_devices: [
                 "/dev/spidev0.0".into(),

@@ -199,6 +199,15 @@ pub const DRIVER_OBJECTS: &[DriverObject] = &[
         },
     ),
     obj(
+        0x607E,
+        Some(0),
+        "polarity",
+        "the direction of the position and velocity (bits 7 and 6), set from drives.encoder_reversed",
+        Need::Optional {
+            without: "a wire's encoder direction (drives.encoder_reversed) is applied by the service",
+        },
+    ),
+    obj(
         0x1400,
         None,
         "RPDO1 communication parameter",

@@ -24,6 +24,12 @@ pub struct DriveSetConfig<const N: usize> {
     pub host_node_id: u8,
     /// Encoder, gear and pulley of every wire.
     pub transmission: Transmission,
+    /// Per wire: a positive drive torque unwinds the wire; the set negates the wire's torque.
+    pub motor_reversed: [bool; N],
+    /// Per wire: the drive's position counts down as the wire winds in. Written to the
+    /// drive's polarity (0x607E bits 7 and 6) where it has that object; the set negates the
+    /// position and velocity itself where it does not.
+    pub encoder_reversed: [bool; N],
     /// Motor rated torque (the drives' 0x6076), N·m; target torque is per mille of it.
     pub rated_torque_nm: f64,
     /// The unit the drives give 0x6076 in (mN·m by CiA 402, µN·m on maxon drives): how the
@@ -104,6 +110,8 @@ impl<const N: usize> DriveSetConfig<N> {
             node_ids,
             host_node_id: 0x7F,
             transmission: Transmission::PAPER,
+            motor_reversed: [false; N],
+            encoder_reversed: [false; N],
             rated_torque_nm,
             rated_torque_unit: TorqueUnit::MilliNewtonMetre,
             t_max_n,

@@ -47,6 +47,13 @@ const fn max_frames_per_cycle(drives: usize) -> usize {
 const MAX_FAULT_RESETS: u32 = 3;
 /// COB-ID bit 31: the PDO is disabled.
 const PDO_INVALID: u32 = 0x8000_0000;
+/// The polarity object of CiA 402.
+const POLARITY: u16 = 0x607E;
+/// Its bit that negates the position (demand and actual values).
+const POLARITY_POSITION: u8 = 1 << 7;
+/// Its bit that negates the velocity (demand and actual values).
+const POLARITY_VELOCITY: u8 = 1 << 6;
+
 /// Bit of cyclic synchronous torque mode (10) in the supported drive modes (0x6502).
 const CYCLIC_SYNCHRONOUS_TORQUE_BIT: u32 = 1 << 9;
 /// NMT state byte of "operational".
@@ -83,6 +90,9 @@ struct NodeLink {
     /// that SYNC was sent, and the velocity derived from the last two (drive units per second).
     velocity_base: Option<(i64, Instant)>,
     derived_velocity: f64,
+    /// -1 when the set itself negates this drive's position and velocity (its encoder is
+    /// reversed and the drive has no polarity object), else 1.
+    encoder_sign: f64,
 }
 
 impl NodeLink {
@@ -107,6 +117,7 @@ impl NodeLink {
             last_raw_position: None,
             velocity_base: None,
             derived_velocity: 0.0,
+            encoder_sign: 1.0,
         }
     }
 
@@ -505,14 +516,16 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
 
     fn sample(&self, i: usize) -> DriveSample {
         let n = &self.nodes[i];
+        let sign = n.encoder_sign;
         DriveSample {
-            position_counts: (n.position_counts as f64 * self.cfg.counts_per_position_unit).round()
-                as i64,
-            velocity_counts_per_s: if self.cfg.analog_input.is_some() {
-                n.derived_velocity * self.cfg.counts_per_position_unit
-            } else {
-                f64::from(n.motion.velocity) * self.cfg.counts_per_s_per_velocity_unit
-            },
+            position_counts: (sign * n.position_counts as f64 * self.cfg.counts_per_position_unit)
+                .round() as i64,
+            velocity_counts_per_s: sign
+                * if self.cfg.analog_input.is_some() {
+                    n.derived_velocity * self.cfg.counts_per_position_unit
+                } else {
+                    f64::from(n.motion.velocity) * self.cfg.counts_per_s_per_velocity_unit
+                },
             state: n.power_state().to_hal(),
             error_code: n.status.error_code,
         }
@@ -713,6 +726,7 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 }
             }
             self.disable_unused_pdos(i)?;
+            self.set_polarity(i)?;
         }
         // Host heartbeat first, so the drives' consumers start on a live host.
         self.host_heartbeat_due = Instant::now();
@@ -781,6 +795,46 @@ impl<P: CanPort, const N: usize> Cia402DriveSet<P, N> {
                 self.sdo_write(i, addr, Value::Unsigned32(cob | PDO_INVALID))?;
             }
         }
+        Ok(())
+    }
+
+    /// Drive `i`'s position and velocity polarity (0x607E bits 7 and 6, the other bits kept)
+    /// as `encoder_reversed` says, at every start: the configuration decides the direction,
+    /// whatever the drive kept from before. A drive without the object has its position and
+    /// velocity negated by the set instead (and a note when that matters).
+    fn set_polarity(&mut self, i: usize) -> Result<(), DriveError> {
+        let reversed = self.cfg.encoder_reversed[i];
+        let addr = Address::new(POLARITY, 0);
+        let current = match self.sdo_read(i, addr, DataType::Unsigned8) {
+            Ok(Value::Unsigned8(v)) => Some(v),
+            Ok(_) => None,
+            Err(DriveError::SdoAbort {
+                index,
+                subindex,
+                code,
+                ..
+            }) if means_absent(code) => {
+                if reversed {
+                    self.note(i, index, subindex, code);
+                }
+                None
+            }
+            Err(e) => return Err(e),
+        };
+        let Some(current) = current else {
+            self.nodes[i].encoder_sign = if reversed { -1.0 } else { 1.0 };
+            return Ok(());
+        };
+        let bits = POLARITY_POSITION | POLARITY_VELOCITY;
+        let wanted = if reversed {
+            current | bits
+        } else {
+            current & !bits
+        };
+        if wanted != current {
+            self.sdo_write(i, addr, Value::Unsigned8(wanted))?;
+        }
+        self.nodes[i].encoder_sign = 1.0;
         Ok(())
     }
 
@@ -1055,6 +1109,9 @@ impl<P: CanPort, const N: usize> WireDrives<N> for Cia402DriveSet<P, N> {
         let mut permille = [0i16; N];
         for i in 0..N {
             match self.limited_torque(i, torque_nm[i]) {
+                Ok(t) if self.cfg.motor_reversed[i] => {
+                    permille[i] = self.cfg.torque_to_permille(-t)
+                }
                 Ok(t) => permille[i] = self.cfg.torque_to_permille(t),
                 Err(e) => return Err(self.fail(e)),
             }

@@ -911,3 +911,100 @@ fn a_two_drive_set_with_analog_inputs_feeds_a_two_wire_tension_set_and_faults_sa
     assert!(matches!(e, DriveError::Emergency { node: 2, .. }), "{e}");
     assert_safe_state(&r);
 }
+
+/// A rig of three drives, each with `dictionary`, wired as built with motor 0 turning the
+/// other way and encoder 1 counting the other way; the set configured with `cfg`.
+fn miswired_rig(
+    cfg: DriveSetConfig<WIRES>,
+    dictionary: videt_sim::cia402_node::DriveDictionary,
+) -> Rig {
+    let serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let bus = Arc::new(BusFaults::new(11));
+    let mut eps = InProcessBus::with_endpoints(2, 256, bus.clone());
+    let drives = eps.pop().unwrap();
+    let host = eps.pop().unwrap();
+    let plant = Arc::new(Mutex::new(FreeMotorPlant::new(WIRES, 1e-5, 1e-4, 2000.0)));
+    let bank = SimDriveBank::spawn_described(
+        drives,
+        &specs(),
+        Some(Arc::new(dictionary)),
+        plant.clone(),
+        || {},
+    );
+    bank.faults(0).set_reversed_motor(true);
+    bank.faults(1).set_reversed_encoder(true);
+    Rig {
+        _serial: serial,
+        set: Cia402DriveSet::new(host, cfg).unwrap(),
+        bank,
+        bus,
+        plant,
+        stats: None,
+    }
+}
+
+/// Wind every wire with the same torque for 40 periods; the samples, and each plant axis's
+/// encoder (positive: the motor turned the way that winds).
+fn wind_all(r: &mut Rig) -> ([DriveSample; WIRES], [i64; WIRES]) {
+    r.set.configure().unwrap();
+    r.set.activate().unwrap();
+    let mut out = [DriveSample::default(); WIRES];
+    for _ in 0..40 {
+        cycle(&mut r.set, [0.005; WIRES], &mut out).unwrap();
+    }
+    let plant = r.plant.lock().unwrap();
+    let axes = core::array::from_fn(|i| plant.encoder_counts(i));
+    (out, axes)
+}
+
+#[test]
+fn a_reversed_motor_and_encoder_are_put_right_by_the_configuration_with_or_without_0x607e() {
+    let generic = || videt_sim::cia402_node::DriveDictionary::generic(RATED_MNM);
+    let without_polarity = || {
+        let mut d = generic();
+        d.objects.retain(|o| o.index != 0x607E);
+        d
+    };
+    // As configured by default, the miswiring shows: wire 0 unwinds under a winding torque,
+    // wire 1's encoder says it unwinds while it winds.
+    let mut r = miswired_rig(tolerant(), generic());
+    let (out, axes) = wind_all(&mut r);
+    assert!(
+        axes[0] < -100 && out[0].position_counts < -100,
+        "{axes:?} {out:?}"
+    );
+    assert!(
+        axes[1] > 100 && out[1].position_counts < -100,
+        "{axes:?} {out:?}"
+    );
+    assert!(axes[2] > 100 && out[2].position_counts > 100);
+    drop(r);
+    for (dictionary, in_drive) in [(generic(), true), (without_polarity(), false)] {
+        let mut cfg = tolerant();
+        cfg.motor_reversed[0] = true;
+        cfg.encoder_reversed[1] = true;
+        let mut r = miswired_rig(cfg, dictionary);
+        let (out, axes) = wind_all(&mut r);
+        // Every wire winds, and every sample says so, as the HAL's convention has it.
+        for i in 0..WIRES {
+            assert!(axes[i] > 100, "axis {i}: {axes:?}");
+            assert!(
+                out[i].position_counts > 100 && out[i].velocity_counts_per_s > 0.0,
+                "wire {i}: {out:?}"
+            );
+            assert!(
+                (out[i].position_counts - axes[i]).abs() < 200,
+                "{out:?} {axes:?}"
+            );
+        }
+        // The drive's polarity is used where it has one; the set says so where it has not.
+        let report = r.set.startup_report();
+        let notes = &report.lock().unwrap().notes;
+        let polarity_noted = notes.iter().any(|n| n.index == 0x607E && n.wire == 1);
+        assert_eq!(polarity_noted, !in_drive, "{notes:?}");
+        assert!(
+            notes.iter().all(|n| n.index != 0x607E || n.wire == 1),
+            "{notes:?}"
+        );
+    }
+}

@@ -7,24 +7,44 @@ use videt_hal::EStop;
 
 use super::GpioError;
 
-/// Debounced, latched e-stop on an active-low input pin.
+/// Debounced, latched e-stop on an input pin, pressed at its low level (the usual
+/// normally-closed button to a pulled-up input, where a cut wire reads as pressed) or, as
+/// configured, at its high level.
 #[derive(Debug)]
 pub struct EStopInput<P> {
     pin: P,
     debounce_samples: u8,
-    low_count: u8,
+    pressed_high: bool,
+    pressed_count: u8,
     latched: bool,
 }
 
 impl<P: InputPin> EStopInput<P> {
-    /// Take the pin. The press is accepted after `debounce_samples` consecutive low readings
-    /// (at least 1; one reading per [`EStop::is_pressed`] call, i.e. per control period).
+    /// Take the pin, pressed when low. The press is accepted after `debounce_samples`
+    /// consecutive pressed readings (at least 1; one reading per [`EStop::is_pressed`] call,
+    /// i.e. per control period).
     pub fn new(pin: P, debounce_samples: u8) -> Self {
         EStopInput {
             pin,
             debounce_samples: debounce_samples.max(1),
-            low_count: 0,
+            pressed_high: false,
+            pressed_count: 0,
             latched: false,
+        }
+    }
+
+    /// The same input, pressed when its line is high instead.
+    pub fn pressed_when_high(mut self) -> Self {
+        self.pressed_high = true;
+        self
+    }
+
+    /// Whether the line is at its pressed level now (not debounced, not latched).
+    fn at_pressed_level(&mut self) -> Result<bool, P::Error> {
+        if self.pressed_high {
+            self.pin.is_high()
+        } else {
+            self.pin.is_low()
         }
     }
 
@@ -48,27 +68,27 @@ impl<P: InputPin> videt_hal::ErrorType for EStopInput<P> {
 
 impl<P: InputPin> EStop for EStopInput<P> {
     fn is_pressed(&mut self) -> Result<bool, GpioError> {
-        let low = match self.pin.is_low() {
-            Ok(l) => l,
+        let pressed = match self.at_pressed_level() {
+            Ok(p) => p,
             Err(e) => {
                 // A pin that cannot be read is treated as pressed.
                 self.latched = true;
                 return Err(Self::err(e));
             }
         };
-        if low {
-            self.low_count = self.low_count.saturating_add(1);
-            if self.low_count >= self.debounce_samples {
+        if pressed {
+            self.pressed_count = self.pressed_count.saturating_add(1);
+            if self.pressed_count >= self.debounce_samples {
                 self.latched = true;
             }
         } else {
-            self.low_count = 0;
+            self.pressed_count = 0;
         }
         Ok(self.latched)
     }
 
     fn reset(&mut self) -> Result<(), GpioError> {
-        if self.pin.is_low().map_err(Self::err)? {
+        if self.at_pressed_level().map_err(Self::err)? {
             return Err(GpioError {
                 pin: "e-stop",
                 kind: embedded_hal::digital::ErrorKind::Other,
@@ -76,7 +96,7 @@ impl<P: InputPin> EStop for EStopInput<P> {
             });
         }
         self.latched = false;
-        self.low_count = 0;
+        self.pressed_count = 0;
         Ok(())
     }
 }
@@ -120,6 +140,26 @@ mod tests {
         assert!(err.still_held);
         assert_eq!(videt_hal::Error::kind(&err), videt_hal::ErrorKind::Fault);
         assert!(e.is_pressed().unwrap());
+        let _ = e.release();
+        pin.done();
+    }
+
+    #[test]
+    fn an_input_pressed_when_high_reads_its_levels_the_other_way() {
+        use State::{High, Low};
+        let script = [
+            T::get(Low),
+            T::get(High),
+            T::get(High),
+            T::get(Low),
+            T::get(Low),
+        ];
+        let mut pin = PinMock::new(&script);
+        let mut e = EStopInput::new(pin.clone(), 2).pressed_when_high();
+        let seen: Vec<bool> = (0..3).map(|_| e.is_pressed().unwrap()).collect();
+        assert_eq!(seen, [false, false, true]);
+        e.reset().unwrap();
+        assert!(!e.is_pressed().unwrap());
         let _ = e.release();
         pin.done();
     }

@@ -49,16 +49,23 @@ pub(crate) fn open_line(
     CdevPin::new(handle).map_err(err)
 }
 
-/// The e-stop on `line` of `chip_path`, debounced over `debounce_samples` reads.
+/// The e-stop on `line` of `chip_path`, pressed at the line's low level (high with
+/// `pressed_high`), debounced over `debounce_samples` reads.
 pub fn estop(
     chip_path: &str,
     line: u32,
     debounce_samples: u8,
+    pressed_high: bool,
 ) -> Result<EStopInput<CdevPin>, OpenError> {
-    Ok(EStopInput::new(
+    let input = EStopInput::new(
         open_line(chip_path, line, "e-stop", false)?,
         debounce_samples,
-    ))
+    );
+    Ok(if pressed_high {
+        input.pressed_when_high()
+    } else {
+        input
+    })
 }
 
 /// The three vibrotactors on `lines` of `chip_path`, switched off.

@@ -226,6 +226,7 @@ impl DriveDictionary {
                 false,
             ),
             described(0x6077, 0, ty::I16, Ro, true, 0, false),
+            described(0x607E, 0, ty::U8, Rw, false, 0, false),
             described(0x6502, 0, ty::U32, Const, false, 0x0000_0380, false),
             // The analog input, at its CiA 401 place and at the EPOS4's (input 2 is unwired).
             described(0x6401, 0, ty::U8, Const, false, 1, false),
@@ -507,9 +508,9 @@ impl DriveDictionary {
 }
 
 /// The objects a simulated drive reads or writes at every SYNC or frame.
-const HOT_OBJECTS: [u16; 14] = [
-    0x6040, 0x6041, 0x603F, 0x6060, 0x6061, 0x6064, 0x606C, 0x6071, 0x6076, 0x6077, 0x6401, 0x3160,
-    0x1016, 0x1017,
+const HOT_OBJECTS: [u16; 15] = [
+    0x6040, 0x6041, 0x603F, 0x6060, 0x6061, 0x6064, 0x606C, 0x6071, 0x6076, 0x6077, 0x607E, 0x6401,
+    0x3160, 0x1016, 0x1017,
 ];
 
 /// Whether `index` is a PDO mapping parameter.

@@ -41,6 +41,8 @@ pub struct NodeFaults {
     ignore_sync: AtomicBool,
     pending_emcy: AtomicU32,
     fault_cause: AtomicU32,
+    reversed_motor: AtomicBool,
+    reversed_encoder: AtomicBool,
 }
 
 impl NodeFaults {
@@ -62,6 +64,16 @@ impl NodeFaults {
         self.fault_cause.store(u32::from(code), Ordering::Relaxed);
         self.pending_emcy
             .store(0x1_0000 | u32::from(code), Ordering::Relaxed);
+    }
+    /// The drive's motor is wired to turn the other way: a positive torque unwinds the wire
+    /// (a wiring mistake of the rig, as built).
+    pub fn set_reversed_motor(&self, on: bool) {
+        self.reversed_motor.store(on, Ordering::Relaxed);
+    }
+    /// The drive's encoder counts the other way: down as the wire winds in (a wiring mistake
+    /// of the rig, as built).
+    pub fn set_reversed_encoder(&self, on: bool) {
+        self.reversed_encoder.store(on, Ordering::Relaxed);
     }
     /// Remove the cause of the fault.
     pub fn clear_fault(&self) {
@@ -468,12 +480,24 @@ impl SimDriveNode {
             0.0
         };
         self.applied_torque_nm = torque;
-        plant.apply_torque(self.spec.axis, torque);
+        let sign = |reversed: &AtomicBool| {
+            if reversed.load(Ordering::Relaxed) {
+                -1.0
+            } else {
+                1.0
+            }
+        };
+        plant.apply_torque(self.spec.axis, sign(&self.faults.reversed_motor) * torque);
         // Position and velocity in the dictionary's units (increments and increments/s by
-        // CiA 402; e.g. rev/min on a drive whose description says so).
+        // CiA 402; e.g. rev/min on a drive whose description says so), in the direction the
+        // polarity (0x607E bits 7 and 6, on a drive that has it) says.
         let (counts, cps) = plant.encoder(self.spec.axis);
-        let position = counts as f64 / self.dictionary.counts_per_position_unit;
-        let velocity = cps / self.dictionary.counts_per_s_per_velocity_unit;
+        let encoder = sign(&self.faults.reversed_encoder);
+        let polarity = od_number(&self.node, 0x607E, 0).unwrap_or(0);
+        let flip = |bit: i64| if polarity & bit != 0 { -1.0 } else { 1.0 };
+        let position =
+            flip(0x80) * encoder * counts as f64 / self.dictionary.counts_per_position_unit;
+        let velocity = flip(0x40) * encoder * cps / self.dictionary.counts_per_s_per_velocity_unit;
         self.set(0x6064, 0, i64::from(position.round() as i32));
         self.set(0x606C, 0, i64::from(velocity.round() as i32));
         let t_permille = if self.power == DrivePower::OperationEnabled {
