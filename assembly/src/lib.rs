@@ -10,6 +10,7 @@
 pub type WiremanTwin =
     videt_sim::Twin<{ videt_runtime::WIREMAN_WIRES }, videt_runtime::WiremanDevice>;
 
+pub mod as_built;
 pub mod bus_budget;
 pub mod can_twin;
 pub mod drive_dictionary;

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 pub mod calibration;
 pub mod drive_units;
+pub mod edit;
 mod validate;
 
 pub use drive_units::DeviceDescription;
@@ -83,6 +84,8 @@ pub struct Config {
     pub socket: SocketConfig,
     /// Wire homing and auto-initialization.
     pub autoinit: AutoInitConfig,
+    /// The commissioning check of a newly assembled rig (`videt commission`).
+    pub commission: CommissionConfig,
     /// Where the calibration and the motors' lock live.
     pub files: FilesConfig,
     /// The colour under the finger, rendered on the three vibrotactors.
@@ -167,6 +170,30 @@ impl Default for ColourConfig {
             hysteresis: 8.0,
             frequency_hz: 75.0,
             duty: [0.0, 0.2, 0.5],
+        }
+    }
+}
+
+/// The commissioning check of a newly assembled rig, thimble detached (`videt commission`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CommissionConfig {
+    /// The tension each drive's test torque holds a wire at against its stop, N (the torque
+    /// is the most any motor gets during the check; 0.5..=5, at most `control.t_max_n`).
+    pub test_tension_n: f64,
+    /// How far the technician pulls each wire out to the mark when its encoder is checked,
+    /// metres (0.03..=0.5).
+    pub pull_out_m: f64,
+    /// A wire moving faster than this during a test has its torque cut, m/s (0.01..=0.2).
+    pub max_speed_m_s: f64,
+}
+
+impl Default for CommissionConfig {
+    fn default() -> Self {
+        CommissionConfig {
+            test_tension_n: 2.0,
+            pull_out_m: 0.1,
+            max_speed_m_s: 0.05,
         }
     }
 }

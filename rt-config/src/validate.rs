@@ -137,6 +137,7 @@ impl Config {
             99.0,
         )?;
         self.validate_autoinit()?;
+        self.validate_commission()?;
         self.validate_colour()?;
         for (field, path) in [
             ("files.calibration", &self.files.calibration),
@@ -522,6 +523,19 @@ impl Config {
             in_range(&format!("colour.duty[{i}]"), duty, lowest, 1.0)?;
             lowest = duty;
         }
+        Ok(())
+    }
+
+    fn validate_commission(&self) -> Result<(), ConfigError> {
+        let m = &self.commission;
+        in_range(
+            "commission.test_tension_n",
+            m.test_tension_n,
+            0.5,
+            self.control.t_max_n.min(5.0),
+        )?;
+        in_range("commission.pull_out_m", m.pull_out_m, 0.03, 0.5)?;
+        in_range("commission.max_speed_m_s", m.max_speed_m_s, 0.01, 0.2)?;
         Ok(())
     }
 

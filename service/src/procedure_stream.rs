@@ -16,7 +16,7 @@ use videt_rt_config::calibration::{backup_path, Calibration};
 
 use crate::init::remote::{saved, ProcedureEvent, ProcedureKind, ProcedurePort, ProcedureSpec};
 use crate::init::session::{self, InitError, InitOutcome, Measurement};
-use crate::init::twin::parse_fault;
+use crate::init::twin::{parse_fault, SimFault};
 use crate::socket::protocol::{reply, ClientRequest, ProcedureCommand, ProcedureRequest, Response};
 use crate::socket::requests::{handle, ServerShared};
 use videt_runtime::control_loop::ControlCommand;
@@ -50,6 +50,13 @@ pub fn spec_for(port: &ProcedurePort, request: &ProcedureRequest) -> Result<Proc
         .iter()
         .map(|f| parse_fault(f, &transmission))
         .collect::<Result<Vec<_>, _>>()?;
+    if sim_faults.iter().any(|f| matches!(f, SimFault::Wiring(_))) {
+        return Err(
+            "`sim_faults`: a wiring mistake is built into a twin when it starts; the running \
+             service's twin is built already (rehearse it without the service: videt ... --sim)"
+                .into(),
+        );
+    }
     if let Some(l) = request.sim_new_wire_length_m {
         if !(l.is_finite() && l > 0.0 && l <= 5.0) {
             return Err(format!(

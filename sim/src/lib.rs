@@ -39,6 +39,7 @@ pub mod operator;
 pub mod plant;
 pub mod twin;
 pub mod twin_plant;
+pub mod wiring;
 
 pub use angle_sensors::{
     AngleFaults, AngleSensorFault, AngleSensorTwin, AngleTwinError, AngleTwinFault, PositionSource,
@@ -50,6 +51,7 @@ pub use fault_inbox::{FaultInbox, InboxFault};
 pub use operator::{VirtualOperator, Waypoint};
 pub use plant::{Plant, PlantParams, WireModules, GRAVITY_M_S2};
 pub use twin::{quantize_torque, ClockMode, SensorModel, Twin, TwinError};
+pub use wiring::Wiring;
 
 /// 3-vector of `f64`.
 pub type Vec3 = nalgebra::Vector3<f64>;

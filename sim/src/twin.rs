@@ -12,6 +12,7 @@ use crate::converter::{ConverterModel, ConverterTwin};
 pub use crate::fault::TwinFault;
 use crate::operator::VirtualOperator;
 use crate::plant::{Plant, PlantParams};
+use crate::wiring::Wiring;
 use crate::Vec3;
 
 /// A twin device error.
@@ -122,6 +123,7 @@ pub struct Twin<const N: usize, D: WireDevice<N>> {
     encoder_offset_counts: [i64; N],
     scheduled: [Option<(MonoTime, TwinFault)>; FAULT_SLOTS],
     inbox: std::sync::Arc<crate::fault_inbox::FaultInbox>,
+    wiring: Wiring<N>,
 }
 
 /// The torque a drive whose target torque comes in steps of `step_nm` (one per mille of its
@@ -179,6 +181,7 @@ impl<const N: usize, D: WireDevice<N>> Twin<N, D> {
             encoder_offset_counts: [0; N],
             scheduled: [None; FAULT_SLOTS],
             inbox: Default::default(),
+            wiring: Wiring::default(),
         }
     }
 
@@ -237,12 +240,31 @@ impl<const N: usize, D: WireDevice<N>> Twin<N, D> {
     pub fn set_operator(&mut self, operator: VirtualOperator) {
         self.operator = operator;
     }
-    /// Press (`true`) or release the e-stop button. A press latches.
+    /// Wire the twin's channels as `wiring` says (see [`Wiring`]). An invalid wiring (a wire
+    /// reached twice) is refused and the wiring unchanged.
+    pub fn set_wiring(&mut self, wiring: Wiring<N>) -> bool {
+        if !wiring.is_valid() {
+            return false;
+        }
+        self.wiring = wiring;
+        self.set_estop_button(self.estop_held);
+        true
+    }
+    /// How the channels reach the wires.
+    pub fn wiring(&self) -> &Wiring<N> {
+        &self.wiring
+    }
+    /// Press (`true`) or release the e-stop button. A press latches; so does a release on an
+    /// input wired to the other level, which reads it as a press.
     pub fn set_estop_button(&mut self, held: bool) {
         self.estop_held = held;
-        if held {
+        if self.estop_reads_pressed() {
             self.estop_latched = true;
         }
+    }
+    /// Whether the e-stop input is at its pressed level now.
+    fn estop_reads_pressed(&self) -> bool {
+        self.estop_held != self.wiring.estop_inverted
     }
     /// Make tension sensor `wire` fail (reads return `Disconnected`), or heal it with `None`.
     pub fn fail_tension_sensor(&mut self, wire: Option<usize>) {
@@ -341,7 +363,7 @@ impl<const N: usize, D: WireDevice<N>> Twin<N, D> {
     pub fn advance_to(&mut self, t: MonoTime) {
         while self.sim_time() < t {
             self.fire_due_faults();
-            let torque = self.applied_torque_nm();
+            let torque = self.wiring.wire_torques(&self.applied_torque_nm());
             self.plant.step(&torque, &self.operator);
             self.steps_done += 1;
         }
@@ -418,12 +440,14 @@ impl<const N: usize, D: WireDevice<N>> WireDrives<N> for Twin<N, D> {
         let free = self.plant.free_length_m();
         let speed = self.plant.pulley_speed_rad_s();
         for i in 0..N {
+            // Channel i reads the encoder on its wire, in its direction.
+            let (wire, sign) = (self.wiring.drive_wire[i], self.wiring.encoder_sign(i));
             // Encoder zero = wire fully wound (free length 0), as after homing.
-            let wound_rad = -free[i] / tr.pulley_radius_m;
+            let wound_rad = -free[wire] / tr.pulley_radius_m;
             out[i] = DriveSample {
-                position_counts: (wound_rad * counts_per_pulley_rad).floor() as i64
+                position_counts: (sign * wound_rad * counts_per_pulley_rad).floor() as i64
                     + self.encoder_offset_counts[i],
-                velocity_counts_per_s: speed[i] * counts_per_pulley_rad,
+                velocity_counts_per_s: sign * speed[wire] * counts_per_pulley_rad,
                 state: if self.faulted_drive == Some(i) {
                     DriveState::Fault
                 } else if self.drives_enabled {
@@ -477,7 +501,9 @@ impl<const N: usize, D: WireDevice<N>> TensionSensors<N> for Twin<N, D> {
         let truth = self.plant.tension_n();
         for (i, out) in out_n.iter_mut().enumerate() {
             let noise = self.sensors.noise_std_n * self.gaussian();
-            *out = truth[i] * (1.0 + self.sensors.gain_error[i]) + self.sensors.offset_n[i] + noise;
+            // Channel i reads the cell on its wire; an inverted cell, the other sign.
+            let t = self.wiring.cell_sign(i) * truth[self.wiring.sensor_wire[i]];
+            *out = t * (1.0 + self.sensors.gain_error[i]) + self.sensors.offset_n[i] + noise;
         }
         let Some(converters) = self.converters.as_mut() else {
             return Ok([true; N]);
@@ -519,7 +545,7 @@ impl<const N: usize, D: WireDevice<N>> EStop for Twin<N, D> {
         Ok(self.estop_latched)
     }
     fn reset(&mut self) -> Result<(), TwinError> {
-        if self.estop_held {
+        if self.estop_reads_pressed() {
             return Err(TwinError {
                 kind: ErrorKind::Fault,
                 wire: None,
@@ -593,6 +619,55 @@ mod tests {
                 "wire {i}"
             );
         }
+    }
+
+    #[test]
+    fn a_miswired_twin_reads_and_moves_the_wires_its_channels_reach() {
+        let mut t = twin();
+        let mut truth = [DriveSample::default(); WIRES];
+        t.read_drives(&mut truth).unwrap();
+        assert!(t.set_wiring(Wiring {
+            drive_wire: [1, 0, 2],
+            encoder_reversed: [false, false, true],
+            sensor_wire: [0, 2, 1],
+            cell_inverted: [true, false, false],
+            estop_inverted: true,
+            ..Wiring::default()
+        }));
+        // The e-stop released reads pressed, and cannot be reset; pressed, it reads released.
+        assert!(t.is_pressed().unwrap());
+        assert!(t.reset().is_err());
+        t.set_estop_button(true);
+        t.reset().unwrap();
+        assert!(!t.is_pressed().unwrap());
+        let mut s = [DriveSample::default(); WIRES];
+        t.read_drives(&mut s).unwrap();
+        assert_eq!(s[0].position_counts, truth[1].position_counts);
+        assert_eq!(s[1].position_counts, truth[0].position_counts);
+        assert!((s[2].position_counts + truth[2].position_counts).abs() <= 1);
+        // Channel 0's torque reaches wire 1.
+        t.configure().unwrap();
+        t.activate().unwrap();
+        t.enable().unwrap();
+        t.write_torques(&[0.01, 0.0, 0.0]).unwrap();
+        assert_eq!(
+            t.wiring().wire_torques(&t.applied_torque_nm()),
+            [0.0, 0.01, 0.0]
+        );
+        let mut tension = [0.0; WIRES];
+        t.advance_to(MonoTime(50_000_000));
+        t.read_tensions(&mut tension).unwrap();
+        let true_tension = t.plant().tension_n();
+        assert!(
+            true_tension[1] > 1.0 && true_tension[0] < 0.5,
+            "{true_tension:?}"
+        );
+        assert!(tension[2] > 1.0 && tension[0] < 0.5, "{tension:?}");
+        // An invalid wiring is refused.
+        assert!(!t.set_wiring(Wiring {
+            sensor_wire: [0, 0, 1],
+            ..Wiring::default()
+        }));
     }
 
     #[test]

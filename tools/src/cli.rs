@@ -25,6 +25,10 @@ pub enum Command {
     /// Auto-initialize the rig: wind each wire in turn with the empty thimble connected, measure
     /// the base triangle, write the calibration.
     Init(tool::init::InitArgs),
+    /// Commissioning check of a newly assembled rig (thimble detached): the computer's
+    /// real-time set-up, each drive's wire, direction and encoder, each tension sensor, the
+    /// e-stop, the vibrotactors; each step PASS/FAIL/SKIPPED with the fix.
+    Commission(tool::commission::CommissionArgs),
     /// Wire maintenance: guided replacement.
     #[command(subcommand)]
     Wire(tool::wire::WireCommand),
@@ -75,6 +79,7 @@ impl Cli {
         match &self.command {
             Command::Config(c) => tool::config::run(c),
             Command::Init(a) => tool::init::run(a),
+            Command::Commission(a) => tool::commission::run(a),
             Command::Wire(c) => tool::wire::run(c),
             Command::TensionCalibrate(a) => tool::tension_calibrate::run(a),
             Command::Status(a) => tool::status::run(a),

@@ -4,8 +4,10 @@
 //! period by period on the HAL ([`runner`]), asks the technician for the manual steps
 //! ([`session::Technician`]), turns the result into a calibration file
 //! (`videt_rt_config::calibration`), and keeps other processes off the motors meanwhile
-//! ([`lock`]). [`twin`] builds the digital twin a `--sim` run rehearses on.
+//! ([`lock`]). [`twin`] builds the digital twin a `--sim` run rehearses on. [`commission`]
+//! checks a newly assembled rig's wiring and names the fixes.
 
+pub mod commission;
 pub mod corrected;
 pub mod daemon;
 pub mod lock;

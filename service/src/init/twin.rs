@@ -6,6 +6,7 @@
 //! an empty thimble (no hand on it, only a light drag), fits new yarns and pulls them out.
 
 use std::sync::atomic::AtomicBool;
+use videt_assembly::as_built::{twin_wiring, WiringMistake};
 use videt_assembly::WiremanTwin as Twin;
 use videt_runtime::WIREMAN_WIRES;
 
@@ -41,12 +42,19 @@ pub enum SimFault {
     Disconnected(usize),
     /// A fault injected this many seconds after the wires were connected.
     After(f64, TwinFault),
+    /// The rig was built with this wiring mistake.
+    Wiring(WiringMistake),
 }
 
 /// Parse `--sim-fault`: `disconnected:N`, `estop:SECS`, `break:N:SECS`, `detach:N:SECS`,
-/// `sensor:N:SECS`, `slip:N:MM:SECS` (SECS after the wires are connected). `transmission`
-/// converts a slip in millimetres to encoder counts.
+/// `sensor:N:SECS`, `slip:N:MM:SECS` (SECS after the wires are connected), or a wiring
+/// mistake of the rig as built: `reversed-motor:N`, `reversed-encoder:N`, `swapped-nodes:A,B`,
+/// `inverted-cell:N`, `estop-level`, `swapped-cameras`. `transmission` converts a slip in
+/// millimetres to encoder counts.
 pub fn parse_fault(text: &str, transmission: &videt_hal::Transmission) -> Result<SimFault, String> {
+    if let Some(mistake) = WiringMistake::parse(text) {
+        return mistake.map(SimFault::Wiring);
+    }
     let parts: Vec<&str> = text.split(':').collect();
     let wire = |s: &str| {
         s.parse::<usize>()
@@ -79,12 +87,24 @@ pub fn parse_fault(text: &str, transmission: &videt_hal::Transmission) -> Result
             Ok(SimFault::After(secs(t)?, TwinFault::SlipWire(wire(n)?, counts)))
         }
         _ => Err(format!(
-            "--sim-fault {text:?}: must be disconnected:N, estop:SECS, break:N:SECS, detach:N:SECS, sensor:N:SECS or slip:N:MM:SECS"
+            "--sim-fault {text:?}: must be disconnected:N, estop:SECS, break:N:SECS, detach:N:SECS, sensor:N:SECS, slip:N:MM:SECS, \
+             reversed-motor:N, reversed-encoder:N, swapped-nodes:A,B, inverted-cell:N, estop-level or swapped-cameras"
         )),
     }
 }
 
 impl TwinSetup {
+    /// The wiring mistakes the rig was built with.
+    pub fn wiring_mistakes(&self) -> Vec<WiringMistake> {
+        self.faults
+            .iter()
+            .filter_map(|f| match f {
+                SimFault::Wiring(m) => Some(*m),
+                _ => None,
+            })
+            .collect()
+    }
+
     /// A set-up on the configured guides with the default sensors and `seed`.
     pub fn from_config(config: &Config, seed: u64) -> TwinSetup {
         let g = &config.rig.guides_m;
@@ -158,6 +178,10 @@ pub fn rest_twin(config: &Config, setup: &TwinSetup) -> Twin {
     twin.set_encoder_offset_counts(core::array::from_fn(|_| {
         rng.random_range(-5_000_000_i64..5_000_000)
     }));
+    // The rig as built (its wiring mistakes), with the configuration's corrections.
+    let wiring = twin_wiring(config, &setup.wiring_mistakes());
+    let valid = twin.set_wiring(wiring);
+    debug_assert!(valid, "a wiring made from a permutation of the node ids");
     twin
 }
 
@@ -217,6 +241,8 @@ impl SimTechnician {
                                 return Err(Failure::Cancelled);
                             }
                         }
+                        // Built in from the start.
+                        SimFault::Wiring(_) => {}
                     }
                 }
             }
@@ -271,6 +297,27 @@ impl Technician<Twin> for SimTechnician {
             eprintln!("videt: {message}");
         }
         self.log.push(message.to_string());
+    }
+}
+
+impl super::commission::CommissionTechnician<Twin> for SimTechnician {
+    fn perform_commission(
+        &mut self,
+        step: super::commission::CommissionStep,
+        hw: &mut Twin,
+    ) -> Result<(), Failure> {
+        use super::commission::CommissionStep;
+        match step {
+            CommissionStep::ReleaseEStop => hw.set_estop_button(false),
+            CommissionStep::PressEStop => hw.set_estop_button(true),
+            CommissionStep::PullOutWire { ring, length_m } => {
+                hw.plant_mut().set_free_length_m(ring, length_m);
+            }
+            // The motor winds it back; the technician only lets go.
+            CommissionStep::LetGo { .. } => {}
+        }
+        self.inform(&format!("{step:?} done"));
+        Ok(())
     }
 }
 

@@ -12,6 +12,7 @@ use clap::Args;
 use videt_control::autoinit::Failure;
 use videt_rt_config::Config;
 
+use videt_service::init::commission::{CommissionStep, CommissionTechnician};
 use videt_service::init::runner::{InitHardware, Runner};
 use videt_service::init::session::{Request, Technician};
 use videt_service::init::tension::{TensionStep, TensionTechnician};
@@ -66,7 +67,10 @@ pub struct DeviceArgs {
     #[arg(long, value_name = "N", default_value_t = 1, requires = "sim")]
     pub sim_seed: u64,
     /// A fault to rehearse on the twin (repeatable): disconnected:N, estop:SECS, break:N:SECS,
-    /// detach:N:SECS, sensor:N:SECS, slip:N:MM:SECS (SECS after the wires are connected).
+    /// detach:N:SECS, sensor:N:SECS, slip:N:MM:SECS (SECS after the wires are connected); or a
+    /// wiring mistake the rig was built with: reversed-motor:N, reversed-encoder:N,
+    /// swapped-nodes:A,B, inverted-cell:N, estop-level, swapped-cameras (the configuration's
+    /// fixes apply to it as on the device).
     #[arg(long, value_name = "FAULT", requires = "sim")]
     pub sim_fault: Vec<String>,
     /// Configuration file (default: /etc/videt/videt.toml when present; with --sim, built-in
@@ -319,6 +323,25 @@ impl<H: InitHardware> TensionTechnician<H> for TerminalTechnician {
     }
 
     fn step_done(&mut self, _step: TensionStep, _hw: &mut H) -> bool {
+        self.enter.as_ref().is_none_or(|rx| rx.try_recv().is_ok())
+    }
+}
+
+impl<H: InitHardware> CommissionTechnician<H> for TerminalTechnician {
+    fn perform_commission(&mut self, step: CommissionStep, _hw: &mut H) -> Result<(), Failure> {
+        eprintln!("videt: {}", step.instructions());
+        self.enter = None;
+        if self.yes {
+            return Ok(());
+        }
+        if !std::io::stdin().is_terminal() {
+            return Err(Failure::Cancelled);
+        }
+        self.enter = Some(enter_pressed());
+        Ok(())
+    }
+
+    fn commission_step_done(&mut self, _step: CommissionStep, _hw: &mut H) -> bool {
         self.enter.as_ref().is_none_or(|rx| rx.try_recv().is_ok())
     }
 }

@@ -14,6 +14,7 @@ use videt_rt_config::Config;
 use super::device::{DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_CODES_HELP};
 use super::motors::{on_motors, MotorJob};
 use super::ToolResult;
+use videt_service::init::commission::CommissionTechnician;
 use videt_service::init::remote::ProcedureDevice;
 use videt_service::init::runner::Runner;
 use videt_service::init::session::{self, run_settings, FlowContext, InitOutcome, Technician};
@@ -115,7 +116,7 @@ impl MotorJob for FlowJob<'_> {
     ) -> Result<InitOutcome, Exit>
     where
         H: ProcedureDevice,
-        T: Technician<H> + TensionTechnician<H>,
+        T: Technician<H> + TensionTechnician<H> + CommissionTechnician<H>,
     {
         let ctx = FlowContext {
             config: self.config,

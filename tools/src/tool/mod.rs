@@ -7,6 +7,7 @@ pub mod bench_haptic;
 pub mod bench_rt;
 pub mod calibrate_stereo;
 pub mod colour;
+pub mod commission;
 pub mod config;
 pub mod device;
 pub mod experiments;

@@ -9,6 +9,7 @@ use videt_hal::Lifecycle;
 use videt_rt_config::Config;
 
 use super::device::{stop_on_signals, DeviceArgs, Exit};
+use videt_service::init::commission::CommissionTechnician;
 use videt_service::init::remote::ProcedureDevice;
 use videt_service::init::runner::Runner;
 use videt_service::init::session::{self, Technician};
@@ -35,7 +36,7 @@ pub trait MotorJob {
     ) -> Result<Self::Output, Exit>
     where
         H: ProcedureDevice,
-        T: Technician<H> + TensionTechnician<H>;
+        T: Technician<H> + TensionTechnician<H> + CommissionTechnician<H>;
 }
 
 /// Take the motors lock, then run `job` on the twin of `setup` (`--sim`) or on the device of
@@ -107,7 +108,7 @@ fn run_started<H, T, J>(
 ) -> Result<J::Output, Exit>
 where
     H: ProcedureDevice + Lifecycle,
-    T: Technician<H> + TensionTechnician<H>,
+    T: Technician<H> + TensionTechnician<H> + CommissionTechnician<H>,
     J: MotorJob,
 {
     let result = session::start(hw)

@@ -11,6 +11,7 @@ use videt_rt_config::calibration::TensionCalibration;
 use super::device::{DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_MOTORS_BUSY, EXIT_USAGE};
 use super::motors::{on_motors, MotorJob};
 use super::ToolResult;
+use videt_service::init::commission::CommissionTechnician;
 use videt_service::init::remote::ProcedureDevice;
 use videt_service::init::runner::Runner;
 use videt_service::init::session::{failure_exit_code, run_settings, Technician};
@@ -68,7 +69,7 @@ impl MotorJob for TensionJob {
     ) -> Result<TensionPoint, Exit>
     where
         H: ProcedureDevice,
-        T: Technician<H> + TensionTechnician<H>,
+        T: Technician<H> + TensionTechnician<H> + CommissionTechnician<H>,
     {
         calibrate_tension(hw, tech, runner, self.wire, self.mass_kg, stop).map_err(|e| match &e {
             TensionCalibrationError::Device(f) => {
