@@ -116,6 +116,14 @@ pub fn twin_wiring(config: &Config, mistakes: &[WiringMistake]) -> Wiring<WIREMA
     }
 }
 
+/// Whether the twin's cameras come swapped for a rig built with `mistakes`, run with
+/// `config`: as built, the left camera is the first of `vision.devices` in sorted order.
+pub fn cameras_swapped(config: &Config, mistakes: &[WiringMistake]) -> bool {
+    let [left, right] = &config.vision.devices;
+    let built_swapped = mistakes.contains(&WiringMistake::SwappedCameras);
+    (left > right) != built_swapped
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -185,6 +193,11 @@ mod tests {
         config.sensors.newtons_per_count[0] *= -1.0;
         config.sensors.estop_pressed_level = LineLevel::High;
         assert_eq!(twin_wiring(&config, &mistakes), Wiring::default());
+        assert!(cameras_swapped(&config, &[WiringMistake::SwappedCameras]));
+        config.vision.devices.swap(0, 1);
+        assert!(!cameras_swapped(&config, &[WiringMistake::SwappedCameras]));
+        assert!(cameras_swapped(&config, &[]));
+        config.vision.devices.swap(0, 1);
         // The same corrections on a rig built right are mistakes of their own.
         let w = twin_wiring(&config, &[]);
         assert_eq!(w.motor_reversed, [false, true, false]);

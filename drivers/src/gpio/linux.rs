@@ -85,7 +85,7 @@ pub fn vibrotactors(
 mod tests {
     #[test]
     fn a_missing_chip_is_a_clear_error() {
-        let Err(e) = super::estop("/dev/no-such-gpiochip", 4, 3) else {
+        let Err(e) = super::estop("/dev/no-such-gpiochip", 4, 3, false) else {
             panic!("opened a missing chip");
         };
         let text = e.to_string();

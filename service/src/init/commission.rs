@@ -351,7 +351,7 @@ where
     // Drives on the wrong wires: one fix, the ids (and each drive's directions) reordered.
     let permutation: Option<[usize; WIREMAN_WIRES]> = drive_of_wire
         .iter()
-        .map(|d| *d)
+        .copied()
         .collect::<Option<Vec<usize>>>()
         .and_then(|v| v.try_into().ok());
     let wrong_wires = permutation.is_some_and(|p| p.iter().enumerate().any(|(j, k)| j != *k));

@@ -4,6 +4,7 @@
 //! change) or SKIPPED, and what it measured. `--write FILE` writes the configuration with the
 //! fixes into FILE.
 
+pub mod cameras;
 pub mod computer;
 
 use std::path::{Path, PathBuf};
@@ -38,6 +39,8 @@ pub enum Part {
     Rig,
     /// The three vibrotactors, each pulsed in turn for the technician to feel.
     Vibrotactors,
+    /// The cameras: frame size and rate against the stereo calibration, left and right.
+    Cameras,
 }
 
 /// Arguments of `videt commission`.
@@ -64,6 +67,10 @@ pub struct CommissionArgs {
     /// Check only these parts (repeatable; default: all).
     #[arg(long, value_enum, value_name = "PART")]
     pub only: Vec<Part>,
+    /// With --sim: a folder of raw stereo pairs (leftNN / rightNN images) played as the
+    /// cameras, rectified with vision.stereo_calibration.
+    #[arg(long, value_name = "DIR", requires = "sim")]
+    pub sim_cameras: Option<PathBuf>,
 }
 
 /// Run `videt commission`.
@@ -157,6 +164,11 @@ fn commission(args: &CommissionArgs) -> Result<ExitCode, Exit> {
     }
     if part(Part::Vibrotactors) {
         found.steps.push(vibrotactors(device, &config));
+    }
+    if part(Part::Cameras) {
+        found
+            .steps
+            .extend(cameras_part(args, &config, &setup.wiring_mistakes()));
     }
     let written = match &args.write {
         Some(path) => Some(write_fixes(device, &config, &found.steps, path)?),
@@ -350,4 +362,111 @@ fn pulse_vibrotactors(config: &Config) -> StepReport {
 #[cfg(not(target_os = "linux"))]
 fn pulse_vibrotactors(_config: &Config) -> StepReport {
     StepReport::skipped("vibrotactors", "no GPIO backend on this system")
+}
+
+/// The cameras' steps: the device's (`vision.devices`), or on the twin a folder of pairs.
+fn cameras_part(
+    args: &CommissionArgs,
+    config: &Config,
+    mistakes: &[videt_assembly::as_built::WiringMistake],
+) -> Vec<StepReport> {
+    use videt_service::camera_relief::CalibratedRig;
+    let calibration = &config.vision.stereo_calibration;
+    let rig = match CalibratedRig::load(Path::new(calibration)) {
+        Ok(r) => r,
+        Err(e) => {
+            return vec![StepReport::fail(
+                "cameras.calibration",
+                format!("the stereo calibration cannot be used: {e}"),
+                Vec::new(),
+            )
+            .with_wiring("calibrate the cameras (videt calibrate-stereo --out FILE) and name FILE in vision.stereo_calibration")]
+        }
+    };
+    let period = std::time::Duration::from_secs_f64(1.0 / f64::from(config.vision.frame_rate_hz));
+    if args.device.sim {
+        let Some(dir) = &args.sim_cameras else {
+            return vec![StepReport::skipped(
+                "cameras",
+                "not checked: the twin has no cameras (--sim-cameras DIR plays a folder of pairs as them)",
+            )];
+        };
+        let files =
+            match videt_drivers::camera::file_source::FileStereoSource::from_folder(dir, period) {
+                Ok(c) => c,
+                Err(e) => {
+                    return vec![StepReport::fail(
+                        "cameras.frames",
+                        format!("{}: {e}", dir.display()),
+                        Vec::new(),
+                    )]
+                }
+            };
+        let source = format!(
+            "the pairs of {} as {:?}",
+            dir.display(),
+            config.vision.devices
+        );
+        return if videt_assembly::as_built::cameras_swapped(config, mistakes) {
+            cameras::check(
+                &mut cameras::Swapped(files),
+                &rig,
+                config,
+                &source,
+                cameras::Source::Files,
+            )
+        } else {
+            let mut files = files;
+            cameras::check(&mut files, &rig, config, &source, cameras::Source::Files)
+        };
+    }
+    device_cameras(config, &rig, period)
+}
+
+#[cfg(feature = "v4l")]
+fn device_cameras(
+    config: &Config,
+    rig: &videt_service::camera_relief::CalibratedRig,
+    period: std::time::Duration,
+) -> Vec<StepReport> {
+    use videt_drivers::camera::v4l_stereo::{V4lStereo, V4lStereoConfig};
+    let [left, right] = &config.vision.devices;
+    let opened = V4lStereo::open(&V4lStereoConfig {
+        left: left.into(),
+        right: right.into(),
+        width: rig.size_px[0],
+        height: rig.size_px[1],
+        pair_tolerance: std::time::Duration::from_secs_f64(config.vision.pair_tolerance_ms / 1e3),
+        timeout: 4 * period.max(std::time::Duration::from_millis(250)),
+        buffers: 4,
+        frame_rate_hz: config.vision.frame_rate_hz,
+        prefer_colour: false,
+    });
+    match opened {
+        Ok(mut camera) => cameras::check(
+            &mut camera,
+            rig,
+            config,
+            &format!("{left} + {right}"),
+            cameras::Source::Cameras,
+        ),
+        Err(e) => vec![StepReport::fail(
+            "cameras.frames",
+            format!("the cameras could not be opened: {e}"),
+            Vec::new(),
+        )
+        .with_wiring("check the cameras' cables and vision.devices (left, right)")],
+    }
+}
+
+#[cfg(not(feature = "v4l"))]
+fn device_cameras(
+    _config: &Config,
+    _rig: &videt_service::camera_relief::CalibratedRig,
+    _period: std::time::Duration,
+) -> Vec<StepReport> {
+    vec![StepReport::skipped(
+        "cameras",
+        "not checked: this videt is built without V4L2 capture (cargo build --release --features v4l)",
+    )]
 }
