@@ -18,7 +18,8 @@ const WIRES: usize = 3;
 
 /// A minimal scripted CiA 402 drive per node (nodes 1..=N): boots on reset, acknowledges every
 /// SDO write, answers the device type 0x1000 as a CiA 402 drive's, the supported modes 0x6502
-/// with cyclic synchronous torque, 0x6076 with 100 mN·m (and any other read with 100), and
+/// with cyclic synchronous torque, 0x6076 with 100 mN·m, the polarity 0x607E with 0 (and any
+/// other read with 100), and
 /// answers SYNC with a scripted position and, when
 /// it changed since it was last sent (the event-driven TPDO2), its statusword.
 struct ScriptedDrives<const N: usize> {
@@ -74,7 +75,10 @@ impl<const N: usize> ScriptedDrives<N> {
             c if Self::of_node(c, 0x600) => {
                 let mut r = [0u8; 8];
                 r[1..4].copy_from_slice(&data[1..4]);
-                if data[0] == 0x40 {
+                if data[0] == 0x40 && u16::from_le_bytes([data[1], data[2]]) == 0x607E {
+                    // The polarity, one byte: none.
+                    r[0] = 0x4F;
+                } else if data[0] == 0x40 {
                     r[0] = 0x43;
                     let value: u32 = match u16::from_le_bytes([data[1], data[2]]) {
                         0x1000 => 0x0002_0192,
@@ -210,6 +214,9 @@ fn boot_setup_and_enable_put_the_expected_frames_on_the_bus() {
     assert!(id.is_cia402(), "{id}");
     assert_eq!((id.device_type, id.vendor_id), (0x0002_0192, Some(100)));
     assert!(sdo1.contains(&&vec![0x2F, 0x60, 0x60, 0x00, 10, 0, 0, 0]));
+    // The polarity read, and left alone: no encoder is configured reversed.
+    assert!(sdo1.contains(&&read(0x607E, 0)));
+    assert!(!sdo1.iter().any(|d| d[0] == 0x2F && d[1..3] == [0x7E, 0x60]));
     assert!(sdo1.contains(&&vec![0x23, 0x16, 0x10, 0x01, 50, 0, 0x7F, 0]));
     // NMT start after the setup, then SYNC.
     let start = sent
