@@ -2,6 +2,10 @@
 //! shared chessboard set, played by the file camera), calibrated by `videt calibrate-stereo`,
 //! rectified, matched and built into reliefs, which the control loop renders on the twin.
 
+#[path = "common/chessboard.rs"]
+mod chessboard;
+
+use chessboard::calibrated_chessboard;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::atomic::AtomicBool;
@@ -16,29 +20,10 @@ use videt_service::camera_relief::{
 };
 use videt_service::relief_scene::ReliefLayout;
 
-/// The chessboard set and its calibration written into `dir` by the `videt` tool.
-fn calibrated_rig(dir: &Path) -> Option<(PathBuf, PathBuf)> {
-    let images = videt_testdata::data_dir("calib/chessboard")?;
-    let calibration = dir.join("stereo.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_videt"))
-        .args(["calibrate-stereo", "--images"])
-        .arg(&images)
-        .args(["--board", "9x6", "--square", "0.025", "--out"])
-        .arg(&calibration)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Some((images, calibration))
-}
-
-/// The calibrated chessboard set (as [`calibrated_rig`]) and its first `pairs` pairs in colour
+/// The calibrated chessboard set (as [`calibrated_chessboard`]) and its first `pairs` pairs in colour
 /// in `dir/colour`: red the grey level, green half of it, blue a constant 77.
 fn colour_rig(dir: &Path, pairs: usize) -> Option<(PathBuf, PathBuf, PathBuf)> {
-    let (images, calibration) = calibrated_rig(dir)?;
+    let (images, calibration) = calibrated_chessboard(dir)?;
     let colour_dir = dir.join("colour");
     std::fs::create_dir(&colour_dir).unwrap();
     colour_pairs(&images, &colour_dir, pairs);
@@ -89,7 +74,7 @@ fn camera(images: &Path) -> FileStereoSource {
 #[test]
 fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+    let Some((images, calibration)) = calibrated_chessboard(dir.path()) else {
         return;
     };
     let config = Config::default();
@@ -292,7 +277,7 @@ fn videtd_renders_the_colour_of_camera_frames_on_the_twin() {
 #[test]
 fn videtd_renders_the_relief_of_camera_frames_on_the_twin() {
     let dir = tempfile::tempdir().unwrap();
-    let Some((images, calibration)) = calibrated_rig(dir.path()) else {
+    let Some((images, calibration)) = calibrated_chessboard(dir.path()) else {
         return;
     };
     // A camera before a still scene: the set's first pair, frame after frame (the set's

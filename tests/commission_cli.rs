@@ -3,6 +3,10 @@
 //! exit code; `--write` puts the fixes into a copy of the configuration, comments kept; with
 //! that copy the check passes and `videt init` succeeds.
 
+#[path = "common/chessboard.rs"]
+mod chessboard;
+
+use chessboard::calibrated_chessboard;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -24,16 +28,7 @@ fn text(out: &Output) -> String {
 /// The example configuration with the chessboard set's calibration (written by
 /// `videt calibrate-stereo` into `dir`) as the installed one.
 fn configuration(dir: &Path) -> Option<(String, std::path::PathBuf)> {
-    let images = videt_testdata::data_dir("calib/chessboard")?;
-    let calibration = dir.join("stereo.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_videt"))
-        .args(["calibrate-stereo", "--images"])
-        .arg(&images)
-        .args(["--board", "9x6", "--square", "0.025", "--out"])
-        .arg(&calibration)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", text(&out));
+    let (images, calibration) = calibrated_chessboard(dir)?;
     let example = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/config/videt.example.toml"

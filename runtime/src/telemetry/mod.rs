@@ -88,7 +88,7 @@ impl CycleObserver for TelemetryProducer {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::format::tests::{noisy_sample, sample};
     use super::format::{self, FrameKind};
     use super::format::{
@@ -115,6 +115,19 @@ mod tests {
         RecordedSurface::Plane(Plane::new(Vec3::new(0.0, 0.0, z), -Vec3::z()).unwrap())
     }
 
+    /// A session's recording: the session frame, the surface 0.3 m away before the start,
+    /// then what `tap` is published.
+    pub(super) fn recording_with(tap: &Arc<SurfaceTap>) -> SessionRecording {
+        SessionRecording {
+            session: Some(SessionInfo::new("test", videt_rt_config::Config::default())),
+            surfaces: FeedRecording {
+                initial: Some(plane(0.3)),
+                tap: Some(Arc::clone(tap)),
+            },
+            retention: None,
+        }
+    }
+
     /// A session of 3000 periods with a calibration, a surface before start, surfaces
     /// published during it (one a repeat) and the session frame, closed as its duration
     /// elapsed.
@@ -134,14 +147,7 @@ mod tests {
     fn write_session_of(path: &Path, periods: u64) -> u64 {
         let tap = Arc::new(SurfaceTap::default());
         tap.published(1, plane(0.31));
-        let recording = SessionRecording {
-            session: Some(SessionInfo::new("test", videt_rt_config::Config::default())),
-            surfaces: FeedRecording {
-                initial: Some(plane(0.3)),
-                tap: Some(Arc::clone(&tap)),
-            },
-            retention: None,
-        };
+        let recording = recording_with(&tap);
         let (mut producer, writer) = start_session(path, HEADER, recording, 4096).unwrap();
         producer.calibration(
             0,
@@ -637,14 +643,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.vlog");
         let tap = Arc::new(SurfaceTap::default());
-        let recording = SessionRecording {
-            session: Some(SessionInfo::new("test", videt_rt_config::Config::default())),
-            surfaces: FeedRecording {
-                initial: Some(plane(0.3)),
-                tap: Some(Arc::clone(&tap)),
-            },
-            retention: None,
-        };
+        let recording = recording_with(&tap);
         let (mut producer, writer) = start_session(&path, HEADER, recording, 1 << 16).unwrap();
         producer.calibration(0, &CalibrationInForce::default());
         let mut cycle = 0;

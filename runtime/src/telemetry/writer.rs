@@ -616,14 +616,7 @@ mod tests {
         let filler = disk.fill_leaving(400_000).unwrap();
         let path = disk.path().join("s.vlog");
         let tap = Arc::new(SurfaceTap::default());
-        let recording = SessionRecording {
-            session: Some(SessionInfo::new("test", videt_rt_config::Config::default())),
-            surfaces: FeedRecording {
-                initial: Some(plane(0.3)),
-                tap: Some(Arc::clone(&tap)),
-            },
-            retention: None,
-        };
+        let recording = crate::telemetry::tests::recording_with(&tap);
         let header = LogHeader {
             rate_hz: 1000,
             start_unix_ns: 5,

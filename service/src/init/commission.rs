@@ -359,7 +359,13 @@ where
     // Direction, sensor sign and scale.
     let mut motor_reversed = config.drives.motor_reversed;
     for (k, w) in windings.iter().enumerate() {
-        let Some(w) = w else { continue };
+        let Some(w) = w else {
+            steps.push(StepReport::skipped(
+                format!("drive{k}.direction"),
+                "not checked: the drive's wire was not found",
+            ));
+            continue;
+        };
         if w.sign > 0.0 {
             steps.push(StepReport::pass(
                 format!("drive{k}.direction"),
@@ -383,41 +389,36 @@ where
         let j = w.sensor;
         let scale = w.change_n.abs() / test_n;
         let name = format!("sensor{j}.sign-and-scale");
-        if w.change_n < 0.0 {
-            steps.push(StepReport::fail(
+        let reads = format!(
+            "reads {:+.2} N while its wire is pulled at {test_n:.2} N (x{scale:.2})",
+            w.change_n
+        );
+        let inverted = w.change_n < 0.0;
+        let scale_ok = (0.5..=2.0).contains(&scale);
+        let (problem, factor) = match (inverted, scale_ok) {
+            (false, true) => (None, 1.0),
+            (true, true) => (Some("the load cell is read the other way"), -1.0),
+            (false, false) => (Some("its scale is far off"), 1.0 / scale),
+            (true, false) => (
+                Some("the load cell is read the other way and its scale is far off"),
+                -1.0 / scale,
+            ),
+        };
+        steps.push(match problem {
+            None => StepReport::pass(
                 name,
-                format!(
-                    "reads {:+.2} N while its wire is pulled at {test_n:.2} N: the load cell is read the other way",
-                    w.change_n
-                ),
+                format!("{reads}; `videt tension-calibrate` measures it exactly"),
+            ),
+            Some(problem) => StepReport::fail(
+                name,
+                format!("{reads}: {problem}"),
                 vec![Fix::new(
                     "sensors.newtons_per_count",
                     Some(j),
-                    FixValue::Float(-s.newtons_per_count[j]),
+                    FixValue::Float(factor * s.newtons_per_count[j]),
                 )],
-            ));
-        } else if !(0.5..=2.0).contains(&scale) {
-            steps.push(StepReport::fail(
-                name,
-                format!(
-                    "reads {:+.2} N while its wire is pulled at {test_n:.2} N (x{scale:.2}): its scale is far off",
-                    w.change_n
-                ),
-                vec![Fix::new(
-                    "sensors.newtons_per_count",
-                    Some(j),
-                    FixValue::Float(s.newtons_per_count[j] / scale),
-                )],
-            ));
-        } else {
-            steps.push(StepReport::pass(
-                name,
-                format!(
-                    "reads {:+.2} N while its wire is pulled at {test_n:.2} N (x{scale:.2}; `videt tension-calibrate` measures it exactly)",
-                    w.change_n
-                ),
-            ));
-        }
+            ),
+        });
     }
 
     // Each encoder, against a wire pulled out to the mark.

@@ -308,9 +308,11 @@ impl<H: InitHardware> Technician<H> for TerminalTechnician {
     }
 }
 
-impl<H: InitHardware> TensionTechnician<H> for TerminalTechnician {
-    fn perform(&mut self, step: TensionStep, _hw: &mut H) -> Result<(), Failure> {
-        eprintln!("videt: {}", step.instructions());
+impl TerminalTechnician {
+    /// Tell the technician `instructions`, and from now on watch for the Enter that says they
+    /// are done (with `yes`: done already). Without a terminal to prompt: cancelled.
+    fn prompt(&mut self, instructions: &str) -> Result<(), Failure> {
+        eprintln!("videt: {instructions}");
         self.enter = None;
         if self.yes {
             return Ok(());
@@ -322,27 +324,29 @@ impl<H: InitHardware> TensionTechnician<H> for TerminalTechnician {
         Ok(())
     }
 
-    fn step_done(&mut self, _step: TensionStep, _hw: &mut H) -> bool {
+    /// Whether the technician said the prompted step is done.
+    fn entered(&mut self) -> bool {
         self.enter.as_ref().is_none_or(|rx| rx.try_recv().is_ok())
+    }
+}
+
+impl<H: InitHardware> TensionTechnician<H> for TerminalTechnician {
+    fn perform(&mut self, step: TensionStep, _hw: &mut H) -> Result<(), Failure> {
+        self.prompt(&step.instructions())
+    }
+
+    fn step_done(&mut self, _step: TensionStep, _hw: &mut H) -> bool {
+        self.entered()
     }
 }
 
 impl<H: InitHardware> CommissionTechnician<H> for TerminalTechnician {
     fn perform_commission(&mut self, step: CommissionStep, _hw: &mut H) -> Result<(), Failure> {
-        eprintln!("videt: {}", step.instructions());
-        self.enter = None;
-        if self.yes {
-            return Ok(());
-        }
-        if !std::io::stdin().is_terminal() {
-            return Err(Failure::Cancelled);
-        }
-        self.enter = Some(enter_pressed());
-        Ok(())
+        self.prompt(&step.instructions())
     }
 
     fn commission_step_done(&mut self, _step: CommissionStep, _hw: &mut H) -> bool {
-        self.enter.as_ref().is_none_or(|rx| rx.try_recv().is_ok())
+        self.entered()
     }
 }
 
