@@ -143,6 +143,38 @@ pub fn describe_retention(config: &Config) -> String {
     }
 }
 
+/// What the configuration says of the rig's wiring: which drive moves which wire, the
+/// reversed motors and encoders, the e-stop's level, the cameras (`videt commission` checks
+/// them).
+pub fn describe_wiring(config: &Config) -> String {
+    let d = &config.drives;
+    let wires = |flags: [bool; 3]| {
+        let w: Vec<String> = (0..3)
+            .filter(|i| flags[*i])
+            .map(|i| i.to_string())
+            .collect();
+        if w.is_empty() {
+            "none".to_string()
+        } else {
+            format!("wire {}", w.join(", "))
+        }
+    };
+    let cells = config.sensors.newtons_per_count.map(|n| n < 0.0);
+    format!(
+        "wiring: drives of wires 0, 1, 2 at nodes {:?}; motors reversed: {}; encoders reversed: {}; load cells inverted: {}; e-stop pressed at its {} level; cameras left {} right {} (`videt commission` checks them)",
+        d.node_ids,
+        wires(d.motor_reversed),
+        wires(d.encoder_reversed),
+        wires(cells),
+        match config.sensors.estop_pressed_level {
+            videt_rt_config::LineLevel::Low => "low",
+            videt_rt_config::LineLevel::High => "high",
+        },
+        config.vision.devices[0],
+        config.vision.devices[1],
+    )
+}
+
 /// Run a configuration subcommand.
 pub fn run(command: &ConfigCommand) -> ToolResult {
     match command {
@@ -152,12 +184,13 @@ pub fn run(command: &ConfigCommand) -> ToolResult {
             videt_runtime::tension_budget::plan(&config)?;
             let resolved = resolved_settings(&config)?;
             println!(
-                "# {}: valid\n# {}\n# {}\n# {}\n# {}\n{resolved}",
+                "# {}: valid\n# {}\n# {}\n# {}\n# {}\n# {}\n{resolved}",
                 file.display(),
                 videt_assembly::bus_budget::describe(&config),
                 videt_runtime::tension_budget::describe(&config),
                 config.describe_drive_units(),
                 describe_retention(&config),
+                describe_wiring(&config),
             );
             Ok(ExitCode::SUCCESS)
         }
@@ -182,6 +215,20 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn the_wiring_line_names_every_correction() {
+        let mut config = Config::default();
+        assert_eq!(
+            describe_wiring(&config),
+            "wiring: drives of wires 0, 1, 2 at nodes [1, 2, 3]; motors reversed: none; encoders reversed: none; load cells inverted: none; e-stop pressed at its low level; cameras left /dev/video0 right /dev/video2 (`videt commission` checks them)"
+        );
+        config.drives.motor_reversed = [true, false, true];
+        config.sensors.newtons_per_count[1] *= -1.0;
+        let line = describe_wiring(&config);
+        assert!(line.contains("motors reversed: wire 0, 2;"), "{line}");
+        assert!(line.contains("load cells inverted: wire 1;"), "{line}");
     }
 
     #[test]
