@@ -1,0 +1,215 @@
+//! The commissioning check of an assembled rig, thimble detached (`videt commission`): the
+//! e-stop's level released and pressed, each tension sensor's zero at rest, and for each drive
+//! the wire it moves, the direction it winds, the sensor that answers (its sign and rough
+//! scale), its encoder's direction and counts per millimetre. Each step says what it measured,
+//! and a failing step the configuration fix (or the wiring to change).
+//!
+//! Every wire rests fully wound, its end sphere against its ring. A drive's test torque (the
+//! one holding `commission.test_tension_n`) on a motor that winds pulls the sphere against the
+//! ring: its wire's sensor reads that tension and the encoder hardly moves. On a motor wired the
+//! other way it pays the wire out instead (slowly: a wire faster than
+//! `commission.max_speed_m_s` has its torque cut) and no tension rises; the opposite torque
+//! then winds it back and the tension rises. The technician pulls each wire out to a mark with
+//! its motor idle: the encoder must count that length down, at the configured transmission.
+//! The torques are the only ones any motor gets; every other wire has none.
+
+mod bench;
+mod steps;
+
+use std::sync::atomic::AtomicBool;
+
+use videt_control::autoinit::Failure;
+use videt_rt_config::edit::Fix;
+use videt_rt_config::Config;
+
+use super::runner::{InitHardware, Runner};
+use bench::{Bench, IDLE};
+
+/// A step's verdict.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// As configured.
+    Pass,
+    /// Not as configured: the step names the fix.
+    Fail,
+    /// Not checked (and why).
+    Skipped,
+}
+
+impl Verdict {
+    /// `PASS`, `FAIL` or `SKIPPED`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Verdict::Pass => "PASS",
+            Verdict::Fail => "FAIL",
+            Verdict::Skipped => "SKIPPED",
+        }
+    }
+}
+
+/// One step of the check.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReport {
+    /// Stable name, e.g. `drive1.direction`.
+    pub name: String,
+    /// The verdict.
+    pub verdict: Verdict,
+    /// What was measured (or why it was skipped), as a sentence.
+    pub measured: String,
+    /// The configuration changes that fix a failure.
+    pub fixes: Vec<Fix>,
+    /// The wiring to change instead, when no configuration fixes it.
+    pub wiring: Option<String>,
+}
+
+impl StepReport {
+    /// A step that passed, having measured `measured`.
+    pub fn pass(name: impl Into<String>, measured: impl Into<String>) -> StepReport {
+        StepReport {
+            name: name.into(),
+            verdict: Verdict::Pass,
+            measured: measured.into(),
+            fixes: Vec::new(),
+            wiring: None,
+        }
+    }
+    /// A step that failed, having measured `measured`; `fixes` put it right.
+    pub fn fail(
+        name: impl Into<String>,
+        measured: impl Into<String>,
+        fixes: Vec<Fix>,
+    ) -> StepReport {
+        StepReport {
+            verdict: Verdict::Fail,
+            fixes,
+            ..StepReport::pass(name, measured)
+        }
+    }
+    /// A step not checked, and `why`.
+    pub fn skipped(name: impl Into<String>, why: impl Into<String>) -> StepReport {
+        StepReport {
+            verdict: Verdict::Skipped,
+            ..StepReport::pass(name, why)
+        }
+    }
+    /// The same step, with the wiring to change.
+    pub fn with_wiring(mut self, wiring: impl Into<String>) -> StepReport {
+        self.wiring = Some(wiring.into());
+        self
+    }
+}
+
+/// A manual step of the check.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CommissionStep {
+    /// Make sure the e-stop is released.
+    ReleaseEStop,
+    /// Press the e-stop and keep it pressed.
+    PressEStop,
+    /// Pull the wire at ring `ring` out by `length_m` (to the mark), and hold it there.
+    PullOutWire {
+        /// The ring (the wire as it hangs on the frame).
+        ring: usize,
+        /// How far, metres.
+        length_m: f64,
+    },
+    /// Let the wire at ring `ring` go: its motor winds it back.
+    LetGo {
+        /// The ring.
+        ring: usize,
+    },
+}
+
+impl CommissionStep {
+    /// What a person is asked to do.
+    pub fn instructions(&self) -> String {
+        match *self {
+            CommissionStep::ReleaseEStop => {
+                "make sure the e-stop is released (not pressed); press Enter".into()
+            }
+            CommissionStep::PressEStop => {
+                "press the e-stop and keep it pressed; press Enter".into()
+            }
+            CommissionStep::PullOutWire { ring, length_m } => format!(
+                "pull the wire at ring {ring} out by {:.0} mm (to the mark) by its end sphere and hold it there; press Enter",
+                length_m * 1e3
+            ),
+            CommissionStep::LetGo { ring } => format!(
+                "let the wire at ring {ring} go slowly: its motor winds it back; press Enter once it rests against its ring"
+            ),
+        }
+    }
+}
+
+/// Who performs the manual steps of the check (a person prompted at the terminal, or the
+/// twin's technician). While a step is under way no motor gets torque.
+pub trait CommissionTechnician<H> {
+    /// Start `step`: the twin's technician does it at once; a person is told what to do.
+    fn perform_commission(&mut self, step: CommissionStep, hw: &mut H) -> Result<(), Failure>;
+    /// Asked every period while `step` is under way: whether it is done.
+    fn commission_step_done(&mut self, _step: CommissionStep, _hw: &mut H) -> bool {
+        true
+    }
+}
+
+/// What the check of the rig found: its steps, and the failure that stopped it early.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigCheck {
+    /// The steps, in the order they ran.
+    pub steps: Vec<StepReport>,
+    /// Why the check stopped before its end (an e-stop pressed during a test, a drive fault,
+    /// a cancel), if it did.
+    pub stopped: Option<Failure>,
+}
+
+/// The check of the rig's drives, sensors and e-stop, on started hardware. `runner` gives the
+/// readings (uncorrected: the tension calibration is not applied) and the transmission.
+pub fn check_rig<H, T>(
+    hw: &mut H,
+    tech: &mut T,
+    runner: &mut Runner,
+    config: &Config,
+    stop: &AtomicBool,
+) -> RigCheck
+where
+    H: InitHardware,
+    T: CommissionTechnician<H>,
+{
+    let mut bench = Bench {
+        hw,
+        tech,
+        runner,
+        config,
+        stop,
+        steps: Vec::new(),
+    };
+    let stopped = run_checks(&mut bench).err();
+    // Every motor idle whatever happened.
+    let _ = bench.runner.period(bench.hw, &IDLE, None);
+    if matches!(
+        stopped,
+        Some(Failure::EmergencyStop | Failure::DriveFault { .. })
+    ) {
+        let _ = bench.hw.disable();
+    }
+    RigCheck {
+        steps: bench.steps,
+        stopped,
+    }
+}
+
+fn run_checks<H: InitHardware, T: CommissionTechnician<H>>(
+    bench: &mut Bench<'_, H, T>,
+) -> Result<(), Failure> {
+    if !bench.estop_released()? {
+        return Ok(());
+    }
+    let rest = bench.zeros()?;
+    let (windings, found) = bench.wires(&rest)?;
+    let motor_reversed = bench.directions(&windings);
+    let encoder_reversed = bench.encoders(&windings)?;
+    if let Some(found) = found {
+        bench.wrong_wires(found, motor_reversed, encoder_reversed);
+    }
+    bench.estop_pressed()
+}
