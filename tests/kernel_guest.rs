@@ -319,6 +319,121 @@ fn missing_devices_are_named_with_their_configuration_field() {
     }
 }
 
+/// `videt commission` on the device path: the rig part against `videt sim-rig` built with
+/// wire 1's motor turning the other way, over SocketCAN, with the gpio-sim e-stop; the test
+/// is the technician (it presses and releases the e-stop on the GPIO line, and pulls the wires
+/// out through the rig's stdin). The check names the motor's fix; with the fix written the
+/// check passes on the same rig.
+#[test]
+#[ignore = "needs root, vcan, gpio-sim and vivid: runs in the kernel-in-the-loop guest (scripts/kernel-in-the-loop.sh)"]
+fn commissioning_finds_a_reversed_motor_over_socketcan_with_the_gpio_estop() {
+    use std::io::{BufRead, BufReader, Write};
+    use std::process::Stdio;
+    let dir = test_dir();
+    let can = Vcan::new();
+    let chip = Simpleton::new(32);
+    chip.pullup(ESTOP_LINE).unwrap();
+    let config = guest_config(
+        dir.path(),
+        &can.0,
+        chip.dev_path(),
+        ["/dev/null-left", "/dev/null-right"],
+        false,
+    );
+    let mut rig = start_rig_with(
+        &config,
+        &can.0,
+        &[
+            "--at-rest",
+            "--sim-fault",
+            "reversed-motor:1",
+            "--technician-stdin",
+        ],
+    );
+    let mut hands = rig.0.stdin.take().expect("the rig's stdin");
+    let fixed = dir.path().join("fixed.toml");
+    // The technician at work while the check runs: each prompt on stderr is done, then
+    // confirmed with a line on the check's stdin.
+    let mut commission = |config: &Path, extra: &[&std::ffi::OsStr]| {
+        let mut check = Command::new(videt_bin())
+            .args([
+                "commission",
+                "--only",
+                "rig",
+                "--json",
+                "--steps-from-stdin",
+                "--config",
+            ])
+            .arg(config)
+            .args(extra)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut confirm = check.stdin.take().unwrap();
+        let mut told = String::new();
+        for line in BufReader::new(check.stderr.take().unwrap()).lines() {
+            let line = line.unwrap();
+            told.push_str(&line);
+            told.push('\n');
+            if line.contains("make sure the e-stop is released") {
+                chip.pullup(ESTOP_LINE).unwrap();
+            } else if line.contains("press the e-stop") {
+                chip.pulldown(ESTOP_LINE).unwrap();
+            } else if let Some(rest) = line.split("pull the wire at ring ").nth(1) {
+                let ring = &rest[..1];
+                writeln!(hands, "pull-out {ring} 0.1").unwrap();
+            } else if let Some(rest) = line.split("let the wire at ring ").nth(1) {
+                writeln!(hands, "let-go {}", &rest[..1]).unwrap();
+            } else {
+                continue;
+            }
+            // The hands act on the rig's next physics step; the twin's world runs slow.
+            std::thread::sleep(Duration::from_millis(800));
+            if writeln!(confirm, "done").is_err() {
+                break;
+            }
+        }
+        let out = check.wait_with_output().unwrap();
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout)
+            .unwrap_or_else(|e| panic!("{e}: {}{told}", String::from_utf8_lossy(&out.stdout)));
+        (out.status.code(), report, told)
+    };
+    let (code, report, told) = commission(&config, &["--write".as_ref(), fixed.as_os_str()]);
+    assert_eq!(code, Some(27), "{report:#}\n{told}");
+    let fixes: Vec<&str> = report["fixes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        fixes,
+        ["drives.motor_reversed[1] = true"],
+        "{report:#}\n{told}"
+    );
+    let result = |name: &str| {
+        report["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name)
+            .map(|s| s["result"].as_str().unwrap().to_string())
+    };
+    for name in [
+        "estop.released",
+        "estop.pressed",
+        "drive0.direction",
+        "drive2.encoder",
+    ] {
+        assert_eq!(result(name).as_deref(), Some("pass"), "{name}: {report:#}");
+    }
+    let (code, report, told) = commission(&fixed, &[]);
+    assert_eq!(code, Some(0), "{report:#}\n{told}");
+    let _ = (&can, &rig);
+}
+
 /// The V4L2 cameras: two vivid capture devices, named by `VIDET_KIL_CAMERAS` ("LEFT,RIGHT").
 #[cfg(feature = "v4l")]
 mod cameras {

@@ -317,6 +317,12 @@ pub const GUEST_TIME_SCALE: &str = "0.25";
 /// its drives on the control thread's CPU (`realtime.control_cpu`) as the CAN twin's are: the
 /// emulated CPU the cameras and the tests load does not delay their answers.
 pub fn start_rig(config: &Path, can: &str) -> Process {
+    start_rig_with(config, can, &[])
+}
+
+/// [`start_rig`] with more of `videt sim-rig`'s arguments (`--at-rest`, `--sim-fault`, ...);
+/// with `--technician-stdin` among them, its stdin is a pipe the test writes to.
+pub fn start_rig_with(config: &Path, can: &str, extra: &[&str]) -> Process {
     let dir = config.parent().unwrap();
     let control_cpu = videt_rt_config::Config::load(config)
         .unwrap()
@@ -329,7 +335,11 @@ pub fn start_rig(config: &Path, can: &str) -> Process {
     if control_cpu >= 0 {
         rig.args(["--cpu", &control_cpu.to_string()]);
     }
+    if extra.contains(&"--technician-stdin") {
+        rig.stdin(Stdio::piped());
+    }
     let child = rig
+        .args(extra)
         .arg("--config")
         .arg(config)
         .arg("--calibration-out")

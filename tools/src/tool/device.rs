@@ -96,6 +96,10 @@ pub struct DeviceArgs {
     /// Do not wait at the prompts: the manual steps are already done (scripts).
     #[arg(long)]
     pub yes: bool,
+    /// Confirm each manual step with a line on stdin, a terminal or not (a script that does
+    /// the steps as they are asked for; without it, stdin must be a terminal).
+    #[arg(long, conflicts_with = "yes")]
+    pub steps_from_stdin: bool,
     /// Print the result as JSON on stdout (progress stays on stderr).
     #[arg(long)]
     pub json: bool,
@@ -261,20 +265,33 @@ pub fn stop_on_signals() -> Arc<AtomicBool> {
 }
 
 /// The technician at a terminal: prints each manual step and waits for Enter while the motors
-/// hold the wires at the pay-out tension (a released wire turns freely). With `yes`, or when
-/// stdin is not a terminal and `yes` is set, it does not wait.
+/// hold the wires at the pay-out tension (a released wire turns freely). With `yes` it does
+/// not wait; without a terminal it cancels, unless each step is to be confirmed by a line on
+/// stdin (`steps_from_stdin`: a script that does the steps).
 #[derive(Debug)]
 pub struct TerminalTechnician {
     /// Do not wait.
     pub yes: bool,
+    /// Each step is confirmed by a line on stdin, terminal or not.
+    pub steps_from_stdin: bool,
     /// Told when Enter is pressed, during a tension-calibration step.
     enter: Option<std::sync::mpsc::Receiver<()>>,
 }
 
 impl TerminalTechnician {
-    /// A technician at this terminal; with `yes` the steps are taken as done already.
-    pub fn new(yes: bool) -> TerminalTechnician {
-        TerminalTechnician { yes, enter: None }
+    /// A technician at this terminal; with `yes` the steps are taken as done already; with
+    /// `steps_from_stdin` each is confirmed by a line on stdin even when it is not a terminal.
+    pub fn new(yes: bool, steps_from_stdin: bool) -> TerminalTechnician {
+        TerminalTechnician {
+            yes,
+            steps_from_stdin,
+            enter: None,
+        }
+    }
+
+    /// Whether a step's confirmation can be waited for on stdin.
+    fn can_wait(&self) -> bool {
+        self.steps_from_stdin || std::io::stdin().is_terminal()
     }
 }
 
@@ -290,7 +307,7 @@ impl<H: InitHardware> Technician<H> for TerminalTechnician {
         if self.yes {
             return Ok(());
         }
-        if !std::io::stdin().is_terminal() {
+        if !self.can_wait() {
             return Err(Failure::Cancelled);
         }
         let rx = enter_pressed();
@@ -317,7 +334,7 @@ impl TerminalTechnician {
         if self.yes {
             return Ok(());
         }
-        if !std::io::stdin().is_terminal() {
+        if !self.can_wait() {
             return Err(Failure::Cancelled);
         }
         self.enter = Some(enter_pressed());

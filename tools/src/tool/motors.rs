@@ -83,7 +83,7 @@ fn on_device<J: MotorJob>(
     for warning in &rt.warnings {
         eprintln!("videt: {warning}");
     }
-    let mut tech = super::device::TerminalTechnician::new(device.yes);
+    let mut tech = super::device::TerminalTechnician::new(device.yes, device.steps_from_stdin);
     run_started(&mut hw, &mut tech, &mut runner, "device", stop, job)
 }
 

@@ -18,6 +18,7 @@ use std::time::Duration;
 use videt_runtime::WIREMAN_WIRES;
 
 use clap::Args;
+use videt_assembly::as_built::WiringMistake;
 use videt_control::autoinit::BaseTriangle;
 use videt_rt_config::Config;
 use videt_sim::cia402_node::{MotorPlant, SharedMotors, SimDriveBank, SimDriveSpec};
@@ -66,6 +67,21 @@ pub struct SimRigArgs {
     /// configuration's `drives.device_description`, else the generic CiA 402 profile).
     #[arg(long)]
     pub drive_description: Option<PathBuf>,
+    /// Start the rig at rest for commissioning or initialization: every wire detached from
+    /// the thimble and fully wound, its sphere against its ring (default: the thimble
+    /// connected, a virtual operator touching the check wall).
+    #[arg(long)]
+    pub at_rest: bool,
+    /// Build the rig with a wiring mistake (repeatable): reversed-motor:N, reversed-encoder:N,
+    /// swapped-nodes:A,B, inverted-cell:N. The drives' configuration does not correct it: the
+    /// service's does, as on a real rig.
+    #[arg(long, value_name = "MISTAKE")]
+    pub sim_fault: Vec<String>,
+    /// Take a technician's hands from stdin, a line each: `pull-out RING METRES` pulls that
+    /// wire's sphere out of its ring by that much (and holds it there), `let-go RING` lets it
+    /// go.
+    #[arg(long)]
+    pub technician_stdin: bool,
     /// The twin's world in slow motion: seconds of its time per second of the wall clock, in
     /// (0, 1]. For a machine that runs the control loop well below its rate (an emulated CPU):
     /// at a quarter of the rate, 0.25 keeps a period per millisecond of the twin's world, as on
@@ -123,11 +139,30 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         .unwrap_or_else(|| config.drives.can_interface.clone());
     let port = videt_sim::can_bus::socketcan::SocketCanEndpoint::open(&interface)
         .map_err(|e| format!("CAN interface {interface}: {e} (--can, drives.can_interface)"))?;
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 1);
+    let mistakes = args
+        .sim_fault
+        .iter()
+        .map(|text| wiring_mistake(text))
+        .collect::<Result<Vec<_>, _>>()?;
+    let twin = if args.at_rest {
+        // The HAL twin is wired straight: the service's drivers apply its corrections.
+        let mut twin = videt_service::init::twin::rest_twin(
+            &config,
+            &videt_service::init::twin::TwinSetup::from_config(&config, 1),
+        );
+        twin.set_wiring(videt_sim::Wiring::default());
+        twin
+    } else {
+        videt_assembly::twin_scene::demo_scene(&config, 1).twin
+    };
     let s = &config.sensors;
     let scales: [AnalogScale; WIREMAN_WIRES] = core::array::from_fn(|i| AnalogScale {
         zero_counts: s.zero_counts[i],
-        newtons_per_count: s.newtons_per_count[i],
+        newtons_per_count: if mistakes.contains(&WiringMistake::InvertedCell(i)) {
+            -s.newtons_per_count[i]
+        } else {
+            s.newtons_per_count[i]
+        },
     });
     // The physics runs on a thread of its own and hands encoders, analog inputs and torques to
     // the drives through wait-free mailboxes: the drives answer every SYNC at once whatever the
@@ -135,12 +170,20 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     // falling silent). With `--priority` it runs just below the drives: a physics thread
     // starved by the machine's ordinary work would catch up in bursts, and a burst of motion
     // between two SYNCs reads as a spike of wire speed.
-    let mut plant = RealTimeTwinPlant::new(scene.twin, scales).with_time_scale(args.time_scale);
+    let mut plant = RealTimeTwinPlant::new(twin, scales).with_time_scale(args.time_scale);
     let motors = Arc::new(SharedMotors::new(WIREMAN_WIRES));
     publish(&plant, &motors);
+    // As built, the drives carry the configured ids in ascending order, then any swap.
+    let mut built_ids = config.drives.node_ids;
+    built_ids.sort_unstable();
+    for m in &mistakes {
+        if let WiringMistake::SwappedNodes(a, b) = m {
+            built_ids.swap(*a, *b);
+        }
+    }
     let specs: Vec<SimDriveSpec> = (0..WIREMAN_WIRES)
         .map(|axis| SimDriveSpec {
-            node_id: config.drives.node_ids[axis],
+            node_id: built_ids[axis],
             axis,
             rated_torque_mnm: setup::twin_rated_torque_mnm(&config),
             boot_delay: Duration::from_millis(20),
@@ -179,6 +222,14 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
                 }
             }
         });
+    for m in &mistakes {
+        match *m {
+            WiringMistake::ReversedMotor(w) => bank.faults(w).set_reversed_motor(true),
+            WiringMistake::ReversedEncoder(w) => bank.faults(w).set_reversed_encoder(true),
+            _ => {}
+        }
+    }
+    let hands = args.technician_stdin.then(technician_hands);
     let physics_stop = Arc::clone(&stop);
     let physics_motors = Arc::clone(&motors);
     let physics = std::thread::Builder::new()
@@ -190,6 +241,11 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
                 }
             }
             while !physics_stop.load(Ordering::Relaxed) {
+                while let Some(Ok((ring, pull_m))) = hands.as_ref().map(|h| h.try_recv()) {
+                    if let Some(m) = pull_m {
+                        plant.twin_mut().plant_mut().set_free_length_m(ring, m);
+                    }
+                }
                 let torques = core::array::from_fn(|axis| physics_motors.torque_nm(axis));
                 plant.apply_torques(&torques);
                 publish(&plant, &physics_motors);
@@ -256,6 +312,55 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     stop.store(true, Ordering::Relaxed);
     let _ = physics.join();
     Ok(ExitCode::SUCCESS)
+}
+
+/// A wiring mistake `videt sim-rig` builds in (the e-stop's and the cameras' are not its).
+fn wiring_mistake(text: &str) -> Result<WiringMistake, String> {
+    match WiringMistake::parse(text) {
+        Some(Ok(m @ (WiringMistake::EStopLevel | WiringMistake::SwappedCameras))) => Err(format!(
+            "--sim-fault {text}: {m:?} is not the drives': wire the e-stop line or the cameras that way instead"
+        )),
+        Some(m) => m,
+        None => Err(format!(
+            "--sim-fault {text:?}: must be reversed-motor:N, reversed-encoder:N, swapped-nodes:A,B or inverted-cell:N"
+        )),
+    }
+}
+
+/// The technician's hands, read from stdin on a thread of their own: `(ring, Some(metres))`
+/// to pull a wire out and hold it, `(ring, None)` to let it go. A line that is neither is
+/// said on stderr and ignored.
+fn technician_hands() -> std::sync::mpsc::Receiver<(usize, Option<f64>)> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lines() {
+            let Ok(line) = line else { break };
+            let words: Vec<&str> = line.split_whitespace().collect();
+            let ring = |w: &str| w.parse::<usize>().ok().filter(|r| *r < WIREMAN_WIRES);
+            let hand = match words.as_slice() {
+                ["pull-out", r, m] => ring(r).zip(
+                    m.parse::<f64>()
+                        .ok()
+                        .filter(|m| m.is_finite() && (0.0..=1.0).contains(m))
+                        .map(Some),
+                ),
+                ["let-go", r] => ring(r).map(|r| (r, None)),
+                _ => None,
+            };
+            match hand {
+                Some(h) => {
+                    eprintln!("videt sim-rig: the technician: {line}");
+                    if tx.send(h).is_err() {
+                        break;
+                    }
+                }
+                None => eprintln!(
+                    "videt sim-rig: {line:?}: the technician does `pull-out RING METRES` or `let-go RING`"
+                ),
+            }
+        }
+    });
+    rx
 }
 
 /// `at` on the system's monotonic clock (`CLOCK_MONOTONIC`, the journal's and systemd's

@@ -11,6 +11,10 @@ use videt_runtime::WIREMAN_WIRES;
 use super::{CommissionStep, CommissionTechnician, StepReport};
 use crate::init::runner::{InitHardware, Readings, Runner};
 
+/// The longest a wire pulled out is wound back for, seconds (the pull-out at the test's speed
+/// limit takes a few).
+const WIND_BACK_S: f64 = 30.0;
+
 /// No force on any wire.
 pub(super) const IDLE: [f64; WIREMAN_WIRES] = [0.0; WIREMAN_WIRES];
 
@@ -187,13 +191,14 @@ impl<H: InitHardware, T: CommissionTechnician<H>> Bench<'_, H, T> {
     }
 
     /// After a pull-out, wind drive `k`'s wire back (the way `w` found) until its sensor reads
-    /// half the test tension, at most 10 s; then wait for the technician to say it rests.
+    /// half the test tension, at most [`WIND_BACK_S`]; then wait for the technician to say it
+    /// rests.
     pub fn wind_back(&mut self, k: usize, w: &Winding) -> Result<(), Failure> {
         let test_n = self.config.commission.test_tension_n;
         let max_speed = self.config.commission.max_speed_m_s;
         let mut seated = false;
         let mut f = IDLE;
-        for _ in 0..self.periods(10.0) {
+        for _ in 0..self.periods(WIND_BACK_S) {
             let r = self.period(&f)?;
             if r.tension_n[w.sensor] * w.change_n.signum() > 0.5 * test_n {
                 seated = true;
@@ -209,7 +214,7 @@ impl<H: InitHardware, T: CommissionTechnician<H>> Bench<'_, H, T> {
         if !seated {
             return Err(Failure::Timeout {
                 wire: k as u8,
-                elapsed_s: 10.0,
+                elapsed_s: WIND_BACK_S,
             });
         }
         Ok(())
