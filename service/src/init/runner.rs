@@ -61,6 +61,8 @@ pub struct Runner {
     readings: Readings,
     lowest_counts: [i64; WIREMAN_WIRES],
     tension_correction: Option<TensionCalibration>,
+    /// What the tension sensors said when a read failed (the latest failure).
+    sensor_error: Option<String>,
 }
 
 impl Runner {
@@ -74,6 +76,7 @@ impl Runner {
             readings: Readings::default(),
             lowest_counts: [i64::MAX; WIREMAN_WIRES],
             tension_correction: None,
+            sensor_error: None,
         }
     }
 
@@ -97,6 +100,11 @@ impl Runner {
     /// was paid out.
     pub fn lowest_counts(&self) -> [i64; WIREMAN_WIRES] {
         self.lowest_counts
+    }
+
+    /// What the tension sensors said when a read last failed.
+    pub fn sensor_error(&self) -> Option<&str> {
+        self.sensor_error.as_deref()
     }
 
     /// Restart [`Self::lowest_counts`] from the last reading.
@@ -128,7 +136,15 @@ impl Runner {
                 drive_fault = Some(Some(i as u8));
             }
         }
-        let sensor_fault = hw.read_tensions(&mut r.tension_n).is_err();
+        let sensor_fault = match hw.read_tensions(&mut r.tension_n) {
+            Ok(()) => false,
+            Err(e) => {
+                // Kept for the report (formatted only when a read fails: the procedure then
+                // ends).
+                self.sensor_error = Some(e.to_string());
+                true
+            }
+        };
         if let Some(c) = &self.tension_correction {
             for i in 0..WIREMAN_WIRES {
                 r.tension_n[i] = c.correct(i, r.tension_n[i]);

@@ -160,6 +160,8 @@ pub struct RigCheck {
     /// Why the check stopped before its end (an e-stop pressed during a test, a drive fault,
     /// a cancel), if it did.
     pub stopped: Option<Failure>,
+    /// What the failing part said of it, when it said more (a tension sensor's error).
+    pub detail: Option<String>,
 }
 
 /// The check of the rig's drives, sensors and e-stop, on started hardware. `runner` gives the
@@ -192,9 +194,14 @@ where
     ) {
         let _ = bench.hw.disable();
     }
+    let detail = match stopped {
+        Some(Failure::SensorFault) => bench.runner.sensor_error().map(str::to_string),
+        _ => None,
+    };
     RigCheck {
         steps: bench.steps,
         stopped,
+        detail,
     }
 }
 

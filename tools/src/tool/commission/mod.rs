@@ -147,9 +147,13 @@ fn commission(args: &CommissionArgs) -> Result<ExitCode, Exit> {
         ) {
             Ok(check) => {
                 found.steps.extend(check.steps);
-                found.stopped = check
-                    .stopped
-                    .map(|f| (failure_exit_code(&f), f.to_string()));
+                found.stopped = check.stopped.map(|f| {
+                    let why = match &check.detail {
+                        Some(d) => format!("{f} ({d})"),
+                        None => f.to_string(),
+                    };
+                    (failure_exit_code(&f), why)
+                });
             }
             Err(e) if e.code == EXIT_MOTORS_BUSY => return Err(e),
             Err(e) => {
