@@ -340,6 +340,16 @@ fn commissioning_finds_a_reversed_motor_over_socketcan_with_the_gpio_estop() {
         ["/dev/null-left", "/dev/null-right"],
         false,
     );
+    // The rig's world runs in slow motion (a quarter of the wall clock), and the speeds the
+    // check limits its tests by are derived from the drives' positions over the wall clock's
+    // periods: the limit a quarter of the default, for the wires to move as fast as on a rig.
+    let mut t: toml::Table = std::fs::read_to_string(&config).unwrap().parse().unwrap();
+    t.entry("commission")
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+        .as_table_mut()
+        .unwrap()
+        .insert("max_speed_m_s".into(), toml::Value::Float(0.0125));
+    std::fs::write(&config, toml::to_string(&t).unwrap()).unwrap();
     let mut rig = start_rig_with(
         &config,
         &can.0,
@@ -351,6 +361,11 @@ fn commissioning_finds_a_reversed_motor_over_socketcan_with_the_gpio_estop() {
         ],
     );
     let mut hands = rig.0.stdin.take().expect("the rig's stdin");
+    let rig_log = || std::fs::read_to_string(dir.path().join("sim-rig.log")).unwrap_or_default();
+    // The rig says each pull it made: the technician's hand has acted once the log has one
+    // more (the rig reads its stdin on an ordinary thread, which its real-time threads and
+    // the check's may keep waiting on the emulated CPUs).
+    let pulls_done = || rig_log().matches(" pulled out from ").count();
     let fixed = dir.path().join("fixed.toml");
     // The technician at work while the check runs: each prompt on stderr is done, then
     // confirmed with a line on the check's stdin.
@@ -382,15 +397,23 @@ fn commissioning_finds_a_reversed_motor_over_socketcan_with_the_gpio_estop() {
             } else if line.contains("press the e-stop") {
                 chip.pulldown(ESTOP_LINE).unwrap();
             } else if let Some(rest) = line.split("pull the wire at ring ").nth(1) {
-                let ring = &rest[..1];
-                writeln!(hands, "pull-out {ring} 0.1").unwrap();
+                let done = pulls_done();
+                writeln!(hands, "pull-out {} 0.1", &rest[..1]).unwrap();
+                let deadline = Instant::now() + Duration::from_secs(60);
+                while pulls_done() == done {
+                    assert!(
+                        Instant::now() < deadline,
+                        "the rig made no pull: {}",
+                        rig_log()
+                    );
+                    std::thread::sleep(Duration::from_millis(50));
+                }
             } else if let Some(rest) = line.split("let the wire at ring ").nth(1) {
                 writeln!(hands, "let-go {}", &rest[..1]).unwrap();
             } else {
                 continue;
             }
-            // The hands act on the rig's next physics step; the twin's world runs slow.
-            std::thread::sleep(Duration::from_millis(800));
+            std::thread::sleep(Duration::from_millis(300));
             if writeln!(confirm, "done").is_err() {
                 break;
             }
@@ -425,12 +448,19 @@ fn commissioning_finds_a_reversed_motor_over_socketcan_with_the_gpio_estop() {
         "estop.released",
         "estop.pressed",
         "drive0.direction",
+        "drive0.encoder",
+        "drive1.encoder",
         "drive2.encoder",
     ] {
-        assert_eq!(result(name).as_deref(), Some("pass"), "{name}: {report:#}");
+        assert_eq!(
+            result(name).as_deref(),
+            Some("pass"),
+            "{name}: {report:#}\n{told}\n{}",
+            rig_log()
+        );
     }
     let (code, report, told) = commission(&fixed, &[]);
-    assert_eq!(code, Some(0), "{report:#}\n{told}");
+    assert_eq!(code, Some(0), "{report:#}\n{told}\n{}", rig_log());
     let _ = (&can, &rig);
 }
 

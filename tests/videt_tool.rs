@@ -250,6 +250,43 @@ fn sim_rig_refuses_a_cpu_the_process_may_not_run_on() {
 }
 
 #[test]
+fn sim_rig_builds_only_the_drives_and_cells_mistakes() {
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
+    for (mistake, said) in [
+        ("estop-level", "not a mistake of the drives"),
+        ("swapped-cameras", "not a mistake of the drives"),
+        ("break:1:2", "must be reversed-motor:N"),
+        ("reversed-motor:3", "must be 0, 1 or 2"),
+    ] {
+        let out = videt(&[
+            "sim-rig",
+            "--config",
+            example,
+            "--can",
+            "vcan-absent",
+            "--at-rest",
+            "--sim-fault",
+            mistake,
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{mistake}: {err}");
+        assert!(err.contains(said), "{mistake}: {err}");
+    }
+    // A mistake of the drives' is taken: the interface is what is missing then.
+    let out = videt(&[
+        "sim-rig",
+        "--config",
+        example,
+        "--can",
+        "vcan-absent",
+        "--sim-fault",
+        "reversed-motor:1",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("vcan-absent"), "{err}");
+}
+
+#[test]
 fn sim_rig_refuses_a_time_scale_outside_zero_to_one() {
     let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
     for scale in ["0", "1.5", "-0.25", "NaN"] {

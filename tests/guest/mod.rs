@@ -330,7 +330,9 @@ pub fn start_rig_with(config: &Path, can: &str, extra: &[&str]) -> Process {
         .control_cpu;
     let mut rig = Command::new(videt_bin());
     rig.args(["sim-rig", "--priority", "70", "--can", can]);
-    rig.args(["--time-scale", GUEST_TIME_SCALE]);
+    if !extra.contains(&"--time-scale") {
+        rig.args(["--time-scale", GUEST_TIME_SCALE]);
+    }
     // -1: the control thread is not pinned, nor are the drives.
     if control_cpu >= 0 {
         rig.args(["--cpu", &control_cpu.to_string()]);

@@ -61,8 +61,8 @@ pub struct Runner {
     readings: Readings,
     lowest_counts: [i64; WIREMAN_WIRES],
     tension_correction: Option<TensionCalibration>,
-    /// What the tension sensors said when a read failed (the latest failure).
-    sensor_error: Option<String>,
+    /// What the drives or the tension sensors said when a read last failed.
+    device_error: Option<String>,
 }
 
 impl Runner {
@@ -76,7 +76,7 @@ impl Runner {
             readings: Readings::default(),
             lowest_counts: [i64::MAX; WIREMAN_WIRES],
             tension_correction: None,
-            sensor_error: None,
+            device_error: None,
         }
     }
 
@@ -102,9 +102,9 @@ impl Runner {
         self.lowest_counts
     }
 
-    /// What the tension sensors said when a read last failed.
-    pub fn sensor_error(&self) -> Option<&str> {
-        self.sensor_error.as_deref()
+    /// What the drives or the tension sensors said when a read last failed.
+    pub fn device_error(&self) -> Option<&str> {
+        self.device_error.as_deref()
     }
 
     /// Restart [`Self::lowest_counts`] from the last reading.
@@ -130,7 +130,14 @@ impl Runner {
             self.next = now;
         }
         let r = &mut self.readings;
-        let mut drive_fault = hw.read_drives(&mut r.drives).err().map(|_| None);
+        let mut drive_fault = match hw.read_drives(&mut r.drives) {
+            Ok(()) => None,
+            Err(e) => {
+                // Kept for the report, as a sensor's.
+                self.device_error = Some(e.to_string());
+                Some(None)
+            }
+        };
         for (i, s) in r.drives.iter().enumerate() {
             if s.state == DriveState::Fault {
                 drive_fault = Some(Some(i as u8));
@@ -141,7 +148,7 @@ impl Runner {
             Err(e) => {
                 // Kept for the report (formatted only when a read fails: the procedure then
                 // ends).
-                self.sensor_error = Some(e.to_string());
+                self.device_error = Some(e.to_string());
                 true
             }
         };

@@ -137,13 +137,13 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         .can
         .clone()
         .unwrap_or_else(|| config.drives.can_interface.clone());
-    let port = videt_sim::can_bus::socketcan::SocketCanEndpoint::open(&interface)
-        .map_err(|e| format!("CAN interface {interface}: {e} (--can, drives.can_interface)"))?;
     let mistakes = args
         .sim_fault
         .iter()
         .map(|text| wiring_mistake(text))
         .collect::<Result<Vec<_>, _>>()?;
+    let port = videt_sim::can_bus::socketcan::SocketCanEndpoint::open(&interface)
+        .map_err(|e| format!("CAN interface {interface}: {e} (--can, drives.can_interface)"))?;
     let twin = if args.at_rest {
         // The HAL twin is wired straight: the service's drivers apply its corrections.
         let mut twin = videt_service::init::twin::rest_twin(
@@ -243,7 +243,13 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
             while !physics_stop.load(Ordering::Relaxed) {
                 while let Some(Ok((ring, pull_m))) = hands.as_ref().map(|h| h.try_recv()) {
                     if let Some(m) = pull_m {
+                        let before = plant.twin().plant().free_length_m()[ring];
                         plant.twin_mut().plant_mut().set_free_length_m(ring, m);
+                        eprintln!(
+                            "videt sim-rig: wire {ring} pulled out from {:.1} mm to {:.1} mm",
+                            before * 1e3,
+                            m * 1e3
+                        );
                     }
                 }
                 let torques = core::array::from_fn(|axis| physics_motors.torque_nm(axis));
@@ -317,8 +323,8 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
 /// A wiring mistake `videt sim-rig` builds in (the e-stop's and the cameras' are not its).
 fn wiring_mistake(text: &str) -> Result<WiringMistake, String> {
     match WiringMistake::parse(text) {
-        Some(Ok(m @ (WiringMistake::EStopLevel | WiringMistake::SwappedCameras))) => Err(format!(
-            "--sim-fault {text}: {m:?} is not the drives': wire the e-stop line or the cameras that way instead"
+        Some(Ok(WiringMistake::EStopLevel | WiringMistake::SwappedCameras)) => Err(format!(
+            "--sim-fault {text}: not a mistake of the drives or their cells (wire the e-stop line or the cameras that way instead)"
         )),
         Some(m) => m,
         None => Err(format!(

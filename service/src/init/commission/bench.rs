@@ -148,32 +148,43 @@ impl<H: InitHardware, T: CommissionTechnician<H>> Bench<'_, H, T> {
         }
     }
 
-    /// Drive `k`'s test torque one way, then (no tension rising) the other, longer: which way
-    /// winds, and which sensor answers (against the tensions `rest`). `None` when no sensor
-    /// answers either way.
+    /// Which way drive `k` winds, and which sensor answers (against the tensions `rest`): a
+    /// gentle pull (the pay-out tension) one way, then (no tension rising) the other, longer;
+    /// then, the sphere against its ring, the test tension that way. A wire turning freely
+    /// (paid out, or wound back) only ever gets the gentle pull. `None` when no sensor answers
+    /// either way.
     pub fn winding_test(&mut self, k: usize, rest: &Stretch) -> Result<Option<Winding>, Failure> {
         let test_n = self.config.commission.test_tension_n;
+        let probe_n = self.runner.settings().pay_out_tension_n;
         let max_speed = self.config.commission.max_speed_m_s;
+        let change = |stretch: &Stretch| -> [f64; WIREMAN_WIRES] {
+            core::array::from_fn(|j| stretch.mean_tension_n[j] - rest.mean_tension_n[j])
+        };
         // The second direction long enough to wind back what the first paid out (at the speed
         // limit) and then pull against the stop.
         for (sign, seconds) in [(1.0, 0.6), (-1.0, 2.0)] {
             let periods = self.periods(seconds);
-            let stretch =
-                self.drive_for(periods, &mut |r| test_force(r, k, sign * test_n, max_speed))?;
-            let change: [f64; WIREMAN_WIRES] =
-                core::array::from_fn(|j| stretch.mean_tension_n[j] - rest.mean_tension_n[j]);
+            let probe = change(&self.drive_for(periods, &mut |r| {
+                test_force(r, k, sign * probe_n, max_speed)
+            })?);
             let j = (0..WIREMAN_WIRES)
-                .max_by(|a, b| change[*a].abs().total_cmp(&change[*b].abs()))
+                .max_by(|a, b| probe[*a].abs().total_cmp(&probe[*b].abs()))
                 .unwrap_or(0);
-            if change[j].abs() > 0.3 * test_n {
-                // Idle again: the sphere rests against its ring.
-                self.idle(0.2)?;
-                return Ok(Some(Winding {
-                    sign,
-                    sensor: j,
-                    change_n: change[j],
-                }));
+            if probe[j].abs() <= 0.5 * probe_n {
+                continue;
             }
+            // Against the ring: the test tension, which hardly moves the wire.
+            let periods = self.periods(0.4);
+            let pulled = change(
+                &self.drive_for(periods, &mut |r| test_force(r, k, sign * test_n, max_speed))?,
+            );
+            // Idle again: the sphere rests against its ring.
+            self.idle(0.2)?;
+            return Ok(Some(Winding {
+                sign,
+                sensor: j,
+                change_n: pulled[j],
+            }));
         }
         Ok(None)
     }
@@ -190,21 +201,21 @@ impl<H: InitHardware, T: CommissionTechnician<H>> Bench<'_, H, T> {
             .1[k])
     }
 
-    /// After a pull-out, wind drive `k`'s wire back (the way `w` found) until its sensor reads
-    /// half the test tension, at most [`WIND_BACK_S`]; then wait for the technician to say it
-    /// rests.
+    /// After a pull-out, wind drive `k`'s wire back gently (the pay-out tension, the way `w`
+    /// found) until its sensor reads half that, at most [`WIND_BACK_S`]; then wait for the
+    /// technician to say it rests.
     pub fn wind_back(&mut self, k: usize, w: &Winding) -> Result<(), Failure> {
-        let test_n = self.config.commission.test_tension_n;
+        let pull_n = self.runner.settings().pay_out_tension_n;
         let max_speed = self.config.commission.max_speed_m_s;
         let mut seated = false;
         let mut f = IDLE;
         for _ in 0..self.periods(WIND_BACK_S) {
             let r = self.period(&f)?;
-            if r.tension_n[w.sensor] * w.change_n.signum() > 0.5 * test_n {
+            if r.tension_n[w.sensor] * w.change_n.signum() > 0.5 * pull_n {
                 seated = true;
                 break;
             }
-            f = test_force(&r, k, w.sign * test_n, max_speed);
+            f = test_force(&r, k, w.sign * pull_n, max_speed);
         }
         self.idle(0.2)?;
         let step = CommissionStep::LetGo { ring: w.sensor };

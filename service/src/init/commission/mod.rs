@@ -4,14 +4,16 @@
 //! scale), its encoder's direction and counts per millimetre. Each step says what it measured,
 //! and a failing step the configuration fix (or the wiring to change).
 //!
-//! Every wire rests fully wound, its end sphere against its ring. A drive's test torque (the
-//! one holding `commission.test_tension_n`) on a motor that winds pulls the sphere against the
-//! ring: its wire's sensor reads that tension and the encoder hardly moves. On a motor wired the
-//! other way it pays the wire out instead (slowly: a wire faster than
-//! `commission.max_speed_m_s` has its torque cut) and no tension rises; the opposite torque
-//! then winds it back and the tension rises. The technician pulls each wire out to a mark with
-//! its motor idle: the encoder must count that length down, at the configured transmission.
-//! The torques are the only ones any motor gets; every other wire has none.
+//! Every wire rests fully wound, its end sphere against its ring. A gentle pull (the pay-out
+//! tension) on a motor that winds draws the sphere against the ring: its wire's sensor reads
+//! it and the encoder hardly moves. On a motor wired the other way it pays the wire out instead
+//! (slowly: a wire faster than `commission.max_speed_m_s` has its torque cut) and no tension
+//! rises; the opposite pull then winds it back and the tension rises. Only with the sphere
+//! against its ring does the drive get the test torque (the one holding
+//! `commission.test_tension_n`), whose reading gives the sensor's sign and scale. The technician
+//! pulls each wire out to a mark with its motor idle: the encoder must count that length down,
+//! at the configured transmission. These torques are the only ones any motor gets; every other
+//! wire has none.
 
 mod bench;
 mod steps;
@@ -160,7 +162,8 @@ pub struct RigCheck {
     /// Why the check stopped before its end (an e-stop pressed during a test, a drive fault,
     /// a cancel), if it did.
     pub stopped: Option<Failure>,
-    /// What the failing part said of it, when it said more (a tension sensor's error).
+    /// What the failing part said of it, when it said more (a drive's or a tension sensor's
+    /// error).
     pub detail: Option<String>,
 }
 
@@ -195,7 +198,9 @@ where
         let _ = bench.hw.disable();
     }
     let detail = match stopped {
-        Some(Failure::SensorFault) => bench.runner.sensor_error().map(str::to_string),
+        Some(Failure::SensorFault | Failure::DriveFault { wire: None }) => {
+            bench.runner.device_error().map(str::to_string)
+        }
         _ => None,
     };
     RigCheck {
