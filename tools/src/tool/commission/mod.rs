@@ -375,6 +375,17 @@ fn cameras_part(
     mistakes: &[videt_assembly::as_built::WiringMistake],
 ) -> Vec<StepReport> {
     use videt_service::camera_relief::CalibratedRig;
+    // On the twin, the folder of pairs played as its cameras.
+    let played = match (args.device.sim, &args.sim_cameras) {
+        (true, None) => {
+            return vec![StepReport::skipped(
+                "cameras",
+                "not checked: the twin has no cameras (--sim-cameras DIR plays a folder of pairs as them)",
+            )]
+        }
+        (true, Some(dir)) => Some(dir),
+        (false, _) => None,
+    };
     let calibration = &config.vision.stereo_calibration;
     let rig = match CalibratedRig::load(Path::new(calibration)) {
         Ok(r) => r,
@@ -388,13 +399,7 @@ fn cameras_part(
         }
     };
     let period = std::time::Duration::from_secs_f64(1.0 / f64::from(config.vision.frame_rate_hz));
-    if args.device.sim {
-        let Some(dir) = &args.sim_cameras else {
-            return vec![StepReport::skipped(
-                "cameras",
-                "not checked: the twin has no cameras (--sim-cameras DIR plays a folder of pairs as them)",
-            )];
-        };
+    if let Some(dir) = played {
         let files =
             match videt_drivers::camera::file_source::FileStereoSource::from_folder(dir, period) {
                 Ok(c) => c,
