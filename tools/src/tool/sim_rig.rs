@@ -74,7 +74,8 @@ pub struct SimRigArgs {
     pub at_rest: bool,
     /// Build the rig with a wiring mistake (repeatable): reversed-motor:N, reversed-encoder:N,
     /// swapped-nodes:A,B, inverted-cell:N. The drives' configuration does not correct it: the
-    /// service's does, as on a real rig.
+    /// service's does, as on a real rig. With swapped nodes the drives carry the configured
+    /// ids in ascending order, then swapped.
     #[arg(long, value_name = "MISTAKE")]
     pub sim_fault: Vec<String>,
     /// Take a technician's hands from stdin, a line each: `pull-out RING METRES` pulls that
@@ -173,9 +174,16 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     let mut plant = RealTimeTwinPlant::new(twin, scales).with_time_scale(args.time_scale);
     let motors = Arc::new(SharedMotors::new(WIREMAN_WIRES));
     publish(&plant, &motors);
-    // As built, the drives carry the configured ids in ascending order, then any swap.
+    // The drives carry the configured ids on wires 0, 1, 2; a rig built with drives swapped
+    // carries them in ascending order, then swapped (as `videt commission --sim` builds it:
+    // reordering the configuration's ids then fixes it).
     let mut built_ids = config.drives.node_ids;
-    built_ids.sort_unstable();
+    if mistakes
+        .iter()
+        .any(|m| matches!(m, WiringMistake::SwappedNodes(..)))
+    {
+        built_ids.sort_unstable();
+    }
     for m in &mistakes {
         if let WiringMistake::SwappedNodes(a, b) = m {
             built_ids.swap(*a, *b);
