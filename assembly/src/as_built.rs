@@ -68,10 +68,24 @@ impl WiringMistake {
     }
 }
 
+/// The node ids a rig built with `mistakes` carries on wires 0, 1, 2: `ids` in ascending
+/// order, then each swap.
+pub fn built_node_ids(
+    mut ids: [u8; WIREMAN_WIRES],
+    mistakes: &[WiringMistake],
+) -> [u8; WIREMAN_WIRES] {
+    ids.sort_unstable();
+    for m in mistakes {
+        if let WiringMistake::SwappedNodes(a, b) = *m {
+            ids.swap(a, b);
+        }
+    }
+    ids
+}
+
 /// The twin's wiring for a rig built with `mistakes`, run with `config`.
 pub fn twin_wiring(config: &Config, mistakes: &[WiringMistake]) -> Wiring<WIREMAN_WIRES> {
-    let mut built_ids = config.drives.node_ids;
-    built_ids.sort_unstable();
+    let built_ids = built_node_ids(config.drives.node_ids, mistakes);
     let mut motor_reversed = [false; WIREMAN_WIRES];
     let mut encoder_reversed = [false; WIREMAN_WIRES];
     let mut cell_inverted = [false; WIREMAN_WIRES];
@@ -80,10 +94,10 @@ pub fn twin_wiring(config: &Config, mistakes: &[WiringMistake]) -> Wiring<WIREMA
         match *m {
             WiringMistake::ReversedMotor(w) => motor_reversed[w] ^= true,
             WiringMistake::ReversedEncoder(w) => encoder_reversed[w] ^= true,
-            WiringMistake::SwappedNodes(a, b) => built_ids.swap(a, b),
             WiringMistake::InvertedCell(w) => cell_inverted[w] ^= true,
             WiringMistake::EStopLevel => estop_inverted ^= true,
-            WiringMistake::SwappedCameras => {}
+            // The drives' order is in the built ids; the cameras are not wired to the HAL.
+            WiringMistake::SwappedNodes(..) | WiringMistake::SwappedCameras => {}
         }
     }
     // Channel k talks to the drive with the configured id k, wherever it was built in.

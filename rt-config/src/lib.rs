@@ -368,6 +368,24 @@ pub enum LineLevel {
     High,
 }
 
+impl LineLevel {
+    /// Its name in the configuration file: `low` or `high`.
+    pub fn name(self) -> &'static str {
+        match self {
+            LineLevel::Low => "low",
+            LineLevel::High => "high",
+        }
+    }
+
+    /// The other level.
+    pub fn other(self) -> LineLevel {
+        match self {
+            LineLevel::Low => LineLevel::High,
+            LineLevel::High => LineLevel::Low,
+        }
+    }
+}
+
 /// The ADS1220's operating mode (its data rates depend on it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

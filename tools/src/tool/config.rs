@@ -166,10 +166,7 @@ pub fn describe_wiring(config: &Config) -> String {
         wires(d.motor_reversed),
         wires(d.encoder_reversed),
         wires(cells),
-        match config.sensors.estop_pressed_level {
-            videt_rt_config::LineLevel::Low => "low",
-            videt_rt_config::LineLevel::High => "high",
-        },
+        config.sensors.estop_pressed_level.name(),
         config.vision.devices[0],
         config.vision.devices[1],
     )

@@ -177,18 +177,14 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
     // The drives carry the configured ids on wires 0, 1, 2; a rig built with drives swapped
     // carries them in ascending order, then swapped (as `videt commission --sim` builds it:
     // reordering the configuration's ids then fixes it).
-    let mut built_ids = config.drives.node_ids;
-    if mistakes
+    let built_ids = if mistakes
         .iter()
         .any(|m| matches!(m, WiringMistake::SwappedNodes(..)))
     {
-        built_ids.sort_unstable();
-    }
-    for m in &mistakes {
-        if let WiringMistake::SwappedNodes(a, b) = m {
-            built_ids.swap(*a, *b);
-        }
-    }
+        videt_assembly::as_built::built_node_ids(config.drives.node_ids, &mistakes)
+    } else {
+        config.drives.node_ids
+    };
     let specs: Vec<SimDriveSpec> = (0..WIREMAN_WIRES)
         .map(|axis| SimDriveSpec {
             node_id: built_ids[axis],

@@ -5,7 +5,7 @@
 
 use videt_control::autoinit::Failure;
 use videt_rt_config::edit::{Fix, FixValue};
-use videt_rt_config::{LineLevel, TensionAdc};
+use videt_rt_config::TensionAdc;
 use videt_runtime::WIREMAN_WIRES;
 
 use super::bench::{Bench, Stretch, Winding};
@@ -31,10 +31,7 @@ impl<H: InitHardware, T: CommissionTechnician<H>> Bench<'_, H, T> {
         let pressed_reads_released = !self.estop_reads_pressed()?;
         let s = &self.config.sensors;
         let step = if pressed_reads_released {
-            let other = match s.estop_pressed_level {
-                LineLevel::Low => "high",
-                LineLevel::High => "low",
-            };
+            let other = s.estop_pressed_level.other().name();
             StepReport::fail(
                 "estop.released",
                 "the e-stop input reads pressed while the button is released, and released while it is pressed: its level is the other one",

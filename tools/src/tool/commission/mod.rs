@@ -208,27 +208,18 @@ fn write_fixes(
             .exists()
             .then(|| PathBuf::from(DEFAULT_CONFIG))
     });
+    let failed = |message: String| Exit::new(EXIT_CALIBRATION_WRITE, "write", message);
     let text = match &source {
-        Some(p) => std::fs::read_to_string(p).map_err(|e| {
-            Exit::new(
-                EXIT_CALIBRATION_WRITE,
-                "write",
-                format!("{}: {e}", p.display()),
-            )
-        })?,
+        Some(p) => {
+            std::fs::read_to_string(p).map_err(|e| failed(format!("{}: {e}", p.display())))?
+        }
         // The built-in defaults: the fixes alone make the file.
         None => String::new(),
     };
     let fixes = all_fixes(steps);
-    let fixed = apply_fixes(&text, config, &fixes)
-        .map_err(|e| Exit::new(EXIT_CALIBRATION_WRITE, "write", e))?;
-    videt_rt_config::calibration::write_atomically(path, fixed.as_bytes()).map_err(|e| {
-        Exit::new(
-            EXIT_CALIBRATION_WRITE,
-            "write",
-            format!("{}: {e}", path.display()),
-        )
-    })?;
+    let fixed = apply_fixes(&text, config, &fixes).map_err(failed)?;
+    videt_rt_config::calibration::write_atomically(path, fixed.as_bytes())
+        .map_err(|e| failed(format!("{}: {e}", path.display())))?;
     let from = source.map_or("the built-in defaults".to_string(), |p| {
         p.display().to_string()
     });
