@@ -130,6 +130,43 @@ pub fn twin_wiring(config: &Config, mistakes: &[WiringMistake]) -> Wiring<WIREMA
     }
 }
 
+/// Who applies the configuration's drive corrections (`drives.motor_reversed`,
+/// `drives.encoder_reversed`) on a twin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DriveCorrections {
+    /// The HAL twin stands for the drives: its wiring applies them.
+    InTwin,
+    /// Drivers talk to simulated drives (the CAN twin): they apply them, as on the device.
+    InDrivers,
+}
+
+/// The wiring of the twin of an `N`-wire rig built right, run with `config`: what the
+/// configuration corrects and the rig does not need shows as the mistake it would make on the
+/// device (a motor the configuration reverses unwinds under a winding torque, an e-stop read at
+/// the other level reads pressed). The tension sensors' signs (`sensors.newtons_per_count`) and
+/// the e-stop's level always; the drives' directions unless drivers apply them.
+pub fn configured_wiring<const N: usize>(
+    config: &Config,
+    corrections: DriveCorrections,
+) -> Wiring<N> {
+    let in_twin = corrections == DriveCorrections::InTwin;
+    let d = &config.drives;
+    let key = |keys: &[bool; WIREMAN_WIRES], k: usize| in_twin && keys.get(k) == Some(&true);
+    Wiring {
+        motor_reversed: core::array::from_fn(|k| key(&d.motor_reversed, k)),
+        encoder_reversed: core::array::from_fn(|k| key(&d.encoder_reversed, k)),
+        cell_inverted: core::array::from_fn(|k| {
+            config
+                .sensors
+                .newtons_per_count
+                .get(k)
+                .is_some_and(|n| *n < 0.0)
+        }),
+        estop_inverted: config.sensors.estop_pressed_level == LineLevel::High,
+        ..Wiring::default()
+    }
+}
+
 /// Whether the twin's cameras come swapped for a rig built with `mistakes`, run with
 /// `config`: as built, the left camera is the first of `vision.devices` in sorted order.
 pub fn cameras_swapped(config: &Config, mistakes: &[WiringMistake]) -> bool {
@@ -216,5 +253,32 @@ mod tests {
         let w = twin_wiring(&config, &[]);
         assert_eq!(w.motor_reversed, [false, true, false]);
         assert!(w.estop_inverted);
+    }
+
+    #[test]
+    fn a_twin_built_right_shows_what_its_configuration_corrects_for_nothing() {
+        let mut config = Config::default();
+        assert_eq!(
+            configured_wiring::<3>(&config, DriveCorrections::InTwin),
+            Wiring::default()
+        );
+        config.drives.motor_reversed = [false, true, false];
+        config.drives.encoder_reversed = [true, false, false];
+        config.sensors.newtons_per_count[2] *= -1.0;
+        config.sensors.estop_pressed_level = LineLevel::High;
+        // As a rig built right and checked with this configuration (no mistakes) would be.
+        let hal = configured_wiring::<3>(&config, DriveCorrections::InTwin);
+        assert_eq!(hal, twin_wiring(&config, &[]));
+        assert_eq!(hal.motor_reversed, [false, true, false]);
+        // Behind drivers, the drives' keys are theirs; the cells and the e-stop stay the twin's.
+        let can = configured_wiring::<3>(&config, DriveCorrections::InDrivers);
+        assert_eq!(can.motor_reversed, [false; 3]);
+        assert_eq!(can.encoder_reversed, [false; 3]);
+        assert_eq!(can.cell_inverted, [false, false, true]);
+        assert!(can.estop_inverted);
+        // Fewer wires take the first keys.
+        let planar = configured_wiring::<2>(&config, DriveCorrections::InTwin);
+        assert_eq!(planar.motor_reversed, [false, true]);
+        assert_eq!(planar.encoder_reversed, [true, false]);
     }
 }

@@ -190,6 +190,10 @@ pub fn drive_config<const N: usize>(config: &Config) -> DriveSetConfig<N> {
     }
     c.transmission = setup::transmission(config);
     c.max_wire_speed_m_per_s = config.control.max_wire_speed_m_s;
+    // The directions the configuration corrects, as the device's drive set applies them.
+    let d = &config.drives;
+    c.motor_reversed = core::array::from_fn(|i| d.motor_reversed.get(i) == Some(&true));
+    c.encoder_reversed = core::array::from_fn(|i| d.encoder_reversed.get(i) == Some(&true));
     // The simulated drives share the host's CPUs: on a kernel without PREEMPT_RT their thread
     // can be woken milliseconds late, which real drives never are. Tolerate up to 20 periods
     // without process data and 100 ms of silence either way here (a real drive set keeps the

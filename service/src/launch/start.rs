@@ -6,6 +6,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use tracing::{error, info, warn};
+use videt_assembly::as_built::{configured_wiring, DriveCorrections};
 use videt_assembly::can_twin::{self, CanTwin};
 use videt_assembly::twin_rt::RealTimeTwin;
 use videt_rt_config::Config;
@@ -22,12 +23,28 @@ use crate::relief_feed::ReliefFeed;
 use crate::service::{run_service_with, ServiceExtras, ServiceOptions};
 use crate::service_hardware::ServiceHardware;
 
+/// Wire `twin`, a rig built right, as `config` corrects it: a correction the rig does not need
+/// shows as the mistake it makes on the device. The HAL twin applies the drives' directions
+/// itself; behind simulated drives (`sim` CAN) the drivers apply them.
+pub fn wire_as_configured<const N: usize, D: videt_control::WireDevice<N>>(
+    twin: &mut Twin<N, D>,
+    config: &Config,
+    sim: SimMode,
+) {
+    let corrections = match sim {
+        SimMode::Hal => DriveCorrections::InTwin,
+        SimMode::Can => DriveCorrections::InDrivers,
+    };
+    // A wiring without permutations is always valid.
+    let _ = twin.set_wiring(configured_wiring::<N>(config, corrections));
+}
+
 /// Run the service on `twin`: the HAL twin itself, or its motors behind simulated CiA 402
 /// drives on a userspace CAN bus (the configured part's dictionary), as `sim` says. The CAN
 /// twin's drive faults and start-up report join `extras`; its bus load is logged at the end.
 pub fn run_on_twin<const N: usize, D, F>(
     sim: SimMode,
-    twin: Twin<N, D>,
+    mut twin: Twin<N, D>,
     feed: F,
     cycle: ControlCycle<N, D>,
     options: &ServiceOptions,
@@ -39,10 +56,11 @@ where
     RealTimeTwin<N, D>: ServiceHardware<N>,
     CanTwin<N, RealTimeTwin<N, D>>: ServiceHardware<N>,
 {
+    let config = &options.config;
+    wire_as_configured(&mut twin, config, sim);
     if sim == SimMode::Hal {
         return run_service_with(RealTimeTwin::new(twin), feed, cycle, options, extras);
     }
-    let config = &options.config;
     let dictionary = match videt_assembly::drive_dictionary::for_config(config) {
         Ok(d) => d,
         Err(e) => {

@@ -16,7 +16,7 @@ use videt_runtime::snapshot::FixedSurface;
 use videt_runtime::WiremanCycle;
 
 use super::relief::SceneTwin;
-use super::start::{colour_enabled, run_on_twin, run_with_tension_correction};
+use super::start::{colour_enabled, run_on_twin, run_with_tension_correction, wire_as_configured};
 use crate::plan::{SimCalibration, SimMode};
 use crate::service::{ServiceExtras, ServiceOptions};
 use crate::service_hardware::ServiceHardware;
@@ -199,10 +199,13 @@ pub(super) fn run_wall(
              virtual operator touching it and sliding along it"
         }
     };
-    let (scene, cycle) = wall_demo(config, rig, calibration, options, what);
+    let (mut scene, cycle) = wall_demo(config, rig, calibration, options, what);
     match sim {
         SimMode::Hal => run_with_tension_correction(
-            RealTimeTwin::new(scene.twin),
+            {
+                wire_as_configured(&mut scene.twin, config, sim);
+                RealTimeTwin::new(scene.twin)
+            },
             FixedSurface(scene.wall),
             cycle,
             options,
