@@ -12,7 +12,7 @@ use videt_hal::{Clock, DriveSample, EStop, MonoTime, TensionSensors, WireDrives}
 use videt_rt_config::edit::{apply_fixes, Fix};
 use videt_rt_config::Config;
 use videt_service::init::commission::{
-    check_rig, CommissionStep, CommissionTechnician, RigCheck, Verdict,
+    check_rig, CommissionStep, CommissionTechnician, RigCheck, Thimble, Verdict,
 };
 use videt_service::init::runner::Runner;
 use videt_service::init::session::{self, run_settings, FlowContext};
@@ -101,7 +101,7 @@ fn check(config: &Config, mistakes: &[WiringMistake], stop: &AtomicBool) -> (Rig
     session::start(&mut hw.twin).unwrap();
     let mut tech = SimTechnician::new(&s);
     let mut runner = Runner::new(run_settings(config));
-    let found = check_rig(&mut hw, &mut tech, &mut runner, config, stop);
+    let found = check_rig(&mut hw, &mut tech, &mut runner, config, stop, Thimble::Off);
     (found, hw)
 }
 
@@ -278,6 +278,7 @@ fn a_stopped_check_leaves_every_motor_without_torque() {
         &mut runner,
         &config,
         &stop,
+        Thimble::Off,
     );
     assert_eq!(
         found.stopped,

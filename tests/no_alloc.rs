@@ -388,22 +388,21 @@ fn hand_over_and_initialise(wind_speed_m_s: f64) -> ProcedureRun {
             )
         });
         let mut counted = CountingObserver(0);
-        let ((recalibration, _next_cycle), procedure_counts) =
-            videt_testkit::count_allocations(|| {
-                run_procedure(
-                    &mut twin,
-                    &mut handle,
-                    &config,
-                    &mut counted,
-                    cycle.cycle_count(),
-                    cycle.wire_zero(),
-                    cycle.safety_state(),
-                )
-            });
+        let (end, procedure_counts) = videt_testkit::count_allocations(|| {
+            run_procedure(
+                &mut twin,
+                &mut handle,
+                &config,
+                &mut counted,
+                cycle.cycle_count(),
+                cycle.wire_zero(),
+                cycle.safety_state(),
+            )
+        });
         (
             report,
             loop_counts,
-            recalibration.is_some(),
+            end.recalibration.is_some(),
             counted.0,
             procedure_counts,
         )

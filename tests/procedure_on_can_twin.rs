@@ -91,7 +91,7 @@ fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     assert!(report.handed_over, "the loop handed the hardware over");
 
     let mut procedure = Recorder(Vec::with_capacity(1));
-    let (recalibration, next_cycle) = run_procedure(
+    let end = run_procedure(
         &mut hw,
         &mut handle,
         &config,
@@ -107,6 +107,11 @@ fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
         }
     }
     assert!(measured.is_some(), "the client heard the result");
+    let (recalibration, next_cycle) = (end.recalibration, end.next_cycle);
+    assert_eq!(
+        end.trip, None,
+        "an initialization keeps the service's safety state"
+    );
     let recalibration = recalibration.expect("a saved result recalibrates the service");
     // Guide points within 1 mm of the twin's (the configured frame, the paper's).
     for (measured, truth) in recalibration

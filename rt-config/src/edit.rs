@@ -3,10 +3,13 @@
 
 use std::fmt;
 
+use serde::{Deserialize, Serialize};
+
 use crate::Config;
 
-/// A value a fix gives a key (or one element of an array key).
-#[derive(Debug, Clone, PartialEq)]
+/// A value a fix gives a key (or one element of an array key). Serialized as the plain value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
 pub enum FixValue {
     /// A boolean.
     Bool(bool),
@@ -49,7 +52,7 @@ impl fmt::Display for FixValue {
 
 /// A configuration change: `key` (`section.name`), the element `index` of an array key or the
 /// whole key, and its new value.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Fix {
     /// `section.name`, e.g. `drives.motor_reversed`.
     pub key: String,
@@ -148,6 +151,41 @@ pub fn apply_fixes(text: &str, config: &Config, fixes: &[Fix]) -> Result<String,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fixes_serialize_and_come_back_the_same() {
+        let fixes = vec![
+            Fix::new("drives.motor_reversed", Some(1), FixValue::Bool(true)),
+            Fix::new(
+                "drives.node_ids",
+                None,
+                FixValue::List(vec![
+                    FixValue::Integer(3),
+                    FixValue::Integer(1),
+                    FixValue::Integer(2),
+                ]),
+            ),
+            Fix::new("sensors.newtons_per_count", Some(2), FixValue::Float(-2.0)),
+            Fix::new("sensors.zero_counts", Some(0), FixValue::Float(1.25e-3)),
+            Fix::new(
+                "sensors.estop_pressed_level",
+                None,
+                FixValue::Text("high".into()),
+            ),
+        ];
+        let text = toml::to_string(&Wrapper {
+            fixes: fixes.clone(),
+        })
+        .unwrap();
+        let back: Wrapper = toml::from_str(&text).unwrap();
+        assert_eq!(back.fixes, fixes, "{text}");
+    }
+
+    /// A document holding fixes (TOML has no top-level arrays).
+    #[derive(Serialize, Deserialize)]
+    struct Wrapper {
+        fixes: Vec<Fix>,
+    }
 
     const FILE: &str = "# The rig on the bench.\n[drives]\n# ids as wired\nnode_ids = [1, 2, 3]   # wires 0, 1, 2\nmotor_reversed = [false, false, false]\n\n[sensors]\nestop_line = 17 # input\n";
 

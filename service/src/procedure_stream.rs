@@ -1,9 +1,10 @@
 //! The control socket's side of a procedure run on the service's hardware
-//! (`{"cmd":"init"}`, `{"cmd":"wire-replace","wire":N}`; `docs/control-socket.md`): check the
-//! request, take the one procedure slot, hand the request to the control thread, stream its
-//! events to the client as JSON lines, pass the client's confirmations back, and save the
-//! calibration when the procedure succeeds (atomically, the previous kept as backup). The client
-//! leaving aborts the procedure.
+//! (`{"cmd":"init"}`, `{"cmd":"wire-replace","wire":N}`, `{"cmd":"commission"}`;
+//! `docs/control-socket.md`): check the request, take the one procedure slot, hand the request
+//! to the control thread, stream its events to the client as JSON lines, pass the client's
+//! confirmations back, and save the calibration when the procedure succeeds (atomically, the
+//! previous kept as backup) or send the commissioning check's report. The client leaving aborts
+//! the procedure.
 
 use std::io::{self, BufRead, BufReader};
 use std::os::unix::net::UnixStream;
@@ -14,6 +15,7 @@ use serde_json::{json, Value};
 use videt_control::autoinit::{Failure, Stage};
 use videt_rt_config::calibration::{backup_path, Calibration};
 
+use crate::init::commission::{RigCheck, Verdict};
 use crate::init::remote::{saved, ProcedureEvent, ProcedureKind, ProcedurePort, ProcedureSpec};
 use crate::init::session::{self, InitError, InitOutcome, Measurement};
 use crate::init::twin::{parse_fault, SimFault};
@@ -66,6 +68,7 @@ pub fn spec_for(port: &ProcedurePort, request: &ProcedureRequest) -> Result<Proc
     }
     let kind = match request.cmd {
         ProcedureCommand::Init => ProcedureKind::Initialize,
+        ProcedureCommand::Commission => ProcedureKind::Commission,
         ProcedureCommand::WireReplace => {
             let wire = request.wire.map_or(usize::MAX, usize::from);
             if wire > 2 {
@@ -133,6 +136,15 @@ pub fn event_json(event: &ProcedureEvent) -> Value {
             "confirm": confirm,
             "message": request.instructions(),
         }),
+        ProcedureEvent::CheckPrompt { step, confirm } => json!({
+            "ok": true,
+            "event": "prompt",
+            "request": step.name(),
+            "wire": step.ring(),
+            "confirm": confirm,
+            "message": step.instructions(),
+        }),
+        ProcedureEvent::Checked(check) => checked_json(check),
         ProcedureEvent::Finished(result) => match result.as_ref() {
             Ok(_) => json!({"ok": true, "event": "finished"}),
             Err(e) => failed_json(e.exit_code(), e.name(), &e.to_string()),
@@ -149,6 +161,27 @@ pub fn done_json(kind: &'static str, outcome: &InitOutcome, path: &std::path::Pa
         "calibration_file": path.display().to_string(),
         "backup": backup_path(path).display().to_string(),
         "calibration": outcome.calibration,
+    })
+}
+
+/// The last line of a commissioning check: its steps (each with its verdict, what it measured,
+/// its fixes), and what stopped it early (name, exit code and message as a direct run's).
+pub fn checked_json(check: &RigCheck) -> Value {
+    let stopped = check.stopped.map(|f| {
+        let e = InitError::Procedure(f);
+        let message = match &check.detail {
+            Some(d) => format!("{f} ({d})"),
+            None => f.to_string(),
+        };
+        json!({"error": e.name(), "exit_code": e.exit_code(), "message": message})
+    });
+    json!({
+        "ok": true,
+        "event": "checked",
+        "procedure": "commission",
+        "steps": check.steps,
+        "stopped": stopped,
+        "as_configured": check.as_configured(),
     })
 }
 
@@ -259,6 +292,13 @@ pub fn serve(
                     finish(*result, kind, port, &mut stream);
                     return Ok(());
                 }
+                ProcedureEvent::Checked(check) => {
+                    if let Some(cause) = log_check(&check) {
+                        port.tell_cause(cause);
+                    }
+                    stream.send(&checked_json(&check), port);
+                    return Ok(());
+                }
                 other => {
                     started |= matches!(other, ProcedureEvent::Started { .. });
                     stream.send(&event_json(&other), port);
@@ -323,6 +363,38 @@ pub fn serve(
             Err(_) => stream.left(port),
         }
     }
+}
+
+/// Log what a commissioning check run by the service found; the cause of the safe state it
+/// leaves the service in, if it does.
+fn log_check(check: &RigCheck) -> Option<String> {
+    let failed: Vec<&str> = check
+        .steps
+        .iter()
+        .filter(|s| s.verdict == Verdict::Fail)
+        .map(|s| s.name.as_str())
+        .collect();
+    if let Some(state) = check.safe_state() {
+        tracing::error!(
+            failed = ?failed,
+            safety = state.as_str(),
+            "the commissioning check found the rig not as configured: the drives stay off until \
+             videtd is restarted with the configuration fixed (videt commission --write FILE)"
+        );
+        return Some(format!(
+            "commissioning: the rig is not as configured ({}): restart videtd with the fixed configuration",
+            failed.join(", ")
+        ));
+    } else if let Some(f) = check.stopped {
+        let detail = check.detail.as_deref().unwrap_or("no step found a mistake");
+        tracing::warn!("the commissioning check stopped early: {f} ({detail})");
+    } else {
+        tracing::info!(
+            steps = check.steps.len(),
+            "the commissioning check found the rig as configured: rendering resumes"
+        );
+    }
+    None
 }
 
 /// The procedure ended: save a successful result (unless the client left) and send the last line.
@@ -425,11 +497,17 @@ mod tests {
         assert!(p.yes);
         assert_eq!(p.sim_seed, Some(7));
         assert_eq!(p.sim_faults, vec!["estop:1".to_string()]);
+        let p = request(r#"{"cmd":"commission","yes":true}"#);
+        assert_eq!((p.cmd, p.yes), (ProcedureCommand::Commission, true));
         let p = request(r#"{"cmd":"wire-replace","wire":2,"sim_new_wire_length_m":0.4}"#);
         assert_eq!((p.cmd, p.wire), (ProcedureCommand::WireReplace, Some(2)));
         for (bad, says) in [
             (r#"{"cmd":"init","wire":1}"#, "takes no `wire`"),
             (r#"{"cmd":"wire-replace"}"#, "needs `wire`"),
+            (
+                r#"{"cmd":"commission","wire":0}"#,
+                "`commission` takes no `wire`",
+            ),
             (
                 r#"{"cmd":"init","sim_new_wire_length_m":1.0}"#,
                 "sim_new_wire_length_m",
@@ -489,6 +567,14 @@ mod tests {
         assert!(e.contains("not the digital twin"), "{e}");
         let e = spec_for(&twin, &request(r#"{"cmd":"init","sim_faults":["melt:2"]}"#)).unwrap_err();
         assert!(e.contains("--sim-fault"), "{e}");
+        let spec = spec_for(&twin, &request(r#"{"cmd":"commission"}"#)).unwrap();
+        assert_eq!(spec.kind, ProcedureKind::Commission);
+        let e = spec_for(
+            &twin,
+            &request(r#"{"cmd":"commission","sim_faults":["reversed-motor:1"]}"#),
+        )
+        .unwrap_err();
+        assert!(e.contains("built into a twin when it starts"), "{e}");
         let e = spec_for(&twin, &request(r#"{"cmd":"wire-replace","wire":5}"#)).unwrap_err();
         assert!(e.contains("wires are 0, 1, 2"), "{e}");
         let spec = spec_for(&twin, &request(r#"{"cmd":"wire-replace","wire":1}"#)).unwrap();
@@ -548,6 +634,22 @@ mod tests {
         assert_eq!(v["wire"], 1);
         assert_eq!(v["confirm"], true);
         assert!(v["message"].as_str().unwrap().contains("ring 1"));
+        let v = event_json(&ProcedureEvent::CheckPrompt {
+            step: crate::init::commission::CommissionStep::PullOutWire {
+                ring: 2,
+                length_m: 0.1,
+            },
+            confirm: true,
+        });
+        assert_eq!(v["request"], "pull-out-wire");
+        assert_eq!(v["wire"], 2);
+        assert!(v["message"].as_str().unwrap().contains("100 mm"), "{v}");
+        let v = event_json(&ProcedureEvent::CheckPrompt {
+            step: crate::init::commission::CommissionStep::DetachThimble,
+            confirm: false,
+        });
+        assert_eq!(v["request"], "detach-thimble");
+        assert_eq!(v["wire"], Value::Null);
         let v = event_json(&ProcedureEvent::Progress {
             elapsed_s: 1.5,
             travel_m: [0.1, 0.0, -0.1],

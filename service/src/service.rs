@@ -470,7 +470,7 @@ where
                         break report;
                     };
                     // Procedure mode: same thread, same priority, same period.
-                    let Some((recalibration, next_cycle)) = hw.run_procedure(
+                    let Some(end) = hw.run_procedure(
                         handle,
                         &thread_config,
                         &mut observers,
@@ -482,7 +482,8 @@ where
                         let _ = hw.deactivate();
                         break report;
                     };
-                    match recalibration.and_then(|r| {
+                    let next_cycle = end.next_cycle;
+                    match end.recalibration.and_then(|r| {
                         D::from_base_triangle(r.rig).map(|device| (device, r.wire_zero))
                     }) {
                         Some((device, wire_zero)) => {
@@ -505,6 +506,11 @@ where
                             cycle.restart();
                             cycle.set_cycle_count(next_cycle);
                         }
+                    }
+                    if let Some(state) = end.trip {
+                        // A rig found not as configured renders nothing until the service
+                        // restarts with its configuration fixed.
+                        cycle.trip(state);
                     }
                 }
             }));
@@ -578,6 +584,9 @@ where
         // A cause can be told a tick before the record shows its safe state: it is kept until
         // the service is back to normal.
         if let Some(cause) = tell_fault_causes(&mut fault_causes) {
+            fault_cause = Some(cause);
+        }
+        if let Some(cause) = shared.procedures.as_ref().and_then(|p| p.take_cause()) {
             fault_cause = Some(cause);
         }
         if record.surface_stale != last_stale {

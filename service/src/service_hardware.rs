@@ -15,11 +15,7 @@ use videt_runtime::cycle::WireZero;
 use videt_runtime::WIREMAN_WIRES;
 
 use crate::init::corrected::CorrectedTensions;
-use crate::init::remote::{ProcedureDevice, ProcedureHandle, Recalibration};
-
-/// What a procedure run through the control socket left: a new calibration or none, and the
-/// next period's number.
-pub type ProcedureOutcome = (Option<Recalibration>, u64);
+use crate::init::remote::{ProcedureDevice, ProcedureEnd, ProcedureHandle};
 
 /// The service's hardware: the HAL capabilities of an `N`-wire device, and what the service
 /// can do with it beyond the control cycle.
@@ -52,7 +48,7 @@ pub trait ServiceHardware<const N: usize>:
         _first_cycle: u64,
         _wire_zero: WireZero,
         _safety: SafetyState,
-    ) -> Option<ProcedureOutcome> {
+    ) -> Option<ProcedureEnd> {
         None
     }
 }
@@ -79,7 +75,7 @@ macro_rules! wireman_service_hardware {
                 first_cycle: u64,
                 wire_zero: WireZero,
                 safety: SafetyState,
-            ) -> Option<ProcedureOutcome> {
+            ) -> Option<ProcedureEnd> {
                 Some(crate::init::remote::run_procedure(
                     self,
                     handle,

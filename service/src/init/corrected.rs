@@ -13,12 +13,23 @@ use videt_runtime::WIREMAN_WIRES;
 pub struct CorrectedTensions<H> {
     inner: H,
     correction: TensionCalibration,
+    /// Whether the correction is applied (left out while the commissioning check reads the
+    /// sensors as configured).
+    correcting: bool,
 }
 
 impl<H> CorrectedTensions<H> {
     /// Wrap `inner`, correcting its tension readings with `correction`.
     pub fn new(inner: H, correction: TensionCalibration) -> Self {
-        CorrectedTensions { inner, correction }
+        CorrectedTensions {
+            inner,
+            correction,
+            correcting: true,
+        }
+    }
+    /// Apply the correction (`true`, from the start) or pass the readings on raw.
+    pub fn set_correcting(&mut self, correcting: bool) {
+        self.correcting = correcting;
     }
     /// The wrapped device.
     pub fn inner(&self) -> &H {
@@ -43,6 +54,9 @@ impl<H: TensionSensors<WIREMAN_WIRES>> TensionSensors<WIREMAN_WIRES> for Correct
         out_n: &mut [f64; WIREMAN_WIRES],
     ) -> Result<[bool; WIREMAN_WIRES], Self::Error> {
         let fresh = self.inner.read_fresh_tensions(out_n)?;
+        if !self.correcting {
+            return Ok(fresh);
+        }
         for (i, t) in out_n.iter_mut().enumerate() {
             *t = self.correction.correct(i, *t);
         }
@@ -143,6 +157,15 @@ mod tests {
             assert!((a[i] - raw_offset(i)).abs() < 1e-12);
             assert!(b[i].abs() < 1e-12, "wire {i}: {}", b[i]);
         }
+        // Left out, the readings are the sensors' own; back in, corrected again.
+        corrected.set_correcting(false);
+        corrected.read_tensions(&mut b).unwrap();
+        for i in 0..WIREMAN_WIRES {
+            assert!((b[i] - raw_offset(i)).abs() < 1e-12, "wire {i}: {}", b[i]);
+        }
+        corrected.set_correcting(true);
+        corrected.read_tensions(&mut b).unwrap();
+        assert!(b.iter().all(|t| t.abs() < 1e-12), "{b:?}");
     }
 
     fn raw_offset(i: usize) -> f64 {

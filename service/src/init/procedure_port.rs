@@ -12,6 +12,7 @@ use videt_runtime::WIREMAN_WIRES;
 use videt_control::autoinit::Stage;
 use videt_rt_config::Config;
 
+use super::commission::{CommissionStep, RigCheck};
 use super::session::{InitError, Measurement, Request};
 use super::twin::SimFault;
 
@@ -32,25 +33,28 @@ pub enum ProcedureKind {
         /// The usable length the new yarn needs, metres.
         required_length_m: f64,
     },
+    /// The commissioning check of the rig (`videt commission`).
+    Commission,
 }
 
 impl ProcedureKind {
-    /// `init` or `wire-replace`.
+    /// `init`, `wire-replace` or `commission`.
     pub fn name(&self) -> &'static str {
         KIND_NAMES[usize::from(self.code()) - 1]
     }
 
-    /// The kind's code in [`ProcedurePort`]'s slot (1, 2; 0 is no procedure).
+    /// The kind's code in [`ProcedurePort`]'s slot (1, 2, 3; 0 is no procedure).
     fn code(&self) -> u8 {
         match self {
             ProcedureKind::Initialize => 1,
             ProcedureKind::ReplaceWire { .. } => 2,
+            ProcedureKind::Commission => 3,
         }
     }
 }
 
 /// The names of the procedure kinds, by code minus one.
-const KIND_NAMES: [&str; 2] = ["init", "wire-replace"];
+const KIND_NAMES: [&str; 3] = ["init", "wire-replace", "commission"];
 
 /// A procedure a client asked for, checked.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,9 +140,18 @@ pub enum ProcedureEvent {
         /// technician does it) and with `yes`.
         confirm: bool,
     },
+    /// A manual step of the commissioning check.
+    CheckPrompt {
+        /// The step.
+        step: CommissionStep,
+        /// The client must confirm it is done; false on the twin and with `yes`.
+        confirm: bool,
+    },
     /// The procedure ended: what it measured (the client computes the workspace and saves the
     /// calibration), or why it failed.
     Finished(Box<Result<Measurement, InitError>>),
+    /// The commissioning check ended: its steps, and what stopped it early.
+    Checked(Box<RigCheck>),
 }
 
 /// Whether the client saved the calibration ([`ProcedureControl::saved`]).
@@ -186,6 +199,8 @@ pub struct ProcedurePort {
     kind: AtomicU8,
     events: Mutex<rtrb::Consumer<ProcedureEvent>>,
     spec: Arc<Mutex<Option<ProcedureSpec>>>,
+    /// Why a procedure left the service in a safe state, for its supervisor to tell.
+    cause: Mutex<Option<String>>,
     /// The shared signals.
     pub control: Arc<ProcedureControl>,
 }
@@ -208,6 +223,7 @@ pub fn procedure_channel(
             kind: AtomicU8::new(0),
             events: Mutex::new(consumer),
             spec: Arc::clone(&spec),
+            cause: Mutex::new(None),
             control: Arc::clone(&control),
         },
         ProcedureHandle {
@@ -250,7 +266,20 @@ impl ProcedurePort {
         self.busy.load(Ordering::Acquire)
     }
 
-    /// The procedure running, by name (`init`, `wire-replace`).
+    /// Say why the procedure that ended leaves the service in a safe state (the client
+    /// thread, off the control thread).
+    pub fn tell_cause(&self, cause: String) {
+        if let Ok(mut c) = self.cause.lock() {
+            *c = Some(cause);
+        }
+    }
+
+    /// The cause a procedure told, once (the supervisor).
+    pub fn take_cause(&self) -> Option<String> {
+        self.cause.lock().ok().and_then(|mut c| c.take())
+    }
+
+    /// The procedure running, by name (`init`, `wire-replace`, `commission`).
     pub fn current(&self) -> Option<&'static str> {
         let code = usize::from(self.kind.load(Ordering::Acquire));
         code.checked_sub(1).and_then(|k| KIND_NAMES.get(k).copied())
@@ -323,6 +352,7 @@ mod tests {
                 wire: 1,
                 required_length_m: 2.0,
             },
+            ProcedureKind::Commission,
         ] {
             let mut session = port.begin().expect("free");
             assert_eq!(port.current(), None, "nothing submitted yet");
@@ -339,5 +369,13 @@ mod tests {
             assert_eq!(port.current(), None);
         }
         assert_eq!(ProcedureKind::Initialize.name(), "init");
+        assert_eq!(ProcedureKind::Commission.name(), "commission");
+        // A cause is told once.
+        port.tell_cause("commissioning: drive2.encoder".into());
+        assert_eq!(
+            port.take_cause().as_deref(),
+            Some("commissioning: drive2.encoder")
+        );
+        assert_eq!(port.take_cause(), None);
     }
 }

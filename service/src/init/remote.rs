@@ -30,6 +30,7 @@ use videt_hal::{Clock, DriveSample, EStop, ErrorType, MonoTime, TensionSensors, 
 use videt_rt_config::Config;
 use videt_sim::{VirtualOperator, WireModules};
 
+use super::commission::{check_rig, CommissionStep, CommissionTechnician, Thimble};
 use super::corrected::CorrectedTensions;
 use super::runner::{InitHardware, Readings, Runner};
 use super::session::{self, run_settings, FlowContext, InitError, Request, Technician};
@@ -57,6 +58,11 @@ pub trait ProcedureDevice: InitHardware {
     fn twin_mut(&mut self) -> Option<&mut Twin> {
         None
     }
+
+    /// Read the tensions as the sensors give them (`true`: the tension calibration's
+    /// correction left out, as the commissioning check needs) or corrected (`false`, the
+    /// default). Hardware without a correction reads them raw either way.
+    fn use_raw_tensions(&mut self, _raw: bool) {}
 
     /// The handles that inject faults into the running twin (its physics, and its simulated
     /// bus and drives when it has them); `None` on the device.
@@ -90,6 +96,10 @@ impl<H: ProcedureDevice> ProcedureDevice for CorrectedTensions<H> {
     }
     fn sim_faults(&mut self) -> Option<videt_assembly::sim_faults::SimFaultPort> {
         self.inner_mut().sim_faults()
+    }
+    fn use_raw_tensions(&mut self, raw: bool) {
+        self.set_correcting(!raw);
+        self.inner_mut().use_raw_tensions(raw);
     }
 }
 
@@ -249,6 +259,9 @@ impl<H: ProcedureDevice, O: CycleObserver + ?Sized> ProcedureDevice for Observed
     fn twin_mut(&mut self) -> Option<&mut Twin> {
         self.hw.twin_mut()
     }
+    fn use_raw_tensions(&mut self, raw: bool) {
+        self.hw.use_raw_tensions(raw);
+    }
 }
 
 /// Events that may be dropped leave this much room for the ones that may not.
@@ -272,6 +285,9 @@ struct ServiceTechnician<'a> {
     control: &'a ProcedureControl,
     yes: bool,
     simulated: Option<SimTechnician>,
+    /// The commissioning step under way: whether the client must confirm it, and the
+    /// confirmations counted when it was asked for.
+    check_step: (bool, u32),
 }
 
 impl<H: ProcedureDevice> Technician<H> for ServiceTechnician<'_> {
@@ -322,6 +338,40 @@ impl<H: ProcedureDevice> Technician<H> for ServiceTechnician<'_> {
     }
 }
 
+impl<H: ProcedureDevice> CommissionTechnician<H> for ServiceTechnician<'_> {
+    fn perform_commission(&mut self, step: CommissionStep, hw: &mut H) -> Result<(), Failure> {
+        let seen = self.control.confirmations.load(Ordering::Acquire);
+        let simulated = self.simulated.is_some() && hw.twin_mut().is_some();
+        let confirm = !simulated && !self.yes;
+        self.check_step = (confirm, seen);
+        if !push(self.events, ProcedureEvent::CheckPrompt { step, confirm }) && confirm {
+            // The client would never see the question.
+            return Err(Failure::Cancelled);
+        }
+        if let (Some(tech), Some(twin)) = (self.simulated.as_mut(), hw.twin_mut()) {
+            tech.perform_commission(step, twin)?;
+        }
+        Ok(())
+    }
+
+    fn commission_step_done(&mut self, _step: CommissionStep, _hw: &mut H) -> bool {
+        let (confirm, seen) = self.check_step;
+        !confirm || self.control.confirmations.load(Ordering::Acquire) != seen
+    }
+}
+
+/// How a procedure run by the service ended, for the control thread.
+#[derive(Debug, Clone, Copy)]
+pub struct ProcedureEnd {
+    /// The new calibration, when the client saved one (`None`: keep the previous one).
+    pub recalibration: Option<Recalibration>,
+    /// A safe state the rendering must start in and keep (a commissioning check that found
+    /// the rig not as configured).
+    pub trip: Option<SafetyState>,
+    /// The next period's number.
+    pub next_cycle: u64,
+}
+
 /// The service's calibration after a procedure.
 #[derive(Debug, Clone, Copy)]
 pub struct Recalibration {
@@ -334,8 +384,8 @@ pub struct Recalibration {
 /// Run the procedure the client submitted on the control thread, on hardware the rendering
 /// loop handed over (drives enabled, wires at minimum tension). `observer` receives a record
 /// every period, numbered from `first_cycle`; `wire_zero` and `safety` are the service's current
-/// ones (for the records). Returns the new calibration when the client saved it (`None`: keep
-/// the previous one) and the next period number.
+/// ones (for the records). Returns the new calibration when the client saved it, the safe state
+/// to keep, and the next period number.
 pub fn run_procedure<H, O>(
     hw: &mut H,
     handle: &mut ProcedureHandle,
@@ -344,7 +394,7 @@ pub fn run_procedure<H, O>(
     first_cycle: u64,
     wire_zero: WireZero,
     safety: SafetyState,
-) -> (Option<Recalibration>, u64)
+) -> ProcedureEnd
 where
     H: ProcedureDevice,
     O: CycleObserver + ?Sized,
@@ -353,7 +403,11 @@ where
     // its request, which then has nothing to hand over either.
     let Some(spec) = handle.spec.try_lock().ok().and_then(|mut s| s.take()) else {
         // A hand-over nobody waits for any more (the client gave up): render again.
-        return (None, first_cycle);
+        return ProcedureEnd {
+            recalibration: None,
+            trip: None,
+            next_cycle: first_cycle,
+        };
     };
     let control = Arc::clone(&handle.control);
     control.running.store(true, Ordering::Release);
@@ -388,6 +442,7 @@ where
         control: &control,
         yes: spec.yes,
         simulated,
+        check_step: (false, 0),
     };
     let now = hw.now();
     let rate_hz = config.control.rate_hz.max(1);
@@ -417,6 +472,26 @@ where
         stop: &control.cancel,
     };
     let result = match spec.kind {
+        ProcedureKind::Commission => {
+            let trip = commission(
+                &mut observed,
+                &mut tech,
+                &mut runner,
+                &config,
+                &control,
+                safety,
+            );
+            let next_cycle = observed.record.cycle;
+            if let (Some(scene), Some(twin)) = (scene, observed.hw.twin_mut()) {
+                twin_from_rest(twin, scene);
+            }
+            control.running.store(false, Ordering::Release);
+            return ProcedureEnd {
+                recalibration: None,
+                trip,
+                next_cycle,
+            };
+        }
         ProcedureKind::Initialize => session::measure(&mut observed, &mut tech, &mut runner, &ctx),
         ProcedureKind::ReplaceWire {
             wire,
@@ -436,13 +511,14 @@ where
             .map(|rig| (m, rig))
             .map_err(InitError::Unusable)
     });
+    let pay_out = [runner.settings().pay_out_tension_n; WIREMAN_WIRES];
     let recalibration = match result {
         Ok((measurement, rig)) => {
             let wire_zero = WireZero {
                 length_at_zero_m: measurement.length_at_zero_m(),
             };
             let finished = ProcedureEvent::Finished(Box::new(Ok(measurement)));
-            if deliver(&mut observed, &mut runner, events, finished)
+            if deliver(&mut observed, &mut runner, events, finished, pay_out)
                 && wait_until_saved(&mut observed, &mut runner, &control)
             {
                 Some(Recalibration { rig, wire_zero })
@@ -452,7 +528,7 @@ where
         }
         Err(e) => {
             let finished = ProcedureEvent::Finished(Box::new(Err(e)));
-            let _ = deliver(&mut observed, &mut runner, events, finished);
+            let _ = deliver(&mut observed, &mut runner, events, finished, pay_out);
             None
         }
     };
@@ -461,20 +537,57 @@ where
         twin_from_rest(twin, scene);
     }
     control.running.store(false, Ordering::Release);
-    (recalibration, next_cycle)
+    ProcedureEnd {
+        recalibration,
+        trip: None,
+        next_cycle,
+    }
 }
 
-/// Push the final event, holding the wires at the pay-out tension while the ring is full
-/// (bounded: 5 s). Faults do not stop it: the client must hear how the procedure ended.
+/// The commissioning check on the service's rig, its thimble on the wires: the tensions read
+/// raw meanwhile, its report delivered to the client. `safety` is the service's state when it
+/// handed the rig over. Returns the safe state to keep when the rig is not as configured.
+fn commission<H: ProcedureDevice>(
+    hw: &mut H,
+    tech: &mut ServiceTechnician<'_>,
+    runner: &mut Runner,
+    config: &Config,
+    control: &ProcedureControl,
+    safety: SafetyState,
+) -> Option<SafetyState> {
+    hw.use_raw_tensions(true);
+    let mut found = check_rig(hw, tech, runner, config, &control.cancel, Thimble::On);
+    hw.use_raw_tensions(false);
+    if matches!(found.stopped, Some(Failure::DriveFault { .. })) && safety.power_off() {
+        // Drives a fault powered off stay off until the service restarts.
+        found.detail = Some(format!(
+            "the service's drives are off since its {} stop: stop videtd (systemctl stop videtd) and run videt commission directly",
+            safety.as_str()
+        ));
+    }
+    let trip = found.safe_state();
+    // Wires that wind as configured keep the thimble taut; any other gets no torque.
+    let hold = if found.as_configured() && found.stopped.is_none() {
+        [runner.settings().pay_out_tension_n; WIREMAN_WIRES]
+    } else {
+        [0.0; WIREMAN_WIRES]
+    };
+    let checked = ProcedureEvent::Checked(Box::new(found));
+    let _ = deliver(hw, runner, tech.events, checked, hold);
+    trip
+}
+
+/// Push the final event, the wires pulled with `hold` (N) while the ring is full (bounded:
+/// 5 s). Faults do not stop it: the client must hear how the procedure ended.
 fn deliver<H: ProcedureDevice>(
     hw: &mut H,
     runner: &mut Runner,
     events: &RefCell<rtrb::Producer<ProcedureEvent>>,
     event: ProcedureEvent,
+    hold: [f64; WIREMAN_WIRES],
 ) -> bool {
     let mut pending = event;
     let limit = 5 * u64::from(runner.settings().rate_hz.max(1));
-    let hold = [runner.settings().pay_out_tension_n; WIREMAN_WIRES];
     for _ in 0..limit {
         match events.borrow_mut().push(pending) {
             Ok(()) => return true,

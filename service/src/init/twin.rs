@@ -315,6 +315,9 @@ impl super::commission::CommissionTechnician<Twin> for SimTechnician {
             }
             // The motor winds it back; the technician only lets go.
             CommissionStep::LetGo { .. } => {}
+            // The service's twin is put at rest before a procedure and its thimble connected
+            // again afterwards.
+            CommissionStep::DetachThimble | CommissionStep::AttachThimble => {}
         }
         self.inform(&format!("{step:?} done"));
         Ok(())

@@ -58,7 +58,7 @@ struct WireRequest {
 /// (`{"cmd":"init"}`, `{"cmd":"wire-replace","wire":N}`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ProcedureRequest {
-    /// `init` or `wire-replace`.
+    /// `init`, `wire-replace` or `commission`.
     pub cmd: ProcedureCommand,
     /// The wire to replace (`wire-replace`).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -84,6 +84,8 @@ pub enum ProcedureCommand {
     Init,
     /// Wire replacement, then auto-initialization.
     WireReplace,
+    /// The commissioning check of the rig.
+    Commission,
 }
 
 /// Any line a client may send.
@@ -122,12 +124,12 @@ impl ClientRequest {
             (None, Some(field)) => Err(format!("`{cmd}` takes no `{field}`")),
         };
         let procedure = |command: ProcedureCommand| {
-            if command == ProcedureCommand::Init {
+            if command != ProcedureCommand::WireReplace {
                 if raw.wire.is_some() {
-                    return Err("`init` takes no `wire`".to_string());
+                    return Err(format!("`{cmd}` takes no `wire`"));
                 }
                 if raw.sim_new_wire_length_m.is_some() {
-                    return Err("`init` takes no `sim_new_wire_length_m`".to_string());
+                    return Err(format!("`{cmd}` takes no `sim_new_wire_length_m`"));
                 }
             } else if raw.wire.is_none() {
                 return Err("`wire-replace` needs `wire`".to_string());
@@ -159,8 +161,9 @@ impl ClientRequest {
             },
             "init" => procedure(ProcedureCommand::Init),
             "wire-replace" => procedure(ProcedureCommand::WireReplace),
+            "commission" => procedure(ProcedureCommand::Commission),
             other => Err(format!(
-                "unknown command `{other}` (status, stop, release, resume, reset-faults, init, wire-replace, continue, cancel, sim-fault)"
+                "unknown command `{other}` (status, stop, release, resume, reset-faults, init, wire-replace, commission, continue, cancel, sim-fault)"
             )),
         }
     }

@@ -15,6 +15,7 @@ use videt_rt_config::calibration::Calibration;
 use videt_rt_config::Config;
 
 use super::device::{stop_on_signals, DeviceArgs, Exit, EXIT_MOTORS_BUSY, EXIT_USAGE};
+use videt_service::init::commission::StepReport;
 use videt_service::socket::{write_line, ProcedureCommand, ProcedureRequest};
 
 /// The connection to the service broke before the procedure ended.
@@ -63,6 +64,24 @@ fn lost(message: impl Into<String>) -> Exit {
     Exit::new(EXIT_SERVICE_LOST, "service-lost", message)
 }
 
+/// A commissioning check the service ran on its rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Checked {
+    /// The steps, in the order they ran.
+    pub steps: Vec<StepReport>,
+    /// What stopped the check early: its exit code and message, as a direct run's.
+    pub stopped: Option<(u8, String)>,
+}
+
+/// How a procedure run by the service ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Finished {
+    /// It measured the rig and the service wrote the calibration.
+    Calibrated(Box<Done>),
+    /// The commissioning check ran.
+    Checked(Checked),
+}
+
 /// What one line of the stream asks of the client.
 #[derive(Debug, PartialEq)]
 enum Step {
@@ -72,8 +91,8 @@ enum Step {
     Confirm,
     /// The technician cannot confirm (no terminal): cancel.
     Cancel,
-    /// The procedure succeeded.
-    Done(Box<Done>),
+    /// The procedure ended.
+    Done(Finished),
 }
 
 /// Act on one line of the stream: print what a direct run prints, say what comes next.
@@ -118,10 +137,20 @@ fn on_line(line: &Value, twin: &mut bool) -> Result<Step, Exit> {
         Some("done") => {
             let calibration: Calibration = serde_json::from_value(line["calibration"].clone())
                 .map_err(|e| lost(format!("videtd's calibration record is unreadable: {e}")))?;
-            Ok(Step::Done(Box::new(Done {
+            Ok(Step::Done(Finished::Calibrated(Box::new(Done {
                 calibration,
                 path: PathBuf::from(text("calibration_file")),
-            })))
+            }))))
+        }
+        Some("checked") => {
+            let steps: Vec<StepReport> = serde_json::from_value(line["steps"].clone())
+                .map_err(|e| lost(format!("videtd's check report is unreadable: {e}")))?;
+            let stopped = line["stopped"].as_object().map(|s| {
+                let code = s["exit_code"].as_u64().and_then(|c| u8::try_from(c).ok());
+                let message = s["message"].as_str().unwrap_or_default().to_string();
+                (code.unwrap_or(1), message)
+            });
+            Ok(Step::Done(Finished::Checked(Checked { steps, stopped })))
         }
         Some("failed") => {
             let code = line["exit_code"]
@@ -134,9 +163,27 @@ fn on_line(line: &Value, twin: &mut bool) -> Result<Step, Exit> {
     }
 }
 
-/// Run `request` on the service listening on `socket`. Ctrl-C (or SIGTERM) cancels the
-/// procedure; the service then ends it safely and keeps its previous calibration.
+/// Run the measuring `request` (`init`, `wire-replace`) on the service listening on `socket`:
+/// the calibration it wrote. Ctrl-C (or SIGTERM) cancels the procedure; the service then ends it
+/// safely and keeps its previous calibration.
 pub fn run(socket: &Path, request: &ProcedureRequest) -> Result<Done, Exit> {
+    match run_procedure(socket, request)? {
+        Finished::Calibrated(done) => Ok(*done),
+        Finished::Checked(_) => Err(lost("videtd sent a check's report for a measurement")),
+    }
+}
+
+/// Run the commissioning check on the service listening on `socket`: its report. Ctrl-C (or
+/// SIGTERM) cancels it; the service then leaves every motor idle.
+pub fn run_check(socket: &Path, request: &ProcedureRequest) -> Result<Checked, Exit> {
+    match run_procedure(socket, request)? {
+        Finished::Checked(checked) => Ok(checked),
+        Finished::Calibrated(_) => Err(lost("videtd sent a calibration for a check")),
+    }
+}
+
+/// Run `request` on the service listening on `socket`; how it ended.
+fn run_procedure(socket: &Path, request: &ProcedureRequest) -> Result<Finished, Exit> {
     let stop = stop_on_signals();
     let mut stream = UnixStream::connect(socket)
         .map_err(|e| lost(format!("cannot reach videtd on {}: {e}", socket.display())))?;
@@ -179,7 +226,7 @@ pub fn run(socket: &Path, request: &ProcedureRequest) -> Result<Done, Exit> {
                 line.clear();
                 match on_line(&value, &mut twin)? {
                     Step::Next => {}
-                    Step::Done(done) => return Ok(*done),
+                    Step::Done(done) => return Ok(done),
                     Step::Cancel => {
                         if !cancel_sent {
                             send(&mut stream, &serde_json::json!({"cmd": "cancel"}))?;
@@ -248,6 +295,49 @@ mod tests {
         assert_eq!(e.code, EXIT_USAGE);
         let e = on_line(
             &json!({"ok": true, "event": "done", "calibration": {"format": "x"}}),
+            &mut twin,
+        )
+        .unwrap_err();
+        assert_eq!(e.code, EXIT_SERVICE_LOST);
+    }
+
+    #[test]
+    fn a_check_report_from_the_service_becomes_the_direct_runs_steps() {
+        use videt_rt_config::edit::{Fix, FixValue};
+        use videt_service::init::commission::{RigCheck, Verdict};
+        let check = RigCheck {
+            steps: vec![
+                StepReport::pass("estop.released", "the e-stop input reads released"),
+                StepReport::fail(
+                    "drive1.direction",
+                    "a positive torque unwinds wire 1",
+                    vec![Fix::new(
+                        "drives.motor_reversed",
+                        Some(1),
+                        FixValue::Bool(true),
+                    )],
+                ),
+            ],
+            stopped: Some(videt_control::autoinit::Failure::Cancelled),
+            detail: None,
+        };
+        let line = videt_service::procedure_stream::checked_json(&check);
+        let mut twin = true;
+        match on_line(&line, &mut twin).unwrap() {
+            Step::Done(finished) => match finished {
+                Finished::Checked(c) => {
+                    assert_eq!(c.steps, check.steps);
+                    assert_eq!(c.steps[1].verdict, Verdict::Fail);
+                    let (code, message) = c.stopped.unwrap();
+                    assert_eq!(code, 20);
+                    assert!(!message.is_empty());
+                }
+                other => panic!("{other:?}"),
+            },
+            other => panic!("{other:?}"),
+        }
+        let e = on_line(
+            &json!({"ok": true, "event": "checked", "steps": [{"name": 3}]}),
             &mut twin,
         )
         .unwrap_err();

@@ -148,6 +148,22 @@ impl<H: InitHardware, T: CommissionTechnician<H>> Bench<'_, H, T> {
         }
     }
 
+    /// Ask the technician for `step` and wait until it is done, the motors pulling `hold`
+    /// (N, positive winds).
+    pub fn manual_step_holding(
+        &mut self,
+        step: CommissionStep,
+        hold: &[f64; WIREMAN_WIRES],
+    ) -> Result<(), Failure> {
+        self.tech.perform_commission(step, self.hw)?;
+        loop {
+            self.period(hold)?;
+            if self.tech.commission_step_done(step, self.hw) {
+                return Ok(());
+            }
+        }
+    }
+
     /// Which way drive `k` winds, and which sensor answers (against the tensions `rest`): a
     /// gentle pull (the pay-out tension) one way, then (no tension rising) the other, longer;
     /// then, the sphere against its ring, the test tension that way. A wire turning freely

@@ -20,15 +20,18 @@ mod steps;
 
 use std::sync::atomic::AtomicBool;
 
+use serde::{Deserialize, Serialize};
 use videt_control::autoinit::Failure;
+use videt_control::safety::{SafetyReason, SafetyState};
 use videt_rt_config::edit::Fix;
 use videt_rt_config::Config;
 
 use super::runner::{InitHardware, Runner};
 use bench::{Bench, IDLE};
 
-/// A step's verdict.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// A step's verdict (`pass`, `fail`, `skipped` in JSON).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Verdict {
     /// As configured.
     Pass,
@@ -50,7 +53,7 @@ impl Verdict {
 }
 
 /// One step of the check.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StepReport {
     /// Stable name, e.g. `drive1.direction`.
     pub name: String,
@@ -104,6 +107,9 @@ impl StepReport {
 /// A manual step of the check.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CommissionStep {
+    /// Take the thimble off the wires and lay each wire's end sphere against its ring (a check
+    /// run by the service, whose wearer had it on).
+    DetachThimble,
     /// Make sure the e-stop is released.
     ReleaseEStop,
     /// Press the e-stop and keep it pressed.
@@ -120,12 +126,37 @@ pub enum CommissionStep {
         /// The ring.
         ring: usize,
     },
+    /// Put the thimble back on the wires (a check run by the service, which renders again
+    /// afterwards): the motors hold each wire at the pay-out tension meanwhile.
+    AttachThimble,
 }
 
 impl CommissionStep {
+    /// A short, stable name (the control socket's prompts).
+    pub fn name(&self) -> &'static str {
+        match self {
+            CommissionStep::DetachThimble => "detach-thimble",
+            CommissionStep::ReleaseEStop => "release-estop",
+            CommissionStep::PressEStop => "press-estop",
+            CommissionStep::PullOutWire { .. } => "pull-out-wire",
+            CommissionStep::LetGo { .. } => "let-go",
+            CommissionStep::AttachThimble => "attach-thimble",
+        }
+    }
+
+    /// The ring the step is about, if one.
+    pub fn ring(&self) -> Option<usize> {
+        match *self {
+            CommissionStep::PullOutWire { ring, .. } | CommissionStep::LetGo { ring } => Some(ring),
+            _ => None,
+        }
+    }
+
     /// What a person is asked to do.
     pub fn instructions(&self) -> String {
         match *self {
+            CommissionStep::DetachThimble => "take the thimble off the wires (the motors are idle) and lay each wire's end sphere against its ring; press Enter".into(),
+            CommissionStep::AttachThimble => "put the thimble back on the wires (each wire is held at a light pull); press Enter once every wire is on it".into(),
             CommissionStep::ReleaseEStop => {
                 "make sure the e-stop is released (not pressed); press Enter".into()
             }
@@ -167,6 +198,48 @@ pub struct RigCheck {
     pub detail: Option<String>,
 }
 
+impl RigCheck {
+    /// Whether every step passed or was skipped.
+    pub fn as_configured(&self) -> bool {
+        self.steps.iter().all(|s| s.verdict != Verdict::Fail)
+    }
+
+    /// The safe state a service must keep after this check: power off when a step found the
+    /// rig not as configured (forces would go the wrong way, or be measured wrong), with the
+    /// reason of the first failing step's part; `None` when the rig is as configured.
+    pub fn safe_state(&self) -> Option<SafetyState> {
+        let failed = self.steps.iter().find(|s| s.verdict == Verdict::Fail)?;
+        let name = failed.name.as_str();
+        let wire = |prefix: &str| {
+            name.strip_prefix(prefix)
+                .and_then(|rest| rest.split('.').next())
+                .and_then(|n| n.parse::<u8>().ok())
+        };
+        let reason = if name.starts_with("estop") {
+            SafetyReason::EmergencyStop
+        } else if name.starts_with("sensor") {
+            SafetyReason::SensorFault {
+                wire: wire("sensor"),
+            }
+        } else {
+            SafetyReason::DriveFault {
+                wire: wire("drive"),
+            }
+        };
+        Some(SafetyState::PowerOff(reason))
+    }
+}
+
+/// Where the thimble is when the check begins.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Thimble {
+    /// Off the wires, every wire resting against its ring (a rig on the bench).
+    Off,
+    /// On the wires (the running service's rig): the technician takes it off first and, after
+    /// a check that found the rig as configured, puts it back.
+    On,
+}
+
 /// The check of the rig's drives, sensors and e-stop, on started hardware. `runner` gives the
 /// readings (uncorrected: the tension calibration is not applied) and the transmission.
 pub fn check_rig<H, T>(
@@ -175,6 +248,7 @@ pub fn check_rig<H, T>(
     runner: &mut Runner,
     config: &Config,
     stop: &AtomicBool,
+    thimble: Thimble,
 ) -> RigCheck
 where
     H: InitHardware,
@@ -188,7 +262,7 @@ where
         stop,
         steps: Vec::new(),
     };
-    let stopped = run_checks(&mut bench).err();
+    let stopped = run_checks(&mut bench, thimble).err();
     // Every motor idle whatever happened.
     let _ = bench.runner.period(bench.hw, &IDLE, None);
     if matches!(
@@ -212,7 +286,11 @@ where
 
 fn run_checks<H: InitHardware, T: CommissionTechnician<H>>(
     bench: &mut Bench<'_, H, T>,
+    thimble: Thimble,
 ) -> Result<(), Failure> {
+    if thimble == Thimble::On {
+        bench.manual_step(CommissionStep::DetachThimble)?;
+    }
     if !bench.estop_released()? {
         return Ok(());
     }
@@ -223,5 +301,80 @@ fn run_checks<H: InitHardware, T: CommissionTechnician<H>>(
     if let Some(found) = found {
         bench.wrong_wires(found, motor_reversed, encoder_reversed);
     }
-    bench.estop_pressed()
+    bench.estop_pressed()?;
+    let as_configured = bench.steps.iter().all(|s| s.verdict != Verdict::Fail);
+    if thimble == Thimble::On && as_configured {
+        // Every wire winds as configured: a light pull keeps them taut to the thimble.
+        let hold = [bench.runner.settings().pay_out_tension_n; videt_runtime::WIREMAN_WIRES];
+        bench.manual_step_holding(CommissionStep::AttachThimble, &hold)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(steps: Vec<StepReport>) -> RigCheck {
+        RigCheck {
+            steps,
+            stopped: None,
+            detail: None,
+        }
+    }
+
+    #[test]
+    fn a_rig_not_as_configured_is_kept_powered_off_for_its_first_failing_part() {
+        let pass = StepReport::pass("estop.released", "reads released");
+        let skipped = StepReport::skipped("cameras", "not here");
+        assert_eq!(
+            check(vec![pass.clone(), skipped.clone()]).safe_state(),
+            None
+        );
+        assert!(check(vec![pass.clone(), skipped]).as_configured());
+        for (name, reason) in [
+            ("estop.pressed", SafetyReason::EmergencyStop),
+            ("sensor2.zero", SafetyReason::SensorFault { wire: Some(2) }),
+            (
+                "sensor1.sign-and-scale",
+                SafetyReason::SensorFault { wire: Some(1) },
+            ),
+            (
+                "drive0.direction",
+                SafetyReason::DriveFault { wire: Some(0) },
+            ),
+            ("drive2.encoder", SafetyReason::DriveFault { wire: Some(2) }),
+            ("drives.wires", SafetyReason::DriveFault { wire: None }),
+        ] {
+            let found = check(vec![
+                pass.clone(),
+                StepReport::fail(name, "not as configured", Vec::new()),
+                StepReport::fail("estop.pressed", "later", Vec::new()),
+            ]);
+            assert!(!found.as_configured());
+            assert_eq!(
+                found.safe_state(),
+                Some(SafetyState::PowerOff(reason)),
+                "{name}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_report_travels_as_json_and_comes_back_the_same() {
+        let step = StepReport::fail(
+            "drive1.direction",
+            "a positive torque unwinds wire 1",
+            vec![Fix::new(
+                "drives.motor_reversed",
+                Some(1),
+                videt_rt_config::edit::FixValue::Bool(true),
+            )],
+        )
+        .with_wiring("or swap the motor's leads");
+        let text = serde_json::to_string(&step).unwrap();
+        assert!(text.contains(r#""verdict":"fail""#), "{text}");
+        let back: StepReport = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, step);
+    }
 }

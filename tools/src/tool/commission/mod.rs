@@ -15,12 +15,13 @@ use clap::{Args, ValueEnum};
 use videt_rt_config::edit::{apply_fixes, Fix};
 use videt_rt_config::Config;
 use videt_service::init::commission::{
-    check_rig, CommissionTechnician, RigCheck, StepReport, Verdict,
+    check_rig, CommissionTechnician, RigCheck, StepReport, Thimble, Verdict,
 };
 use videt_service::init::remote::ProcedureDevice;
 use videt_service::init::runner::Runner;
 use videt_service::init::session::{failure_exit_code, run_settings, Technician};
 use videt_service::init::tension::TensionTechnician;
+use videt_service::socket::ProcedureCommand;
 
 use super::device::{DeviceArgs, Exit, DEFAULT_CONFIG, EXIT_CALIBRATION_WRITE, EXIT_MOTORS_BUSY};
 use super::motors::{on_motors, MotorJob};
@@ -49,12 +50,16 @@ pub enum Part {
     after_help = "Run it on a newly assembled rig with the thimble detached and every wire \
 resting against its ring. The rig part asks the technician to release and press the e-stop and to pull \
 each wire out to a mark; its motors get at most the torque holding commission.test_tension_n. On any \
-failure or Ctrl-C every motor is left without torque and the drives disabled. Exit codes: 0 every \
+failure or Ctrl-C every motor is left without torque and the drives disabled. While videtd runs, its \
+control thread runs the rig part on its motors (as videt init does): the technician takes the thimble \
+off first and, when the rig is as configured, puts it back at the end; a rig not as configured keeps \
+the service's drives off until videtd is restarted with the configuration fixed. Exit codes: 0 every \
 step passed (or was skipped); 27 a step failed (each names its fix; --write FILE writes them into a \
 copy of the configuration); 2 bad arguments or configuration; 3 no device backend (use --sim); \
 10 e-stop pressed during a motor test; 17 drive fault; 18 tension-sensor fault; 19 a wire did not \
 wind back; 20 cancelled (or no terminal to prompt, without --yes); 22 the device could not be opened \
-or would not start; 23 the motors are in use (videtd running); 24 FILE could not be written."
+or would not start; 23 the motors are in use (another procedure); 24 FILE could not be written; \
+26 the connection to videtd broke."
 )]
 pub struct CommissionArgs {
     /// Device, twin, files and output options.
@@ -98,7 +103,7 @@ impl MotorJob for RigJob<'_> {
         H: ProcedureDevice,
         T: Technician<H> + TensionTechnician<H> + CommissionTechnician<H>,
     {
-        Ok(check_rig(hw, tech, runner, self.config, stop))
+        Ok(check_rig(hw, tech, runner, self.config, stop, Thimble::Off))
     }
 }
 
@@ -128,14 +133,14 @@ fn commission(args: &CommissionArgs) -> Result<ExitCode, Exit> {
                 .extend(computer::check(&config, &computer::ThisComputer));
         }
     }
-    if part(Part::Rig) {
-        if !device.sim && device.running_service(&config).is_some() {
-            return Err(Exit::new(
-                EXIT_MOTORS_BUSY,
-                "motors-busy",
-                "videtd is running and holds the motors: stop it (systemctl stop videtd), run the check, then start it again",
-            ));
-        }
+    // A running service holds the motors: it runs the rig's check on them.
+    let service = device.running_service(&config);
+    if let (true, Some(socket)) = (part(Part::Rig), &service) {
+        let request = device.service_request(&config, ProcedureCommand::Commission, None, None)?;
+        let checked = super::through_service::run_check(socket, &request)?;
+        found.steps.extend(checked.steps);
+        found.stopped = checked.stopped;
+    } else if part(Part::Rig) {
         // Raw readings: a tension calibration is not applied.
         let runner = Runner::new(run_settings(&config));
         match on_motors(
@@ -166,10 +171,24 @@ fn commission(args: &CommissionArgs) -> Result<ExitCode, Exit> {
             }
         }
     }
+    // The service's colour and vision threads hold the vibrotactors and the cameras.
+    let held = |what: &str, name: &str| {
+        StepReport::skipped(
+            name,
+            format!("not checked: the running videtd holds the {what} (stop it to check them: systemctl stop videtd)"),
+        )
+    };
+    let service_holds_devices = service.is_some() && !device.sim;
     if part(Part::Vibrotactors) {
-        found.steps.push(vibrotactors(device, &config));
+        found.steps.push(if service_holds_devices {
+            held("vibrotactor lines", "vibrotactors")
+        } else {
+            vibrotactors(device, &config)
+        });
     }
-    if part(Part::Cameras) {
+    if part(Part::Cameras) && service_holds_devices {
+        found.steps.push(held("cameras", "cameras"));
+    } else if part(Part::Cameras) {
         found
             .steps
             .extend(cameras_part(args, &config, &setup.wiring_mistakes()));
