@@ -496,17 +496,19 @@ pub struct VisionConfig {
     /// surface around it).
     pub surface_check: bool,
     /// How the relief built from the cameras spans the gaps between the matched segments:
-    /// `interpolated` (the paper's) or `stepped` (docs/stereo-accuracy.md, "Relief shape").
+    /// `stepped` (the default) or `interpolated` (the paper's; docs/stereo-accuracy.md, "Relief
+    /// shape").
     pub relief_shape: ReliefShapeName,
     /// Depth from image patches besides the matched segments, pixels: the far side of each
     /// occluding edge, and textured patches matched on a grid this many pixels apart, given to
     /// the relief as points (docs/stereo-accuracy.md, "Depth from patches"); 0: the segments
-    /// alone.
+    /// alone. 12 by default.
     pub patch_spacing_px: u32,
 }
 
-/// The default of `vision.patch_spacing_px`.
-pub const DEFAULT_PATCH_SPACING_PX: u32 = 0;
+/// The default of `vision.patch_spacing_px`: chosen on the shared stereo pairs by the floor of
+/// the relief (docs/stereo-accuracy.md, "Depth from patches").
+pub const DEFAULT_PATCH_SPACING_PX: u32 = 12;
 
 /// The grid spacings `vision.patch_spacing_px` allows besides 0 (off), pixels.
 pub const PATCH_SPACING_RANGE_PX: core::ops::RangeInclusive<u32> = 4..=64;
@@ -611,7 +613,7 @@ impl Default for VisionConfig {
             left_right_check: false,
             min_match_confidence: 0.0,
             surface_check: false,
-            relief_shape: ReliefShapeName::Interpolated,
+            relief_shape: ReliefShapeName::Stepped,
             patch_spacing_px: DEFAULT_PATCH_SPACING_PX,
         }
     }

@@ -425,13 +425,21 @@ fn the_live_view_is_off_on_loopback_by_default_and_its_settings_are_checked() {
 }
 
 #[test]
-fn the_relief_shape_is_interpolated_unless_stepped_is_asked() {
+fn the_relief_is_stepped_with_patches_unless_the_papers_is_asked() {
+    let d = Config::default().vision;
     assert_eq!(
-        Config::default().vision.relief_shape,
-        ReliefShapeName::Interpolated
+        (d.relief_shape, d.patch_spacing_px),
+        (ReliefShapeName::Stepped, 12)
     );
-    let c = Config::from_toml_str("[vision]\nrelief_shape = \"stepped\"\n", "t").unwrap();
-    assert_eq!(c.vision.relief_shape, ReliefShapeName::Stepped);
+    let c = Config::from_toml_str(
+        "[vision]\nrelief_shape = \"interpolated\"\npatch_spacing_px = 0\n",
+        "t",
+    )
+    .unwrap();
+    assert_eq!(
+        (c.vision.relief_shape, c.vision.patch_spacing_px),
+        (ReliefShapeName::Interpolated, 0)
+    );
 }
 
 #[test]

@@ -84,7 +84,6 @@ use videt_rt_config::{PATCH_SPACING_ALLOWED, PATCH_SPACING_RANGE_PX};
 use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{
     pinhole, scene_depth_range, scene_segments, view_params, PairCamera, StereoPair,
-    DEFAULT_PATCH_SPACING_PX,
 };
 use videt_vision::disparity_range::choose_max_disparity;
 use videt_vision::evaluation::{
@@ -575,7 +574,9 @@ impl ShapeOptions {
             }
         };
         let patch_spacing_px = match value_of("--patch-spacing") {
-            None => DEFAULT_PATCH_SPACING_PX as usize,
+            // The segments alone unless asked: the paper's relief (the service's default
+            // is `--shape stepped --patch-spacing 12`).
+            None => 0,
             Some(v) => match v.parse::<usize>() {
                 Ok(n) if n == 0 || PATCH_SPACING_RANGE_PX.contains(&(n as u32)) => n,
                 _ => return Err(format!("--patch-spacing {v}: {PATCH_SPACING_ALLOWED}")),

@@ -1062,10 +1062,11 @@ mod tests {
     fn the_configured_relief_shape_builds_the_cameras_relief_but_not_the_demo_box() {
         use videt_vision::surface::ReliefShape;
         let mut config = videt_rt_config::Config::default();
+        let layout = ReliefLayout::for_config(&config);
+        assert_eq!(layout.shape, ReliefShape::Stepped, "the default");
+        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Interpolated;
         let interpolated = ReliefLayout::for_config(&config);
         assert_eq!(interpolated.shape, ReliefShape::Interpolated);
-        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Stepped;
-        let layout = ReliefLayout::for_config(&config);
         let (relief, _, initial) = StereoRelief::build(
             StereoPair::demo().unwrap(),
             &layout,
