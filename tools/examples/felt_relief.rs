@@ -16,8 +16,10 @@
 //! - **felt**: the twin's virtual operator sweeps the area inside the frame in 1 cm rows at
 //!   8 cm/s with a 1 N push, the real control cycle rendering the relief through the CiA 402
 //!   twin (`videt_tools::felt_surface`); the height the finger was held at is compared with the
-//!   true surface: median and 95th percentile of the error, the fraction of the visited 5 mm
-//!   cells more than 5 mm off, and the wires' force in contact (99th percentile, largest).
+//!   true surface: median and 95th percentile of the error, the 95th percentile over the
+//!   cells the true surface does not step across by more than 5 mm ("faces") and the share of
+//!   cells it does ("steps"), the fraction of the visited 5 mm cells more than 5 mm off, and
+//!   the wires' force in contact (99th percentile, largest).
 //!
 //! `cargo run --release -p videt-tools --example felt_relief -- [--pairs a,b] [--extra DIR]
 //! [--rows-mm MM] [--patch-spacing PX] [--figure FILE.png]`
@@ -390,13 +392,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rows_m * 1e3
     );
     println!(
-        "{:<11} {:<15} {:>8} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9} {:>9}",
+        "{:<11} {:<15} {:>8} {:>9} {:>9} {:>9} {:>11} {:>8} {:>8} {:>9} {:>9} {:>9}",
         "pair",
         "relief",
         "build ms",
         "pixels %",
         "felt p50",
         "felt p95",
+        "p95 faces",
+        "steps %",
         "felt %",
         "samples",
         "F p99 N",
@@ -410,13 +414,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map_err(|e| format!("{name}: {e}"))?;
         for (shape, f) in &run.shapes {
             println!(
-                "{:<11} {:<15} {:>8.2} {:>8.1}% {:>6.1} mm {:>6.1} mm {:>7.1}% {:>9} {:>9.2} {:>9.2}",
+                "{:<11} {:<15} {:>8.2} {:>8.1}% {:>6.1} mm {:>6.1} mm {:>8.1} mm {:>7.1}% {:>7.1}% {:>9} {:>9.2} {:>9.2}",
                 name,
                 shape.label(),
                 f.build_ms,
                 100.0 * f.pixels_off,
                 f.felt.median_m * 1e3,
                 f.felt.p95_m * 1e3,
+                f.felt.p95_off_steps_m * 1e3,
+                100.0 * f.felt.step_cells as f64 / f.felt.cells.max(1) as f64,
                 100.0 * f.felt.off_fraction,
                 f.felt.samples,
                 f.felt.force_p99_n,

@@ -115,11 +115,20 @@ pub struct FeltSurface {
     pub cells: usize,
     /// Fraction of them whose median error exceeds the threshold.
     pub off_fraction: f64,
+    /// Of the visited cells, those across which the true surface itself spans more than the
+    /// threshold (a depth step or a steep slope inside the cell): a finger held on a wall
+    /// there is off the truth on either side of it.
+    pub step_cells: usize,
+    /// 95th percentile of the cells' median error over the other cells (the faces), metres.
+    pub p95_off_steps_m: f64,
     /// 99th percentile of the wires' force on the thimble in contact, newtons.
     pub force_p99_n: f64,
     /// Largest force in contact, newtons.
     pub force_max_n: f64,
 }
+
+/// Probes per side of a cell where the true surface's span is sampled.
+const STEP_PROBES: usize = 5;
 
 fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
@@ -141,6 +150,25 @@ pub fn felt_surface(
     let nx = ((x1 - x0) / settings.cell_m).ceil().max(1.0) as usize;
     let ny = ((y1 - y0) / settings.cell_m).ceil().max(1.0) as usize;
     let mut per_cell: Vec<Vec<f64>> = vec![Vec::new(); nx * ny];
+    // Whether the truth spans more than the threshold across a cell (sampled on a grid of
+    // STEP_PROBES x STEP_PROBES points, the cell's edges included).
+    let spans_a_step = |cell: usize| {
+        let (i, j) = (cell % nx, cell / nx);
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for a in 0..STEP_PROBES {
+            for b in 0..STEP_PROBES {
+                let t = |k: usize| k as f64 / (STEP_PROBES - 1) as f64;
+                let x = x0 + (i as f64 + t(a)) * settings.cell_m;
+                let y = y0 + (j as f64 + t(b)) * settings.cell_m;
+                if let Some(z) = truth_z(x.min(x1), y.min(y1)) {
+                    lo = lo.min(z);
+                    hi = hi.max(z);
+                }
+            }
+        }
+        hi - lo > settings.threshold_m
+    };
     let mut errors = Vec::with_capacity(trace.samples.len());
     let mut forces = Vec::with_capacity(trace.samples.len());
     for s in &trace.samples {
@@ -164,15 +192,21 @@ pub fn felt_surface(
     }
     forces.sort_by(f64::total_cmp);
     // Per cell, the median error: the area counts, not the time spent on it.
-    let mut cell_errors: Vec<f64> = per_cell
-        .iter_mut()
-        .filter(|c| !c.is_empty())
-        .map(|c| {
-            c.sort_by(f64::total_cmp);
-            percentile(c, 0.5)
-        })
-        .collect();
+    let mut cell_errors = Vec::new();
+    let mut face_errors = Vec::new();
+    for (k, c) in per_cell.iter_mut().enumerate() {
+        if c.is_empty() {
+            continue;
+        }
+        c.sort_by(f64::total_cmp);
+        let e = percentile(c, 0.5);
+        cell_errors.push(e);
+        if !spans_a_step(k) {
+            face_errors.push(e);
+        }
+    }
     cell_errors.sort_by(f64::total_cmp);
+    face_errors.sort_by(f64::total_cmp);
     let cells = cell_errors.len();
     let off = cell_errors
         .iter()
@@ -188,6 +222,8 @@ pub fn felt_surface(
         } else {
             f64::NAN
         },
+        step_cells: cells - face_errors.len(),
+        p95_off_steps_m: percentile(&face_errors, 0.95),
         force_p99_n: percentile(&forces, 0.99),
         force_max_n: forces.last().copied().unwrap_or(f64::NAN),
     }
@@ -313,6 +349,10 @@ mod tests {
         assert!((felt.off_fraction - 14.0 / 20.0).abs() < 1e-12, "{felt:?}");
         assert!((felt.median_m - 0.010).abs() < 1e-9, "{felt:?}");
         assert!((felt.p95_m - 0.010).abs() < 1e-9, "{felt:?}");
+        // The column of cells whose right edge is on the step spans it; the faces' p95 is
+        // that of the other 19 columns.
+        assert_eq!(felt.step_cells, 8, "{felt:?}");
+        assert!((felt.p95_off_steps_m - 0.010).abs() < 1e-9, "{felt:?}");
         // The sample out of contact is not counted; the forces are those in contact.
         assert_eq!(felt.samples, 100 * 40);
         assert!((felt.force_max_n - 1.0).abs() < 1e-12);
