@@ -147,19 +147,20 @@ fn a_wire_that_does_not_exist_is_a_usage_error_and_the_twin_skips_the_computer()
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(text(&out).contains("wire \"7\" must be 0, 1 or 2"));
     // A twin built right, with the built-in configuration: every part passes or is skipped
-    // (no computer, fingertips or cameras on the twin).
+    // (no computer, CANopen drives, fingertips or cameras on the twin).
     let out = videt(&["commission", "--sim", "--yes"]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
     let stdout = String::from_utf8_lossy(&out.stdout);
     for skipped in [
         "SKIPPED  computer",
+        "SKIPPED  drives.identity",
         "SKIPPED  vibrotactors",
         "SKIPPED  cameras",
     ] {
         assert!(stdout.contains(skipped), "{skipped}: {stdout}");
     }
     assert!(
-        stdout.contains("17 passed, 0 failed, 3 skipped"),
+        stdout.contains("17 passed, 0 failed, 4 skipped"),
         "{stdout}"
     );
 }

@@ -40,10 +40,12 @@ fn report(out: &Output) -> serde_json::Value {
     })
 }
 
-fn start(config: &Path, socket: &Path) -> Daemon {
+/// `videtd --sim SIM` (`hal`: the HAL twin; `can`: behind simulated CiA 402 drives).
+fn start(sim: &str, config: &Path, socket: &Path) -> Daemon {
     let daemon = Daemon::start(
         &[
             "--sim",
+            sim,
             "--config",
             p(config),
             "--no-telemetry",
@@ -76,7 +78,7 @@ fn the_service_checks_its_own_rig_keeps_a_wrong_one_off_and_renders_again_once_f
     let socket = dir.path().join("videtd.sock");
 
     // The twin is built right: the configuration's reversal of encoder 2 is the mistake.
-    let daemon = start(&wrong, &socket);
+    let daemon = start("hal", &wrong, &socket);
     let out = commission(&wrong, &socket, &fixed);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(27), "{stderr}");
@@ -88,15 +90,18 @@ fn the_service_checks_its_own_rig_keeps_a_wrong_one_off_and_renders_again_once_f
     let steps = found["steps"].as_array().unwrap();
     let failed: Vec<&str> = steps
         .iter()
-        .filter(|s| s["result"] != "pass")
+        .filter(|s| s["result"] == "fail")
         .map(|s| s["name"].as_str().unwrap())
         .collect();
     assert_eq!(failed, ["drive2.encoder"], "{found}");
+    // The HAL twin has no CANopen drives to identify.
+    assert_eq!(steps[0]["name"], "drives.identity", "{found}");
+    assert_eq!(steps[0]["result"], "skipped", "{found}");
     assert_eq!(
         found["fixes"],
         serde_json::json!(["drives.encoder_reversed[2] = false"])
     );
-    assert_eq!(steps.len(), 17, "{found}");
+    assert_eq!(steps.len(), 18, "{found}");
     // Not as configured: the service keeps its drives off.
     let s = daemon.wait_for(5.0, "the drives stay off", |s| s.power_off);
     assert_eq!(s.safety, "drive-fault", "{s:?}");
@@ -124,10 +129,11 @@ fn the_service_checks_its_own_rig_keeps_a_wrong_one_off_and_renders_again_once_f
     };
     assert_eq!(comments(&text), comments(&example));
 
-    // Started with it, the service passes the check and renders again: the thimble back on
-    // the wires, the operator touching the wall.
+    // Started with it (behind simulated CiA 402 drives this time, whose drivers apply the
+    // configuration's directions), the service passes the check and renders again: the thimble
+    // back on the wires, the operator touching the wall.
     let _ = std::fs::remove_file(&socket);
-    let daemon = start(&fixed, &socket);
+    let daemon = start("can", &fixed, &socket);
     let again = dir.path().join("again.toml");
     let out = commission(&fixed, &socket, &again);
     assert_eq!(
@@ -145,6 +151,23 @@ fn the_service_checks_its_own_rig_keeps_a_wrong_one_off_and_renders_again_once_f
             .all(|s| s["result"] == "pass"),
         "{found}"
     );
+    // Each drive answered at its node id with a CiA 402 identity.
+    for wire in 0..3 {
+        let name = format!("drive{wire}.identity");
+        let step = found["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["name"] == name.as_str())
+            .unwrap_or_else(|| panic!("{name}: {found}"));
+        assert!(
+            step["measured"]
+                .as_str()
+                .unwrap()
+                .contains(&format!("node {} answers", wire + 1)),
+            "{step}"
+        );
+    }
     daemon.wait_for(10.0, "rendering resumes", |s| {
         s.procedure.is_none() && s.safety == "normal" && !s.power_off && s.force_n > 0.5
     });

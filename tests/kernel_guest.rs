@@ -445,6 +445,9 @@ fn commissioning_finds_a_reversed_motor_over_socketcan_with_the_gpio_estop() {
             .map(|s| s["result"].as_str().unwrap().to_string())
     };
     for name in [
+        "drive0.identity",
+        "drive1.identity",
+        "drive2.identity",
         "estop.released",
         "estop.pressed",
         "drive0.direction",

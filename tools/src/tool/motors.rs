@@ -37,6 +37,10 @@ pub trait MotorJob {
     where
         H: ProcedureDevice,
         T: Technician<H> + TensionTechnician<H> + CommissionTechnician<H>;
+
+    /// The device's drive set is opened: `report` fills with each drive's identity when it
+    /// starts (not called on the twin, which has no CANopen drives).
+    fn drives_opened(&mut self, _report: videt_drivers::cia402::SharedStartupReport) {}
 }
 
 /// Take the motors lock, then run `job` on the twin of `setup` (`--sim`) or on the device of
@@ -83,6 +87,7 @@ fn on_device<J: MotorJob>(
     for warning in &rt.warnings {
         eprintln!("videt: {warning}");
     }
+    job.drives_opened(hw.drives_mut().startup_report());
     let mut tech = super::device::TerminalTechnician::new(device.yes, device.steps_from_stdin);
     run_started(&mut hw, &mut tech, &mut runner, "device", stop, job)
 }

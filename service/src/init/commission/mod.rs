@@ -16,7 +16,10 @@
 //! wire has none.
 
 mod bench;
+mod identity;
 mod steps;
+
+pub use identity::identity_steps;
 
 use std::sync::atomic::AtomicBool;
 

@@ -14,8 +14,9 @@ use std::sync::atomic::AtomicBool;
 use clap::{Args, ValueEnum};
 use videt_rt_config::edit::{apply_fixes, Fix};
 use videt_rt_config::Config;
+use videt_service::drive_report::drive_statuses;
 use videt_service::init::commission::{
-    check_rig, CommissionTechnician, RigCheck, StepReport, Thimble, Verdict,
+    check_rig, identity_steps, CommissionTechnician, RigCheck, StepReport, Thimble, Verdict,
 };
 use videt_service::init::remote::ProcedureDevice;
 use videt_service::init::runner::Runner;
@@ -86,6 +87,8 @@ pub fn run(args: &CommissionArgs) -> ToolResult {
 /// The rig's check as a [`MotorJob`].
 struct RigJob<'a> {
     config: &'a Config,
+    /// The drives' identities once they start (on the device).
+    drives: Option<videt_drivers::cia402::SharedStartupReport>,
 }
 
 impl MotorJob for RigJob<'_> {
@@ -105,7 +108,14 @@ impl MotorJob for RigJob<'_> {
     {
         Ok(check_rig(hw, tech, runner, self.config, stop, Thimble::Off))
     }
+
+    fn drives_opened(&mut self, report: videt_drivers::cia402::SharedStartupReport) {
+        self.drives = Some(report);
+    }
 }
+
+/// Why the drives' identities are not checked where there are no CANopen drives.
+const NO_DRIVES: &str = "not checked: the twin's motors are not CANopen drives (videt sim-rig serves them as drives for a check over CAN)";
 
 /// Everything the check found.
 #[derive(Debug, Default)]
@@ -138,19 +148,38 @@ fn commission(args: &CommissionArgs) -> Result<ExitCode, Exit> {
     if let (true, Some(socket)) = (part(Part::Rig), &service) {
         let request = device.service_request(&config, ProcedureCommand::Commission, None, None)?;
         let checked = super::through_service::run_check(socket, &request)?;
+        // The identities the service's drives gave when they started, from its status.
+        let drives = videt_service::socket::request(
+            socket,
+            &videt_service::socket::Request::Status,
+            std::time::Duration::from_secs(3),
+        )
+        .ok()
+        .and_then(|r| r.status)
+        .map(|s| s.drives)
+        .unwrap_or_default();
+        found
+            .steps
+            .extend(identity_steps(&drives, &config, NO_DRIVES));
         found.steps.extend(checked.steps);
         found.stopped = checked.stopped;
     } else if part(Part::Rig) {
         // Raw readings: a tension calibration is not applied.
         let runner = Runner::new(run_settings(&config));
-        match on_motors(
-            device,
-            &config,
-            &setup,
-            runner,
-            &mut RigJob { config: &config },
-        ) {
+        let mut job = RigJob {
+            config: &config,
+            drives: None,
+        };
+        match on_motors(device, &config, &setup, runner, &mut job) {
             Ok(check) => {
+                let drives = job
+                    .drives
+                    .as_ref()
+                    .and_then(|r| r.lock().ok().map(|r| drive_statuses(&r)))
+                    .unwrap_or_default();
+                found
+                    .steps
+                    .extend(identity_steps(&drives, &config, NO_DRIVES));
                 found.steps.extend(check.steps);
                 found.stopped = check.stopped.map(|f| {
                     let why = match &check.detail {
