@@ -63,7 +63,7 @@ fn bench_frame_to_force(c: &mut Criterion) {
     left.save(dir.path().join("left.png")).expect("write");
     right.save(dir.path().join("right.png")).expect("write");
     // Teddy upscaled to 640 px has disparities up to ~80 px.
-    for variant in [Variant::Default, Variant::SteppedPatches] {
+    for variant in [Variant::Default, Variant::Paper] {
         let rig = CalibratedRig::from_calibration(&common::rig_calibration()).expect("rig");
         scene(c, "teddy_rig", dir.path(), rig, 96.0, variant);
     }
@@ -72,11 +72,11 @@ fn bench_frame_to_force(c: &mut Criterion) {
 /// The relief's settings benched.
 #[derive(Clone, Copy, PartialEq)]
 enum Variant {
-    /// The configuration's defaults.
+    /// The configuration's defaults: the stepped relief with depth from patches every 12 px.
     Default,
-    /// The stepped relief with depth from patches every 12 px (`vision.relief_shape =
-    /// "stepped"`, `vision.patch_spacing_px = 12`).
-    SteppedPatches,
+    /// The paper's relief of the segments alone (`vision.relief_shape = "interpolated"`,
+    /// `vision.patch_spacing_px = 0`).
+    Paper,
 }
 
 /// The benches of one scene: the pairs of `images` through `rig`.
@@ -89,13 +89,13 @@ fn scene(
     variant: Variant,
 ) {
     let mut config = videt_rt_config::Config::default();
-    if variant == Variant::SteppedPatches {
-        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Stepped;
-        config.vision.patch_spacing_px = 12;
+    if variant == Variant::Paper {
+        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Interpolated;
+        config.vision.patch_spacing_px = 0;
     }
     let name = match variant {
         Variant::Default => name.to_string(),
-        Variant::SteppedPatches => format!("{name}_stepped_patches12"),
+        Variant::Paper => format!("{name}_interpolated"),
     };
     let name = name.as_str();
     let layout = ReliefLayout::for_config(&config);

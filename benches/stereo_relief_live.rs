@@ -8,22 +8,23 @@ use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
 
 fn bench_stereo_relief(c: &mut Criterion) {
-    bench_variant(c, "", 0);
-    bench_variant(c, "_stepped_patches12", 12);
+    bench_variant(c, "", false);
+    bench_variant(c, "_interpolated", true);
 }
 
-/// The benches with `patch_spacing_px` (0: the defaults; otherwise the stepped relief with
-/// depth from patches on that grid), named with `suffix`.
-fn bench_variant(c: &mut Criterion, suffix: &str, patch_spacing_px: u32) {
-    let config = videt_rt_config::Config::default();
-    let mut layout = ReliefLayout::for_config(&config);
+/// The benches with the defaults (the stepped relief with depth from patches every 12 px), or
+/// with `paper` the paper's relief of the segments alone; named with `suffix`.
+fn bench_variant(c: &mut Criterion, suffix: &str, paper: bool) {
+    let mut config = videt_rt_config::Config::default();
+    if paper {
+        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Interpolated;
+        config.vision.patch_spacing_px = 0;
+    }
+    let layout = ReliefLayout::for_config(&config);
     let live = LiveSettings {
-        patch_spacing_px,
+        patch_spacing_px: config.vision.patch_spacing_px,
         ..LiveSettings::default()
     };
-    if patch_spacing_px > 0 {
-        layout.shape = videt_vision::surface::ReliefShape::Stepped;
-    }
     let pair = StereoPair::demo().unwrap();
     let (mut relief, _, initial) = StereoRelief::build(pair.clone(), &layout, live).unwrap();
     eprintln!(
