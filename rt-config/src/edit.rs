@@ -156,15 +156,7 @@ mod tests {
     fn fixes_serialize_and_come_back_the_same() {
         let fixes = vec![
             Fix::new("drives.motor_reversed", Some(1), FixValue::Bool(true)),
-            Fix::new(
-                "drives.node_ids",
-                None,
-                FixValue::List(vec![
-                    FixValue::Integer(3),
-                    FixValue::Integer(1),
-                    FixValue::Integer(2),
-                ]),
-            ),
+            node_order([3, 1, 2]),
             Fix::new("sensors.newtons_per_count", Some(2), FixValue::Float(-2.0)),
             Fix::new("sensors.zero_counts", Some(0), FixValue::Float(1.25e-3)),
             Fix::new(
@@ -181,6 +173,12 @@ mod tests {
         assert_eq!(back.fixes, fixes, "{text}");
     }
 
+    /// The fix of `drives.node_ids` to `ids`.
+    fn node_order(ids: [i64; 3]) -> Fix {
+        let ids = ids.iter().map(|&i| FixValue::Integer(i)).collect();
+        Fix::new("drives.node_ids", None, FixValue::List(ids))
+    }
+
     /// A document holding fixes (TOML has no top-level arrays).
     #[derive(Serialize, Deserialize)]
     struct Wrapper {
@@ -194,15 +192,7 @@ mod tests {
         let config: Config = toml::from_str(FILE).unwrap();
         let fixes = [
             Fix::new("drives.motor_reversed", Some(1), FixValue::Bool(true)),
-            Fix::new(
-                "drives.node_ids",
-                None,
-                FixValue::List(vec![
-                    FixValue::Integer(3),
-                    FixValue::Integer(2),
-                    FixValue::Integer(1),
-                ]),
-            ),
+            node_order([3, 2, 1]),
             // Keys the file leaves out: written whole from the settings, then fixed.
             Fix::new("drives.encoder_reversed", Some(2), FixValue::Bool(true)),
             Fix::new(

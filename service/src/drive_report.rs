@@ -130,6 +130,21 @@ impl DriveReportWatch {
     }
 }
 
+/// A configuration in `dir` whose `drives.device_description` (`drive.eds`) describes a maxon
+/// drive, product 0x65520000 (for tests).
+#[cfg(test)]
+pub(crate) fn described_config(dir: &std::path::Path) -> Config {
+    std::fs::write(
+        dir.join("drive.eds"),
+        "[DeviceInfo]\nVendorNumber=0x000000FB\nProductNumber=0x65520000\n[6076]\n\
+         DefaultValue=50000\n",
+    )
+    .unwrap();
+    let path = dir.join("videt.toml");
+    std::fs::write(&path, "[drives]\ndevice_description = \"drive.eds\"\n").unwrap();
+    Config::load(&path).unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -137,15 +152,7 @@ mod tests {
     #[test]
     fn a_drive_unlike_the_configured_description_is_named_with_both_values() {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(
-            dir.path().join("drive.eds"),
-            "[DeviceInfo]\nVendorNumber=0x000000FB\nProductNumber=0x65520000\n[6076]\n\
-             DefaultValue=50000\n",
-        )
-        .unwrap();
-        let path = dir.path().join("videt.toml");
-        std::fs::write(&path, "[drives]\ndevice_description = \"drive.eds\"\n").unwrap();
-        let config = Config::load(&path).unwrap();
+        let config = described_config(dir.path());
         let mut drive = DriveStatus {
             wire: 1,
             node: 2,

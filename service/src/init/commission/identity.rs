@@ -63,15 +63,7 @@ mod tests {
     #[test]
     fn each_drive_is_named_against_the_configured_description() {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(
-            dir.path().join("drive.eds"),
-            "[DeviceInfo]\nVendorNumber=0x000000FB\nProductNumber=0x65520000\n[6076]\n\
-             DefaultValue=50000\n",
-        )
-        .unwrap();
-        let path = dir.path().join("videt.toml");
-        std::fs::write(&path, "[drives]\ndevice_description = \"drive.eds\"\n").unwrap();
-        let config = Config::load(&path).unwrap();
+        let config = crate::drive_report::described_config(dir.path());
         let steps = identity_steps(
             &[
                 drive(0, 0x6552_0000),
