@@ -226,18 +226,18 @@ fn wire_replacement_and_tension_calibration_from_the_terminal() {
     assert!((gain - 1.0 / 0.985).abs() < 0.003, "{v}");
 }
 
+/// `videt sim-rig` with the example configuration on a CAN interface that does not exist,
+/// and `args`.
+fn sim_rig_on_no_interface(args: &[&str]) -> Output {
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
+    let mut all = vec!["sim-rig", "--config", example, "--can", "vcan-absent"];
+    all.extend_from_slice(args);
+    videt(&all)
+}
+
 #[test]
 fn sim_rig_refuses_a_cpu_the_process_may_not_run_on() {
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
-    let out = videt(&[
-        "sim-rig",
-        "--config",
-        example,
-        "--can",
-        "vcan-absent",
-        "--cpu",
-        "4096",
-    ]);
+    let out = sim_rig_on_no_interface(&["--cpu", "4096"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
     let allowed = videt_runtime::rt::cpu_list(&videt_runtime::rt::allowed_cpus());
@@ -251,47 +251,28 @@ fn sim_rig_refuses_a_cpu_the_process_may_not_run_on() {
 
 #[test]
 fn sim_rig_builds_only_the_drives_and_cells_mistakes() {
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
     for (mistake, said) in [
         ("estop-level", "not a mistake of the drives"),
         ("swapped-cameras", "not a mistake of the drives"),
         ("break:1:2", "must be reversed-motor:N"),
         ("reversed-motor:3", "must be 0, 1 or 2"),
     ] {
-        let out = videt(&[
-            "sim-rig",
-            "--config",
-            example,
-            "--can",
-            "vcan-absent",
-            "--at-rest",
-            "--sim-fault",
-            mistake,
-        ]);
+        let out = sim_rig_on_no_interface(&["--at-rest", "--sim-fault", mistake]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{mistake}: {err}");
         assert!(err.contains(said), "{mistake}: {err}");
     }
     // A mistake of the drives' is taken: the interface is what is missing then.
-    let out = videt(&[
-        "sim-rig",
-        "--config",
-        example,
-        "--can",
-        "vcan-absent",
-        "--sim-fault",
-        "reversed-motor:1",
-    ]);
+    let out = sim_rig_on_no_interface(&["--sim-fault", "reversed-motor:1"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("vcan-absent"), "{err}");
 }
 
 #[test]
 fn sim_rig_refuses_a_time_scale_outside_zero_to_one() {
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/config/videt.example.toml");
     for scale in ["0", "1.5", "-0.25", "NaN"] {
         let arg = format!("--time-scale={scale}");
-        let out = videt(&["sim-rig", "--config", example, "--can", "vcan-absent", &arg]);
+        let out = sim_rig_on_no_interface(&[&arg]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{scale}: {err}");
         assert!(

@@ -85,11 +85,13 @@ pub fn built_node_ids(
 
 /// The twin's wiring for a rig built with `mistakes`, run with `config`.
 pub fn twin_wiring(config: &Config, mistakes: &[WiringMistake]) -> Wiring<WIREMAN_WIRES> {
+    // What the configuration corrects, on a rig built right.
+    let configured = configured_wiring::<WIREMAN_WIRES>(config, DriveCorrections::InTwin);
     let built_ids = built_node_ids(config.drives.node_ids, mistakes);
     let mut motor_reversed = [false; WIREMAN_WIRES];
     let mut encoder_reversed = [false; WIREMAN_WIRES];
     let mut cell_inverted = [false; WIREMAN_WIRES];
-    let mut estop_inverted = config.sensors.estop_pressed_level == LineLevel::High;
+    let mut estop_inverted = configured.estop_inverted;
     for m in mistakes {
         match *m {
             WiringMistake::ReversedMotor(w) => motor_reversed[w] ^= true,
@@ -107,7 +109,6 @@ pub fn twin_wiring(config: &Config, mistakes: &[WiringMistake]) -> Wiring<WIREMA
             .position(|id| *id == config.drives.node_ids[k])
             .unwrap_or(k)
     });
-    let d = &config.drives;
     // The converters are on their wires; through the drives, a cell follows its drive.
     let sensor_wire = if config.sensors.adc == TensionAdc::Drive {
         drive_wire
@@ -117,14 +118,14 @@ pub fn twin_wiring(config: &Config, mistakes: &[WiringMistake]) -> Wiring<WIREMA
     Wiring {
         drive_wire,
         motor_reversed: core::array::from_fn(|k| {
-            motor_reversed[drive_wire[k]] != d.motor_reversed[k]
+            motor_reversed[drive_wire[k]] != configured.motor_reversed[k]
         }),
         encoder_reversed: core::array::from_fn(|k| {
-            encoder_reversed[drive_wire[k]] != d.encoder_reversed[k]
+            encoder_reversed[drive_wire[k]] != configured.encoder_reversed[k]
         }),
         sensor_wire,
         cell_inverted: core::array::from_fn(|k| {
-            cell_inverted[sensor_wire[k]] != (config.sensors.newtons_per_count[k] < 0.0)
+            cell_inverted[sensor_wire[k]] != configured.cell_inverted[k]
         }),
         estop_inverted,
     }

@@ -167,13 +167,8 @@ pub fn done_json(kind: &'static str, outcome: &InitOutcome, path: &std::path::Pa
 /// The last line of a commissioning check: its steps (each with its verdict, what it measured,
 /// its fixes), and what stopped it early (name, exit code and message as a direct run's).
 pub fn checked_json(check: &RigCheck) -> Value {
-    let stopped = check.stopped.map(|f| {
-        let e = InitError::Procedure(f);
-        let message = match &check.detail {
-            Some(d) => format!("{f} ({d})"),
-            None => f.to_string(),
-        };
-        json!({"error": e.name(), "exit_code": e.exit_code(), "message": message})
+    let stopped = check.stop().map(|(exit_code, name, message)| {
+        json!({"error": name, "exit_code": exit_code, "message": message})
     });
     json!({
         "ok": true,
@@ -385,9 +380,8 @@ fn log_check(check: &RigCheck) -> Option<String> {
             "commissioning: the rig is not as configured ({}): restart videtd with the fixed configuration",
             failed.join(", ")
         ));
-    } else if let Some(f) = check.stopped {
-        let detail = check.detail.as_deref().unwrap_or("no step found a mistake");
-        tracing::warn!("the commissioning check stopped early: {f} ({detail})");
+    } else if let Some((_, _, why)) = check.stop() {
+        tracing::warn!("the commissioning check stopped early: {why}");
     } else {
         tracing::info!(
             steps = check.steps.len(),

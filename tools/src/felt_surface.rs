@@ -152,13 +152,13 @@ pub fn felt_surface(
     let mut per_cell: Vec<Vec<f64>> = vec![Vec::new(); nx * ny];
     // Whether the truth spans more than the threshold across a cell (sampled on a grid of
     // STEP_PROBES x STEP_PROBES points, the cell's edges included).
+    let t = |k: usize| k as f64 / (STEP_PROBES - 1) as f64;
     let spans_a_step = |cell: usize| {
         let (i, j) = (cell % nx, cell / nx);
         let mut lo = f64::INFINITY;
         let mut hi = f64::NEG_INFINITY;
         for a in 0..STEP_PROBES {
             for b in 0..STEP_PROBES {
-                let t = |k: usize| k as f64 / (STEP_PROBES - 1) as f64;
                 let x = x0 + (i as f64 + t(a)) * settings.cell_m;
                 let y = y0 + (j as f64 + t(b)) * settings.cell_m;
                 if let Some(z) = truth_z(x.min(x1), y.min(y1)) {

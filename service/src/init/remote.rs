@@ -33,7 +33,9 @@ use videt_sim::{VirtualOperator, WireModules};
 use super::commission::{check_rig, CommissionStep, CommissionTechnician, Thimble};
 use super::corrected::CorrectedTensions;
 use super::runner::{InitHardware, Readings, Runner};
-use super::session::{self, run_settings, FlowContext, InitError, Request, Technician};
+use super::session::{
+    self, run_settings, FlowContext, InitError, Measurement, Request, Technician,
+};
 use super::twin::{hold_after_action, SimTechnician, TwinSetup};
 use videt_assembly::can_twin::{CanTwin, TwinDevice};
 use videt_assembly::twin_rt::RealTimeTwin;
@@ -471,66 +473,42 @@ where
         source: if twin { "twin" } else { "device" },
         stop: &control.cancel,
     };
-    let result = match spec.kind {
-        ProcedureKind::Commission => {
-            let trip = commission(
-                &mut observed,
-                &mut tech,
-                &mut runner,
-                &config,
-                &control,
-                safety,
-            );
-            let next_cycle = observed.record.cycle;
-            if let (Some(scene), Some(twin)) = (scene, observed.hw.twin_mut()) {
-                twin_from_rest(twin, scene);
-            }
-            control.running.store(false, Ordering::Release);
-            return ProcedureEnd {
-                recalibration: None,
-                trip,
-                next_cycle,
-            };
-        }
-        ProcedureKind::Initialize => session::measure(&mut observed, &mut tech, &mut runner, &ctx),
+    let measured = match spec.kind {
+        ProcedureKind::Commission => None,
+        ProcedureKind::Initialize => Some(session::measure(
+            &mut observed,
+            &mut tech,
+            &mut runner,
+            &ctx,
+        )),
         ProcedureKind::ReplaceWire {
             wire,
             required_length_m,
-        } => session::replace_wire_measure(
+        } => Some(session::replace_wire_measure(
             &mut observed,
             &mut tech,
             &mut runner,
             &ctx,
             wire,
             required_length_m,
-        ),
+        )),
     };
-    // The control cycle's rig, as a loaded calibration file would give it.
-    let result = result.and_then(|m| {
-        videt_runtime::calibration::rig_from_sides(&m.triangle.sides_m)
-            .map(|rig| (m, rig))
-            .map_err(InitError::Unusable)
-    });
-    let pay_out = [runner.settings().pay_out_tension_n; WIREMAN_WIRES];
-    let recalibration = match result {
-        Ok((measurement, rig)) => {
-            let wire_zero = WireZero {
-                length_at_zero_m: measurement.length_at_zero_m(),
-            };
-            let finished = ProcedureEvent::Finished(Box::new(Ok(measurement)));
-            if deliver(&mut observed, &mut runner, events, finished, pay_out)
-                && wait_until_saved(&mut observed, &mut runner, &control)
-            {
-                Some(Recalibration { rig, wire_zero })
-            } else {
-                None
-            }
-        }
-        Err(e) => {
-            let finished = ProcedureEvent::Finished(Box::new(Err(e)));
-            let _ = deliver(&mut observed, &mut runner, events, finished, pay_out);
-            None
-        }
+    let (recalibration, trip) = match measured {
+        Some(result) => (
+            deliver_measurement(&mut observed, &mut runner, events, &control, result),
+            None,
+        ),
+        None => (
+            None,
+            commission(
+                &mut observed,
+                &mut tech,
+                &mut runner,
+                &config,
+                &control,
+                safety,
+            ),
+        ),
     };
     let next_cycle = observed.record.cycle;
     if let (Some(scene), Some(twin)) = (scene, observed.hw.twin_mut()) {
@@ -539,8 +517,42 @@ where
     control.running.store(false, Ordering::Release);
     ProcedureEnd {
         recalibration,
-        trip: None,
+        trip,
         next_cycle,
+    }
+}
+
+/// A measurement's end: the result to the client and, when it measured the rig and the client
+/// saved the calibration, the service's new one.
+fn deliver_measurement<H: ProcedureDevice>(
+    hw: &mut H,
+    runner: &mut Runner,
+    events: &RefCell<rtrb::Producer<ProcedureEvent>>,
+    control: &ProcedureControl,
+    result: Result<Measurement, InitError>,
+) -> Option<Recalibration> {
+    // The control cycle's rig, as a loaded calibration file would give it.
+    let result = result.and_then(|m| {
+        videt_runtime::calibration::rig_from_sides(&m.triangle.sides_m)
+            .map(|rig| (m, rig))
+            .map_err(InitError::Unusable)
+    });
+    let pay_out = [runner.settings().pay_out_tension_n; WIREMAN_WIRES];
+    match result {
+        Ok((measurement, rig)) => {
+            let wire_zero = WireZero {
+                length_at_zero_m: measurement.length_at_zero_m(),
+            };
+            let finished = ProcedureEvent::Finished(Box::new(Ok(measurement)));
+            (deliver(hw, runner, events, finished, pay_out)
+                && wait_until_saved(hw, runner, control))
+            .then_some(Recalibration { rig, wire_zero })
+        }
+        Err(e) => {
+            let finished = ProcedureEvent::Finished(Box::new(Err(e)));
+            let _ = deliver(hw, runner, events, finished, pay_out);
+            None
+        }
     }
 }
 

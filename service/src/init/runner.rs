@@ -61,7 +61,7 @@ pub struct Runner {
     readings: Readings,
     lowest_counts: [i64; WIREMAN_WIRES],
     tension_correction: Option<TensionCalibration>,
-    /// What the drives or the tension sensors said when a read last failed.
+    /// What the drives or the tension sensors said when a read first failed.
     device_error: Option<String>,
 }
 
@@ -102,7 +102,7 @@ impl Runner {
         self.lowest_counts
     }
 
-    /// What the drives or the tension sensors said when a read last failed.
+    /// What the drives or the tension sensors said when a read first failed.
     pub fn device_error(&self) -> Option<&str> {
         self.device_error.as_deref()
     }
@@ -133,8 +133,7 @@ impl Runner {
         let mut drive_fault = match hw.read_drives(&mut r.drives) {
             Ok(()) => None,
             Err(e) => {
-                // Kept for the report, as a sensor's.
-                self.device_error = Some(e.to_string());
+                keep_first_error(&mut self.device_error, &e);
                 Some(None)
             }
         };
@@ -146,9 +145,7 @@ impl Runner {
         let sensor_fault = match hw.read_tensions(&mut r.tension_n) {
             Ok(()) => false,
             Err(e) => {
-                // Kept for the report (formatted only when a read fails: the procedure then
-                // ends).
-                self.device_error = Some(e.to_string());
+                keep_first_error(&mut self.device_error, &e);
                 true
             }
         };
@@ -309,5 +306,13 @@ impl Runner {
                 return Ok(());
             }
         }
+    }
+}
+
+/// Keep what a failed read said in `kept`, for the report: the first failure only, so that a
+/// device that keeps failing while the wires are held is not formatted every period.
+fn keep_first_error(kept: &mut Option<String>, e: &impl core::fmt::Display) {
+    if kept.is_none() {
+        *kept = Some(e.to_string());
     }
 }

@@ -201,17 +201,18 @@ pub(super) fn run_wall(
     };
     let (mut scene, cycle) = wall_demo(config, rig, calibration, options, what);
     match sim {
-        SimMode::Hal => run_with_tension_correction(
-            {
-                wire_as_configured(&mut scene.twin, config, sim);
-                RealTimeTwin::new(scene.twin)
-            },
-            FixedSurface(scene.wall),
-            cycle,
-            options,
-            calibration_path,
-            ServiceExtras::default(),
-        ),
+        SimMode::Hal => {
+            // The other twins are wired in `run_on_twin`.
+            wire_as_configured(&mut scene.twin, config, sim);
+            run_with_tension_correction(
+                RealTimeTwin::new(scene.twin),
+                FixedSurface(scene.wall),
+                cycle,
+                options,
+                calibration_path,
+                ServiceExtras::default(),
+            )
+        }
         SimMode::Can => run_on_twin(
             sim,
             scene.twin,

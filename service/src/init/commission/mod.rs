@@ -30,6 +30,7 @@ use videt_rt_config::edit::Fix;
 use videt_rt_config::Config;
 
 use super::runner::{InitHardware, Runner};
+use super::session::failure_exit_code;
 use bench::{Bench, IDLE};
 
 /// A step's verdict (`pass`, `fail`, `skipped` in JSON).
@@ -201,10 +202,27 @@ pub struct RigCheck {
     pub detail: Option<String>,
 }
 
+/// Whether every one of `steps` passed or was skipped.
+fn as_configured(steps: &[StepReport]) -> bool {
+    steps.iter().all(|s| s.verdict != Verdict::Fail)
+}
+
 impl RigCheck {
     /// Whether every step passed or was skipped.
     pub fn as_configured(&self) -> bool {
-        self.steps.iter().all(|s| s.verdict != Verdict::Fail)
+        as_configured(&self.steps)
+    }
+
+    /// Why the check stopped early, as a direct run reports it: its exit code, its name and
+    /// its message (with what the failing part said, when it said more).
+    pub fn stop(&self) -> Option<(u8, &'static str, String)> {
+        self.stopped.map(|f| {
+            let message = match &self.detail {
+                Some(d) => format!("{f} ({d})"),
+                None => f.to_string(),
+            };
+            (failure_exit_code(&f), f.name(), message)
+        })
     }
 
     /// The safe state a service must keep after this check: power off when a step found the
@@ -305,8 +323,7 @@ fn run_checks<H: InitHardware, T: CommissionTechnician<H>>(
         bench.wrong_wires(found, motor_reversed, encoder_reversed);
     }
     bench.estop_pressed()?;
-    let as_configured = bench.steps.iter().all(|s| s.verdict != Verdict::Fail);
-    if thimble == Thimble::On && as_configured {
+    if thimble == Thimble::On && as_configured(&bench.steps) {
         // Every wire winds as configured: a light pull keeps them taut to the thimble.
         let hold = [bench.runner.settings().pay_out_tension_n; videt_runtime::WIREMAN_WIRES];
         bench.manual_step_holding(CommissionStep::AttachThimble, &hold)?;

@@ -20,7 +20,7 @@ use videt_service::init::commission::{
 };
 use videt_service::init::remote::ProcedureDevice;
 use videt_service::init::runner::Runner;
-use videt_service::init::session::{failure_exit_code, run_settings, Technician};
+use videt_service::init::session::{run_settings, Technician};
 use videt_service::init::tension::TensionTechnician;
 use videt_service::socket::ProcedureCommand;
 
@@ -180,14 +180,8 @@ fn commission(args: &CommissionArgs) -> Result<ExitCode, Exit> {
                 found
                     .steps
                     .extend(identity_steps(&drives, &config, NO_DRIVES));
+                found.stopped = check.stop().map(|(code, _, why)| (code, why));
                 found.steps.extend(check.steps);
-                found.stopped = check.stopped.map(|f| {
-                    let why = match &check.detail {
-                        Some(d) => format!("{f} ({d})"),
-                        None => f.to_string(),
-                    };
-                    (failure_exit_code(&f), why)
-                });
             }
             Err(e) if e.code == EXIT_MOTORS_BUSY => return Err(e),
             Err(e) => {
