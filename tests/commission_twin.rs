@@ -93,11 +93,24 @@ impl CommissionTechnician<Watched> for SimTechnician {
 
 /// Check a rig built with `mistakes` under `config`; the check, and the largest torque.
 fn check(config: &Config, mistakes: &[WiringMistake], stop: &AtomicBool) -> (RigCheck, Watched) {
+    check_with_gaps(config, mistakes, stop, [0.0; WIRES])
+}
+
+/// [`check`] with each wire's sphere resting `gaps_m` off its ring.
+fn check_with_gaps(
+    config: &Config,
+    mistakes: &[WiringMistake],
+    stop: &AtomicBool,
+    gaps_m: [f64; WIRES],
+) -> (RigCheck, Watched) {
     let s = setup(config, mistakes);
     let mut hw = Watched {
         twin: rest_twin(config, &s),
         largest_torque_nm: 0.0,
     };
+    for (i, gap) in gaps_m.into_iter().enumerate() {
+        hw.twin.plant_mut().set_free_length_m(i, gap);
+    }
     session::start(&mut hw.twin).unwrap();
     let mut tech = SimTechnician::new(&s);
     let mut runner = Runner::new(run_settings(config));
@@ -247,6 +260,41 @@ fn every_two_mistakes_together_are_found_and_fixed() {
     {
         let k = kinds(n);
         commission_then_init(&[k[a], kinds(n + 1)[b]]);
+    }
+}
+
+/// A sphere resting off its ring (a wire let go after the last check, or sagged) is wound onto
+/// it whichever way its motor turns, however slowly the wires may move: every wire is found,
+/// every reversed motor named.
+#[test]
+fn spheres_resting_off_their_rings_are_wound_onto_them() {
+    let mut config: Config = toml::from_str(&example()).unwrap();
+    // The slowest the check may move a wire.
+    config.commission.max_speed_m_s = 0.01;
+    let stop = AtomicBool::new(false);
+    for gap_m in [0.002, 0.025] {
+        for mistakes in [
+            vec![],
+            vec![WiringMistake::ReversedMotor(1)],
+            vec![
+                WiringMistake::ReversedMotor(0),
+                WiringMistake::ReversedMotor(2),
+            ],
+        ] {
+            let (found, _) = check_with_gaps(&config, &mistakes, &stop, [gap_m; WIRES]);
+            assert_eq!(found.stopped, None, "{gap_m} m, {mistakes:?}");
+            for step in &found.steps {
+                let reversed = mistakes.iter().any(|m| {
+                    matches!(m, WiringMistake::ReversedMotor(k) if step.name == format!("drive{k}.direction"))
+                });
+                let expected = if reversed {
+                    Verdict::Fail
+                } else {
+                    Verdict::Pass
+                };
+                assert_eq!(step.verdict, expected, "{gap_m} m, {mistakes:?}: {step:?}");
+            }
+        }
     }
 }
 

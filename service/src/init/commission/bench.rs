@@ -15,6 +15,17 @@ use crate::init::runner::{InitHardware, Readings, Runner};
 /// limit takes a few).
 const WIND_BACK_S: f64 = 30.0;
 
+/// The farthest one direction of a drive's gentle probe moves its wire, metres: the slack it
+/// takes up winding, the most it pays out unwinding.
+const PROBE_TRAVEL_M: f64 = 0.03;
+
+/// The longest one direction of a gentle probe lasts, seconds (a wire that hardly moves: its
+/// sphere held, or its encoder silent).
+const PROBE_S: f64 = 5.0;
+
+/// How long a sensor's change must last to count as its answer, seconds.
+const ANSWER_S: f64 = 0.05;
+
 /// No force on any wire.
 pub(super) const IDLE: [f64; WIREMAN_WIRES] = [0.0; WIREMAN_WIRES];
 
@@ -27,6 +38,17 @@ pub(super) struct Winding {
     pub sensor: usize,
     /// Its change, N (negative for a cell read the other way).
     pub change_n: f64,
+}
+
+/// What one direction of a gentle probe found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Probe {
+    /// The tension channel that answered, if one did.
+    answered: Option<usize>,
+    /// How far the wire moved, metres.
+    travelled_m: f64,
+    /// The periods it lasted.
+    periods: u32,
 }
 
 /// What a stretch of periods measured.
@@ -165,44 +187,98 @@ impl<H: InitHardware, T: CommissionTechnician<H>> Bench<'_, H, T> {
     }
 
     /// Which way drive `k` winds, and which sensor answers (against the tensions `rest`): a
-    /// gentle pull (the pay-out tension) one way, then (no tension rising) the other, longer;
-    /// then, the sphere against its ring, the test tension that way. A wire turning freely
-    /// (paid out, or wound back) only ever gets the gentle pull. `None` when no sensor answers
-    /// either way.
+    /// gentle pull (the pay-out tension) one way until a sensor answers or the wire has moved
+    /// [`PROBE_TRAVEL_M`]; then (none answering) the other way, until a sensor answers or the
+    /// wire has wound back what the first paid out and [`PROBE_TRAVEL_M`] more (each way, for
+    /// at most [`PROBE_S`] more than the way before took); then, the
+    /// sphere against its ring, the test tension that way. A wire turning freely (paid out, or
+    /// wound back) only ever gets the gentle pull, and a sphere resting a little off its ring
+    /// is wound onto it however slowly the wire moves. `None` when no sensor answers either
+    /// way.
     pub fn winding_test(&mut self, k: usize, rest: &Stretch) -> Result<Option<Winding>, Failure> {
         let test_n = self.config.commission.test_tension_n;
-        let probe_n = self.runner.settings().pay_out_tension_n;
-        let max_speed = self.config.commission.max_speed_m_s;
-        let change = |stretch: &Stretch| -> [f64; WIREMAN_WIRES] {
-            core::array::from_fn(|j| stretch.mean_tension_n[j] - rest.mean_tension_n[j])
-        };
-        // The second direction long enough to wind back what the first paid out (at the speed
-        // limit) and then pull against the stop.
-        for (sign, seconds) in [(1.0, 0.6), (-1.0, 2.0)] {
-            let periods = self.periods(seconds);
-            let probe = change(&self.drive_for(periods, &mut |r| {
-                test_force(r, k, sign * probe_n, max_speed)
-            })?);
-            let j = (0..WIREMAN_WIRES)
-                .max_by(|a, b| probe[*a].abs().total_cmp(&probe[*b].abs()))
-                .unwrap_or(0);
-            if probe[j].abs() <= 0.5 * probe_n {
+        let (mut travel_m, mut periods) = (PROBE_TRAVEL_M, self.periods(PROBE_S));
+        for sign in [1.0, -1.0] {
+            let probe = self.probe(k, sign, travel_m, periods, rest)?;
+            let Some(j) = probe.answered else {
+                travel_m = probe.travelled_m + PROBE_TRAVEL_M;
+                periods = probe.periods + self.periods(PROBE_S);
                 continue;
-            }
+            };
             // Against the ring: the test tension, which hardly moves the wire.
+            let max_speed = self.config.commission.max_speed_m_s;
             let periods = self.periods(0.4);
-            let pulled = change(
-                &self.drive_for(periods, &mut |r| test_force(r, k, sign * test_n, max_speed))?,
-            );
+            let pulled =
+                self.drive_for(periods, &mut |r| test_force(r, k, sign * test_n, max_speed))?;
             // Idle again: the sphere rests against its ring.
             self.idle(0.2)?;
             return Ok(Some(Winding {
                 sign,
                 sensor: j,
-                change_n: pulled[j],
+                change_n: pulled.mean_tension_n[j] - rest.mean_tension_n[j],
             }));
         }
         Ok(None)
+    }
+
+    /// Drive `k` pulling gently (the pay-out tension, `sign` as the HAL's) until a sensor
+    /// answers (its change from `rest` beyond half that tension for [`ANSWER_S`]), the wire has
+    /// moved `travel_m` (by its encoder, whichever way it counts), or `periods` have passed.
+    fn probe(
+        &mut self,
+        k: usize,
+        sign: f64,
+        travel_m: f64,
+        periods: u32,
+        rest: &Stretch,
+    ) -> Result<Probe, Failure> {
+        let probe_n = self.runner.settings().pay_out_tension_n;
+        let max_speed = self.config.commission.max_speed_m_s;
+        let metres_per_count = self.runner.settings().transmission.metres_per_count().abs();
+        let answer_periods = self.periods(ANSWER_S);
+        let mut f = IDLE;
+        let mut start = None;
+        let mut travelled_m = 0.0;
+        // The channel answering, and for how many periods in a row.
+        let mut answering: Option<(usize, u32)> = None;
+        let mut ran = 0;
+        while ran < periods {
+            let r = self.period(&f)?;
+            ran += 1;
+            let start = *start.get_or_insert(r.input.counts[k]);
+            travelled_m = (r.input.counts[k] - start).unsigned_abs() as f64 * metres_per_count;
+            let change: [f64; WIREMAN_WIRES] =
+                core::array::from_fn(|j| r.tension_n[j] - rest.mean_tension_n[j]);
+            let j = (0..WIREMAN_WIRES)
+                .max_by(|a, b| change[*a].abs().total_cmp(&change[*b].abs()))
+                .unwrap_or(0);
+            answering = if change[j].abs() > 0.5 * probe_n {
+                match answering {
+                    Some((i, n)) if i == j => Some((j, n + 1)),
+                    _ => Some((j, 1)),
+                }
+            } else {
+                None
+            };
+            if let Some((j, n)) = answering {
+                if n >= answer_periods {
+                    return Ok(Probe {
+                        answered: Some(j),
+                        travelled_m,
+                        periods: ran,
+                    });
+                }
+            }
+            if travelled_m >= travel_m {
+                break;
+            }
+            f = test_force(&r, k, sign * probe_n, max_speed);
+        }
+        Ok(Probe {
+            answered: None,
+            travelled_m,
+            periods: ran,
+        })
     }
 
     /// Drive `k`'s encoder count with its wire's sphere held against its ring (the pay-out
