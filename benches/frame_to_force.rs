@@ -31,7 +31,6 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use videt_drivers::camera::file_source::FileStereoSource;
 use videt_runtime::snapshot::SurfaceFeed;
 use videt_service::camera_relief::{CalibratedRig, CameraRelief};
-use videt_service::relief_scene::ReliefLayout;
 
 fn median(mut v: Vec<Duration>) -> Duration {
     v.sort_unstable();
@@ -39,7 +38,7 @@ fn median(mut v: Vec<Duration>) -> Duration {
 }
 
 fn bench_frame_to_force(c: &mut Criterion) {
-    let config = videt_rt_config::Config::default();
+    let config = videt_config::Config::default();
     match videt_testdata::data_dir("calib/chessboard") {
         Some(images) => {
             let (calibration, _) = videt_vision::calib::calibrate_stereo_dir(&images, 9, 6, 0.025)
@@ -88,9 +87,9 @@ fn scene(
     max_disparity_px: f32,
     variant: Variant,
 ) {
-    let mut config = videt_rt_config::Config::default();
+    let mut config = videt_config::Config::default();
     if variant == Variant::Paper {
-        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Interpolated;
+        config.vision.relief_shape = videt_config::ReliefShapeName::Interpolated;
         config.vision.patch_spacing_px = 0;
     }
     let name = match variant {
@@ -98,7 +97,7 @@ fn scene(
         Variant::Paper => format!("{name}_interpolated"),
     };
     let name = name.as_str();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let camera = FileStereoSource::from_folder(images, Duration::from_millis(66))
         .expect("camera")
         .with_colour(false)

@@ -4,7 +4,6 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
 
 fn bench_stereo_relief(c: &mut Criterion) {
@@ -15,12 +14,12 @@ fn bench_stereo_relief(c: &mut Criterion) {
 /// The benches with the defaults (the stepped relief with depth from patches every 12 px), or
 /// with `paper` the paper's relief of the segments alone; named with `suffix`.
 fn bench_variant(c: &mut Criterion, suffix: &str, paper: bool) {
-    let mut config = videt_rt_config::Config::default();
+    let mut config = videt_config::Config::default();
     if paper {
-        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Interpolated;
+        config.vision.relief_shape = videt_config::ReliefShapeName::Interpolated;
         config.vision.patch_spacing_px = 0;
     }
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let live = LiveSettings {
         patch_spacing_px: config.vision.patch_spacing_px,
         ..LiveSettings::default()

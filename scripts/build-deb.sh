@@ -26,7 +26,7 @@ if ! "$CARGO" deb --version >/dev/null 2>&1; then
   "$CARGO" install cargo-deb --locked >&2
 fi
 echo "== build-deb: release binaries (features: ${FEATURES:-none})" >&2
-"$CARGO" build --release -p videt --bins ${FEATURES:+--features "$FEATURES"} >&2
+"$CARGO" build --release -p videt -p videtd --bins ${FEATURES:+--features "$FEATURES"} >&2
 echo "== build-deb: manual pages and completions in $ASSETS" >&2
 rm -rf "$ASSETS"
 "$TARGET/release/videt-assets" "$ASSETS" >/dev/null

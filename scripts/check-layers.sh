@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The layering of docs/architecture.md as Cargo resolves it: fails when a crate depends on a
-# layer above its own, or when videtd built without the `tool` feature pulls in the tools, the
-# paper's experiments or the plotting stack. Prints one line per check; exits 1 on any FAIL.
+# The layering of docs/architecture.md as Cargo resolves it, over each crate's whole dependency
+# tree: fails when a crate reaches a layer above its own, when the core reaches the hardware,
+# the twin or the vision pipeline, or when videtd's package pulls in the tools, the paper's
+# experiments or the plotting stack. Prints one line per check; exits 1 on any FAIL.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 fail=0
@@ -29,20 +30,26 @@ refuse() {
   fi
 }
 
-layers=(videt-runtime videt-viewers videt-assembly videt-service videt-tools)
-for domain in videt-hal videt-can-timing videt-control videt-vision videt-drivers videt-sim \
-  videt-rt-config videt-colour videt-experiments; do
+layers=(videt-runtime videt-viewers videt-assembly videt-service videt-tools videtd videt)
+# The hardware and the twin: what the core never reaches, at any depth.
+hardware=(videt-drivers videt-sim socketcan gpio-cdev linux-embedded-hal v4l canopen-rs)
+for domain in videt-hal videt-can-timing videt-drive-description videt-control videt-relief \
+  videt-vision videt-drivers videt-sim videt-config videt-colour videt-experiments; do
   refuse "$domain" "${layers[@]}"
 done
-# The core knows nothing above it, and neither the hardware nor the twin (directly: the
-# configuration crate reads drive description files with the drivers' EDS reader).
-refuse videt-runtime videt-assembly videt-service videt-tools videt-experiments plotters
-FLAGS="--depth 1" refuse videt-runtime videt-drivers videt-sim
+# The core knows nothing above it, and neither the hardware nor the twin (the whole tree: the
+# configuration reads drive description files with `videt-drive-description`, below the
+# drivers; the runtime records reliefs with `videt-relief`, not the vision pipeline).
+refuse videt-runtime videt-assembly videt-service videt-tools videt-experiments plotters \
+  videt-vision "${hardware[@]}"
+for core in videt-hal videt-drive-description videt-control videt-relief videt-config; do
+  refuse "$core" videt-vision "${hardware[@]}"
+done
 # The viewers' topics sit on the core: the service serves them live, the tools export them.
 refuse videt-viewers videt-assembly videt-service videt-tools videt-experiments plotters
 refuse videt-assembly videt-service videt-tools videt-experiments plotters
 refuse videt-service videt-tools videt-experiments plotters
-# videtd alone: the service, without the tool's analysis, plots and experiments.
-FLAGS=--no-default-features refuse videt videt-tools videt-experiments plotters
+# videtd's package: the service, without the tool's analysis, plots and experiments.
+refuse videtd videt-tools videt-experiments plotters
 
 exit $fail

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Fetch and make stereo pairs with ground truth beyond the shared test data, for held-out
-# accuracy figures (vision/examples/stereo_heldout.rs). Into DIR, one directory per pair:
+# accuracy figures (evaluation/examples/stereo_heldout.rs). Into DIR, one directory per pair:
 #
 # - motorcycle: Middlebury 2014 "Motorcycle" (quarter resolution, 741x500), as scikit-image
 #   ships it in its wheel;
 # - syn-poster, syn-map, syn-page, syn-desk, syn-shelf: 640x480 pairs synthesised from the real
-#   photographs of the same wheel printed on planes (vision/examples/synthesise_stereo.rs:
+#   photographs of the same wheel printed on planes (evaluation/examples/synthesise_stereo.rs:
 #   exact ground truth for both views, per-camera blur, vignetting, gain/offset and noise);
 # - aloe: Middlebury 2006 "Aloe" (real, 1282x1110 JPEG with its left ground truth), as Debian's
 #   opencv-doc ships it in its examples; halved and cropped to 640x480. Needs apt-get (a Debian
@@ -119,7 +119,7 @@ with zipfile.ZipFile(wheel) as w:
         else:
             sys.exit(f"{name}: not in the wheel")
 EOF
-    cargo run --release --quiet -p videt-vision --example synthesise_stereo -- \
+    cargo run --release --quiet -p videt-evaluation --example synthesise_stereo -- \
         "$work/textures" "$out"
 fi
 
@@ -182,7 +182,7 @@ with open(os.path.join(dest, "ATTRIBUTION.txt"), "w") as f:
     )
 EOF
     # aloeGT.png holds the full-size disparities (scale 1; 0 = unknown).
-    cargo run --release --quiet -p videt-vision --example synthesise_stereo -- --import aloe \
+    cargo run --release --quiet -p videt-evaluation --example synthesise_stereo -- --import aloe \
         "$work/aloe/aloeL.jpg" "$work/aloe/aloeR.jpg" "$work/aloe/aloeGT.png" 1 \
         "$work/aloe/ATTRIBUTION.txt" "$out"
 fi

@@ -5,8 +5,8 @@
 use std::sync::atomic::AtomicBool;
 use videt_assembly::WiremanTwin as Twin;
 
+use videt_config::Config;
 use videt_control::autoinit::{Failure, Limit, Plan, Procedure, Status};
-use videt_rt_config::Config;
 use videt_service::init::params::procedure_params;
 use videt_service::init::runner::Runner;
 use videt_service::init::session::{self, run_settings, FlowContext, InitError, InitOutcome};

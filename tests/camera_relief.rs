@@ -12,13 +12,12 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use videt_config::Config;
 use videt_drivers::camera::file_source::FileStereoSource;
-use videt_rt_config::Config;
 use videt_runtime::snapshot::snapshot_channel;
 use videt_service::camera_relief::{
     spawn_camera_updates, CalibratedRig, CameraRelief, CameraSchedule, CameraStats,
 };
-use videt_service::relief_scene::ReliefLayout;
 
 /// The calibrated chessboard set (as [`calibrated_chessboard`]) and its first `pairs` pairs in colour
 /// in `dir/colour`: red the grey level, green half of it, blue a constant 77.
@@ -48,7 +47,7 @@ fn colour_pairs(images: &Path, dir: &Path, pairs: usize) {
 /// `videtd --sim --scene camera:DIR` for 4 s with `calibration` and `extra` arguments: its
 /// standard output and error, once it has succeeded.
 fn videtd_on_camera(images: &Path, calibration: &Path, extra: &[&str]) -> (String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+    let out = Command::new(videt_testkit::videtd_bin())
         .arg("--sim")
         .arg("--scene")
         .arg(format!("camera:{}", images.display()))
@@ -78,7 +77,7 @@ fn camera_frames_become_reliefs_and_a_failing_camera_publishes_nothing() {
         return;
     };
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let rig = CalibratedRig::load(&calibration).unwrap();
     assert_eq!(rig.size_px, [640, 480]);
     let mut relief = CameraRelief::new(
@@ -203,7 +202,7 @@ fn a_colour_camera_publishes_its_rectified_left_frames() {
         return;
     };
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let rig = CalibratedRig::load(&calibration).unwrap();
     let colour_camera =
         FileStereoSource::from_folder(&colour_dir, Duration::from_millis(200)).unwrap();

@@ -6,9 +6,9 @@ use std::time::{Duration, Instant};
 
 use videt_colour::level::Level::{High, Low};
 use videt_colour::{RecordingVibrotactors, SimulatedClock};
+use videt_config::Config;
 use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::{Clock, MonoTime};
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{CycleObserver, WindowStats};
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::snapshot::snapshot_channel;
@@ -128,7 +128,7 @@ fn colour_under_the_thimble_drives_the_vibrotactors_and_safe_state_silences_them
 /// the defaults); its status lines and its log.
 fn videtd_sim_with_colour(colour_section: Option<&str>) -> (Vec<String>, String) {
     let dir = tempfile::tempdir().unwrap();
-    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_videtd"));
+    let mut cmd = std::process::Command::new(videt_testkit::videtd_bin());
     cmd.args([
         "--sim",
         "--duration",
@@ -225,9 +225,8 @@ fn videtd_sim_renders_the_colour_as_the_configuration_says() {
 #[test]
 fn device_vibrotactors_are_named_when_missing_and_camera_frames_reach_the_thread() {
     use videt_service::colour_thread::{camera_colour, ColourOutputs, ColourRuntime};
-    use videt_service::relief_scene::ReliefLayout;
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let gpio = ColourOutputs::Gpio {
         chip: "/nonexistent/gpiochip-absent".into(),
         lines: config.sensors.vibrotactor_lines,

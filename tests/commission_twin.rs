@@ -8,9 +8,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use videt_assembly::as_built::WiringMistake;
 use videt_assembly::WiremanTwin as Twin;
+use videt_config::edit::{apply_fixes, Fix};
+use videt_config::Config;
 use videt_hal::{Clock, DriveSample, EStop, MonoTime, TensionSensors, WireDrives};
-use videt_rt_config::edit::{apply_fixes, Fix};
-use videt_rt_config::Config;
 use videt_service::init::commission::{
     check_rig, CommissionStep, CommissionTechnician, RigCheck, Thimble, Verdict,
 };

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use videt_config::calibration::{utc_timestamp, Calibration, WorkspaceRecord, FORMAT_VERSION};
 use videt_hal::MonoTime;
-use videt_rt_config::calibration::{utc_timestamp, Calibration, WorkspaceRecord, FORMAT_VERSION};
 use videt_runtime::control_loop::{CycleObserver, WindowStats};
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::telemetry::{self, LogHeader, SessionInfo, SessionRecording};
@@ -68,7 +68,7 @@ fn child_main(spec: &str) -> ! {
                 SessionRecording {
                     session: Some(SessionInfo::new(
                         "crash test",
-                        videt_rt_config::Config::default(),
+                        videt_config::Config::default(),
                     )),
                     ..SessionRecording::default()
                 },

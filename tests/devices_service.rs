@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_service::socket::{request, Request};
 
 struct Daemon(Child);
@@ -30,7 +30,7 @@ fn config_for(dir: &Path, device: &str) -> std::path::PathBuf {
 
 fn spawn(config: &Path, extra: &[&str]) -> Daemon {
     Daemon(
-        Command::new(env!("CARGO_BIN_EXE_videtd"))
+        Command::new(videt_testkit::videtd_bin())
             .arg("--config")
             .arg(config)
             .args(extra)

@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use videt_assembly::can_twin::{drive_config, CanTwin};
 use videt_assembly::WiremanTwin;
+use videt_config::Config;
 use videt_hal::{DriveSample, Lifecycle, WireDrives};
-use videt_rt_config::Config;
 use videt_runtime::control_loop::start_hardware;
 use videt_sim::cia402_node::DrivePower;
 
@@ -119,7 +119,7 @@ fn start(dir: &Path, name: &str, description: &str) -> (Result<(), String>, Vec<
     let mut drives = drive_config::<3>(&config);
     drives.drive_heartbeat_timeout = Duration::from_secs(3600);
     drives.verify_rated_torque = units_from_file;
-    let twin: WiremanTwin = videt_assembly::twin_scene::demo_scene(&config, 42).twin;
+    let twin: WiremanTwin = videt_assembly::twin_scene::wireman_wall_scene(&config, 42).twin;
     let mut hw = CanTwin::stepped(twin, drives, Some(std::sync::Arc::new(dictionary))).unwrap();
     let started = start_hardware(&mut hw).map_err(|e| e.to_string());
     let notes = {
@@ -301,7 +301,7 @@ fn the_generic_profile_runs_and_tells_its_missing_event_timer() {
     let mut drives = drive_config::<3>(&config);
     drives.drive_heartbeat_timeout = Duration::from_secs(3600);
     let mut hw = CanTwin::stepped(
-        videt_assembly::twin_scene::demo_scene(&config, 42).twin,
+        videt_assembly::twin_scene::wireman_wall_scene(&config, 42).twin,
         drives,
         None,
     )

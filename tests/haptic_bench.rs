@@ -1,7 +1,7 @@
 //! The haptic bench's measurements on the timing-faithful twin: the figures a researcher
 //! quotes must hold for the default configuration (simulated clock, deterministic).
 
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_tools::haptic_bench::rig::Parts;
 use videt_tools::haptic_bench::wall_feel::{feel_wall, feel_wall_in};
 use videt_tools::haptic_bench::{judge_wall, judge_wall_in, stiffness_sweep, BenchPlan, Region};

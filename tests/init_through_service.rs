@@ -16,8 +16,8 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use videt_rt_config::calibration::{backup_path, Calibration};
-use videt_rt_config::Config;
+use videt_config::calibration::{backup_path, Calibration};
+use videt_config::Config;
 use videt_service::socket::{request, Request};
 
 const GUIDES: &str = "-0.05,0.02;0.33,-0.03;0.12,0.29";

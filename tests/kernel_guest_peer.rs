@@ -129,7 +129,7 @@ fn start_peer(
 /// wire: the emulated CPU delivers the service's tension samples late and seldom, and a lively
 /// plant would turn that into oscillations the service's over-tension guard rightly stops.
 fn peer_motor(config: &Path) -> Vec<String> {
-    let t = videt_runtime::setup::transmission(&videt_rt_config::Config::load(config).unwrap());
+    let t = videt_runtime::setup::transmission(&videt_config::Config::load(config).unwrap());
     [
         ("--rated-torque-nm", "0.512871".to_string()),
         ("--torque-unit", "uNm".to_string()),
@@ -146,8 +146,8 @@ fn peer_motor(config: &Path) -> Vec<String> {
 /// Where the twin's operator holds the thimble, as each drive's position: the encoders of
 /// the twin's wires in the drive's units, so the service finds the thimble in its workspace.
 fn rest_positions(config: &Path) -> [i64; 3] {
-    let config = videt_rt_config::Config::load(config).unwrap();
-    let mut twin = videt_assembly::twin_scene::demo_scene(&config, 1).twin;
+    let config = videt_config::Config::load(config).unwrap();
+    let mut twin = videt_assembly::twin_scene::wireman_wall_scene(&config, 1).twin;
     let mut out = [DriveSample::default(); 3];
     twin.read_drives(&mut out).unwrap();
     let units = videt_assembly::hardware::drive_set_config(&config);
@@ -210,7 +210,7 @@ fn peer_config(
 /// The rig's calibration beside the configuration `config` (where it names it): the twin's
 /// true geometry, which the peer's motors start in.
 fn write_calibration(config: &Path) {
-    let loaded = videt_rt_config::Config::load(config).unwrap();
+    let loaded = videt_config::Config::load(config).unwrap();
     videt_tools::tool::sim_rig::true_calibration(&loaded)
         .unwrap()
         .save(&config.with_file_name("calibration.toml"))
@@ -452,7 +452,7 @@ fn the_peers_motors_start_where_the_twins_operator_holds_the_thimble() {
         false,
     );
     let positions = rest_positions(&config);
-    let loaded = videt_rt_config::Config::load(&config).unwrap();
+    let loaded = videt_config::Config::load(&config).unwrap();
     let t = videt_runtime::setup::transmission(&loaded);
     for p in positions {
         // A wire between 5 cm and 1.5 m long: the thimble in the rig's workspace.

@@ -7,8 +7,8 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
+use videt_config::Config;
 use videt_control::{Contact, Surface, Vec3};
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
 };
@@ -45,7 +45,7 @@ impl Surface for TableWall {
 #[test]
 fn the_control_thread_allocates_and_frees_nothing() {
     let config = Config::default();
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 5);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 5);
     let rig = setup::rig(&config).unwrap();
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let (mut surface_writer, mut surface_reader) = snapshot_channel(TableWall {
@@ -180,10 +180,10 @@ fn the_control_thread_allocates_and_frees_nothing() {
 fn every_devices_control_loop_allocates_nothing() {
     fn run<const N: usize, D: videt_runtime::runtime_device::RuntimeDevice<N>>(device: D) {
         let config = Config::default();
-        let scene = videt_assembly::twin_scene::demo_scene_for(
+        let scene = videt_assembly::twin_scene::wall_scene(
             &config,
             device,
-            videt_assembly::twin_scene::demo_start(&device),
+            videt_assembly::twin_scene::thimble_start(&device),
             5,
         );
         let mut cycle = setup::control_cycle_for(&config, device, WireZero::default(), true);
@@ -301,7 +301,7 @@ fn hand_over_and_initialise(wind_speed_m_s: f64) -> ProcedureRun {
 
     let mut config = Config::default();
     config.autoinit.wind_speed_m_s = wind_speed_m_s;
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 5);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 5);
     let rig = setup::rig(&config).unwrap();
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let wall = scene.wall;

@@ -5,20 +5,20 @@
 use std::process::ExitCode;
 use std::time::Duration;
 
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_runtime::cycle::WireZero;
 use videt_runtime::setup;
 use videt_runtime::snapshot::FixedSurface;
-use videt_service::service::{run_service, ServiceOptions, EXIT_PANIC};
+use videt_service::run::{run_service, HardwareReports, SceneLinks, ServiceSettings, EXIT_PANIC};
 
 #[test]
 fn a_panic_in_another_thread_stops_the_loop_safely_with_a_nonzero_exit() {
     let dir = tempfile::tempdir().unwrap();
     let config = Config::default();
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 9);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 9);
     let rig = setup::rig(&config).unwrap();
     let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
-    let mut options = ServiceOptions::from_config(config);
+    let mut options = ServiceSettings::from_config(config);
     options.socket_path = None;
     options.telemetry_dir = Some(dir.path().to_path_buf());
     options.status_lines = false;
@@ -28,7 +28,14 @@ fn a_panic_in_another_thread_stops_the_loop_safely_with_a_nonzero_exit() {
         std::thread::sleep(Duration::from_millis(300));
         panic!("a worker thread fails");
     });
-    let code = run_service(scene.twin, FixedSurface(scene.wall), cycle, &options);
+    let code = run_service(
+        scene.twin,
+        FixedSurface(scene.wall),
+        cycle,
+        &options,
+        SceneLinks::default(),
+        HardwareReports::default(),
+    );
     assert!(panicker.join().is_err());
     assert_eq!(code, ExitCode::from(EXIT_PANIC));
     let log_path = std::fs::read_dir(dir.path())

@@ -3,13 +3,13 @@
 
 use std::process::ExitCode;
 
+use videt_config::Config;
 use videt_control::Plane;
-use videt_rt_config::Config;
 use videt_runtime::cycle::WireZero;
 use videt_runtime::setup;
 use videt_runtime::snapshot::{SurfaceFeed, SurfaceView};
 use videt_runtime::telemetry::EndReason;
-use videt_service::service::{run_service, ServiceOptions, EXIT_PANIC};
+use videt_service::run::{run_service, HardwareReports, SceneLinks, ServiceSettings, EXIT_PANIC};
 
 /// A surface source that fails after a while.
 struct FailingFeed {
@@ -34,11 +34,11 @@ impl SurfaceFeed for FailingFeed {
 #[test]
 fn a_panic_in_the_control_loop_exits_nonzero() {
     let config = Config::default();
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 9);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 9);
     let rig = setup::rig(&config).unwrap();
     let cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let dir = tempfile::tempdir().unwrap();
-    let mut options = ServiceOptions::from_config(config);
+    let mut options = ServiceSettings::from_config(config);
     options.socket_path = None;
     options.telemetry_dir = Some(dir.path().to_path_buf());
     options.status_lines = false;
@@ -51,6 +51,8 @@ fn a_panic_in_the_control_loop_exits_nonzero() {
         },
         cycle,
         &options,
+        SceneLinks::default(),
+        HardwareReports::default(),
     );
     assert_eq!(code, ExitCode::from(EXIT_PANIC));
     let log_path = std::fs::read_dir(dir.path())

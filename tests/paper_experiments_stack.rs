@@ -6,11 +6,11 @@
 
 use std::sync::atomic::AtomicBool;
 
+use videt_config::Config;
 use videt_control::profile::Profile;
 use videt_control::Vec3;
 use videt_experiments::geometry::{path_stats, PathStats};
 use videt_experiments::Sample;
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
     WindowStats,

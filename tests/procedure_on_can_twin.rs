@@ -10,8 +10,8 @@ use common::Recorder;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use videt_assembly::can_twin::{drive_config, CanTwin};
+use videt_config::Config;
 use videt_control::safety::SafetyState;
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, ControlCommand, LoopControl, LoopSettings, LoopStats,
 };
@@ -23,7 +23,7 @@ use videt_service::init::remote::run_procedure;
 #[test]
 fn rendering_resumes_through_cia402_drives_after_auto_initialization() {
     let config = Config::default();
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 7);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 7);
     let wall = scene.wall;
     let rig = setup::rig(&config).unwrap();
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);

@@ -5,11 +5,11 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
+use videt_config::Config;
 use videt_control::{Surface, Vec3};
-use videt_rt_config::Config;
 use videt_runtime::snapshot::SurfaceFeed;
 use videt_service::relief_feed::relief_channel;
-use videt_service::relief_scene::{blend_params, box_relief, proxy_params, ReliefLayout};
+use videt_service::relief_scene::{blend_params, box_relief, proxy_params};
 
 #[global_allocator]
 static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocator;
@@ -17,7 +17,7 @@ static GLOBAL: videt_testkit::CountingAllocator = videt_testkit::CountingAllocat
 #[test]
 fn rendering_the_relief_allocates_nothing_on_the_control_thread() {
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let (model, _) = box_relief(&layout, 0.0).unwrap();
     let (mut writer, mut feed) = relief_channel(
         model,

@@ -12,8 +12,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use videt_config::Config;
 use videt_hal::MonoTime;
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, ControlCommand, CycleObserver, LoopControl, LoopEnd,
     LoopSettings, LoopStats, WindowStats,
@@ -76,7 +76,7 @@ fn record_stalled_session(
     faults: &[(f64, TwinFault)],
     stalls: Vec<(u64, Duration)>,
 ) {
-    let mut scene = videt_assembly::twin_scene::demo_scene(config, 3);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(config, 3);
     for &(t, fault) in faults {
         assert!(scene.twin.schedule_fault(MonoTime((t * 1e9) as u64), fault));
     }
@@ -113,7 +113,7 @@ fn record_stalled_session(
         settings,
     };
     if relief {
-        let layout = relief_scene::ReliefLayout::for_config(config);
+        let layout = videt_runtime::setup::relief_layout(config);
         let (model, _) = relief_scene::box_relief(&layout, 0.0).unwrap();
         let (mut writer, mut feed) =
             videt_service::relief_feed::relief_channel_for(config, model).unwrap();
@@ -789,7 +789,7 @@ fn videtd_session(
     std::fs::write(&config_path, toml::to_string(&config).unwrap()).unwrap();
     let logs = dir.join(name);
     let session = real_time();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_videtd"))
+    let out = std::process::Command::new(videt_testkit::videtd_bin())
         .args(["--sim", sim, "--config"])
         .arg(&config_path)
         .args(["--scene", scene, "--duration", "2", "--no-socket"])

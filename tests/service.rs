@@ -8,7 +8,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_service::socket::{request, Request};
 
 /// `key -> values` of a unit file's `[Service]` (and other) sections, comments dropped.
@@ -112,7 +112,7 @@ impl Drop for Daemon {
 }
 
 fn spawn_videtd(dir: &Path, extra: &[&str], notify: Option<&Path>) -> Daemon {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_videtd"));
+    let mut cmd = Command::new(videt_testkit::videtd_bin());
     cmd.arg("--sim")
         .arg("--telemetry-dir")
         .arg(dir.join("logs"))
@@ -345,7 +345,7 @@ fn the_demonstration_runs_cleanly_on_both_twins() {
     for sim in ["hal", "can"] {
         let dir = tempfile::tempdir().unwrap();
         let mut daemon = Daemon {
-            child: Command::new(env!("CARGO_BIN_EXE_videtd"))
+            child: Command::new(videt_testkit::videtd_bin())
                 .args([
                     "--sim",
                     sim,
@@ -444,7 +444,7 @@ fn a_drive_fault_is_logged_with_its_cause() {
     let socket = dir.path().join("ctl.sock");
     let stderr = dir.path().join("videtd.log");
     let mut daemon = Daemon {
-        child: Command::new(env!("CARGO_BIN_EXE_videtd"))
+        child: Command::new(videt_testkit::videtd_bin())
             .args(["--sim", "can", "--duration", "20", "--socket"])
             .arg(&socket)
             .arg("--telemetry-dir")
@@ -533,7 +533,7 @@ fn on_the_device_a_missing_part_is_named_with_its_configuration_field() {
         ),
     )
     .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+    let out = Command::new(videt_testkit::videtd_bin())
         .arg("--config")
         .arg(&config)
         .args(["--duration", "1"])
@@ -555,7 +555,7 @@ fn on_the_device_a_missing_part_is_named_with_its_configuration_field() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(!stderr.contains("CAN interface"), "{stderr}");
 
-    let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+    let out = Command::new(videt_testkit::videtd_bin())
         .arg("--config")
         .arg(&config)
         .args(["--scene", "box"])
@@ -593,7 +593,7 @@ fn the_twin_scenes_vision_threads_take_the_configured_priority() {
     std::fs::write(&config, "[realtime]\nvision_priority = 7\n").unwrap();
     for scene in ["box", "stereo"] {
         let mut daemon = Daemon {
-            child: Command::new(env!("CARGO_BIN_EXE_videtd"))
+            child: Command::new(videt_testkit::videtd_bin())
                 .arg("--config")
                 .arg(&config)
                 .args(["--sim", "--scene", scene, "--duration", "20"])
@@ -648,7 +648,7 @@ fn a_rate_the_bus_cannot_carry_is_refused_with_the_fields_named() {
             && text.contains("drives.max_bus_load = 0.8")
     };
     for mode in [&["--sim", "can"][..], &[][..]] {
-        let out = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        let out = Command::new(videt_testkit::videtd_bin())
             .arg("--config")
             .arg(&config)
             .args(mode)
@@ -705,7 +705,7 @@ fn a_tension_sensor_too_slow_for_the_gains_is_refused_or_runs_degraded_and_says_
         .unwrap();
     };
     let run = || {
-        Command::new(env!("CARGO_BIN_EXE_videtd"))
+        Command::new(videt_testkit::videtd_bin())
             .arg("--config")
             .arg(&config)
             .args([

@@ -48,7 +48,7 @@ fn a_full_disk_is_said_at_once_the_loop_goes_on_and_the_log_resumes_when_there_i
     // No free space kept: the disk fills (retention's pause is the writer's tests').
     let config = work.path().join("videt.toml");
     std::fs::write(&config, "[telemetry]\nmin_free_mb = 0\n").unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_videtd"))
+    let mut child = Command::new(videt_testkit::videtd_bin())
         .args(["--sim", "--scene", "box", "--duration", "16", "--config"])
         .arg(&config)
         .arg("--telemetry-dir")
@@ -141,7 +141,7 @@ fn a_twin_session_log_takes_no_more_than_retention_counts() {
     use videt_runtime::telemetry::{version_3_bytes, LogReader};
     for scene in ["wall", "box"] {
         let work = tempfile::tempdir().unwrap();
-        let status = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        let status = Command::new(videt_testkit::videtd_bin())
             .args(["--sim", "--scene", scene, "--duration", "4", "--no-socket"])
             .arg("--telemetry-dir")
             .arg(work.path())

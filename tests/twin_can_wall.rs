@@ -12,9 +12,9 @@ use videt_assembly::WiremanTwin as Twin;
 use videt_runtime::WIREMAN_WIRES;
 
 use videt_assembly::can_twin::{drive_config, CanTwin};
+use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_hal::{DriveSample, WireDrives};
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
 };
@@ -80,7 +80,7 @@ fn the_can_twin_s_drives_have_the_rated_torque_of_the_device_description() {
     let mut can = can_twin(&config);
     start_hardware(&mut can).unwrap();
     let through_can = applied(&mut can, command, |h| h.twin());
-    let mut hal = videt_assembly::twin_scene::demo_scene(&config, 42).twin;
+    let mut hal = videt_assembly::twin_scene::wireman_wall_scene(&config, 42).twin;
     start_hardware(&mut hal).unwrap();
     let through_hal = applied(&mut hal, command, |t| t);
     for i in 0..WIREMAN_WIRES {
@@ -132,7 +132,7 @@ fn can_twin(config: &Config) -> CanTwin<3, Twin> {
     let mut drives = drive_config(config);
     drives.drive_heartbeat_timeout = std::time::Duration::from_secs(5);
     CanTwin::stepped(
-        videt_assembly::twin_scene::demo_scene(config, 42).twin,
+        videt_assembly::twin_scene::wireman_wall_scene(config, 42).twin,
         drives,
         videt_assembly::drive_dictionary::for_config(config).unwrap(),
     )
@@ -144,7 +144,7 @@ fn can_twin(config: &Config) -> CanTwin<3, Twin> {
 /// coarse) and the drives end powered off.
 fn render_the_wall(config: &Config, resolution_m: f64) {
     let config = config.clone();
-    let mut scene = videt_assembly::twin_scene::demo_scene(&config, 42);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 42);
     let start = scene.twin.plant().position_m();
     let wall_z = scene.wall_z_m;
     let press = Vec3::new(start.x, start.y, wall_z + 0.02);

@@ -4,9 +4,10 @@
 
 use std::sync::atomic::AtomicBool;
 
+use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_control::Surface;
-use videt_rt_config::Config;
+use videt_relief::{build_from_device, ReliefModel, ReliefShape};
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
     WindowStats,
@@ -16,10 +17,9 @@ use videt_runtime::setup;
 use videt_runtime::snapshot::SnapshotWriter;
 use videt_service::relief_feed::relief_channel;
 use videt_service::relief_scene::{
-    blend_params, box_operator, box_relief, box_segments, proxy_params, ReliefLayout,
+    blend_params, box_operator, box_relief, box_segments, proxy_params,
 };
 use videt_sim::Vec3;
-use videt_vision::surface::{build_from_device, ReliefModel, ReliefShape};
 
 /// Keeps every record and publishes a new surface at a given period (as the vision thread
 /// would; the test publishes from the observer for determinism).
@@ -49,7 +49,7 @@ fn slide(
     model_a: &ReliefModel,
     model_b: &ReliefModel,
 ) -> (videt_runtime::control_loop::LoopReport, Vec<CycleRecord>) {
-    let layout = ReliefLayout::for_config(config);
+    let layout = videt_runtime::setup::relief_layout(config);
     let k = config.control.stiffness_n_per_m;
     let period_s = 1.0 / f64::from(config.control.rate_hz);
     let (writer, mut feed) = relief_channel(
@@ -61,7 +61,7 @@ fn slide(
     )
     .unwrap();
 
-    let mut scene = videt_assembly::twin_scene::demo_scene(config, 42);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(config, 42);
     let start = scene.twin.plant().position_m();
     scene.twin.set_operator(box_operator(&layout, start, 5.0));
     let rig = setup::rig(config).unwrap();
@@ -155,7 +155,7 @@ fn distance_inside(model: &ReliefModel, p: &videt_control::Vec3) -> f64 {
 #[test]
 fn operator_slides_over_a_box_relief_without_pop_through_or_force_jumps() {
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let (model_a, report) = box_relief(&layout, 0.0).unwrap();
     assert_eq!(report.constraints_kept, 8);
     // The surface swapped in mid-slide: the box top 4 mm nearer.
@@ -252,7 +252,7 @@ fn operator_slides_over_a_stepped_relief_without_pop_through_or_force_jumps() {
     // The same outlines built with the stepped shape: the box's sides become the walls of an
     // occluding edge, the finger slides onto the top, off its cliff and back.
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let stepped = |lift_m: f64| {
         let mut params = layout.params([640, 480], [0.5, 5.0]).unwrap();
         params.shape = ReliefShape::Stepped;

@@ -6,9 +6,9 @@ use common::Recorder;
 use std::sync::atomic::AtomicBool;
 use videt_assembly::WiremanTwin as Twin;
 
+use videt_config::Config;
 use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::MonoTime;
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
 };
@@ -24,7 +24,7 @@ fn run(
     prepare: impl FnOnce(&mut Twin),
 ) -> (Twin, Vec<CycleRecord>) {
     let config = Config::default();
-    let mut scene = videt_assembly::twin_scene::demo_scene(&config, 21);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 21);
     let start = scene.twin.plant().position_m();
     scene.twin.set_operator(operator(start, scene.wall_z_m));
     prepare(&mut scene.twin);

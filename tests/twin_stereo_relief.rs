@@ -8,8 +8,9 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
+use videt_config::Config;
 use videt_control::safety::SafetyState;
-use videt_rt_config::Config;
+use videt_relief::ReliefModel;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, CycleObserver, LoopControl, LoopSettings, LoopStats,
     WindowStats,
@@ -18,12 +19,9 @@ use videt_runtime::cycle::{CycleRecord, WireZero};
 use videt_runtime::setup;
 use videt_runtime::snapshot::SnapshotWriter;
 use videt_service::relief_feed::relief_channel;
-use videt_service::relief_scene::{
-    blend_params, proxy_params, sweep_operator, ReliefLayout, SweepPath,
-};
+use videt_service::relief_scene::{blend_params, proxy_params, sweep_operator, SweepPath};
 use videt_service::stereo_relief::{LiveSettings, StereoPair, StereoRelief};
 use videt_sim::Vec3;
-use videt_vision::surface::ReliefModel;
 
 /// The vision thread, run from the observer for determinism: every `every_cycles` periods it
 /// re-matches the region under the finger and publishes the rebuilt relief; every
@@ -78,7 +76,7 @@ fn force_step(a: &CycleRecord, b: &CycleRecord) -> f64 {
 #[test]
 fn operator_sweeps_a_live_relief_from_a_real_stereo_pair() {
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
     let live = LiveSettings {
         update_period_s: 0.1,
         ..LiveSettings::default()
@@ -97,7 +95,7 @@ fn operator_sweeps_a_live_relief_from_a_real_stereo_pair() {
     let (writer, mut feed) =
         relief_channel(model.clone(), proxy_params(), blend, k, period_s).unwrap();
 
-    let mut scene = videt_assembly::twin_scene::demo_scene(&config, 7);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 7);
     let start = scene.twin.plant().position_m();
     let path = SweepPath::default();
     let (operator, _) = sweep_operator(&layout, &model, start, &path);

@@ -10,7 +10,7 @@ mod common;
 use common::Recorder;
 use std::sync::atomic::AtomicBool;
 
-use videt_rt_config::{Config, TensionAdc};
+use videt_config::{Config, TensionAdc};
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
 };
@@ -21,7 +21,7 @@ use videt_sim::{VirtualOperator, Waypoint};
 
 /// Run the loop for `seconds` with the operator pressing 2 cm into the check wall and holding.
 fn press_and_hold(config: &Config, seconds: f64) -> Vec<CycleRecord> {
-    let mut scene = videt_assembly::twin_scene::demo_scene(config, 7);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(config, 7);
     let start = scene.twin.plant().position_m();
     let mut press = start;
     press.z = scene.wall_z_m + 0.02;

@@ -5,8 +5,8 @@ mod common;
 use common::Recorder;
 use std::sync::atomic::AtomicBool;
 
+use videt_config::Config;
 use videt_control::safety::SafetyState;
-use videt_rt_config::Config;
 use videt_runtime::control_loop::{
     run_control_loop, start_hardware, LoopControl, LoopSettings, LoopStats,
 };
@@ -23,7 +23,7 @@ fn run(
     Vec<CycleRecord>,
     videt_runtime::control_loop::LoopReport,
 ) {
-    let mut scene = videt_assembly::twin_scene::demo_scene(config, 42);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(config, 42);
     scene.twin.set_operator(operator);
     let rig = setup::rig(config).unwrap();
     let mut cycle = setup::control_cycle(config, rig, WireZero::default(), true);
@@ -51,7 +51,7 @@ fn run(
 #[test]
 fn thimble_rests_on_the_wall_at_the_penetration_the_stiffness_predicts() {
     let config = Config::default();
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 42);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 42);
     let start = scene.twin.plant().position_m();
     let wall_z = scene.wall_z_m;
     // Approach the wall over 0.4 s and keep pressing 2 cm beyond it.
@@ -104,7 +104,7 @@ fn thimble_rests_on_the_wall_at_the_penetration_the_stiffness_predicts() {
 #[test]
 fn operator_slides_along_the_wall_without_popping_through() {
     let config = Config::default();
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 7);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 7);
     let start = scene.twin.plant().position_m();
     let wall_z = scene.wall_z_m;
     let operator = VirtualOperator::touch_and_slide(start, wall_z, 0.02, 0.08, 4.0);
@@ -165,7 +165,7 @@ fn a_stale_surface_fades_to_free_space_and_recovers() {
     let mut config = Config::default();
     config.vision.surface_max_age_s = 0.5;
     config.vision.surface_fade_s = 0.2;
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 3);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 3);
     let start = scene.twin.plant().position_m();
     let press = Vec3::new(start.x, start.y, scene.wall_z_m + 0.02);
     let mut twin = scene.twin;

@@ -91,7 +91,7 @@ fn every_failure_leaves_the_previous_calibration_byte_for_byte() {
     let f = files();
     assert!(init(&f, &[]).status.success());
     let before = std::fs::read(&f.calibration).unwrap();
-    let backup = videt_rt_config::calibration::backup_path(&f.calibration);
+    let backup = videt_config::calibration::backup_path(&f.calibration);
     let cases: [(&[&str], i32, &str); 5] = [
         (&["--sim-fault", "disconnected:2"], 12, "wire 2 never moved"),
         (&["--sim-fault", "estop:3"], 10, "e-stop"),
@@ -151,7 +151,7 @@ fn a_second_init_keeps_the_first_as_backup_and_a_corrupt_file_is_refused() {
     assert!(init(&f, &[]).status.success());
     let first = std::fs::read(&f.calibration).unwrap();
     assert!(init(&f, &["--sim-seed", "2"]).status.success());
-    let backup = videt_rt_config::calibration::backup_path(&f.calibration);
+    let backup = videt_config::calibration::backup_path(&f.calibration);
     assert_eq!(std::fs::read(&backup).unwrap(), first);
     // Truncate: status says it is corrupt and that the rig is not calibrated.
     let text = std::fs::read(&f.calibration).unwrap();
@@ -317,7 +317,7 @@ fn videtd_renders_forces_after_auto_initializing_its_twin_and_not_without_calibr
     for (source, expected) in [("init", "normal"), ("none", "not-calibrated")] {
         let dir = tempfile::tempdir().unwrap();
         let socket = dir.path().join("videtd.sock");
-        let mut daemon = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        let mut daemon = Command::new(videt_testkit::videtd_bin())
             .args([
                 "--sim",
                 "--sim-calibration",

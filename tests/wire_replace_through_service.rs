@@ -11,8 +11,8 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use videt_rt_config::calibration::Calibration;
-use videt_rt_config::Config;
+use videt_config::calibration::Calibration;
+use videt_config::Config;
 use videt_service::socket::{request, Request};
 
 const GUIDES: &str = "0.02,-0.01;0.40,0.03;0.17,0.31";

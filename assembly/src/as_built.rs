@@ -7,7 +7,7 @@
 //! `drives.node_ids` in the configuration fixes a swap and a configuration's own mistake shows
 //! as one.
 
-use videt_rt_config::{Config, LineLevel, TensionAdc};
+use videt_config::{Config, LineLevel, TensionAdc};
 use videt_runtime::WIREMAN_WIRES;
 use videt_sim::Wiring;
 

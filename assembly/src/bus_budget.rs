@@ -9,11 +9,10 @@
 //! allows); the configuration is refused when the worst case exceeds `drives.max_bus_load`.
 
 use videt_can_timing::{worst_case_bits, BusLoad};
+use videt_config::{Config, ConfigError, TensionAdc};
 use videt_drivers::cia402::pdo;
-use videt_rt_config::{Config, ConfigError, TensionAdc};
-
-/// Drives on the bus.
-const DRIVES: usize = 3;
+// One drive on the bus per WireMan wire.
+use videt_runtime::WIREMAN_WIRES;
 
 /// The traffic of `config`'s drive set: data lengths sent every period, and
 /// `(length, interval s)` of the frames sent on timers.
@@ -53,7 +52,7 @@ pub fn describe(config: &Config) -> String {
          highest control rate within the limit: {} Hz",
         config.drives.bitrate,
         config.control.rate_hz,
-        DRIVES,
+        WIREMAN_WIRES,
         if config.sensors.adc == TensionAdc::Drive {
             " (their analog inputs in TPDO1)"
         } else {
@@ -88,7 +87,7 @@ pub fn check(config: &Config) -> Result<BusLoad, ConfigError> {
              (worst-case bit stuffing; {:.0}% nominal) where drives.max_bus_load = {}",
             max_rate_hz(config),
             config.drives.bitrate,
-            DRIVES,
+            WIREMAN_WIRES,
             load.worst_case_cycle_s * 1e6,
             100.0 * load.worst_case(),
             config.control.rate_hz,
@@ -143,7 +142,7 @@ mod tests {
     fn the_highest_rate_is_the_boundary_of_the_check_on_every_bit_rate() {
         let mut config = Config::default();
         let mut highest = Vec::new();
-        for bitrate in videt_rt_config::CAN_BITRATES {
+        for bitrate in videt_config::CAN_BITRATES {
             config.drives.bitrate = bitrate;
             let max = max_rate_hz(&config);
             highest.push(max);

@@ -32,7 +32,7 @@ use videt_sim::cia402_node::{
 use videt_sim::{Twin, TwinError};
 
 use crate::twin_rt::RealTimeTwin;
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_runtime::setup;
 
 /// Node ids of the simulated drives (wire 0, 1, 2, 3: a device uses the first ones).

@@ -7,10 +7,10 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use videt_drivers::canopen::eds::{parse_value, Eds};
-use videt_drivers::cia402::resolution::{DriveResolution, TorqueUnit};
-use videt_rt_config::drive_units::DeviceDescription;
-use videt_rt_config::Config;
+use videt_config::drive_units::DeviceDescription;
+use videt_config::Config;
+use videt_drive_description::eds::{parse_value, Eds};
+use videt_drive_description::{DriveResolution, TorqueUnit};
 use videt_sim::cia402_node::dictionary::{
     DefaultValue, DescribedObject, DriveDictionary, ObjectAccess,
 };

@@ -10,13 +10,13 @@ use core::fmt;
 use std::time::Duration;
 use videt_runtime::WIREMAN_WIRES;
 
+use videt_config::{Config, TensionAdc};
 use videt_drivers::adc::calibration::TensionCalibration;
 use videt_drivers::cia402::{AnalogInputObject, DriveSetConfig};
 use videt_hal::{
     Clock, DriveSample, EStop, ErrorKind, ErrorType, Lifecycle, LifecycleState, MonoTime,
     TensionSensors, WireDrives,
 };
-use videt_rt_config::{Config, TensionAdc};
 
 use videt_runtime::rt::SystemClock;
 
@@ -241,9 +241,9 @@ pub fn drive_set_config(config: &Config) -> DriveSetConfig<WIREMAN_WIRES> {
 }
 
 /// The ADS1220 registers for `[sensors]`: PGA gain 128, the configured mode and data rate.
-pub fn ads1220_config(s: &videt_rt_config::SensorsConfig) -> videt_drivers::adc::ads1220::Config {
+pub fn ads1220_config(s: &videt_config::SensorsConfig) -> videt_drivers::adc::ads1220::Config {
+    use videt_config::{Ads1220Mode, ADS1220_NORMAL_SPS, ADS1220_TURBO_SPS};
     use videt_drivers::adc::ads1220::{Config as Regs, PgaGain};
-    use videt_rt_config::{Ads1220Mode, ADS1220_NORMAL_SPS, ADS1220_TURBO_SPS};
     let (turbo, rates) = match s.ads1220_mode {
         Ads1220Mode::Normal => (false, ADS1220_NORMAL_SPS),
         Ads1220Mode::Turbo => (true, ADS1220_TURBO_SPS),
@@ -272,6 +272,7 @@ pub use linux::{open_device, LinuxDevice};
 mod linux {
     use std::time::Duration;
 
+    use videt_config::{Config, TensionAdc};
     use videt_drivers::adc::drive_input::DriveInputAdc;
     use videt_drivers::adc::linux::{open_ads1220, open_hx711, LinuxAdc};
     use videt_drivers::adc::tension_set::{MonotonicClock, StrainGaugeSet};
@@ -279,7 +280,6 @@ mod linux {
     use videt_drivers::cia402::Cia402DriveSet;
     use videt_drivers::gpio::estop::EStopInput;
     use videt_drivers::gpio::linux::CdevPin;
-    use videt_rt_config::{Config, TensionAdc};
 
     use super::{
         ads1220_config, drive_set_config, nominal_tension_scales, DeviceHardware,
@@ -306,7 +306,7 @@ mod linux {
             &s.gpio_chip,
             s.estop_line,
             ESTOP_DEBOUNCE_SAMPLES,
-            s.estop_pressed_level == videt_rt_config::LineLevel::High,
+            s.estop_pressed_level == videt_config::LineLevel::High,
         )
         .map_err(|e| format!("{e} (sensors.gpio_chip, sensors.estop_line)"))?;
         let open_drives = || {
@@ -582,7 +582,7 @@ mod tests {
             ads1220_config(&config.sensors),
             Regs::bridge_for_control(PgaGain::X128)
         );
-        config.sensors.ads1220_mode = videt_rt_config::Ads1220Mode::Normal;
+        config.sensors.ads1220_mode = videt_config::Ads1220Mode::Normal;
         config.sensors.sample_rate_sps = 330;
         config.validate().unwrap();
         let r = ads1220_config(&config.sensors);

@@ -1,8 +1,8 @@
 //! The twin's demonstration scenes: the twin of the configured device in front of the check
 //! wall, with a virtual operator who touches it and slides along it.
 
+use videt_config::Config;
 use videt_control::{Plane, Rig3, WireDevice};
-use videt_rt_config::Config;
 use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::setup::{check_wall, rig, transmission, twin_torque_step_nm, CHECK_WALL_Z_M};
 use videt_sim::{PlantParams, SensorModel, VirtualOperator, WireModules};
@@ -10,7 +10,7 @@ use videt_sim::{PlantParams, SensorModel, VirtualOperator, WireModules};
 /// The twin's demonstration scene: a wall in front of the frame, and a virtual operator who
 /// touches it, slides along it and comes back, over and over.
 #[derive(Debug)]
-pub struct DemoSceneOf<const N: usize, D: WireDevice<N>> {
+pub struct WallScene<const N: usize, D: WireDevice<N>> {
     /// The twin, with the thimble in front of the frame's centre.
     pub twin: videt_sim::Twin<N, D>,
     /// The wall (solid beyond `z = wall_z_m`, outward normal towards the user, `-z`).
@@ -20,22 +20,22 @@ pub struct DemoSceneOf<const N: usize, D: WireDevice<N>> {
 }
 
 /// The WireMan's demonstration scene.
-pub type DemoScene = DemoSceneOf<3, Rig3>;
+pub type WiremanWallScene = WallScene<3, Rig3>;
 
 /// Build the demonstration scene for the configured rig (the twin's guides are the configured
 /// ones: on the twin the configuration is the truth; its motors apply torque in the configured
 /// drive's steps, [`twin_torque_step_nm`](videt_runtime::setup::twin_torque_step_nm)).
-pub fn demo_scene(config: &Config, sensor_seed: u64) -> DemoScene {
+pub fn wireman_wall_scene(config: &Config, sensor_seed: u64) -> WiremanWallScene {
     // A configuration whose guides make no rig is refused on load; the paper's frame stands in.
     let device = rig(config).unwrap_or(PlantParams::paper_default().device);
     let g = device.guides_m();
     let start = (g[0] + g[1] + g[2]) / 3.0 + videt_sim::Vec3::new(0.0, 0.0, 0.30);
-    demo_scene_for(config, device, start, sensor_seed)
+    wall_scene(config, device, start, sensor_seed)
 }
 
 /// Where the thimble starts in a device's demonstration scene: 0.3 m in front of its guides'
 /// centre (the one-wire device's a little off its guide's axis, where the azimuth is defined).
-pub fn demo_start<const N: usize, D: RuntimeDevice<N>>(device: &D) -> videt_sim::Vec3 {
+pub fn thimble_start<const N: usize, D: RuntimeDevice<N>>(device: &D) -> videt_sim::Vec3 {
     let g = device.logged_guides_m();
     let centre = g[..N].iter().fold(videt_sim::Vec3::zeros(), |c, p| {
         c + videt_sim::Vec3::new(p[0], p[1], p[2])
@@ -51,12 +51,12 @@ pub fn demo_start<const N: usize, D: RuntimeDevice<N>>(device: &D) -> videt_sim:
 /// The check wall's demonstration on any device: the twin of `device` with the configured
 /// transmission, sensors and torque steps, the thimble at `start`, a virtual operator who
 /// touches the wall, slides along it and comes back, over and over.
-pub fn demo_scene_for<const N: usize, D: WireDevice<N>>(
+pub fn wall_scene<const N: usize, D: WireDevice<N>>(
     config: &Config,
     device: D,
     start: videt_sim::Vec3,
     sensor_seed: u64,
-) -> DemoSceneOf<N, D> {
+) -> WallScene<N, D> {
     let mut params = PlantParams::for_device(device);
     params.transmission = transmission(config);
     params.wire_ea_n = config.transmission.wire_ea_n;
@@ -75,7 +75,7 @@ pub fn demo_scene_for<const N: usize, D: WireDevice<N>>(
         inside_length_m: [config.transmission.inside_wire_m; N],
         ..WireModules::default()
     });
-    DemoSceneOf {
+    WallScene {
         twin,
         wall: check_wall(),
         wall_z_m,

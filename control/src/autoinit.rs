@@ -33,9 +33,7 @@ use nalgebra::Matrix3;
 use crate::kinematics::{Rig3, RigError};
 use crate::Vec3;
 
-/// Wires of the base triangle: auto-initialization needs the three wires of the WireMan
-/// (a device with another wire count has no base triangle to measure).
-pub const BASE_WIRES: usize = 3;
+use crate::WIREMAN_WIRES;
 
 /// Settings of the procedure (from the configuration's `[autoinit]` and `[control]` sections).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -98,7 +96,7 @@ pub enum Plan {
     /// tension.
     Home {
         /// Which wires to home.
-        wires: [bool; BASE_WIRES],
+        wires: [bool; WIREMAN_WIRES],
     },
     /// Measure the base triangle with the wires connected to the thimble (each winding also
     /// homes its wire).
@@ -297,7 +295,7 @@ pub struct BaseTriangle {
 /// The six side measurements of three windings: `lengths_at_stop_m[i][j]` is wire `j`'s length
 /// when winding `i` stopped at ring `i`.
 pub fn solve_base_triangle(
-    lengths_at_stop_m: &[[f64; BASE_WIRES]; BASE_WIRES],
+    lengths_at_stop_m: &[[f64; WIREMAN_WIRES]; WIREMAN_WIRES],
     side_tolerance_m: f64,
 ) -> Result<BaseTriangle, Failure> {
     let m = lengths_at_stop_m;
@@ -399,7 +397,7 @@ pub struct Workspace {
     pub max_m: [f64; 3],
     /// The longest each wire gets anywhere in the workspace, metres: a wire must be usable at
     /// least this long.
-    pub required_length_m: [f64; BASE_WIRES],
+    pub required_length_m: [f64; WIREMAN_WIRES],
 }
 
 /// Whether a point is served (see [`WorkspaceSpec`]).
@@ -444,7 +442,7 @@ pub fn workspace(rig: &Rig3, spec: &WorkspaceSpec) -> Workspace {
         points: 0,
         min_m: [f64::INFINITY; 3],
         max_m: [f64::NEG_INFINITY; 3],
-        required_length_m: [0.0; BASE_WIRES],
+        required_length_m: [0.0; WIREMAN_WIRES],
     };
     for ix in 0..nx {
         for iy in 0..ny {
@@ -463,7 +461,7 @@ pub fn workspace(rig: &Rig3, spec: &WorkspaceSpec) -> Workspace {
                     out.max_m[k] = out.max_m[k].max(p[k]);
                 }
                 let l = rig.inverse(&p);
-                for i in 0..BASE_WIRES {
+                for i in 0..WIREMAN_WIRES {
                     out.required_length_m[i] = out.required_length_m[i].max(l[i]);
                 }
             }
@@ -483,11 +481,11 @@ pub struct ProcedureInput {
     /// Time, seconds (any origin; must not go backwards).
     pub time_s: f64,
     /// Encoder counts, positive = wound in.
-    pub counts: [i64; BASE_WIRES],
+    pub counts: [i64; WIREMAN_WIRES],
     /// Wire speeds, m/s, positive = winding.
-    pub wind_speed_m_s: [f64; BASE_WIRES],
+    pub wind_speed_m_s: [f64; WIREMAN_WIRES],
     /// Measured tensions, N.
-    pub tension_n: [f64; BASE_WIRES],
+    pub tension_n: [f64; WIREMAN_WIRES],
     /// The e-stop is (latched) pressed.
     pub estop_pressed: bool,
     /// A drive failed (`Some(None)`: which one is unknown).
@@ -528,10 +526,10 @@ struct StopDetector {
     /// Time the wire was first seen stopped with its tension up.
     stopped_since_s: Option<f64>,
     /// Counts summed over the measuring window (relative to `base`, so no overflow).
-    sum_counts: [f64; BASE_WIRES],
+    sum_counts: [f64; WIREMAN_WIRES],
     samples: u32,
     done: bool,
-    base: [i64; BASE_WIRES],
+    base: [i64; WIREMAN_WIRES],
 }
 
 /// The homing / auto-initialization state machine. See the module documentation.
@@ -542,19 +540,19 @@ pub struct Procedure {
     stage: Stage,
     stage_start_s: f64,
     started: bool,
-    detectors: [StopDetector; BASE_WIRES],
-    speed_integral_n: [f64; BASE_WIRES],
+    detectors: [StopDetector; WIREMAN_WIRES],
+    speed_integral_n: [f64; WIREMAN_WIRES],
     last_time_s: f64,
-    start_counts: [i64; BASE_WIRES],
-    first_counts: [i64; BASE_WIRES],
-    counts_at_stop: [[f64; BASE_WIRES]; BASE_WIRES],
-    zero_known: [bool; BASE_WIRES],
-    over_tension_s: [f64; BASE_WIRES],
-    home_counts: [i64; BASE_WIRES],
-    lengths_at_stop_m: [[f64; BASE_WIRES]; BASE_WIRES],
+    start_counts: [i64; WIREMAN_WIRES],
+    first_counts: [i64; WIREMAN_WIRES],
+    counts_at_stop: [[f64; WIREMAN_WIRES]; WIREMAN_WIRES],
+    zero_known: [bool; WIREMAN_WIRES],
+    over_tension_s: [f64; WIREMAN_WIRES],
+    home_counts: [i64; WIREMAN_WIRES],
+    lengths_at_stop_m: [[f64; WIREMAN_WIRES]; WIREMAN_WIRES],
     result: Option<BaseTriangle>,
     failure: Option<Failure>,
-    open_loop: [bool; BASE_WIRES],
+    open_loop: [bool; WIREMAN_WIRES],
 }
 
 impl Procedure {
@@ -566,25 +564,25 @@ impl Procedure {
             stage: Stage::Settle,
             stage_start_s: 0.0,
             started: false,
-            detectors: [StopDetector::default(); BASE_WIRES],
-            speed_integral_n: [0.0; BASE_WIRES],
+            detectors: [StopDetector::default(); WIREMAN_WIRES],
+            speed_integral_n: [0.0; WIREMAN_WIRES],
             last_time_s: 0.0,
-            start_counts: [0; BASE_WIRES],
-            first_counts: [0; BASE_WIRES],
-            counts_at_stop: [[0.0; BASE_WIRES]; BASE_WIRES],
-            zero_known: [false; BASE_WIRES],
-            over_tension_s: [0.0; BASE_WIRES],
-            home_counts: [0; BASE_WIRES],
-            lengths_at_stop_m: [[0.0; BASE_WIRES]; BASE_WIRES],
+            start_counts: [0; WIREMAN_WIRES],
+            first_counts: [0; WIREMAN_WIRES],
+            counts_at_stop: [[0.0; WIREMAN_WIRES]; WIREMAN_WIRES],
+            zero_known: [false; WIREMAN_WIRES],
+            over_tension_s: [0.0; WIREMAN_WIRES],
+            home_counts: [0; WIREMAN_WIRES],
+            lengths_at_stop_m: [[0.0; WIREMAN_WIRES]; WIREMAN_WIRES],
             result: None,
             failure: None,
-            open_loop: [false; BASE_WIRES],
+            open_loop: [false; WIREMAN_WIRES],
         }
     }
 
     /// Which wires the last period is winding under the procedure's own speed loop (their
     /// set-point may reach the winding cap); the others hold the pay-out tension.
-    pub fn winding_wires(&self) -> [bool; BASE_WIRES] {
+    pub fn winding_wires(&self) -> [bool; WIREMAN_WIRES] {
         self.open_loop
     }
 
@@ -600,7 +598,7 @@ impl Procedure {
 
     /// After a successful homing or initialization: the encoder count of each homed wire at
     /// free length zero (wires not homed: 0).
-    pub fn homed_zero_counts(&self) -> [i64; BASE_WIRES] {
+    pub fn homed_zero_counts(&self) -> [i64; WIREMAN_WIRES] {
         self.home_counts
     }
 
@@ -615,23 +613,23 @@ impl Procedure {
     }
 
     /// Lengths measured at each winding's stop (valid for the windings that finished).
-    pub fn lengths_at_stop_m(&self) -> &[[f64; BASE_WIRES]; BASE_WIRES] {
+    pub fn lengths_at_stop_m(&self) -> &[[f64; WIREMAN_WIRES]; WIREMAN_WIRES] {
         &self.lengths_at_stop_m
     }
 
     /// End the procedure from outside (e.g. an operator's stop), with every wire at the pay-out
     /// tension.
-    pub fn abort(&mut self, failure: Failure, setpoint_n: &mut [f64; BASE_WIRES]) {
+    pub fn abort(&mut self, failure: Failure, setpoint_n: &mut [f64; WIREMAN_WIRES]) {
         self.fail(failure, setpoint_n);
     }
 
-    fn fail(&mut self, failure: Failure, setpoint_n: &mut [f64; BASE_WIRES]) -> Status {
+    fn fail(&mut self, failure: Failure, setpoint_n: &mut [f64; WIREMAN_WIRES]) -> Status {
         if self.failure.is_none() && self.stage != Stage::Finished {
             self.failure = Some(failure);
             self.stage = Stage::Failed;
         }
-        *setpoint_n = [self.params.pay_out_tension_n; BASE_WIRES];
-        self.open_loop = [false; BASE_WIRES];
+        *setpoint_n = [self.params.pay_out_tension_n; WIREMAN_WIRES];
+        self.open_loop = [false; WIREMAN_WIRES];
         match self.failure {
             Some(f) => Status::Failed(f),
             None => Status::Finished,
@@ -647,13 +645,17 @@ impl Procedure {
         self.stage = stage;
         self.stage_start_s = input.time_s;
         self.start_counts = input.counts;
-        self.detectors = [StopDetector::default(); BASE_WIRES];
-        self.speed_integral_n = [0.0; BASE_WIRES];
+        self.detectors = [StopDetector::default(); WIREMAN_WIRES];
+        self.speed_integral_n = [0.0; WIREMAN_WIRES];
     }
 
     /// Run one period: read `input`, write the tension set-points, say where the procedure is.
     /// Once finished or failed it keeps every set-point at the pay-out tension.
-    pub fn update(&mut self, input: &ProcedureInput, setpoint_n: &mut [f64; BASE_WIRES]) -> Status {
+    pub fn update(
+        &mut self,
+        input: &ProcedureInput,
+        setpoint_n: &mut [f64; WIREMAN_WIRES],
+    ) -> Status {
         let status = self.step(input, setpoint_n);
         if status == Status::Running {
             self.govern(input, setpoint_n);
@@ -664,9 +666,9 @@ impl Procedure {
     /// Speed governor of the tension-controlled wires: nothing holds an empty thimble, so wires
     /// at the pay-out tension could gather it (and themselves) fast. A wire winding faster than
     /// half the winding speed has its set-point lowered, to zero at the winding speed.
-    fn govern(&self, input: &ProcedureInput, setpoint_n: &mut [f64; BASE_WIRES]) {
+    fn govern(&self, input: &ProcedureInput, setpoint_n: &mut [f64; WIREMAN_WIRES]) {
         let v = self.params.wind_speed_m_s;
-        for i in 0..BASE_WIRES {
+        for i in 0..WIREMAN_WIRES {
             if self.open_loop[i] {
                 continue;
             }
@@ -678,12 +680,12 @@ impl Procedure {
         }
     }
 
-    fn step(&mut self, input: &ProcedureInput, setpoint_n: &mut [f64; BASE_WIRES]) -> Status {
+    fn step(&mut self, input: &ProcedureInput, setpoint_n: &mut [f64; WIREMAN_WIRES]) -> Status {
         let p = self.params;
-        self.open_loop = [false; BASE_WIRES];
+        self.open_loop = [false; WIREMAN_WIRES];
         match self.stage {
             Stage::Finished => {
-                *setpoint_n = [p.pay_out_tension_n; BASE_WIRES];
+                *setpoint_n = [p.pay_out_tension_n; WIREMAN_WIRES];
                 return Status::Finished;
             }
             Stage::Failed => return self.fail(Failure::SensorFault, setpoint_n),
@@ -708,7 +710,7 @@ impl Procedure {
         if input.sensor_fault || input.tension_n.iter().any(|t| !t.is_finite()) {
             return self.fail(Failure::SensorFault, setpoint_n);
         }
-        for i in 0..BASE_WIRES {
+        for i in 0..WIREMAN_WIRES {
             let wire = i as u8;
             if input.tension_n[i] > p.max_tension_n {
                 self.over_tension_s[i] += dt;
@@ -745,7 +747,7 @@ impl Procedure {
         let elapsed = input.time_s - self.stage_start_s;
         match self.stage {
             Stage::Settle => {
-                *setpoint_n = [p.pay_out_tension_n; BASE_WIRES];
+                *setpoint_n = [p.pay_out_tension_n; WIREMAN_WIRES];
                 if elapsed >= p.settle_s {
                     let next = match self.plan {
                         Plan::Home { .. } => Stage::Homing,
@@ -798,7 +800,7 @@ impl Procedure {
                     if d.samples == 0 {
                         d.base = input.counts;
                     }
-                    for j in 0..BASE_WIRES {
+                    for j in 0..WIREMAN_WIRES {
                         d.sum_counts[j] += (input.counts[j] - d.base[j]) as f64;
                     }
                     d.samples += 1;
@@ -823,14 +825,14 @@ impl Procedure {
         input: &ProcedureInput,
         dt: f64,
         elapsed: f64,
-        setpoint_n: &mut [f64; BASE_WIRES],
+        setpoint_n: &mut [f64; WIREMAN_WIRES],
     ) -> Status {
         let Plan::Home { wires } = self.plan else {
             return Status::Running;
         };
         let p = self.params;
         let mut all_done = true;
-        for i in 0..BASE_WIRES {
+        for i in 0..WIREMAN_WIRES {
             if !wires[i] {
                 setpoint_n[i] = p.pay_out_tension_n;
                 continue;
@@ -863,13 +865,13 @@ impl Procedure {
             setpoint_n[i] = self.wind_setpoint(i, input, dt);
         }
         if all_done {
-            for i in 0..BASE_WIRES {
+            for i in 0..WIREMAN_WIRES {
                 if wires[i] {
                     self.home_counts[i] = libm_round(self.mean_counts(i, i));
                 }
             }
             self.stage = Stage::Finished;
-            *setpoint_n = [p.pay_out_tension_n; BASE_WIRES];
+            *setpoint_n = [p.pay_out_tension_n; WIREMAN_WIRES];
             return Status::Finished;
         }
         Status::Running
@@ -881,10 +883,10 @@ impl Procedure {
         input: &ProcedureInput,
         dt: f64,
         elapsed: f64,
-        setpoint_n: &mut [f64; BASE_WIRES],
+        setpoint_n: &mut [f64; WIREMAN_WIRES],
     ) -> Status {
         let p = self.params;
-        *setpoint_n = [p.pay_out_tension_n; BASE_WIRES];
+        *setpoint_n = [p.pay_out_tension_n; WIREMAN_WIRES];
         let wire = w as u8;
         let travel = self.travel_m(w, input.counts[w]);
         if travel > p.max_wind_travel_m {
@@ -910,7 +912,7 @@ impl Procedure {
             return Status::Running;
         }
         // Stopped with the thimble at ring `w`: wire `w` is homed, the other two give sides.
-        for j in 0..BASE_WIRES {
+        for j in 0..WIREMAN_WIRES {
             self.counts_at_stop[w][j] = self.mean_counts(w, j);
         }
         self.zero_known[w] = true;
@@ -924,19 +926,19 @@ impl Procedure {
                 setpoint_n,
             );
         }
-        if w + 1 < BASE_WIRES {
+        if w + 1 < WIREMAN_WIRES {
             self.enter(Stage::Winding(wire + 1), input);
             return Status::Running;
         }
-        for i in 0..BASE_WIRES {
+        for i in 0..WIREMAN_WIRES {
             self.home_counts[i] = libm_round(self.counts_at_stop[i][i]);
-            for j in 0..BASE_WIRES {
+            for j in 0..WIREMAN_WIRES {
                 self.lengths_at_stop_m[i][j] =
                     (self.counts_at_stop[j][j] - self.counts_at_stop[i][j]) * p.metres_per_count;
             }
         }
-        for i in 0..BASE_WIRES {
-            for j in 0..BASE_WIRES {
+        for i in 0..WIREMAN_WIRES {
+            for j in 0..WIREMAN_WIRES {
                 if i != j && self.lengths_at_stop_m[i][j] < p.min_side_m {
                     return self.fail(
                         Failure::NotConnected {

@@ -26,6 +26,12 @@
 extern crate std;
 
 mod algorithm;
+/// The WireMan's three wires: its base triangle (auto-initialization measures it), the wires
+/// of what only the WireMan has (its procedures, its device mode, the haptic bench), and the
+/// per-wire slots of a period's record and of the session log (a device's wires fill the first
+/// ones, the rest stay zero; a cycle for more wires does not compile).
+pub const WIREMAN_WIRES: usize = 3;
+
 pub mod analysis;
 pub mod autoinit;
 pub mod blend;

@@ -2,7 +2,7 @@
 //!
 //! - [`can`]: the CAN seam (`embedded-can` + receive with timeout) and the SocketCAN backend;
 //! - [`canopen`]: CiA 301 helpers on `canopen-rs` (COB-IDs, EMCY/SDO texts, candump and EDS
-//!   readers);
+//!   readers; the EDS/DCF reader is `videt-drive-description`'s);
 //! - [`cia402`]: CiA 402 wire drives in cyclic synchronous torque mode (`WireDrives`);
 //! - [`adc`]: HX711 and ADS1220 strain-gauge ADCs or the drives' analog inputs, tension
 //!   calibration (`TensionSensors`);

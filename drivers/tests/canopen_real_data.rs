@@ -3,7 +3,7 @@
 use canopen_rs::nmt::{NmtCommand, NmtState};
 use canopen_rs::sdo::decode_upload_expedited_response;
 use canopen_rs::DataType;
-use videt_drivers::canopen::eds::Eds;
+use videt_drive_description::Eds;
 use videt_drivers::canopen::trace::{decode, parse_candump, Message};
 use videt_drivers::cia402::compat::{missing_objects, missing_objects_with};
 use videt_drivers::cia402::pdo::Status;

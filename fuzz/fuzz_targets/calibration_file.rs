@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use videt_rt_config::calibration::{Calibration, TensionCalibration};
+use videt_config::calibration::{Calibration, TensionCalibration};
 
 /// FNV-1a 64, as the files' checksum line.
 fn fnv1a64(bytes: &[u8]) -> u64 {

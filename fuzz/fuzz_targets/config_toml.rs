@@ -9,7 +9,7 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
-use videt_rt_config::Config;
+use videt_config::Config;
 
 const EDS_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/seeds/eds_parse");
 

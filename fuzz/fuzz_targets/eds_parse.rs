@@ -5,9 +5,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use videt_drivers::canopen::eds::{parse_value, Eds};
+use videt_drive_description::eds::{parse_value, Eds};
 use videt_drivers::cia402::compat::missing_objects;
-use videt_drivers::cia402::DriveResolution;
+use videt_drive_description::DriveResolution;
 
 fuzz_target!(|data: &[u8]| {
     // The service reads vendors' files lossily (a µ in a comment is not UTF-8).

@@ -10,9 +10,8 @@
 
 use image::GrayImage;
 use libfuzzer_sys::fuzz_target;
-use videt_service::relief_scene::ReliefLayout;
 use videt_service::stereo_relief::{LiveSettings, PairCamera, StereoPair, StereoRelief};
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_vision::io::{decode_gray_image, MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX};
 
 /// Largest image (pixels) sent on to the stereo pipeline.
@@ -36,7 +35,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(pair) = StereoPair::new("fuzz".into(), left, right, PairCamera::nominal(w)) else {
         return;
     };
-    let layout = ReliefLayout::for_config(&Config::default());
+    let layout = videt_runtime::setup::relief_layout(&Config::default());
     let Ok((mut relief, _model, _initial)) =
         StereoRelief::build(pair, &layout, LiveSettings::default())
     else {

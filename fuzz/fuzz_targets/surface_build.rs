@@ -9,7 +9,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use videt_control::{SceneMap, Vec3};
-use videt_vision::surface::{
+use videt_relief::{
     build_from_device, build_from_scene, DeviceSegment, PinholeCamera, ReliefParams, SceneSegment3,
 };
 

@@ -4,9 +4,9 @@
 
 use std::path::Path;
 
+use videt_config::calibration::Calibration;
+use videt_config::Config;
 use videt_control::Rig3;
-use videt_rt_config::calibration::Calibration;
-use videt_rt_config::Config;
 
 use crate::cycle::WireZero;
 

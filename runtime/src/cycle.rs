@@ -14,9 +14,9 @@ use videt_hal::{
     WireDrives,
 };
 
-/// Per-wire slots of a period's record (and of the session log): the wires of a device fill the
-/// first ones, the rest stay zero. A cycle for more wires does not compile.
-pub const LOG_WIRE_SLOTS: usize = 3;
+// Per-wire slots of a period's record (and of the session log): one per WireMan wire; the wires
+// of a device fill the first ones, the rest stay zero. A cycle for more wires does not compile.
+use crate::WIREMAN_WIRES;
 
 /// Everything the device did in one period: the telemetry record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -30,13 +30,13 @@ pub struct CycleRecord {
     /// Time from wake-up to the end of the period's work, nanoseconds (filled in by the loop).
     pub compute_ns: u64,
     /// Wire lengths, metres.
-    pub lengths_m: [f64; LOG_WIRE_SLOTS],
+    pub lengths_m: [f64; WIREMAN_WIRES],
     /// Tension set-points, newtons.
-    pub tension_setpoint_n: [f64; LOG_WIRE_SLOTS],
+    pub tension_setpoint_n: [f64; WIREMAN_WIRES],
     /// Measured tensions, newtons.
-    pub tension_measured_n: [f64; LOG_WIRE_SLOTS],
+    pub tension_measured_n: [f64; WIREMAN_WIRES],
     /// Motor torque commands, N·m.
-    pub torque_nm: [f64; LOG_WIRE_SLOTS],
+    pub torque_nm: [f64; WIREMAN_WIRES],
     /// Thimble position, metres.
     pub position_m: [f64; 3],
     /// Thimble velocity, m/s.
@@ -161,14 +161,14 @@ pub struct CycleInputs {
     /// The drives were read without error.
     pub drives_read_ok: bool,
     /// The drive samples as read (whatever the read left in them on an error).
-    pub drives: [DriveSample; LOG_WIRE_SLOTS],
+    pub drives: [DriveSample; WIREMAN_WIRES],
     /// The tensions were read without error.
     pub tensions_read_ok: bool,
     /// The tensions as read, newtons (whatever the read left in them on an error).
-    pub tensions_read_n: [f64; LOG_WIRE_SLOTS],
+    pub tensions_read_n: [f64; WIREMAN_WIRES],
     /// Which wires' tension samples were new conversions (a converter slower than the control
     /// rate repeats its last one in between).
-    pub tensions_fresh: [bool; LOG_WIRE_SLOTS],
+    pub tensions_fresh: [bool; WIREMAN_WIRES],
     /// The passive angle sensors were read without error (a device without them: `false`).
     pub angles_read_ok: bool,
     /// The passive angles as read (azimuth, elevation), radians; zero without angle sensors.
@@ -232,13 +232,13 @@ impl CycleRecord {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WireZero {
     /// Wire length at encoder count zero, metres (0 after homing against the guide ring).
-    pub length_at_zero_m: [f64; LOG_WIRE_SLOTS],
+    pub length_at_zero_m: [f64; WIREMAN_WIRES],
 }
 
 impl Default for WireZero {
     fn default() -> Self {
         WireZero {
-            length_at_zero_m: [0.0; LOG_WIRE_SLOTS],
+            length_at_zero_m: [0.0; WIREMAN_WIRES],
         }
     }
 }
@@ -306,7 +306,7 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
     ) -> ControlCycle<N, D> {
         const {
             assert!(
-                N >= 1 && N <= LOG_WIRE_SLOTS,
+                N >= 1 && N <= WIREMAN_WIRES,
                 "the session log holds 1 to 3 wires"
             )
         };
@@ -630,8 +630,8 @@ impl<const N: usize, D: WireDevice<N>> ControlCycle<N, D> {
 pub const ANGLE_RATE_PERIODS: usize = 10;
 
 /// `N` per-wire values in the record's slots (the rest zero).
-fn slots<const N: usize>(values: &[f64; N]) -> [f64; LOG_WIRE_SLOTS] {
-    let mut out = [0.0; LOG_WIRE_SLOTS];
+fn slots<const N: usize>(values: &[f64; N]) -> [f64; WIREMAN_WIRES] {
+    let mut out = [0.0; WIREMAN_WIRES];
     out[..N].copy_from_slice(values);
     out
 }

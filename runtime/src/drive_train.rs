@@ -1,8 +1,8 @@
 //! The drive train the configuration describes: motor encoder, gear and pulley, and the torque
 //! steps of the twins' simulated drives.
 
+use videt_config::Config;
 use videt_hal::Transmission;
-use videt_rt_config::Config;
 
 /// The transmission the configuration describes.
 pub fn transmission(config: &Config) -> Transmission {

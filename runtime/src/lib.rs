@@ -6,11 +6,11 @@
 //! (`videt-hal`); knows neither the hardware nor the service that assembles it.
 #![warn(missing_docs)]
 
-/// The WireMan's three wires. The service runs every configured device as its own
-/// monomorphized cycle ([`runtime_device`]); the parts of the runtime only the WireMan has — its
-/// procedures (auto-initialization from the base triangle, tension calibration, wire
+/// The WireMan's three wires (`videt-control`'s). The service runs every configured device as
+/// its own monomorphized cycle ([`runtime_device`]); the parts of the runtime only the WireMan
+/// has — its procedures (auto-initialization from the base triangle, tension calibration, wire
 /// replacement), its device mode and the haptic bench — are written for these three.
-pub const WIREMAN_WIRES: usize = 3;
+pub use videt_control::WIREMAN_WIRES;
 
 /// The WireMan's geometry.
 pub type WiremanDevice = videt_control::Rig3;

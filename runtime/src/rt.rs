@@ -103,7 +103,7 @@ pub fn prefault_stack(bytes: usize) {
 
 /// The SCHED_FIFO priority of the vision threads, `realtime.vision_priority` (`None` for 0:
 /// SCHED_OTHER).
-pub fn vision_fifo_priority(realtime: &videt_rt_config::RealtimeConfig) -> Option<u8> {
+pub fn vision_fifo_priority(realtime: &videt_config::RealtimeConfig) -> Option<u8> {
     (realtime.vision_priority > 0).then_some(realtime.vision_priority)
 }
 

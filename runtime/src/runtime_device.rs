@@ -8,32 +8,31 @@
 //! What the service needs of its hardware beyond the HAL capabilities is the service's own
 //! (`videt_service::service_hardware`).
 
-use videt_control::autoinit::BASE_WIRES;
 use videt_control::{PlanarDevice, PolarDevice, Rig3, RigPlanar, Vec3, WireDevice};
 
-use crate::cycle::LOG_WIRE_SLOTS;
+use crate::WIREMAN_WIRES;
 
 /// A device the service can run.
 pub trait RuntimeDevice<const N: usize>: WireDevice<N> {
     /// The device's guide points as the session log records them, `[x, y, z]` metres, one per
     /// wire (the remaining slots zero).
-    fn logged_guides_m(&self) -> [[f64; 3]; LOG_WIRE_SLOTS];
+    fn logged_guides_m(&self) -> [[f64; 3]; WIREMAN_WIRES];
 
     /// The device back from recorded guide points.
-    fn from_logged_guides(guides_m: &[[f64; 3]; LOG_WIRE_SLOTS]) -> Result<Self, String>;
+    fn from_logged_guides(guides_m: &[[f64; 3]; WIREMAN_WIRES]) -> Result<Self, String>;
 
     /// The device after an auto-initialization measured the base triangle (`None`: the
     /// procedure does not apply to this device).
     fn from_base_triangle(rig: Rig3) -> Option<Self>;
 }
 
-impl RuntimeDevice<BASE_WIRES> for Rig3 {
-    fn logged_guides_m(&self) -> [[f64; 3]; LOG_WIRE_SLOTS] {
+impl RuntimeDevice<WIREMAN_WIRES> for Rig3 {
+    fn logged_guides_m(&self) -> [[f64; 3]; WIREMAN_WIRES] {
         let g = self.guides_m();
         core::array::from_fn(|i| [g[i].x, g[i].y, g[i].z])
     }
 
-    fn from_logged_guides(guides_m: &[[f64; 3]; LOG_WIRE_SLOTS]) -> Result<Self, String> {
+    fn from_logged_guides(guides_m: &[[f64; 3]; WIREMAN_WIRES]) -> Result<Self, String> {
         Rig3::new(guides_m.map(|g| Vec3::new(g[0], g[1], g[2])))
             .map_err(|e| format!("recorded rig geometry: {e}"))
     }
@@ -44,12 +43,12 @@ impl RuntimeDevice<BASE_WIRES> for Rig3 {
 }
 
 impl RuntimeDevice<2> for PlanarDevice {
-    fn logged_guides_m(&self) -> [[f64; 3]; LOG_WIRE_SLOTS] {
+    fn logged_guides_m(&self) -> [[f64; 3]; WIREMAN_WIRES] {
         let [x0, x1] = self.rig().guides_x_m();
         [[x0, 0.0, 0.0], [x1, 0.0, 0.0], [0.0; 3]]
     }
 
-    fn from_logged_guides(guides_m: &[[f64; 3]; LOG_WIRE_SLOTS]) -> Result<Self, String> {
+    fn from_logged_guides(guides_m: &[[f64; 3]; WIREMAN_WIRES]) -> Result<Self, String> {
         RigPlanar::new([guides_m[0][0], guides_m[1][0]])
             .map(PlanarDevice::new)
             .map_err(|e| format!("recorded planar geometry: {e}"))
@@ -61,12 +60,12 @@ impl RuntimeDevice<2> for PlanarDevice {
 }
 
 impl RuntimeDevice<1> for PolarDevice {
-    fn logged_guides_m(&self) -> [[f64; 3]; LOG_WIRE_SLOTS] {
+    fn logged_guides_m(&self) -> [[f64; 3]; WIREMAN_WIRES] {
         let g = self.guide_m();
         [[g.x, g.y, g.z], [0.0; 3], [0.0; 3]]
     }
 
-    fn from_logged_guides(guides_m: &[[f64; 3]; LOG_WIRE_SLOTS]) -> Result<Self, String> {
+    fn from_logged_guides(guides_m: &[[f64; 3]; WIREMAN_WIRES]) -> Result<Self, String> {
         let g = guides_m[0];
         PolarDevice::new(Vec3::new(g[0], g[1], g[2]))
             .map_err(|e| format!("recorded one-wire geometry: {e}"))

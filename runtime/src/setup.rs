@@ -1,12 +1,13 @@
 //! Building the runtime's pieces from the configuration: rig, transmission, control step,
 //! cycle, and the check wall.
 
+use videt_config::{Config, ReliefShapeName};
 use videt_control::safety::SafetyLimits;
 use videt_control::{
     Algorithm, ControlParams, ControlStep, ForceField, ForceLimits, PlanarDevice, Plane,
     PolarDevice, Rig3, Rig4, RigError, RigPlanar, TensionPiGains, WireDevice, WireStretch,
 };
-use videt_rt_config::Config;
+use videt_relief::{ReliefLayout, ReliefShape};
 
 use crate::cycle::{ControlCycle, CycleSettings, WireZero};
 
@@ -142,4 +143,14 @@ pub fn check_wall() -> Plane {
         videt_control::Vec3::new(0.0, 0.0, -1.0),
     )
     .expect("constant wall is valid")
+}
+
+/// Where the relief sits: a 20 x 15 cm area centred in front of the configured guides, back
+/// plane at 36 cm, 4 cm of relief, the configured shape (`vision.relief_shape`).
+pub fn relief_layout(config: &Config) -> ReliefLayout {
+    let shape = match config.vision.relief_shape {
+        ReliefShapeName::Interpolated => ReliefShape::Interpolated,
+        ReliefShapeName::Stepped => ReliefShape::Stepped,
+    };
+    ReliefLayout::in_front_of(&config.rig.guides_m, shape)
 }

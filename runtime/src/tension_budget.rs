@@ -8,11 +8,11 @@
 //! own input filter is not modelled). The loop's margins come from
 //! [`videt_control::tension_loop`].
 
+use videt_config::{Ads1220Mode, Config, ConfigError, TensionAdc};
 use videt_control::tension_loop::{
     loop_delay_s, pi_margins, stable_gain_scale, LoopMargins, MIN_GAIN_MARGIN, MIN_PHASE_MARGIN_DEG,
 };
 use videt_hal::ConverterModel;
-use videt_rt_config::{Ads1220Mode, Config, ConfigError, TensionAdc};
 
 /// The timing of the configured converters, for the twin and for the checks.
 pub fn converter_model(config: &Config) -> ConverterModel {

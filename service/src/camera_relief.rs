@@ -19,17 +19,17 @@ use std::time::{Duration, Instant};
 
 use image::GrayImage;
 use videt_hal::{GrayFrame, RgbFrame, StereoCamera, StereoFrame};
+use videt_relief::ReliefModel;
 use videt_vision::calib::StereoCalibration;
 use videt_vision::rectify::{RgbPlanes, StereoRectifier};
-use videt_vision::surface::ReliefModel;
 use videt_vision::RectifiedGeometry;
 
 use videt_hal::MonoTime;
 
-use crate::relief_scene::ReliefLayout;
 use crate::stereo_relief::{
     InitialBuild, LiveSettings, PairCamera, RegionUpdate, StereoPair, StereoRelief,
 };
+use videt_relief::ReliefLayout;
 use videt_runtime::snapshot::{SnapshotReader, SnapshotWriter};
 use videt_runtime::thimble::ThimbleState;
 

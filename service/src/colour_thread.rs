@@ -21,10 +21,10 @@ use videt_colour::{
     ColourReader, ColourSpace, Pattern, PatternConfig, PeriodJitter, QuantizerConfig,
     RecordingVibrotactors, SamplerConfig, VibrationInputs, VibrationLoop, WindowStatistic,
 };
+use videt_config::{ColourConfig, ColourSpaceName, ColourStatistic};
 use videt_control::safety::SafetyState;
 use videt_control::SceneMap;
 use videt_hal::{Clock, RgbFrame, Vibrotactors};
-use videt_rt_config::{ColourConfig, ColourSpaceName, ColourStatistic};
 
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::rt::SystemClock;
@@ -201,7 +201,7 @@ pub struct ColourSource {
 /// as the camera's relief is (`layout` over images of `image_size_px`), sampled, quantized and
 /// rendered as `colour` says.
 pub fn camera_colour(
-    layout: &crate::relief_scene::ReliefLayout,
+    layout: &videt_relief::ReliefLayout,
     image_size_px: [u32; 2],
     colour: &ColourConfig,
     outputs: ColourOutputs,
@@ -527,4 +527,12 @@ impl ColourRuntime {
             Err(_) => error!("the colour thread panicked"),
         }
     }
+}
+
+/// Whether `[colour]` asks for the colour under the finger; says so when it does not.
+pub fn colour_enabled(config: &videt_config::Config) -> bool {
+    if !config.colour.enabled {
+        tracing::info!("colour rendering off (colour.enabled = false)");
+    }
+    config.colour.enabled
 }

@@ -5,8 +5,8 @@
 
 use serde::{Deserialize, Serialize};
 use tracing::{info, warn};
+use videt_config::Config;
 use videt_drivers::cia402::{DriveIdentity, SharedStartupReport, StartupReport};
-use videt_rt_config::Config;
 
 /// One drive's identity, as the status reply carries it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -1,16 +1,26 @@
 //! What the service is asked to run, checked against the configuration before anything is
-//! opened: the device, the hardware (the device's, or a twin), the scene, where the calibration
-//! comes from, and the service's options. Every refusal is here, with the exit code `videtd`
-//! ends with; the builder (`launch`) then builds what the plan says.
+//! opened: the device, the hardware (the device's, or a twin), what the control loop renders,
+//! where the calibration comes from, and the service's settings. Every file the run needs is
+//! loaded here and every refusal is here, with the exit code `videtd` ends with; the builder
+//! (`launch`) then builds what the plan says.
 
 use std::path::{Path, PathBuf};
 
-use tracing::{info, warn};
-use videt_control::{PlanarDevice, PolarDevice, Rig3};
-use videt_rt_config::Config;
-use videt_runtime::setup;
+use std::sync::Arc;
+use std::time::Duration;
 
-use crate::service::ServiceOptions;
+use tracing::{info, warn};
+use videt_config::calibration::{CalibrationError, TensionCalibration};
+use videt_config::Config;
+use videt_control::{PlanarDevice, PolarDevice, Rig3};
+use videt_drivers::camera::file_source::FileStereoSource;
+use videt_runtime::calibration::CalibrationState;
+use videt_runtime::setup;
+use videt_sim::cia402_node::DriveDictionary;
+
+use crate::camera_relief::CalibratedRig;
+use crate::run::ServiceSettings;
+use crate::stereo_relief::StereoPair;
 
 /// The configuration file `videtd` reads when none is named.
 pub const DEFAULT_CONFIG: &str = "/etc/videt/videt.toml";
@@ -118,73 +128,153 @@ pub enum PlannedDevice {
     Polar(PolarDevice),
 }
 
-/// Why the service does not start, and the exit code it ends with.
+/// Why the service does not start (refused by the plan, or failing to launch), and the exit
+/// code `videtd` ends with.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct PlanError {
+pub struct StartError {
     /// What a technician reads in the journal.
     pub message: String,
     /// The process exit code (2: the configuration or the command line is refused).
     pub exit_code: u8,
 }
 
-impl PlanError {
+impl StartError {
     /// A configuration or command-line refusal (exit code 2).
-    fn refused(message: impl Into<String>) -> PlanError {
-        PlanError {
+    pub fn refused(message: impl Into<String>) -> StartError {
+        StartError {
             message: message.into(),
             exit_code: 2,
         }
     }
+
+    /// What could not be opened or started (exit code 1).
+    pub fn failed(message: impl Into<String>) -> StartError {
+        StartError {
+            message: message.into(),
+            exit_code: 1,
+        }
+    }
 }
 
-impl std::fmt::Display for PlanError {
+impl std::fmt::Display for StartError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.message)
     }
 }
 
-/// A checked plan: everything the builder (`launch`) needs to open the hardware or the
-/// twin, build the cycle and start the threads.
+/// The hardware the service runs on.
+#[derive(Debug, Clone)]
+pub enum PlannedHardware {
+    /// The device's: the CiA 402 drives on SocketCAN, the strain-gauge converters and the e-stop
+    /// the configuration names.
+    Device,
+    /// A digital twin of the device.
+    Twin(PlannedTwin),
+}
+
+/// The twin the service runs on.
+#[derive(Debug, Clone)]
+pub enum PlannedTwin {
+    /// The HAL twin.
+    Hal,
+    /// The twin's motors behind simulated CiA 402 drives on a userspace CAN bus, with the
+    /// configured part's dictionary (`drives.description`), when one is configured.
+    Can(Option<Arc<DriveDictionary>>),
+}
+
+impl PlannedTwin {
+    /// Which twin it is.
+    pub fn mode(&self) -> SimMode {
+        match self {
+            PlannedTwin::Hal => SimMode::Hal,
+            PlannedTwin::Can(_) => SimMode::Can,
+        }
+    }
+}
+
+/// What the control loop renders, with every file it needs loaded.
+#[derive(Debug, Clone)]
+pub enum PlannedFeed {
+    /// A flat virtual wall: the twin's wall scene, or the device's check wall when its cameras
+    /// cannot be used (`instead_of_cameras` says why).
+    Wall {
+        /// Why the device's cameras are not used.
+        instead_of_cameras: Option<String>,
+    },
+    /// The bas-relief box, rebuilt every second on a vision thread.
+    Box,
+    /// The bas-relief of a stereo pair, re-matched around the finger on a vision thread.
+    Stereo(StereoPair),
+    /// A folder of raw pairs played as a camera (`dir`), rectified with `rig`.
+    CameraFolder {
+        /// The folder.
+        dir: PathBuf,
+        /// Its pairs, played at the configured frame rate.
+        source: FileStereoSource,
+        /// The stereo calibration.
+        rig: CalibratedRig,
+    },
+    /// The device's cameras (`vision.devices`), rectified with `vision.stereo_calibration`.
+    Cameras(CalibratedRig),
+}
+
+/// Where the geometry forces are rendered with comes from.
+#[derive(Debug, Clone)]
+pub enum PlannedCalibration {
+    /// The device's calibration file, loaded: its rig and encoder zeros, or why forces are off.
+    File(Box<CalibrationState>),
+    /// The configured geometry (the twin's truth), encoders homed.
+    Configured,
+    /// An auto-initialization of the WireMan's twin at start-up.
+    AutoInit,
+    /// None: forces are not rendered.
+    None,
+}
+
+/// A checked plan: everything the builder (`launch`) needs to open the hardware or the twin,
+/// build the surface feed and the cycle and start the threads, on three axes (the hardware,
+/// the feed, the calibration), each chosen here once.
 #[derive(Clone)]
 pub struct ServicePlan {
-    /// The configuration in force (`--sim-guides` and `--stereo-calibration` applied).
-    pub config: Config,
     /// The device.
     pub device: PlannedDevice,
-    /// The twin to run on (`None`: the device's hardware).
-    pub sim: Option<SimMode>,
-    /// The scene the twin's operator touches (the wall on the device, and on the CAN twin).
-    pub scene: SimScene,
-    /// Where the twin's calibration comes from.
-    pub twin_calibration: SimCalibration,
-    /// The calibration file: loaded on the device, written by `videt init` through the socket.
-    pub calibration_path: PathBuf,
+    /// The hardware it runs on.
+    pub hardware: PlannedHardware,
+    /// What the control loop renders.
+    pub feed: PlannedFeed,
+    /// Where the rendering geometry comes from.
+    pub calibration: PlannedCalibration,
+    /// The strain-gauge calibration that corrects the WireMan's tension readings (beside the
+    /// calibration file, written by `videt tension-calibrate`), when there is one.
+    pub tension_correction: Option<TensionCalibration>,
     /// The motors lock to hold while running (`None`: a twin private to this process).
     pub lock_path: Option<PathBuf>,
-    /// The service's options.
-    pub options: ServiceOptions,
+    /// The service's settings, the configuration in force among them (`--sim-guides` and
+    /// `--stereo-calibration` applied).
+    pub settings: ServiceSettings,
 }
 
 /// The configuration `request` names: its file, else [`DEFAULT_CONFIG`] when installed, else
 /// (on a twin) the built-in defaults.
-pub fn load_config(request: &ServiceRequest) -> Result<Config, PlanError> {
+pub fn load_config(request: &ServiceRequest) -> Result<Config, StartError> {
     let default = Path::new(DEFAULT_CONFIG);
     match &request.config {
-        Some(path) => Config::load(path).map_err(|e| PlanError::refused(e.to_string())),
+        Some(path) => Config::load(path).map_err(|e| StartError::refused(e.to_string())),
         None if default.exists() => {
-            Config::load(default).map_err(|e| PlanError::refused(e.to_string()))
+            Config::load(default).map_err(|e| StartError::refused(e.to_string()))
         }
         None if request.sim.is_some() => Ok(Config::default()),
-        None => Err(PlanError::refused(format!(
+        None => Err(StartError::refused(format!(
             "no configuration: pass --config FILE or install {DEFAULT_CONFIG}"
         ))),
     }
 }
 
 impl ServicePlan {
-    /// Check `request` against `config` and say what runs. Logs what the configuration
-    /// implies (drive units, bus load, the tension loop's plan) as it goes.
-    pub fn new(mut config: Config, request: &ServiceRequest) -> Result<ServicePlan, PlanError> {
+    /// Check `request` against `config` and say what runs, loading every file the run needs.
+    /// Logs what the configuration implies (drive units, bus load, the tension loop's plan) as
+    /// it goes.
+    pub fn new(mut config: Config, request: &ServiceRequest) -> Result<ServicePlan, StartError> {
         info!("{}", config.describe_drive_units());
         // A rate the configured bus cannot carry is refused where a bus carries it: on the
         // device and on the CAN twin. The HAL twin has no bus; it says so and runs.
@@ -193,7 +283,7 @@ impl ServicePlan {
             (Err(e), Some(SimMode::Hal)) => {
                 warn!("{e} (the HAL twin has no CAN bus: running anyway)")
             }
-            (Err(e), _) => return Err(PlanError::refused(e.to_string())),
+            (Err(e), _) => return Err(StartError::refused(e.to_string())),
         }
         // A tension sensor too slow for the configured PI gains is refused (on the twin too:
         // its sensors have the configured converter's timing) unless the degraded mode is
@@ -202,15 +292,15 @@ impl ServicePlan {
         match plan(&config) {
             Ok(TensionLoopPlan::Full(_)) => info!("{}", describe(&config)),
             Ok(TensionLoopPlan::Degraded { .. }) => warn!("{}", describe(&config)),
-            Err(e) => return Err(PlanError::refused(e.to_string())),
+            Err(e) => return Err(StartError::refused(e.to_string())),
         }
         if let Some(text) = &request.sim_guides {
-            let g = crate::init::twin::parse_guides(text).map_err(PlanError::refused)?;
+            let g = crate::init::twin::parse_guides(text).map_err(StartError::refused)?;
             config.rig.guides_m = core::array::from_fn(|i| [g[i].x, g[i].y]);
         }
         if let Some(d) = request.duration_s {
             if !(d.is_finite() && d > 0.0) {
-                return Err(PlanError::refused(format!(
+                return Err(StartError::refused(format!(
                     "--duration must be a positive number of seconds, got {d}"
                 )));
             }
@@ -226,10 +316,11 @@ impl ServicePlan {
             config
                 .live
                 .host_port()
-                .map_err(|e| PlanError::refused(format!("--live: {e}")))?;
+                .map_err(|e| StartError::refused(format!("--live: {e}")))?;
         }
-        let mut options = ServiceOptions::from_config(config.clone());
-        options.duration_s = request.duration_s;
+        // The relief's proxy, blend and stiffness, checked before any relief is built.
+        crate::relief_feed::check_relief_settings(&config)
+            .map_err(|e| StartError::refused(e.to_string()))?;
         // Where `videt init` through the control socket writes the calibration (the twin's
         // default is the one `videt init --sim` uses).
         let calibration_path = match (&request.calibration, request.sim) {
@@ -237,17 +328,6 @@ impl ServicePlan {
             (None, Some(_)) => crate::init::daemon::sim_state_dir().join("calibration-sim.toml"),
             (None, None) => PathBuf::from(&config.files.calibration),
         };
-        options.calibration_path = Some(calibration_path.clone());
-        if request.no_socket {
-            options.socket_path = None;
-        } else if let Some(p) = &request.socket {
-            options.socket_path = Some(p.clone());
-        }
-        if request.no_telemetry {
-            options.telemetry_dir = None;
-        } else if let Some(d) = &request.telemetry_dir {
-            options.telemetry_dir = Some(d.clone());
-        }
         let device = planned_device(&config, request)?;
         // One process at a time drives the motors (the `videt` tool takes the same lock). A
         // twin is private to its process, so with --sim the lock is taken only when --lock
@@ -257,36 +337,148 @@ impl ServicePlan {
             (None, None) => Some(PathBuf::from(&config.files.motors_lock)),
             (None, Some(_)) => None,
         };
-        let scene = request.scene.clone();
-        if request.sim.is_none() && scene != SimScene::Wall {
-            return Err(PlanError::refused(format!(
-                "--scene {scene:?} needs --sim: on the device the surface is the cameras' or the \
-                 check wall"
+        if request.sim.is_none() && request.scene != SimScene::Wall {
+            return Err(StartError::refused(format!(
+                "--scene {:?} needs --sim: on the device the surface is the cameras' or the \
+                 check wall",
+                request.scene
             )));
         }
+        let hardware = match request.sim {
+            None => PlannedHardware::Device,
+            Some(SimMode::Hal) => PlannedHardware::Twin(PlannedTwin::Hal),
+            Some(SimMode::Can) => PlannedHardware::Twin(PlannedTwin::Can(
+                videt_assembly::drive_dictionary::for_config(&config)
+                    .map_err(|e| StartError::refused(format!("simulated CAN drives: {e}")))?,
+            )),
+        };
+        let feed = planned_feed(&config, request)?;
+        let calibration = match request.sim {
+            None => PlannedCalibration::File(Box::new(
+                videt_runtime::calibration::load(&config, &calibration_path)
+                    .map_err(|e| StartError::refused(format!("calibration: {e}")))?,
+            )),
+            Some(_) => match request.sim_calibration {
+                SimCalibration::Config => PlannedCalibration::Configured,
+                SimCalibration::Init => PlannedCalibration::AutoInit,
+                SimCalibration::None => PlannedCalibration::None,
+            },
+        };
+        let tension_correction = match device {
+            PlannedDevice::WireMan(_) => tension_correction(&calibration_path),
+            PlannedDevice::Planar(_) | PlannedDevice::Polar(_) => None,
+        };
+        let mut settings = ServiceSettings::from_config(config);
+        settings.duration_s = request.duration_s;
+        settings.calibration_path = Some(calibration_path);
+        if request.no_socket {
+            settings.socket_path = None;
+        } else if let Some(p) = &request.socket {
+            settings.socket_path = Some(p.clone());
+        }
+        if request.no_telemetry {
+            settings.telemetry_dir = None;
+        } else if let Some(d) = &request.telemetry_dir {
+            settings.telemetry_dir = Some(d.clone());
+        }
         Ok(ServicePlan {
-            config,
             device,
-            sim: request.sim,
-            scene,
-            twin_calibration: request.sim_calibration,
-            calibration_path,
+            hardware,
+            feed,
+            calibration,
+            tension_correction,
             lock_path,
-            options,
+            settings,
         })
     }
 }
 
+/// The strain-gauge calibration beside `calibration_path`, when there is one; one that cannot
+/// be read leaves the readings uncorrected and says why.
+fn tension_correction(calibration_path: &Path) -> Option<TensionCalibration> {
+    let path = TensionCalibration::path_beside(calibration_path);
+    match TensionCalibration::load(&path) {
+        Ok(tc) => {
+            info!(file = %path.display(), "tension readings corrected");
+            Some(tc)
+        }
+        Err(CalibrationError::Missing { .. }) => None,
+        Err(e) => {
+            warn!("tension readings not corrected: {e}");
+            None
+        }
+    }
+}
+
+/// What `request` has the control loop render, its files loaded: on the twin the scene it
+/// names; on the device the cameras' relief when a stereo calibration is installed (and the
+/// service is built with V4L2 capture), else the check wall.
+fn planned_feed(config: &Config, request: &ServiceRequest) -> Result<PlannedFeed, StartError> {
+    let stereo_calibration = || CalibratedRig::load(Path::new(&config.vision.stereo_calibration));
+    if request.sim.is_none() {
+        let why = match stereo_calibration() {
+            Err(e) => format!("stereo calibration {e}"),
+            Ok(rig) if cfg!(feature = "v4l") => return Ok(PlannedFeed::Cameras(rig)),
+            Ok(_) => {
+                "this videtd is built without V4L2 capture (cargo build --release --features v4l)"
+                    .into()
+            }
+        };
+        return Ok(PlannedFeed::Wall {
+            instead_of_cameras: Some(why),
+        });
+    }
+    Ok(match &request.scene {
+        SimScene::Wall => PlannedFeed::Wall {
+            instead_of_cameras: None,
+        },
+        SimScene::Box => PlannedFeed::Box,
+        SimScene::Stereo(None) => PlannedFeed::Stereo(
+            StereoPair::demo().map_err(|e| StartError::refused(format!("stereo scene: {e}")))?,
+        ),
+        SimScene::Stereo(Some(dir)) => {
+            let (pair, nominal) = StereoPair::load_dir(dir)
+                .map_err(|e| StartError::refused(format!("stereo scene: {e}")))?;
+            if nominal {
+                warn!(
+                    "{}: no camera.toml: nominal camera (focal {} px, baseline {} m, disparities up to {} px)",
+                    dir.display(),
+                    pair.camera.focal_px,
+                    pair.camera.baseline_m,
+                    pair.camera.max_disparity_px
+                );
+            }
+            PlannedFeed::Stereo(pair)
+        }
+        SimScene::Camera(dir) => {
+            // Played like a free-running camera at the device's frame rate.
+            let period = Duration::from_secs_f64(1.0 / f64::from(config.vision.frame_rate_hz));
+            let source = FileStereoSource::from_folder(dir, period)
+                .map_err(|e| StartError::refused(format!("camera scene: {e}")))?;
+            let rig = stereo_calibration().map_err(|e| {
+                StartError::refused(format!(
+                    "camera scene: stereo calibration {e} (--stereo-calibration FILE)"
+                ))
+            })?;
+            PlannedFeed::CameraFolder {
+                dir: dir.clone(),
+                source,
+                rig,
+            }
+        }
+    })
+}
+
 /// The configured device (`rig.device`), refused with the reason where the request asks what
 /// only the WireMan has (the bas-relief scenes, the device mode, auto-initialization).
-fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDevice, PlanError> {
-    let rig = setup::rig(config).map_err(|e| PlanError::refused(format!("rig geometry: {e}")))?;
+fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDevice, StartError> {
+    let rig = setup::rig(config).map_err(|e| StartError::refused(format!("rig geometry: {e}")))?;
     let name = config.rig.device.as_str();
     if name == "wireman3" {
         return Ok(PlannedDevice::WireMan(rig));
     }
     if request.sim.is_none() {
-        return Err(PlanError::refused(format!(
+        return Err(StartError::refused(format!(
             "rig.device = {name:?}: runs on the digital twin (--sim or --sim can); the device \
              mode drives the three-wire WireMan"
         )));
@@ -294,12 +486,12 @@ fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDe
     let device = match name {
         "planar2" => setup::planar_device(config)
             .map(PlannedDevice::Planar)
-            .map_err(|e| PlanError::refused(format!("rig.planar_guides_x_m: {e}")))?,
+            .map_err(|e| StartError::refused(format!("rig.planar_guides_x_m: {e}")))?,
         "polar1" => setup::polar_device(config)
             .map(PlannedDevice::Polar)
-            .map_err(|e| PlanError::refused(format!("rig.polar_guide_m: {e}")))?,
+            .map_err(|e| StartError::refused(format!("rig.polar_guide_m: {e}")))?,
         other => {
-            return Err(PlanError::refused(format!(
+            return Err(StartError::refused(format!(
                 "rig.device = {other:?}: the service runs the wireman3, planar2 and polar1 devices \
                  (its session log keeps three wires); the four-wire device runs in the control \
                  benchmarks and `videt analyze`"
@@ -307,7 +499,7 @@ fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDe
         }
     };
     if request.sim_calibration == SimCalibration::Init {
-        return Err(PlanError::refused(init_refused(name)));
+        return Err(StartError::refused(init_refused(name)));
     }
     Ok(device)
 }
@@ -343,7 +535,7 @@ mod tests {
         }
     }
 
-    fn refused(config: Config, request: &ServiceRequest) -> PlanError {
+    fn refused(config: Config, request: &ServiceRequest) -> StartError {
         match ServicePlan::new(config, request) {
             Ok(_) => panic!("{request:?} was accepted"),
             Err(e) => e,
@@ -353,17 +545,17 @@ mod tests {
     #[test]
     fn live_turns_the_view_on_where_asked_and_refuses_an_unreadable_address() {
         let plan = ServicePlan::new(Config::default(), &twin_request()).unwrap();
-        assert_eq!(plan.options.live, None, "off by default");
+        assert_eq!(plan.settings.live, None, "off by default");
         let mut request = twin_request();
         request.live = Some(None);
         let plan = ServicePlan::new(Config::default(), &request).unwrap();
-        let live = plan.options.live.unwrap();
+        let live = plan.settings.live.unwrap();
         assert_eq!((live.host.as_str(), live.port), ("127.0.0.1", 8765));
         assert_eq!(live.rate_hz, 30.0);
         request.live = Some(Some("[::1]:9000".into()));
         let live = ServicePlan::new(Config::default(), &request)
             .unwrap()
-            .options
+            .settings
             .live
             .unwrap();
         assert_eq!((live.host.as_str(), live.port), ("::1", 9000));
@@ -395,11 +587,11 @@ mod tests {
         request.sim_guides = Some("0,0;0.4,0;0.2,0.3".into());
         let plan = ServicePlan::new(Config::default(), &request).unwrap();
         assert!(matches!(plan.device, PlannedDevice::WireMan(_)));
-        assert_eq!(plan.config.rig.guides_m[1], [0.4, 0.0]);
+        assert_eq!(plan.settings.config.rig.guides_m[1], [0.4, 0.0]);
         assert_eq!(plan.lock_path, None);
-        assert_eq!(plan.options.socket_path, None);
-        assert_eq!(plan.options.telemetry_dir, None);
-        assert_eq!(plan.options.duration_s, Some(1.0));
+        assert_eq!(plan.settings.socket_path, None);
+        assert_eq!(plan.settings.telemetry_dir, None);
+        assert_eq!(plan.settings.duration_s, Some(1.0));
     }
 
     #[test]
@@ -436,16 +628,24 @@ mod tests {
 
     #[test]
     fn the_can_twin_keeps_every_scene_and_the_device_takes_the_lock() {
-        for scene in [
-            SimScene::Stereo(None),
-            SimScene::Camera(PathBuf::from("pairs")),
-            SimScene::Box,
-        ] {
+        for scene in [SimScene::Stereo(None), SimScene::Box] {
             let mut request = twin_request();
             request.sim = Some(SimMode::Can);
             request.scene = scene.clone();
             let plan = ServicePlan::new(Config::default(), &request).unwrap();
-            assert_eq!(plan.scene, scene);
+            assert!(matches!(
+                plan.hardware,
+                PlannedHardware::Twin(PlannedTwin::Can(None))
+            ));
+            assert!(
+                matches!(
+                    (&scene, &plan.feed),
+                    (SimScene::Stereo(None), PlannedFeed::Stereo(_))
+                        | (SimScene::Box, PlannedFeed::Box)
+                ),
+                "{scene:?}: {:?}",
+                plan.feed
+            );
         }
 
         let mut request = twin_request();
@@ -457,8 +657,39 @@ mod tests {
             Some(PathBuf::from(&config.files.motors_lock))
         );
         assert_eq!(
-            plan.calibration_path,
-            PathBuf::from(&config.files.calibration)
+            plan.settings.calibration_path,
+            Some(PathBuf::from(&config.files.calibration))
         );
+        // Without an installed calibration: the check wall, and why; forces off, and why.
+        assert!(
+            matches!(&plan.feed, PlannedFeed::Wall { instead_of_cameras: Some(why) } if why.contains("stereo calibration")),
+            "{:?}",
+            plan.feed
+        );
+        assert!(
+            matches!(&plan.calibration, PlannedCalibration::File(state) if !state.calibrated && state.reason.is_some()),
+            "{:?}",
+            plan.calibration
+        );
+    }
+
+    #[test]
+    fn the_files_a_scene_needs_are_loaded_while_planning_and_refused_with_exit_2() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("no-such-folder");
+        let mut request = twin_request();
+        request.scene = SimScene::Camera(missing.clone());
+        let e = refused(Config::default(), &request);
+        assert_eq!(e.exit_code, 2);
+        assert!(e.message.starts_with("camera scene"), "{e}");
+        request.scene = SimScene::Stereo(Some(missing));
+        let e = refused(Config::default(), &request);
+        assert_eq!(e.exit_code, 2);
+        assert!(e.message.starts_with("stereo scene"), "{e}");
+        // An invalid relief setting is refused before any relief is built.
+        let mut config = Config::default();
+        config.control.stiffness_n_per_m = f64::NAN;
+        let e = refused(config, &twin_request());
+        assert_eq!(e.exit_code, 2);
     }
 }

@@ -12,8 +12,8 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
+use videt_config::calibration::{backup_path, Calibration};
 use videt_control::autoinit::{Failure, Stage};
-use videt_rt_config::calibration::{backup_path, Calibration};
 
 use crate::init::commission::{RigCheck, Verdict};
 use crate::init::remote::{saved, ProcedureEvent, ProcedureKind, ProcedurePort, ProcedureSpec};
@@ -473,7 +473,7 @@ mod tests {
     use super::*;
     use crate::init::remote::{procedure_channel, Text};
     use crate::init::session::Request;
-    use videt_rt_config::Config;
+    use videt_config::Config;
 
     fn request(line: &str) -> ProcedureRequest {
         match ClientRequest::parse(line.as_bytes()).unwrap() {

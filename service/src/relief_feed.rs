@@ -12,7 +12,7 @@ use std::sync::Arc;
 use videt_control::blend::{BlendParams, SwapRenderer, SwapRendererError};
 use videt_control::proxy::{ProxyContact, ProxyParams};
 use videt_control::{Contact, Surface, Vec3};
-use videt_vision::surface::ReliefModel;
+use videt_relief::ReliefModel;
 
 use videt_runtime::snapshot::{
     snapshot_channel, SnapshotReader, SnapshotWriter, SurfaceFeed, SurfaceView,
@@ -116,10 +116,22 @@ impl SurfaceFeed for ReliefFeed {
     }
 }
 
+/// Whether the relief's proxy, blend and stiffness in `config` make a renderer (the plan
+/// checks it before any relief is built).
+pub fn check_relief_settings(config: &videt_config::Config) -> Result<(), SwapRendererError> {
+    use crate::relief_scene::{blend_params, proxy_params};
+    SwapRenderer::new(
+        proxy_params(),
+        blend_params(config),
+        config.control.stiffness_n_per_m,
+    )
+    .map(|_| ())
+}
+
 /// The relief channel with the proxy, the blend and the stiffness of `config`: how the service
 /// renders every relief (and how a replay renders the recorded ones again).
 pub fn relief_channel_for(
-    config: &videt_rt_config::Config,
+    config: &videt_config::Config,
     initial: ReliefModel,
 ) -> Result<(SnapshotWriter<ReliefModel>, ReliefFeed), SwapRendererError> {
     use crate::relief_scene::{blend_params, proxy_params};

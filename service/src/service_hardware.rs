@@ -6,10 +6,10 @@ use videt_assembly::can_twin::CanTwin;
 use videt_assembly::hardware::DeviceHardware;
 use videt_assembly::sim_faults::SimFaultPort;
 use videt_assembly::twin_rt::RealTimeTwin;
+use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_control::{PlanarDevice, PolarDevice, Rig3};
 use videt_hal::{AngleSensors, Clock, EStop, Lifecycle, TensionSensors, WireDrives};
-use videt_rt_config::Config;
 use videt_runtime::control_loop::CycleObserver;
 use videt_runtime::cycle::WireZero;
 use videt_runtime::WIREMAN_WIRES;
@@ -140,6 +140,26 @@ macro_rules! twin_service_hardware {
 
 twin_service_hardware!(2, PlanarDevice);
 twin_service_hardware!(1, PolarDevice);
+
+/// The [`ServiceHardware`] of a device without procedures behind the tension correction the
+/// service runs every device through: the wrapped hardware's.
+macro_rules! corrected_service_hardware {
+    ($n:literal, $ty:ty) => {
+        impl ServiceHardware<$n> for CorrectedTensions<$ty> {
+            fn is_twin(&self) -> bool {
+                self.inner().is_twin()
+            }
+            fn sim_faults(&mut self) -> Option<SimFaultPort> {
+                self.inner_mut().sim_faults()
+            }
+        }
+    };
+}
+
+corrected_service_hardware!(2, RealTimeTwin<2, PlanarDevice>);
+corrected_service_hardware!(2, CanTwin<2, RealTimeTwin<2, PlanarDevice>>);
+corrected_service_hardware!(1, RealTimeTwin<1, PolarDevice>);
+corrected_service_hardware!(1, CanTwin<1, RealTimeTwin<1, PolarDevice>>);
 
 #[cfg(target_os = "linux")]
 wireman_service_hardware!(videt_assembly::hardware::LinuxDevice, |_| false);

@@ -20,18 +20,18 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use image::GrayImage;
-use videt_vision::matching::MatchChecks;
-use videt_vision::patch_stereo::{PatchDepth, PatchParams};
-use videt_vision::surface::region::merge_region;
-use videt_vision::surface::{
+use videt_relief::region::merge_region;
+use videt_relief::{
     build_from_scene, BuildReport, PinholeCamera, ReliefModel, ReliefParams, SceneSegment3,
 };
+use videt_vision::matching::MatchChecks;
+use videt_vision::patch_stereo::{PatchDepth, PatchParams};
 use videt_vision::{
     GrayView, LocalRegion, PipelineOutput, PixelRect, RectifiedGeometry, Segment3d, StereoPipeline,
     VisionParams,
 };
 
-use crate::relief_scene::ReliefLayout;
+use videt_relief::ReliefLayout;
 use videt_runtime::snapshot::{SnapshotReader, SnapshotWriter};
 use videt_runtime::thimble::ThimbleState;
 
@@ -379,8 +379,8 @@ pub fn view_params(
 }
 
 /// A short name for a rejection reason (for counting them by kind).
-pub fn reason_label(reason: &videt_vision::surface::RejectReason) -> &'static str {
-    use videt_vision::surface::RejectReason as R;
+pub fn reason_label(reason: &videt_relief::RejectReason) -> &'static str {
+    use videt_relief::RejectReason as R;
     match reason {
         R::NotFinite => "coordinate not finite",
         R::BehindCamera => "behind the camera",
@@ -477,13 +477,13 @@ fn in_pixel_rect(u: f64, v: f64, rect: [f64; 4]) -> bool {
 }
 
 /// The default of [`LiveSettings::patch_spacing_px`] and `vision.patch_spacing_px`.
-pub const DEFAULT_PATCH_SPACING_PX: u32 = videt_rt_config::DEFAULT_PATCH_SPACING_PX;
+pub const DEFAULT_PATCH_SPACING_PX: u32 = videt_config::DEFAULT_PATCH_SPACING_PX;
 
 /// The patch settings of `live`: `None` when the patches are off (spacing 0).
 fn patch_params(live: &LiveSettings) -> Result<Option<PatchParams>, String> {
     match live.patch_spacing_px {
         0 => Ok(None),
-        spacing if videt_rt_config::PATCH_SPACING_RANGE_PX.contains(&spacing) => {
+        spacing if videt_config::PATCH_SPACING_RANGE_PX.contains(&spacing) => {
             Ok(Some(PatchParams {
                 spacing_px: spacing as usize,
                 ..PatchParams::default()
@@ -491,13 +491,13 @@ fn patch_params(live: &LiveSettings) -> Result<Option<PatchParams>, String> {
         }
         other => Err(format!(
             "patch spacing {other} px: {}",
-            videt_rt_config::PATCH_SPACING_ALLOWED
+            videt_config::PATCH_SPACING_ALLOWED
         )),
     }
 }
 
 /// The checks against wrong matches `config` switches on.
-pub fn match_checks(config: &videt_rt_config::VisionConfig) -> MatchChecks {
+pub fn match_checks(config: &videt_config::VisionConfig) -> MatchChecks {
     MatchChecks {
         left_right: config.left_right_check,
         min_confidence: config.min_match_confidence as f32,
@@ -1001,7 +1001,7 @@ mod tests {
 
     #[test]
     fn the_configured_checks_default_to_the_matchers() {
-        let config = videt_rt_config::Config::default();
+        let config = videt_config::Config::default();
         assert_eq!(match_checks(&config.vision), MatchChecks::default());
         assert_eq!(LiveSettings::default().checks, MatchChecks::default());
     }
@@ -1060,12 +1060,12 @@ mod tests {
 
     #[test]
     fn the_configured_relief_shape_builds_the_cameras_relief_but_not_the_demo_box() {
-        use videt_vision::surface::ReliefShape;
-        let mut config = videt_rt_config::Config::default();
-        let layout = ReliefLayout::for_config(&config);
+        use videt_relief::ReliefShape;
+        let mut config = videt_config::Config::default();
+        let layout = videt_runtime::setup::relief_layout(&config);
         assert_eq!(layout.shape, ReliefShape::Stepped, "the default");
-        config.vision.relief_shape = videt_rt_config::ReliefShapeName::Interpolated;
-        let interpolated = ReliefLayout::for_config(&config);
+        config.vision.relief_shape = videt_config::ReliefShapeName::Interpolated;
+        let interpolated = videt_runtime::setup::relief_layout(&config);
         assert_eq!(interpolated.shape, ReliefShape::Interpolated);
         let (relief, _, initial) = StereoRelief::build(
             StereoPair::demo().unwrap(),
@@ -1089,7 +1089,7 @@ mod tests {
 
     #[test]
     fn patches_add_far_sides_and_points_and_an_update_renews_only_those_in_its_region() {
-        let layout = ReliefLayout::for_config(&videt_rt_config::Config::default());
+        let layout = videt_runtime::setup::relief_layout(&videt_config::Config::default());
         let (_, _, plain) = StereoRelief::build(
             StereoPair::demo().unwrap(),
             &layout,
@@ -1157,9 +1157,9 @@ mod tests {
 
     #[test]
     fn patches_bring_a_real_pairs_stepped_relief_closer_to_the_true_surface() {
+        use videt_evaluation::{load_truth_pair, relief_deviation};
+        use videt_relief::ReliefShape;
         use videt_vision::disparity_range::choose_max_disparity;
-        use videt_vision::evaluation::{load_truth_pair, relief_deviation};
-        use videt_vision::surface::ReliefShape;
         // Venus and teddy: two of the four pairs the spacing was chosen on.
         for (name, scale) in [("venus", 8.0), ("teddy", 4.0)] {
             let Some(dir) = videt_testdata::data_dir(&format!("stereo/{name}")) else {
@@ -1175,7 +1175,7 @@ mod tests {
             camera.max_disparity_px = bound.max_px;
             let pair = StereoPair::new(p.name, p.left, p.right, camera).unwrap();
             let geometry = pair.geometry();
-            let mut layout = ReliefLayout::for_config(&videt_rt_config::Config::default());
+            let mut layout = videt_runtime::setup::relief_layout(&videt_config::Config::default());
             layout.shape = ReliefShape::Stepped;
             let off = |spacing: u32| {
                 let live = LiveSettings {
@@ -1200,8 +1200,8 @@ mod tests {
 
     #[test]
     fn demo_pair_builds_a_relief_and_updates_it_around_the_finger() {
-        let config = videt_rt_config::Config::default();
-        let layout = ReliefLayout::for_config(&config);
+        let config = videt_config::Config::default();
+        let layout = videt_runtime::setup::relief_layout(&config);
         let (mut relief, model, initial) = StereoRelief::build(
             StereoPair::demo().unwrap(),
             &layout,

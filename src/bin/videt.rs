@@ -7,25 +7,16 @@ use std::process::ExitCode;
 use clap::{CommandFactory, FromArgMatches};
 use videt_tools::cli::Cli;
 
-/// The version `videt --version` prints: the package's version, the commit it was built from
-/// (build.rs) and the features it was built with.
+/// What `videt --version` says it was built with.
 #[cfg(feature = "v4l")]
-const VERSION: &str = concat!(
-    env!("CARGO_PKG_VERSION"),
-    " (commit ",
-    env!("VIDET_COMMIT"),
-    ", features: tool, v4l)"
-);
+const FEATURES: &str = "tool, v4l";
 #[cfg(not(feature = "v4l"))]
-const VERSION: &str = concat!(
-    env!("CARGO_PKG_VERSION"),
-    " (commit ",
-    env!("VIDET_COMMIT"),
-    ", features: tool)"
-);
+const FEATURES: &str = "tool";
 
 fn main() -> ExitCode {
-    let matches = Cli::command().version(VERSION).get_matches();
+    let matches = Cli::command()
+        .version(videt_build_info::version(FEATURES))
+        .get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     match cli.run() {
         Ok(code) => code,

@@ -1,6 +1,7 @@
 //! Test support. For the real-time rules: a global allocator that counts, per thread, the
 //! allocations and frees made, so a test can prove that code running on a thread (the control
-//! thread, a warm pipeline) allocates and frees nothing. For a full disk: [`SmallDisk`].
+//! thread, a warm pipeline) allocates and frees nothing. For a full disk: [`SmallDisk`]. For the
+//! service's binary, built from its own package: [`videtd_bin`].
 //!
 //! ```ignore
 //! #[global_allocator]
@@ -10,8 +11,10 @@
 //! assert_eq!(counts, videt_testkit::AllocCounts::default());
 //! ```
 
+mod service_binary;
 mod small_disk;
 
+pub use service_binary::videtd_bin;
 pub use small_disk::SmallDisk;
 
 use std::alloc::{GlobalAlloc, Layout, System};

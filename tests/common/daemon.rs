@@ -50,7 +50,7 @@ impl Daemon {
     /// Starts `videtd` with `args` and `--socket socket` (quiet, its output discarded) and waits
     /// until the socket exists.
     pub fn start(args: &[&str], socket: &Path) -> Daemon {
-        let child = Command::new(env!("CARGO_BIN_EXE_videtd"))
+        let child = Command::new(videt_testkit::videtd_bin())
             .args(args)
             .arg("--socket")
             .arg(socket)

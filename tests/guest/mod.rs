@@ -67,19 +67,19 @@ pub fn monotonic_ns() -> u64 {
 
 /// The binary `name`: from `VIDET_BIN_DIR` when set (the suite runs optimized binaries built
 /// with the cameras' feature), else the one cargo built for this test.
-pub fn bin(name: &str, built: &str) -> PathBuf {
+pub fn bin(name: &str, built: impl FnOnce() -> PathBuf) -> PathBuf {
     match std::env::var_os("VIDET_BIN_DIR") {
         Some(dir) => Path::new(&dir).join(name),
-        None => PathBuf::from(built),
+        None => built(),
     }
 }
 
 pub fn videt_bin() -> PathBuf {
-    bin("videt", env!("CARGO_BIN_EXE_videt"))
+    bin("videt", || PathBuf::from(env!("CARGO_BIN_EXE_videt")))
 }
 
 pub fn videtd_bin() -> PathBuf {
-    bin("videtd", env!("CARGO_BIN_EXE_videtd"))
+    bin("videtd", videt_testkit::videtd_bin)
 }
 
 pub fn run(cmd: &str, args: &[&str]) {
@@ -324,7 +324,7 @@ pub fn start_rig(config: &Path, can: &str) -> Process {
 /// with `--technician-stdin` among them, its stdin is a pipe the test writes to.
 pub fn start_rig_with(config: &Path, can: &str, extra: &[&str]) -> Process {
     let dir = config.parent().unwrap();
-    let control_cpu = videt_rt_config::Config::load(config)
+    let control_cpu = videt_config::Config::load(config)
         .unwrap()
         .realtime
         .control_cpu;

@@ -12,7 +12,7 @@
 //! default 12), and:
 //!
 //! - **pixels**: the fraction of the evaluated area more than 5 mm off the true surface
-//!   (`videt_vision::evaluation::relief_deviation`, as `phantom_relief` reports it);
+//!   (`videt_evaluation::relief_deviation`, as `phantom_relief` reports it);
 //! - **felt**: the twin's virtual operator sweeps the area inside the frame in 1 cm rows at
 //!   8 cm/s with a 1 N push, the real control cycle rendering the relief through the CiA 402
 //!   twin (`videt_tools::felt_surface`); the height the finger was held at is compared with the
@@ -32,16 +32,15 @@ use std::path::{Path, PathBuf};
 
 use image::{Rgb, RgbImage};
 use plotters::prelude::*;
-use videt_rt_config::{Config, PATCH_SPACING_RANGE_PX};
-use videt_service::relief_scene::ReliefLayout;
+use videt_config::{Config, PATCH_SPACING_RANGE_PX};
+use videt_evaluation::{
+    load_extra_pairs, load_truth_pair, relief_deviation, DisparityMap, TruthPair, MIDDLEBURY_PAIRS,
+};
+use videt_relief::{build_from_scene, ReliefLayout, ReliefModel, ReliefParams, ReliefShape};
 use videt_service::stereo_relief::{pinhole, LiveSettings, PairCamera, StereoPair, StereoRelief};
 use videt_tools::felt_surface::{felt_map, felt_surface, FeltMap, FeltSettings, FeltSurface};
 use videt_tools::haptic_bench::rig::{run, start_position, Experiment, Parts};
 use videt_vision::disparity_range::choose_max_disparity;
-use videt_vision::evaluation::{
-    load_extra_pairs, load_truth_pair, relief_deviation, DisparityMap, TruthPair, MIDDLEBURY_PAIRS,
-};
-use videt_vision::surface::{build_from_scene, ReliefModel, ReliefParams, ReliefShape};
 use videt_vision::{GrayView, RectifiedGeometry, StereoPipeline, VisionParams};
 
 const THRESHOLD_M: f64 = 0.005;
@@ -373,7 +372,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
     };
     let config = Config::default();
-    let layout = ReliefLayout::for_config(&config);
+    let layout = videt_runtime::setup::relief_layout(&config);
 
     let mut pairs = Vec::new();
     for (name, scale) in MIDDLEBURY_PAIRS {

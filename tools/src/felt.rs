@@ -6,10 +6,10 @@
 //! are computed back from the configuration and the calibration in force, with the same device
 //! code the service ran.
 
+use videt_config::Config;
 use videt_control::{
     ControlStep, FeltPeriod, FeltTally, ForceSettings, SafetyState, Vec3, WireDevice,
 };
-use videt_rt_config::Config;
 use videt_runtime::cycle::CycleRecord;
 use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::telemetry::{CalibrationInForce, Log};

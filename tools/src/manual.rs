@@ -189,7 +189,7 @@ fn videtd_page() -> io::Result<Page> {
             "The command line or the configuration was refused; nothing was started.",
         )
         .item(
-            videt_service::service::EXIT_PANIC.to_string(),
+            videt_service::run::EXIT_PANIC.to_string(),
             "A thread panicked: the control loop stopped in the safe state (every wire at \
              minimum tension, drives off). systemd restarts the service (Restart=on-failure).",
         );

@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 
 use foxglove::schemas::RawImage;
 use foxglove::{Channel, Context};
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_runtime::status::StatusReader;
 use videt_runtime::telemetry::{
     CalibrationInForce, FeedRecording, RecordedSurface, SessionLogHealth,

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use foxglove::{Context, McapCompression, McapWriteOptions};
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_runtime::telemetry::{
     Log, LogError, LogItem, LogOutline, LogReader, RecordedSurface, SurfaceEntry,
 };
@@ -393,12 +393,12 @@ mod tests {
     use videt_control::safety::{SafetyReason, SafetyState};
     use videt_control::surface::Plane;
     use videt_control::Vec3;
+    use videt_relief::ReliefModel;
     use videt_runtime::cycle::CycleRecord;
     use videt_runtime::telemetry::{
         CalibrationEntry, CalibrationInForce, EndReason, LogHeader, RecordedSurface, SessionEnd,
         SessionInfo,
     };
-    use videt_vision::surface::ReliefModel;
 
     const PERIODS: usize = 3000;
 

@@ -13,11 +13,12 @@ use foxglove::messages::{
     SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, TriangleListPrimitive, Vector3,
 };
 use foxglove::{Channel, Context};
+use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_control::DeviceKind;
-use videt_rt_config::Config;
-use videt_runtime::cycle::{CycleRecord, LOG_WIRE_SLOTS};
+use videt_runtime::cycle::CycleRecord;
 use videt_runtime::telemetry::{CalibrationInForce, RecordedSurface};
+use videt_runtime::WIREMAN_WIRES;
 
 /// The frame every message is in: the rig's (the frame plane at `z = 0`), metres.
 pub const FRAME_ID: &str = "rig";
@@ -74,9 +75,9 @@ impl SceneSetup {
         }
     }
 
-    /// The wires a period's record holds (a record has [`LOG_WIRE_SLOTS`] slots).
+    /// The wires a period's record holds (a record has [`WIREMAN_WIRES`] slots).
     fn logged_wires(&self) -> usize {
-        self.wires.min(LOG_WIRE_SLOTS).min(self.guides_m.len())
+        self.wires.min(WIREMAN_WIRES).min(self.guides_m.len())
     }
 }
 
@@ -230,10 +231,10 @@ impl SessionTopics {
             }],
         };
         let tension_msg = Tension {
-            measured_n: Vec::with_capacity(LOG_WIRE_SLOTS),
-            setpoint_n: Vec::with_capacity(LOG_WIRE_SLOTS),
-            torque_nm: Vec::with_capacity(LOG_WIRE_SLOTS),
-            length_m: Vec::with_capacity(LOG_WIRE_SLOTS),
+            measured_n: Vec::with_capacity(WIREMAN_WIRES),
+            setpoint_n: Vec::with_capacity(WIREMAN_WIRES),
+            torque_nm: Vec::with_capacity(WIREMAN_WIRES),
+            length_m: Vec::with_capacity(WIREMAN_WIRES),
             velocity_m_s: Vec::with_capacity(3),
             desired_force_n: Vec::with_capacity(3),
             rendered_force_n: Vec::with_capacity(3),

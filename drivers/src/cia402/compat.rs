@@ -1,8 +1,8 @@
 //! Whether a drive, as its EDS/DCF describes it, has every object this driver uses.
 
 use super::pdo::{AnalogInputObject, DriveSetup, SYNC_EVERY_CYCLE};
-use crate::canopen::eds::Eds;
 use crate::canopen::objects::is_optional;
+use videt_drive_description::Eds;
 
 /// An object the driver needs that a data sheet lacks or does not allow.
 #[derive(Debug, Clone, PartialEq, Eq)]

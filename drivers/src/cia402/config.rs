@@ -6,7 +6,7 @@ use core::time::Duration;
 use videt_hal::Transmission;
 
 use super::pdo::AnalogInputObject;
-use super::resolution::TorqueUnit;
+use videt_drive_description::TorqueUnit;
 
 /// Settings of a set of `N` drives, one per wire. Build with [`DriveSetConfig::new`] (which
 /// takes `N` from the length of its node-id array) and adjust fields.

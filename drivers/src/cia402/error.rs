@@ -3,12 +3,12 @@
 
 use videt_hal::{ErrorKind, LifecycleState};
 
-use super::resolution::TorqueUnit;
 use super::state::{PowerError, PowerGoal, PowerState};
 use crate::canopen::codes::{emcy_description, sdo_abort_description};
 use crate::canopen::objects::{
     driver_object, means_absent, object_name, DriverObject, Need, ABORT_INVALID_VALUE,
 };
+use videt_drive_description::TorqueUnit;
 
 /// What went wrong with the drives, naming the node involved.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -10,7 +10,6 @@ pub mod drive_set;
 pub mod error;
 pub mod identity;
 pub mod pdo;
-pub mod resolution;
 pub mod state;
 
 #[cfg(test)]
@@ -24,5 +23,5 @@ pub use drive_set::{wire_length_m, Cia402DriveSet};
 pub use error::DriveError;
 pub use identity::{DriveIdentity, SharedStartupReport, StartupNote, StartupReport};
 pub use pdo::AnalogInputObject;
-pub use resolution::{DriveResolution, Origin, Sourced, TorqueUnit};
 pub use state::{PowerGoal, PowerSequencer, PowerState};
+pub use videt_drive_description::{DriveResolution, Origin, Sourced, TorqueUnit};

@@ -7,9 +7,8 @@ use videt_control::safety::{SafetyReason, SafetyState};
 use videt_hal::{DriveSample, DriveState, MonoTime};
 
 use super::session::{CalibrationInForce, EndReason, SessionEnd};
-use crate::cycle::{
-    CycleInputs, CycleOp, CycleOps, CycleRecord, EStopReading, TorqueWrite, LOG_WIRE_SLOTS,
-};
+use crate::cycle::{CycleInputs, CycleOp, CycleOps, CycleRecord, EStopReading, TorqueWrite};
+use crate::WIREMAN_WIRES;
 
 /// File magic.
 pub const MAGIC: &[u8; 8] = b"VIDETLOG";
@@ -287,7 +286,7 @@ pub fn encode_period(r: &CycleRecord, b: &mut [u8; PERIOD_BYTES]) {
         TorqueWrite::Failed => 2,
     };
     inp[3] = i.ops.as_slice().len() as u8;
-    inp[4] = (0..LOG_WIRE_SLOTS).fold(0, |bits, w| bits | u8::from(i.tensions_fresh[w]) << w);
+    inp[4] = (0..WIREMAN_WIRES).fold(0, |bits, w| bits | u8::from(i.tensions_fresh[w]) << w);
     for (w, d) in i.drives.iter().enumerate() {
         let at = 8 + 24 * w;
         inp[at..at + 8].copy_from_slice(&d.position_counts.to_le_bytes());
@@ -324,14 +323,14 @@ pub fn decode_period(b: &[u8; PERIOD_BYTES]) -> Result<CycleRecord, String> {
         || inp[1] > 2
         || inp[2] > 2
         || usize::from(inp[3]) > CycleOps::CAPACITY
-        || inp[4] >> LOG_WIRE_SLOTS != 0
+        || inp[4] >> WIREMAN_WIRES != 0
     {
         return Err(format!(
             "undefined input codes (flags {flags:#04x}, e-stop {}, torque write {}, operations {})",
             inp[1], inp[2], inp[3]
         ));
     }
-    let mut drives = [DriveSample::default(); LOG_WIRE_SLOTS];
+    let mut drives = [DriveSample::default(); WIREMAN_WIRES];
     for (w, d) in drives.iter_mut().enumerate() {
         let at = 8 + 24 * w;
         d.position_counts = i64::from_le_bytes(inp[at..at + 8].try_into().expect("8"));

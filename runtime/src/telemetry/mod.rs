@@ -119,7 +119,7 @@ pub(super) mod tests {
     /// then what `tap` is published.
     pub(super) fn recording_with(tap: &Arc<SurfaceTap>) -> SessionRecording {
         SessionRecording {
-            session: Some(SessionInfo::new("test", videt_rt_config::Config::default())),
+            session: Some(SessionInfo::new("test", videt_config::Config::default())),
             surfaces: FeedRecording {
                 initial: Some(plane(0.3)),
                 tap: Some(Arc::clone(tap)),
@@ -688,7 +688,7 @@ pub(super) mod tests {
             |v: u64| LogItem::Surface(v, SurfaceEntry::Recorded(Arc::new(plane(0.3 + v as f64))));
         let session = LogItem::Session(Box::new(Ok(SessionInfo::new(
             "test",
-            videt_rt_config::Config::default(),
+            videt_config::Config::default(),
         ))));
         let mut written = vec![session, surface(0)];
         written.extend((0..10).map(|c| period(c, 0)));

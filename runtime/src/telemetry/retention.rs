@@ -15,7 +15,7 @@ use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
-use videt_rt_config::TelemetryConfig;
+use videt_config::TelemetryConfig;
 
 /// Bytes in a MB of the configuration (`telemetry.max_total_mb`, `telemetry.min_free_mb`).
 pub const MB: u64 = 1_000_000;

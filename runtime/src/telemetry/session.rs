@@ -3,10 +3,11 @@
 //! the session ended. The surfaces it records are [`super::surfaces`]'s.
 
 use serde::{Deserialize, Serialize};
-use videt_rt_config::Config;
+use videt_config::Config;
 
-use crate::cycle::{ControlCycle, WireZero, LOG_WIRE_SLOTS};
+use crate::cycle::{ControlCycle, WireZero};
 use crate::runtime_device::RuntimeDevice;
+use crate::WIREMAN_WIRES;
 
 /// The session frame: who recorded the log, what ran, and the configuration in force.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -47,9 +48,9 @@ impl SessionInfo {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CalibrationInForce {
     /// Guide points, metres, one per wire of the device (the remaining slots zero).
-    pub guides_m: [[f64; 3]; LOG_WIRE_SLOTS],
+    pub guides_m: [[f64; 3]; WIREMAN_WIRES],
     /// Wire length at encoder count zero, metres.
-    pub length_at_zero_m: [f64; LOG_WIRE_SLOTS],
+    pub length_at_zero_m: [f64; WIREMAN_WIRES],
     /// Forces are rendered (the rig was calibrated).
     pub calibrated: bool,
 }

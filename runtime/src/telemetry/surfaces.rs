@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use videt_control::surface::Plane;
 use videt_control::Vec3;
-use videt_vision::surface::ReliefModel;
+use videt_relief::ReliefModel;
 
 /// A surface as recorded.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,26 +1,29 @@
 //! A device whose tension readings are corrected by the strain gauges' two-point calibration
-//! (`videt tension-calibrate`): every other capability is passed through unchanged.
+//! (`videt tension-calibrate`), when it has one: every other capability is passed through
+//! unchanged. The service runs every device through it; without a calibration the readings
+//! pass through too.
 
+use videt_config::calibration::TensionCalibration;
 use videt_hal::{
     Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime, TensionSensors,
     WireDrives,
 };
-use videt_rt_config::calibration::TensionCalibration;
-use videt_runtime::WIREMAN_WIRES;
 
 /// `H` with corrected tension readings. Allocation-free; the correction is two flops per wire.
 #[derive(Debug)]
 pub struct CorrectedTensions<H> {
     inner: H,
-    correction: TensionCalibration,
+    /// The calibration of each channel it has (`None`: the readings pass through).
+    correction: Option<TensionCalibration>,
     /// Whether the correction is applied (left out while the commissioning check reads the
     /// sensors as configured).
     correcting: bool,
 }
 
 impl<H> CorrectedTensions<H> {
-    /// Wrap `inner`, correcting its tension readings with `correction`.
-    pub fn new(inner: H, correction: TensionCalibration) -> Self {
+    /// Wrap `inner`, correcting its tension readings with `correction` (`None`: passing them
+    /// through).
+    pub fn new(inner: H, correction: Option<TensionCalibration>) -> Self {
         CorrectedTensions {
             inner,
             correction,
@@ -45,36 +48,34 @@ impl<H: ErrorType> ErrorType for CorrectedTensions<H> {
     type Error = H::Error;
 }
 
-impl<H: TensionSensors<WIREMAN_WIRES>> TensionSensors<WIREMAN_WIRES> for CorrectedTensions<H> {
-    fn read_tensions(&mut self, out_n: &mut [f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
+impl<const N: usize, H: TensionSensors<N>> TensionSensors<N> for CorrectedTensions<H> {
+    fn read_tensions(&mut self, out_n: &mut [f64; N]) -> Result<(), Self::Error> {
         self.read_fresh_tensions(out_n).map(|_| ())
     }
-    fn read_fresh_tensions(
-        &mut self,
-        out_n: &mut [f64; WIREMAN_WIRES],
-    ) -> Result<[bool; WIREMAN_WIRES], Self::Error> {
+    fn read_fresh_tensions(&mut self, out_n: &mut [f64; N]) -> Result<[bool; N], Self::Error> {
         let fresh = self.inner.read_fresh_tensions(out_n)?;
-        if !self.correcting {
+        let Some(correction) = self.correction.as_ref().filter(|_| self.correcting) else {
             return Ok(fresh);
-        }
-        for (i, t) in out_n.iter_mut().enumerate() {
-            *t = self.correction.correct(i, *t);
+        };
+        // (A calibration holds the WireMan's three channels.)
+        for (i, t) in out_n.iter_mut().enumerate().take(correction.offset_n.len()) {
+            *t = correction.correct(i, *t);
         }
         Ok(fresh)
     }
 }
 
-impl<H: WireDrives<WIREMAN_WIRES>> WireDrives<WIREMAN_WIRES> for CorrectedTensions<H> {
+impl<const N: usize, H: WireDrives<N>> WireDrives<N> for CorrectedTensions<H> {
     fn enable(&mut self) -> Result<(), Self::Error> {
         self.inner.enable()
     }
     fn disable(&mut self) -> Result<(), Self::Error> {
         self.inner.disable()
     }
-    fn read_drives(&mut self, out: &mut [DriveSample; WIREMAN_WIRES]) -> Result<(), Self::Error> {
+    fn read_drives(&mut self, out: &mut [DriveSample; N]) -> Result<(), Self::Error> {
         self.inner.read_drives(out)
     }
-    fn write_torques(&mut self, torque_nm: &[f64; WIREMAN_WIRES]) -> Result<(), Self::Error> {
+    fn write_torques(&mut self, torque_nm: &[f64; N]) -> Result<(), Self::Error> {
         self.inner.write_torques(torque_nm)
     }
 }
@@ -122,6 +123,7 @@ impl<H: Clock> Clock for CorrectedTensions<H> {
 mod tests {
     use super::*;
     use videt_assembly::WiremanTwin as Twin;
+    use videt_runtime::WIREMAN_WIRES;
     use videt_sim::{PlantParams, SensorModel, Vec3, VirtualOperator};
 
     #[test]
@@ -148,7 +150,7 @@ mod tests {
             VirtualOperator::holding(p),
             sensors,
         );
-        let mut corrected = CorrectedTensions::new(twin, c);
+        let mut corrected = CorrectedTensions::new(twin, Some(c));
         let (mut a, mut b) = ([0.0; WIREMAN_WIRES], [0.0; WIREMAN_WIRES]);
         raw.read_tensions(&mut a).unwrap();
         corrected.read_tensions(&mut b).unwrap();

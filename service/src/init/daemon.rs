@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use videt_assembly::WiremanTwin as Twin;
 
+use videt_config::Config;
 use videt_hal::{Lifecycle, WireDrives};
-use videt_rt_config::Config;
 use videt_sim::{VirtualOperator, WireModules};
 
 use super::runner::Runner;

@@ -3,7 +3,7 @@
 //! The procedure itself is `videt_control::autoinit`'s pure state machine; this module runs it
 //! period by period on the HAL ([`runner`]), asks the technician for the manual steps
 //! ([`session::Technician`]), turns the result into a calibration file
-//! (`videt_rt_config::calibration`), and keeps other processes off the motors meanwhile
+//! (`videt_config::calibration`), and keeps other processes off the motors meanwhile
 //! ([`lock`]). [`twin`] builds the digital twin a `--sim` run rehearses on. [`commission`]
 //! checks a newly assembled rig's wiring and names the fixes.
 

@@ -1,7 +1,7 @@
 //! The procedure's settings from the configuration.
 
+use videt_config::Config;
 use videt_control::autoinit::{ProcedureParams, WorkspaceSpec};
-use videt_rt_config::Config;
 
 use videt_runtime::setup;
 

@@ -9,8 +9,8 @@ use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 use videt_runtime::WIREMAN_WIRES;
 
+use videt_config::Config;
 use videt_control::autoinit::Stage;
-use videt_rt_config::Config;
 
 use super::commission::{CommissionStep, RigCheck};
 use super::session::{InitError, Measurement, Request};

@@ -23,11 +23,11 @@ use std::sync::Arc;
 use videt_assembly::WiremanTwin as Twin;
 use videt_runtime::WIREMAN_WIRES;
 
+use videt_config::Config;
 use videt_control::autoinit::{Failure, Stage};
 use videt_control::safety::SafetyState;
 use videt_control::Rig3;
 use videt_hal::{Clock, DriveSample, EStop, ErrorType, MonoTime, TensionSensors, WireDrives};
-use videt_rt_config::Config;
 use videt_sim::{VirtualOperator, WireModules};
 
 use super::commission::{check_rig, CommissionStep, CommissionTechnician, Thimble};

@@ -8,11 +8,11 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use videt_runtime::WIREMAN_WIRES;
 
+use videt_config::calibration::TensionCalibration;
 use videt_control::autoinit::{Failure, Procedure, ProcedureInput, Stage, Status};
 use videt_hal::{
     Clock, DriveSample, DriveState, EStop, MonoTime, TensionSensors, Transmission, WireDrives,
 };
-use videt_rt_config::calibration::TensionCalibration;
 
 /// The device capabilities the procedure needs.
 pub trait InitHardware:

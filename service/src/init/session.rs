@@ -8,12 +8,12 @@ use std::sync::atomic::AtomicBool;
 use std::time::{SystemTime, UNIX_EPOCH};
 use videt_runtime::WIREMAN_WIRES;
 
+use videt_config::calibration::{utc_timestamp, Calibration, WorkspaceRecord, FORMAT_VERSION};
+use videt_config::Config;
 use videt_control::autoinit::{
     workspace, BaseTriangle, Failure, Plan, Procedure, Stage, Status, Workspace,
 };
 use videt_hal::Lifecycle;
-use videt_rt_config::calibration::{utc_timestamp, Calibration, WorkspaceRecord, FORMAT_VERSION};
-use videt_rt_config::Config;
 
 use super::params::{procedure_params, workspace_spec};
 use super::runner::{InitHardware, Readings, RunSettings, Runner};
@@ -259,7 +259,7 @@ pub struct Measurement {
 impl Measurement {
     /// Wire length at encoder count zero, metres (the control cycle's encoder zeros).
     pub fn length_at_zero_m(&self) -> [f64; WIREMAN_WIRES] {
-        videt_rt_config::calibration::length_at_zero_m(&self.zero_counts, self.metres_per_count)
+        videt_config::calibration::length_at_zero_m(&self.zero_counts, self.metres_per_count)
     }
 }
 

@@ -12,8 +12,8 @@ use videt_runtime::WIREMAN_WIRES;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use videt_config::Config;
 use videt_control::autoinit::Failure;
-use videt_rt_config::Config;
 use videt_sim::{PlantParams, SensorModel, TwinFault, Vec3, VirtualOperator, WireModules};
 
 use super::runner::Runner;

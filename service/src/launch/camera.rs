@@ -3,19 +3,21 @@
 //! it up to date, and the colour under the finger comes from the same left frames.
 
 use tracing::{info, warn};
-use videt_rt_config::Config;
+use videt_config::Config;
+use videt_relief::ReliefLayout;
 
-use super::start::{colour_enabled, relief_channel};
 use crate::camera_relief::CalibratedRig;
 use crate::colour_thread::{ColourOutputs, ColourSource};
 use crate::relief_feed::ReliefFeed;
-use crate::service::ServiceExtras;
+use crate::run::SceneLinks;
 
-/// The device's cameras (`vision.devices`) feeding reliefs, rectified with
-/// `vision.stereo_calibration`.
-pub fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
-    let rig = CalibratedRig::load(std::path::Path::new(&config.vision.stereo_calibration))
-        .map_err(|e| format!("stereo calibration {e}"))?;
+/// The device's cameras (`vision.devices`) feeding reliefs over `layout`, rectified by `rig`
+/// (`vision.stereo_calibration`); why not, when they cannot.
+pub fn device_cameras(
+    config: &Config,
+    rig: CalibratedRig,
+    layout: ReliefLayout,
+) -> Result<CameraFeed, String> {
     #[cfg(feature = "v4l")]
     {
         use videt_drivers::camera::v4l_stereo::{V4lStereo, V4lStereoConfig};
@@ -43,13 +45,14 @@ pub fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
             camera,
             format!("cameras {left} + {right}"),
             rig,
-            crate::relief_scene::ReliefLayout::for_config(config),
+            layout,
             vibrotactors,
         )
     }
     #[cfg(not(feature = "v4l"))]
     {
-        let _ = rig;
+        // The plan chooses the cameras only in a build that captures them.
+        let _ = (config, rig, layout);
         Err(
             "this videtd is built without V4L2 capture (cargo build --release --features v4l)"
                 .into(),
@@ -61,10 +64,11 @@ pub fn device_camera_feed(config: &Config) -> Result<CameraFeed, String> {
 pub struct CameraFeed {
     /// What the control loop renders.
     pub feed: ReliefFeed,
-    /// The camera thread's counters on the status line.
-    pub extras: ServiceExtras,
+    /// The camera thread's links to the service (the thimble it looks at, its counters on the
+    /// status line, the live image).
+    pub links: SceneLinks,
     /// The first relief.
-    pub first: videt_vision::surface::ReliefModel,
+    pub first: videt_relief::ReliefModel,
     /// The colour under the finger from the camera's left frames.
     pub colour: Option<ColourSource>,
 }
@@ -77,7 +81,7 @@ pub fn start_camera_feed<C>(
     camera: C,
     name: String,
     rig: CalibratedRig,
-    layout: crate::relief_scene::ReliefLayout,
+    layout: ReliefLayout,
     colour_outputs: ColourOutputs,
 ) -> Result<CameraFeed, String>
 where
@@ -87,7 +91,7 @@ where
     use std::sync::atomic::AtomicBool;
     use std::sync::Arc;
     // The colour under the finger, from the same left frames, mapped as the relief is.
-    let colour = colour_enabled(config).then(|| {
+    let colour = crate::colour_thread::colour_enabled(config).then(|| {
         crate::colour_thread::camera_colour(&layout, rig.size_px, &config.colour, colour_outputs)
     });
     let (colour, colour_frames) = match colour {
@@ -136,8 +140,8 @@ where
         config.vision.full_refresh_s,
         config.vision.rebuild_period_s
     );
-    let (writer, feed) = relief_channel(config, model.clone())
-        .map_err(|_| "invalid relief settings (see above)".to_string())?;
+    let (writer, feed) =
+        crate::relief_feed::relief_channel_for(config, model.clone()).map_err(|e| e.to_string())?;
     let stats = Arc::new(CameraStats::default());
     let (thimble_publisher, thimble_reader) = videt_runtime::thimble::thimble_channel();
     // The thread runs as long as the process: the service ends by exiting.
@@ -155,17 +159,15 @@ where
         videt_runtime::rt::vision_fifo_priority(&config.realtime),
     )
     .map_err(|e| format!("cannot start the vision thread: {e}"))?;
-    let extras = crate::service::ServiceExtras {
-        vision_stall: None,
+    let links = SceneLinks {
         thimble: Some(thimble_publisher),
-        fault_causes: None,
-        drives_report: None,
         status_suffix: Some(Box::new(move || stats.status_text())),
         live_image,
+        ..SceneLinks::default()
     };
     Ok(CameraFeed {
         feed,
-        extras,
+        links,
         first: model,
         colour,
     })

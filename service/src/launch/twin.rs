@@ -1,256 +1,221 @@
-//! The twin's wall scenes (the WireMan touching the check wall, the other devices touching
-//! theirs), and each device's twin calibrated as the plan says for the relief scenes of
-//! [`super::relief`]; on the HAL or the CAN twin.
+//! The service on a digital twin of any device: the twin built in front of its wall with a
+//! virtual operator, calibrated as the plan says (the configured geometry, none, or the
+//! WireMan's auto-initialization at start-up), wired as the configuration corrects it, its
+//! scene built over the area in front of its guides, then run as the HAL twin or behind
+//! simulated CiA 402 drives on a userspace CAN bus.
 
 use std::process::ExitCode;
 
-use tracing::{error, info, warn};
-use videt_assembly::can_twin::CanTwin;
+use tracing::{info, warn};
+use videt_assembly::can_twin::{self, CanTwin};
 use videt_assembly::twin_rt::RealTimeTwin;
-use videt_assembly::twin_scene::DemoScene;
-use videt_control::Rig3;
-use videt_rt_config::Config;
-use videt_runtime::cycle::WireZero;
+use videt_assembly::twin_scene::{thimble_start, wall_scene};
+use videt_config::Config;
+use videt_control::DeviceKind;
+use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::setup;
-use videt_runtime::snapshot::FixedSurface;
-use videt_runtime::WiremanCycle;
+use videt_sim::Twin;
 
-use super::relief::SceneTwin;
-use super::start::{colour_enabled, run_on_twin, run_with_tension_correction, wire_as_configured};
-use crate::plan::{SimCalibration, SimMode};
-use crate::service::{ServiceExtras, ServiceOptions};
+use super::calibration::TwinInit;
+use super::{start::start, LaunchError};
+use crate::colour_thread::ColourOutputs;
+use crate::init::corrected::CorrectedTensions;
+use crate::plan::{PlannedTwin, ServicePlan, SimMode};
+use crate::relief_scene::SweepPath;
+use crate::run::HardwareReports;
 use crate::service_hardware::ServiceHardware;
 
-/// The wall demonstration on the twin of a device other than the WireMan: the twin's geometry
-/// is the configured one (`--sim-calibration config`) or forces are off (`none`);
-/// auto-initialization measures the WireMan's base triangle and is refused here.
-pub(super) fn device_wall_demo<const N: usize, D>(
-    config: &Config,
+/// Run the plan on `hardware`, the twin of `device`.
+pub fn run<const N: usize, D>(
+    plan: ServicePlan,
     device: D,
-    sim: SimMode,
-    calibration: SimCalibration,
-    options: &mut ServiceOptions,
-) -> ExitCode
+    hardware: PlannedTwin,
+) -> Result<ExitCode, LaunchError>
 where
-    D: videt_runtime::runtime_device::RuntimeDevice<N>,
-    RealTimeTwin<N, D>: ServiceHardware<N>,
-    CanTwin<N, RealTimeTwin<N, D>>: ServiceHardware<N>,
+    D: TwinInit<N>,
+    CorrectedTensions<RealTimeTwin<N, D>>: ServiceHardware<N>,
+    CorrectedTensions<CanTwin<N, RealTimeTwin<N, D>>>: ServiceHardware<N>,
 {
-    let name = D::KIND.name();
-    let calibrated = match device_calibrated(name, calibration) {
-        Ok(c) => c,
-        Err(code) => return code,
-    };
-    let start = videt_assembly::twin_scene::demo_start(&device);
-    let scene = videt_assembly::twin_scene::demo_scene_for(config, device, start, 1);
-    options.what = format!(
-        "digital twin of the {name} device ({N} wire{}): a virtual wall, a virtual operator \
-         touching it and sliding along it",
-        if N == 1 { "" } else { "s" }
-    );
-    tracing::info!(
-        rate_hz = config.control.rate_hz,
-        wall_z_m = scene.wall_z_m,
-        "{}",
-        options.what
-    );
-    if options.colour.take().is_some() || config.colour.enabled {
-        info!("colour rendering off: the demonstration image is laid over the WireMan's frame");
-    }
-    let cycle = setup::control_cycle_for(config, device, WireZero::default(), calibrated);
-    if sim == SimMode::Can {
-        options.what = format!("{} (drives on a simulated CAN bus)", options.what);
-    }
-    run_on_twin(
-        sim,
-        scene.twin,
-        FixedSurface(scene.wall),
-        cycle,
-        options,
-        ServiceExtras::default(),
-    )
-}
-
-/// The WireMan's twin and control cycle for a relief scene, calibrated as `calibration` says.
-pub(super) fn wireman_scene_twin(
-    config: &Config,
-    rig: Rig3,
-    calibration: SimCalibration,
-) -> SceneTwin<3, Rig3> {
-    let mut scene = videt_assembly::twin_scene::demo_scene(config, 1);
-    let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
-    let guides = rig.guides_m().map(|g| [g.x, g.y, g.z]);
-    SceneTwin {
-        twin: scene.twin,
-        cycle: setup::control_cycle(config, rig, wire_zero, calibrated),
-        layout: super::relief::layout_for(config, &guides),
-    }
-}
-
-/// The twin and control cycle of a device other than the WireMan for a relief scene: its
-/// geometry the configured one (`--sim-calibration config`) or forces off (`none`).
-pub(super) fn device_scene_twin<const N: usize, D>(
-    config: &Config,
-    device: D,
-    calibration: SimCalibration,
-) -> Result<SceneTwin<N, D>, ExitCode>
-where
-    D: videt_runtime::runtime_device::RuntimeDevice<N>,
-{
-    let calibrated = device_calibrated(D::KIND.name(), calibration)?;
-    let start = videt_assembly::twin_scene::demo_start(&device);
-    let guides = device.logged_guides_m();
-    let layout = super::relief::layout_for(config, &guides[..N]);
-    let scene = videt_assembly::twin_scene::demo_scene_for(config, device, start, 1);
-    Ok(SceneTwin {
-        twin: scene.twin,
-        cycle: setup::control_cycle_for(config, device, WireZero::default(), calibrated),
-        layout,
-    })
-}
-
-/// Whether a device other than the WireMan renders forces on the twin: with the configured
-/// geometry yes, with `--sim-calibration none` no; auto-initialization measures the WireMan's
-/// base triangle and is refused.
-fn device_calibrated(name: &str, calibration: SimCalibration) -> Result<bool, ExitCode> {
-    match calibration {
-        SimCalibration::Config => Ok(true),
-        SimCalibration::None => {
-            warn!("forces will not be rendered (not calibrated): --sim-calibration none");
-            Ok(false)
-        }
-        // The plan refuses it already; refused here too rather than assumed.
-        SimCalibration::Init => {
-            error!("{}", crate::plan::init_refused(name));
-            Err(ExitCode::from(2))
-        }
-    }
-}
-
-/// The twin's calibration as `--sim-calibration` chooses. Returns the rig, the encoder zeros and
-/// whether forces may be rendered.
-fn calibrate_twin(
-    config: &Config,
-    scene: &mut DemoScene,
-    configured: Rig3,
-    source: SimCalibration,
-) -> (Rig3, WireZero, bool) {
-    match source {
-        SimCalibration::Config => {
-            info!("twin calibration: the configured guides (the twin's true geometry)");
-            return (configured, WireZero::default(), true);
-        }
-        SimCalibration::None => {
-            warn!("forces will not be rendered (not calibrated): --sim-calibration none");
-            return (configured, WireZero::default(), false);
-        }
-        SimCalibration::Init => {}
-    }
-    let operator = scene.twin.operator().clone();
-    let start = scene.twin.plant().position_m();
-    // A signal during the start-up initialization cancels it (the service then starts
-    // uncalibrated and stops at once: its own handlers see the same signal pending).
-    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        let _ = signal_hook::flag::register(signal, std::sync::Arc::clone(&stop));
-    }
-    match crate::init::daemon::initialize_twin(config, &mut scene.twin, operator, start, 1, &stop)
-        .map_err(|e| e.to_string())
-        .and_then(|o| videt_runtime::calibration::from_calibration(config, &o.calibration))
-    {
-        Ok(s) => {
-            let c = s
-                .calibration
-                .as_ref()
-                .map(|c| c.sides_m)
-                .unwrap_or_default();
+    let ServicePlan {
+        feed,
+        calibration,
+        tension_correction,
+        settings,
+        ..
+    } = plan;
+    let config = &settings.config;
+    let sim = hardware.mode();
+    let wall = wall_scene(config, device, thimble_start(&device), 1);
+    let mut twin = wall.twin;
+    let (device, wire_zero, calibrated) =
+        super::calibration::resolve(config, device, &calibration, Some(&mut twin))?;
+    let cycle = setup::control_cycle_for(config, device, wire_zero, calibrated);
+    let layout = layout_in_front_of(config, &device.logged_guides_m()[..N]);
+    let describe = |what: &str| describe::<N, D>(what, sim);
+    let mut scene = super::scene::build(config, feed, layout, ColourOutputs::Recording, &describe)?;
+    let description = match scene.description.take() {
+        Some(what) => what,
+        None => {
+            let what = wall_description::<N, D>(sim);
             info!(
-                d01_mm = c[0] * 1e3,
-                d02_mm = c[1] * 1e3,
-                d12_mm = c[2] * 1e3,
-                "twin auto-initialized at start-up"
+                rate_hz = config.control.rate_hz,
+                wall_z_m = wall.wall_z_m,
+                "{what}"
             );
-            (s.rig, s.wire_zero, true)
-        }
-        Err(e) => {
-            warn!("forces will not be rendered (not calibrated): twin auto-initialization failed: {e}");
-            (configured, WireZero::default(), false)
-        }
-    }
-}
-
-/// The WireMan touching the check wall: on the HAL twin with its tension readings corrected as
-/// the device's are (the strain-gauge calibration beside the calibration file), or behind the
-/// CAN twin's drives.
-pub(super) fn run_wall(
-    config: &Config,
-    rig: Rig3,
-    calibration: SimCalibration,
-    sim: SimMode,
-    options: &mut ServiceOptions,
-    calibration_path: &std::path::Path,
-) -> ExitCode {
-    let what = match sim {
-        SimMode::Hal => {
-            "digital twin: a virtual wall, a virtual operator touching it and sliding along it"
-        }
-        SimMode::Can => {
-            "digital twin behind CiA 402 drives on a userspace CAN bus: a virtual wall, a \
-             virtual operator touching it and sliding along it"
+            scene.colour = wall_colour::<N, D>(config, wall.wall_z_m);
+            what
         }
     };
-    let (mut scene, cycle) = wall_demo(config, rig, calibration, options, what);
-    match sim {
-        SimMode::Hal => {
-            // The other twins are wired in `run_on_twin`.
-            wire_as_configured(&mut scene.twin, config, sim);
-            run_with_tension_correction(
-                RealTimeTwin::new(scene.twin),
-                FixedSurface(scene.wall),
-                cycle,
-                options,
-                calibration_path,
-                ServiceExtras::default(),
-            )
-        }
-        SimMode::Can => run_on_twin(
-            sim,
-            scene.twin,
-            FixedSurface(scene.wall),
+    let start_m = twin.plant().position_m();
+    if let Some(operator) = scene.operator(start_m, &sweep_path::<N, D>()) {
+        twin.set_operator(operator);
+    }
+    wire_as_configured(&mut twin, config, sim);
+    let PlannedTwin::Can(dictionary) = hardware else {
+        return Ok(start(
+            RealTimeTwin::new(twin),
+            scene,
             cycle,
-            options,
-            ServiceExtras::default(),
-        ),
+            &settings,
+            description,
+            tension_correction,
+            HardwareReports::default(),
+        ));
+    };
+    let mut hw = CanTwin::new(
+        twin,
+        can_twin::drive_config::<N>(config),
+        dictionary,
+        config.drives.bitrate,
+        Some(config.realtime.control_priority),
+        usize::try_from(config.realtime.control_cpu).ok(),
+    )
+    .map_err(|e| LaunchError::failed(format!("simulated CAN drives: {e}")))?;
+    let bus = hw.bus_stats();
+    let reports = HardwareReports {
+        fault_causes: Some(videt_assembly::hardware::drive_fault_causes(
+            hw.fault_reports(),
+        )),
+        drives_report: Some(hw.startup_report()),
+    };
+    let code = start(
+        hw,
+        scene,
+        cycle,
+        &settings,
+        description,
+        tension_correction,
+        reports,
+    );
+    if let Some(s) = bus.map(|b| b.snapshot()) {
+        info!(
+            bitrate = s.bitrate,
+            frames = s.frames,
+            load_percent = format!("{:.1}", 100.0 * s.load),
+            mean_wait_us = format!("{:.0}", s.mean_wait_us),
+            max_wait_us = format!("{:.0}", s.max_wait_us),
+            overflows = s.overflows,
+            "simulated CAN bus"
+        );
+    }
+    Ok(code)
+}
+
+/// Wire `twin`, a rig built right, as `config` corrects it: a correction the rig does not need
+/// shows as the mistake it makes on the device. The HAL twin applies the drives' directions
+/// itself; behind simulated drives (`sim` CAN) the drivers apply them.
+pub fn wire_as_configured<const N: usize, D: videt_control::WireDevice<N>>(
+    twin: &mut Twin<N, D>,
+    config: &Config,
+    sim: SimMode,
+) {
+    use videt_assembly::as_built::{configured_wiring, DriveCorrections};
+    let corrections = match sim {
+        SimMode::Hal => DriveCorrections::InTwin,
+        SimMode::Can => DriveCorrections::InDrivers,
+    };
+    // A wiring without permutations is always valid.
+    let _ = twin.set_wiring(configured_wiring::<N>(config, corrections));
+}
+
+/// The explored area for a device whose guides are `guides_m`: the configured layout
+/// ([`setup::relief_layout`]), centred on the mean of the device's guides.
+pub fn layout_in_front_of(config: &Config, guides_m: &[[f64; 3]]) -> videt_relief::ReliefLayout {
+    let n = guides_m.len().max(1) as f64;
+    let centre = guides_m
+        .iter()
+        .fold([0.0, 0.0], |c, g| [c[0] + g[0] / n, c[1] + g[1] / n]);
+    setup::relief_layout(config).centred_at(centre)
+}
+
+/// How the sweeping operator explores a relief on a device: across the area in two rows, or
+/// along its centre line on the planar device (its thimble moves in that plane).
+fn sweep_path<const N: usize, D: RuntimeDevice<N>>() -> SweepPath {
+    match D::KIND {
+        DeviceKind::Planar2 => SweepPath::along_centre_line(),
+        _ => SweepPath::default(),
     }
 }
 
-/// The twin's wall demonstration: the scene, calibrated as `calibration` says, its control cycle,
-/// and the colour under the finger from a demo image over the explored area.
-fn wall_demo(
-    config: &Config,
-    rig: Rig3,
-    calibration: SimCalibration,
-    options: &mut ServiceOptions,
-    what: &str,
-) -> (DemoScene, WiremanCycle) {
-    let mut scene = videt_assembly::twin_scene::demo_scene(config, 1);
-    tracing::info!(
-        rate_hz = config.control.rate_hz,
-        wall_z_m = scene.wall_z_m,
-        "{what}"
-    );
-    options.what = what.to_string();
-    let (rig, wire_zero, calibrated) = calibrate_twin(config, &mut scene, rig, calibration);
-    let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
-    if colour_enabled(config) {
-        match crate::colour_thread::demo_colour(
-            &config.rig.guides_m,
-            scene.wall_z_m,
-            &config.colour,
-        ) {
-            Ok(source) => options.colour = Some(source),
-            Err(e) => tracing::warn!("colour rendering disabled: {e}"),
+/// A relief scene's `what` with the device named when it is not the WireMan, and the CAN bus
+/// when `sim` has one.
+fn describe<const N: usize, D: RuntimeDevice<N>>(what: &str, sim: SimMode) -> String {
+    let mut what = match D::KIND {
+        DeviceKind::Wireman3 => what.to_string(),
+        kind => format!("{what} (the {} device, {N} wire{})", kind.name(), plural(N)),
+    };
+    if sim == SimMode::Can {
+        what += " (drives on a simulated CAN bus)";
+    }
+    what
+}
+
+/// What a device's twin touching its wall is, on the HAL or the CAN twin.
+fn wall_description<const N: usize, D: RuntimeDevice<N>>(sim: SimMode) -> String {
+    const WALL: &str = "a virtual wall, a virtual operator touching it and sliding along it";
+    match (D::KIND, sim) {
+        (DeviceKind::Wireman3, SimMode::Hal) => format!("digital twin: {WALL}"),
+        (DeviceKind::Wireman3, SimMode::Can) => {
+            format!("digital twin behind CiA 402 drives on a userspace CAN bus: {WALL}")
+        }
+        (kind, sim) => {
+            let what = format!(
+                "digital twin of the {} device ({N} wire{}): {WALL}",
+                kind.name(),
+                plural(N)
+            );
+            match sim {
+                SimMode::Hal => what,
+                SimMode::Can => format!("{what} (drives on a simulated CAN bus)"),
+            }
         }
     }
-    (scene, cycle)
+}
+
+/// The colour under the finger on a wall scene: a demonstration image laid over the WireMan's
+/// frame in front of the wall at `wall_z_m`; off on the other devices.
+fn wall_colour<const N: usize, D: RuntimeDevice<N>>(
+    config: &Config,
+    wall_z_m: f64,
+) -> Option<crate::colour_thread::ColourSource> {
+    if D::KIND != DeviceKind::Wireman3 {
+        if config.colour.enabled {
+            info!("colour rendering off: the demonstration image is laid over the WireMan's frame");
+        }
+        return None;
+    }
+    if !crate::colour_thread::colour_enabled(config) {
+        return None;
+    }
+    crate::colour_thread::demo_colour(&config.rig.guides_m, wall_z_m, &config.colour)
+        .map_err(|e| warn!("colour rendering disabled: {e}"))
+        .ok()
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
 }

@@ -19,10 +19,10 @@ pub mod wall_feel;
 pub mod zwidth;
 
 use serde::Serialize;
+use videt_config::{Ads1220Mode, Config, TensionAdc};
 use videt_control::safety::SafetyState;
 use videt_control::surface::Plane;
 use videt_control::FeltTally;
-use videt_rt_config::{Ads1220Mode, Config, TensionAdc};
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 use rig::{run, start_position, Experiment, Parts, Trace};
@@ -387,7 +387,7 @@ impl Rendering {
     };
 
     /// The configured rendering.
-    pub fn of(control: &videt_rt_config::ControlConfig) -> Rendering {
+    pub fn of(control: &videt_config::ControlConfig) -> Rendering {
         Rendering {
             integral_gate_m_s: control.tension_integral_speed_gate_m_s,
             stretch_compensation: control.stretch_compensation,
@@ -588,7 +588,7 @@ pub struct BenchReport {
     /// The configuration file (or "defaults").
     pub config_origin: String,
     /// The configuration's control settings.
-    pub control: videt_rt_config::ControlConfig,
+    pub control: videt_config::ControlConfig,
     /// The configuration's sensor settings.
     pub sensor: SensorSetup,
     /// The Z-width criterion.

@@ -7,6 +7,7 @@
 use std::sync::atomic::AtomicBool;
 use videt_runtime::WIREMAN_WIRES;
 
+use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_control::surface::Plane;
 use videt_control::{ControlStep, FeltTally, Rig3};
@@ -14,7 +15,6 @@ use videt_hal::{
     AngleSensors, Clock, DriveSample, EStop, ErrorType, Lifecycle, LifecycleState, MonoTime,
     TensionSensors, WireDrives,
 };
-use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator};
 
 use videt_assembly::can_twin::{drive_config, CanTwin};
@@ -131,7 +131,7 @@ impl<S> RenderedSurface for S where
 
 /// Where the demo scene starts the thimble for `config` (in front of the frame's centre).
 pub fn start_position(config: &Config) -> Vec3 {
-    videt_assembly::twin_scene::demo_scene(config, 1)
+    videt_assembly::twin_scene::wireman_wall_scene(config, 1)
         .twin
         .plant()
         .position_m()
@@ -140,7 +140,7 @@ pub fn start_position(config: &Config) -> Vec3 {
 /// Run `experiment`: the control loop on the stepped CAN twin, recording the twin's truth.
 pub fn run<S: RenderedSurface>(experiment: &Experiment<S>) -> Result<Trace, String> {
     let config = &experiment.config;
-    let mut scene = videt_assembly::twin_scene::demo_scene(config, 7);
+    let mut scene = videt_assembly::twin_scene::wireman_wall_scene(config, 7);
     scene.twin.set_operator(experiment.operator.clone());
     let rig = setup::rig(config).map_err(|e| e.to_string())?;
     let mut cycle = setup::control_cycle(config, rig, WireZero::default(), true);

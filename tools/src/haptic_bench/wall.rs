@@ -1,8 +1,8 @@
 //! The wall an experiment pushes on, by the paper's region of its normal, and how still the
 //! thimble held against it: what the Z-width's short criterion and the long hold both judge.
 
+use videt_config::Config;
 use videt_control::surface::Plane;
-use videt_rt_config::Config;
 use videt_sim::Vec3;
 
 use super::rig::{start_position, Trace};

@@ -6,8 +6,8 @@
 //! much of the energy the finger put into the wall comes back when it leaves.
 
 use serde::Serialize;
+use videt_config::Config;
 use videt_control::safety::SafetyState;
-use videt_rt_config::Config;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 use super::rig::{run, Experiment, Parts, Trace};

@@ -3,9 +3,9 @@
 //! criterion bisected on a log scale, then a 10 s hold and release on the stiffest wall found.
 
 use serde::Serialize;
+use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_control::FeltTally;
-use videt_rt_config::Config;
 
 use super::rig::{run, Experiment, Parts};
 use super::wall::{hold_stats, region_wall};

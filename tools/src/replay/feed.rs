@@ -3,14 +3,14 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use videt_config::Config;
 use videt_control::surface::Plane;
 use videt_control::WireDevice;
-use videt_rt_config::Config;
+use videt_relief::ReliefModel;
 use videt_runtime::cycle::{ControlCycle, CycleRecord};
 use videt_runtime::snapshot::{FixedSurface, SnapshotWriter, SurfaceFeed, SurfaceView};
 use videt_runtime::telemetry::{RecordedSurface, SurfaceEntry};
 use videt_service::relief_feed::ReliefFeed;
-use videt_vision::surface::ReliefModel;
 
 use super::devices::RecordedDevices;
 

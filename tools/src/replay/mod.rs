@@ -22,8 +22,8 @@ mod recorded_config;
 pub use compare::{first_difference, first_input_difference};
 pub use recorded_config::{replay_config, unrecorded_config_keys, ReplayOverrides, UnrecordedKey};
 
+use videt_config::Config;
 use videt_control::WireDevice;
-use videt_rt_config::Config;
 use videt_runtime::cycle::{ControlCycle, CycleOp, CycleRecord};
 use videt_runtime::runtime_device::RuntimeDevice;
 use videt_runtime::telemetry::{CalibrationInForce, Log, LogItem};

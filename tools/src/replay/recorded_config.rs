@@ -1,7 +1,7 @@
 //! The configuration a replay runs with, and what a log recorded before today's keys lacks.
 
+use videt_config::Config;
 use videt_control::Algorithm;
-use videt_rt_config::Config;
 use videt_runtime::telemetry::SessionInfo;
 
 /// Settings that replace the recorded ones.

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use videt_rt_config::Config;
+use videt_config::Config;
 
 use crate::haptic_bench::{plots, run_bench, BenchPlan, BenchReport};
 

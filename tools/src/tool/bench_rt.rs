@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 
 use clap::Args;
 use serde::Serialize;
-use videt_rt_config::Config;
+use videt_config::Config;
 
 use videt_assembly::twin_rt::RealTimeTwin;
 use videt_runtime::control_loop::{
@@ -114,7 +114,7 @@ pub fn bench(args: &BenchRtArgs) -> Result<BenchRtReport, super::ToolError> {
         }
     };
     let rig = setup::rig(&config).map_err(|e| e.to_string())?;
-    let scene = videt_assembly::twin_scene::demo_scene(&config, 3);
+    let scene = videt_assembly::twin_scene::wireman_wall_scene(&config, 3);
     let mut cycle = setup::control_cycle(&config, rig, WireZero::default(), true);
     let settings = LoopSettings {
         rate_hz: args.rate,

@@ -16,7 +16,7 @@ use clap::{ArgGroup, Args, ValueEnum};
 use videt_colour::training::{
     load_rgb, quantize_image, reading_at, reading_json, reading_text, write_png,
 };
-use videt_rt_config::{ColourSpaceName, ColourStatistic, Config};
+use videt_config::{ColourSpaceName, ColourStatistic, Config};
 
 use super::device::DEFAULT_CONFIG;
 use super::ToolResult;

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Subcommand;
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_runtime::telemetry::retention::{bytes_per_hour, MB};
 
 use super::ToolResult;

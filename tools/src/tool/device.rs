@@ -9,8 +9,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use clap::Args;
+use videt_config::Config;
 use videt_control::autoinit::Failure;
-use videt_rt_config::Config;
 
 use videt_service::init::commission::{CommissionStep, CommissionTechnician};
 use videt_service::init::runner::{InitHardware, Runner};
@@ -148,7 +148,7 @@ use videt_service::init::daemon::sim_state_dir;
 impl DeviceArgs {
     /// Load the configuration.
     pub fn load_config(&self) -> Result<Config, Exit> {
-        let bad = |e: videt_rt_config::ConfigError| Exit::new(EXIT_USAGE, "config", e.to_string());
+        let bad = |e: videt_config::ConfigError| Exit::new(EXIT_USAGE, "config", e.to_string());
         match &self.config {
             Some(path) => Config::load(path).map_err(bad),
             None if Path::new(DEFAULT_CONFIG).exists() => {

@@ -6,10 +6,8 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
 use clap::Args;
-use videt_rt_config::calibration::{
-    backup_path, Calibration, CalibrationError, TensionCalibration,
-};
-use videt_rt_config::Config;
+use videt_config::calibration::{backup_path, Calibration, CalibrationError, TensionCalibration};
+use videt_config::Config;
 
 use super::device::{DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_CODES_HELP};
 use super::motors::{on_motors, MotorJob};

@@ -195,7 +195,7 @@ pub struct Summarised {
     /// The outline.
     pub outline: LogOutline,
     /// The configuration the session ran (or `--config`).
-    pub config: videt_rt_config::Config,
+    pub config: videt_config::Config,
     /// What the figures draw (with `--plot`).
     pub figures: Option<SessionFigureData>,
 }
@@ -207,7 +207,7 @@ pub fn summarise(args: &LogArgs) -> Result<Summarised, super::ToolError> {
     let explicit = args
         .config
         .as_deref()
-        .map(videt_rt_config::Config::load)
+        .map(videt_config::Config::load)
         .transpose()?;
     let mut reader = LogReader::open(&args.logfile)?;
     let mut outline = LogOutline::new(reader.header(), reader.version());
@@ -325,13 +325,13 @@ pub fn write_csv(
 /// The configuration the session ran: `explicit` (`--config`) when given, else the one it
 /// recorded, else (an old log without one) the built-in defaults.
 fn session_config(
-    explicit: Option<&videt_rt_config::Config>,
+    explicit: Option<&videt_config::Config>,
     session: Option<&Result<SessionInfo, String>>,
-) -> videt_rt_config::Config {
+) -> videt_config::Config {
     match (explicit, session) {
         (Some(config), _) => config.clone(),
         (None, Some(Ok(session))) => session.config.clone(),
-        (None, _) => videt_rt_config::Config::default(),
+        (None, _) => videt_config::Config::default(),
     }
 }
 

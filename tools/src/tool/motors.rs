@@ -5,8 +5,8 @@
 
 use std::sync::atomic::AtomicBool;
 
+use videt_config::Config;
 use videt_hal::Lifecycle;
-use videt_rt_config::Config;
 
 use super::device::{stop_on_signals, DeviceArgs, Exit};
 use videt_service::init::commission::CommissionTechnician;

@@ -207,7 +207,7 @@ struct Gathered {
 }
 
 impl ReplayObserver for Gathered {
-    fn session(&mut self, config: &videt_rt_config::Config) {
+    fn session(&mut self, config: &videt_config::Config) {
         self.felt = Some(FeltCounter::new(config));
     }
 
@@ -299,7 +299,7 @@ pub fn run(args: &ReplayArgs) -> ToolResult {
         config: args
             .config
             .as_deref()
-            .map(videt_rt_config::Config::load)
+            .map(videt_config::Config::load)
             .transpose()?,
         algorithm: args.algorithm.clone(),
     };

@@ -19,8 +19,8 @@ use videt_runtime::WIREMAN_WIRES;
 
 use clap::Args;
 use videt_assembly::as_built::WiringMistake;
+use videt_config::Config;
 use videt_control::autoinit::BaseTriangle;
-use videt_rt_config::Config;
 use videt_sim::cia402_node::{MotorPlant, SharedMotors, SimDriveBank, SimDriveSpec};
 use videt_sim::twin_plant::{AnalogScale, RealTimeTwinPlant};
 
@@ -92,9 +92,7 @@ pub struct SimRigArgs {
 }
 
 /// The twin's true calibration record for `config`'s rig.
-pub fn true_calibration(
-    config: &Config,
-) -> Result<videt_rt_config::calibration::Calibration, String> {
+pub fn true_calibration(config: &Config) -> Result<videt_config::calibration::Calibration, String> {
     let rig = setup::rig(config).map_err(|e| format!("rig.guides_m: {e}"))?;
     let g = rig.guides_m();
     let d = |a: usize, b: usize| (g[a] - g[b]).norm();
@@ -154,7 +152,7 @@ pub fn run(args: &SimRigArgs) -> ToolResult {
         twin.set_wiring(videt_sim::Wiring::default());
         twin
     } else {
-        videt_assembly::twin_scene::demo_scene(&config, 1).twin
+        videt_assembly::twin_scene::wireman_wall_scene(&config, 1).twin
     };
     let s = &config.sensors;
     let scales: [AnalogScale; WIREMAN_WIRES] = core::array::from_fn(|i| AnalogScale {

@@ -701,7 +701,7 @@ fn report(soak: &Soak) -> ToolResult {
         // What the finger felt: never beyond the felt bound, whatever the faults.
         let config = match &log.session {
             Some(Ok(session)) => session.config.clone(),
-            _ => videt_rt_config::Config::default(),
+            _ => videt_config::Config::default(),
         };
         match crate::felt::felt_report(&log, &config, log.records.iter().enumerate()) {
             Ok(felt) => {

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use clap::Args;
-use videt_rt_config::calibration::{backup_path, Calibration};
+use videt_config::calibration::{backup_path, Calibration};
 
 use super::device::{Exit, DEFAULT_CONFIG, EXIT_USAGE};
 use super::ToolResult;
@@ -52,11 +52,11 @@ pub fn run(args: &StatusArgs) -> ToolResult {
 
 fn status(args: &StatusArgs) -> Result<ExitCode, Exit> {
     let config = match &args.config {
-        Some(p) => videt_rt_config::Config::load(p),
+        Some(p) => videt_config::Config::load(p),
         None if std::path::Path::new(DEFAULT_CONFIG).exists() => {
-            videt_rt_config::Config::load(std::path::Path::new(DEFAULT_CONFIG))
+            videt_config::Config::load(std::path::Path::new(DEFAULT_CONFIG))
         }
-        None => Ok(videt_rt_config::Config::default()),
+        None => Ok(videt_config::Config::default()),
     }
     .map_err(|e| Exit::new(EXIT_USAGE, "config", e.to_string()))?;
     let path = args

@@ -6,7 +6,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use clap::Args;
-use videt_rt_config::calibration::TensionCalibration;
+use videt_config::calibration::TensionCalibration;
 
 use super::device::{DeviceArgs, Exit, EXIT_CALIBRATION_WRITE, EXIT_MOTORS_BUSY, EXIT_USAGE};
 use super::motors::{on_motors, MotorJob};

@@ -11,8 +11,8 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use serde_json::Value;
-use videt_rt_config::calibration::Calibration;
-use videt_rt_config::Config;
+use videt_config::calibration::Calibration;
+use videt_config::Config;
 
 use super::device::{stop_on_signals, DeviceArgs, Exit, EXIT_MOTORS_BUSY, EXIT_USAGE};
 use videt_service::init::commission::StepReport;
@@ -303,7 +303,7 @@ mod tests {
 
     #[test]
     fn a_check_report_from_the_service_becomes_the_direct_runs_steps() {
-        use videt_rt_config::edit::{Fix, FixValue};
+        use videt_config::edit::{Fix, FixValue};
         use videt_service::init::commission::{RigCheck, Verdict};
         let check = RigCheck {
             steps: vec![

@@ -176,7 +176,7 @@ fn colour_of(c: &foxglove::schemas::Color) -> RGBColor {
 pub fn write_view_figure(
     path: &Path,
     logfile: &Path,
-    config: &videt_rt_config::Config,
+    config: &videt_config::Config,
     at_s: Option<f64>,
 ) -> Result<f64, PlotError> {
     let mut chooser = MomentChooser::new(at_s);

@@ -14,11 +14,11 @@ use std::process::ExitCode;
 use clap::Args;
 use image::GrayImage;
 use videt_hal::GrayFrame;
+use videt_relief::build_from_scene;
+use videt_relief::export::write_surface_outputs;
 use videt_vision::disparity_range::choose_max_disparity;
 use videt_vision::io::{load_gray_image, write_results};
 use videt_vision::matching::MatchChecks;
-use videt_vision::surface::build_from_scene;
-use videt_vision::surface::export::write_surface_outputs;
 use videt_vision::{GrayView, LocalRegion, RectifiedGeometry, StereoPipeline, VisionParams};
 
 use super::ToolResult;

@@ -4,7 +4,7 @@
 use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
-use videt_rt_config::calibration::Calibration;
+use videt_config::calibration::Calibration;
 
 use super::device::{DeviceArgs, Exit, EXIT_CODES_HELP, EXIT_USAGE};
 use super::init::{run_flow, Flow};

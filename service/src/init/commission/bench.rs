@@ -4,8 +4,8 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use videt_config::Config;
 use videt_control::autoinit::Failure;
-use videt_rt_config::Config;
 use videt_runtime::WIREMAN_WIRES;
 
 use super::{CommissionStep, CommissionTechnician, StepReport};

@@ -2,7 +2,7 @@
 //! (0x1000, refused unless CiA 402) and identity object (0x1018) when it starts; the check
 //! compares the vendor id and product code with the configured device description's.
 
-use videt_rt_config::Config;
+use videt_config::Config;
 
 use super::StepReport;
 use crate::drive_report::{unlike_description, DriveStatus};

@@ -24,10 +24,10 @@ pub use identity::identity_steps;
 use std::sync::atomic::AtomicBool;
 
 use serde::{Deserialize, Serialize};
+use videt_config::edit::Fix;
+use videt_config::Config;
 use videt_control::autoinit::Failure;
 use videt_control::safety::{SafetyReason, SafetyState};
-use videt_rt_config::edit::Fix;
-use videt_rt_config::Config;
 
 use super::runner::{InitHardware, Runner};
 use super::session::failure_exit_code;
@@ -388,7 +388,7 @@ mod tests {
             vec![Fix::new(
                 "drives.motor_reversed",
                 Some(1),
-                videt_rt_config::edit::FixValue::Bool(true),
+                videt_config::edit::FixValue::Bool(true),
             )],
         )
         .with_wiring("or swap the motor's leads");

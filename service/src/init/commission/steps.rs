@@ -3,9 +3,9 @@
 //! encoder against a wire pulled out to a mark, the drives on the wrong wires, the e-stop
 //! pressed.
 
+use videt_config::edit::{Fix, FixValue};
+use videt_config::TensionAdc;
 use videt_control::autoinit::Failure;
-use videt_rt_config::edit::{Fix, FixValue};
-use videt_rt_config::TensionAdc;
 use videt_runtime::WIREMAN_WIRES;
 
 use super::bench::{Bench, Stretch, Winding};

@@ -9,9 +9,9 @@
 
 use std::time::Duration;
 
+use videt_config::edit::{Fix, FixValue};
+use videt_config::Config;
 use videt_hal::{GrayFrame, StereoCamera, StereoFrame};
-use videt_rt_config::edit::{Fix, FixValue};
-use videt_rt_config::Config;
 use videt_service::camera_relief::CalibratedRig;
 use videt_service::init::commission::StepReport;
 use videt_vision::gray::GrayView;

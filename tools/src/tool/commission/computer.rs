@@ -7,7 +7,7 @@
 
 use std::process::Command;
 
-use videt_rt_config::Config;
+use videt_config::Config;
 use videt_service::init::commission::StepReport;
 
 /// What the facts of the machine are read from (the live system, or a test's files).
@@ -159,10 +159,10 @@ fn control_cpu(config: &Config, m: &dyn Machine, unit_affinity: Option<String>) 
             .chain(&online)
             .find(|c| **c != 0 && allowed.contains(c))
             .map(|c| {
-                videt_rt_config::edit::Fix::new(
+                videt_config::edit::Fix::new(
                     "realtime.control_cpu",
                     None,
-                    videt_rt_config::edit::FixValue::Integer(i64::from(*c)),
+                    videt_config::edit::FixValue::Integer(i64::from(*c)),
                 )
             });
         return StepReport::fail(

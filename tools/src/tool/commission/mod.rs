@@ -12,8 +12,8 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 
 use clap::{Args, ValueEnum};
-use videt_rt_config::edit::{apply_fixes, Fix};
-use videt_rt_config::Config;
+use videt_config::edit::{apply_fixes, Fix};
+use videt_config::Config;
 use videt_service::drive_report::drive_statuses;
 use videt_service::init::commission::{
     check_rig, identity_steps, CommissionTechnician, RigCheck, StepReport, Thimble, Verdict,
@@ -260,7 +260,7 @@ fn write_fixes(
     };
     let fixes = all_fixes(steps);
     let fixed = apply_fixes(&text, config, &fixes).map_err(failed)?;
-    videt_rt_config::calibration::write_atomically(path, fixed.as_bytes())
+    videt_config::calibration::write_atomically(path, fixed.as_bytes())
         .map_err(|e| failed(format!("{}: {e}", path.display())))?;
     let from = source.map_or("the built-in defaults".to_string(), |p| {
         p.display().to_string()
