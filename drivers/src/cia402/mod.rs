@@ -1,7 +1,8 @@
 //! CiA 402 wire drives: the power state machine ([`state`]), the process data ([`pdo`]),
 //! configuration ([`config`]), errors ([`error`]), the set of one drive per wire implementing
 //! the HAL for any wire count ([`drive_set`]), the drives' analog inputs it receives
-//! ([`analog`]) and the drive's units read from its device description ([`resolution`]).
+//! ([`analog`]); the drive's units read from its device description are
+//! `videt-drive-description`'s ([`DriveResolution`]).
 
 pub mod analog;
 pub mod compat;

@@ -1,12 +1,50 @@
-//! The wall an experiment pushes on, by the paper's region of its normal, and how still the
-//! thimble held against it: what the Z-width's short criterion and the long hold both judge.
+//! The wall an experiment pushes on (a plane just ahead of the thimble, by the paper's region
+//! of its normal) and the operator pushing on it; where the thimble settled against it and how
+//! still it held: what the stiffness, the pop-through, the Z-width's short criterion and the long
+//! hold judge.
 
 use videt_config::Config;
 use videt_control::surface::Plane;
-use videt_sim::Vec3;
+use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
+use super::region::Region;
 use super::rig::{start_position, Trace};
-use super::{surface_ahead, Region};
+
+/// How far in front of the thimble every surface starts, metres.
+pub(super) const SURFACE_GAP_M: f64 = 0.003;
+
+/// A plane `gap` in front of `start` (along `-n`) with outward normal `n`.
+pub(super) fn surface_ahead(start: Vec3, n: Vec3) -> Plane {
+    Plane::new(start - n * SURFACE_GAP_M, n).expect("a unit normal")
+}
+
+/// The operator pushing along `-n`: the hand target moves to `depths_m[k]` past the surface
+/// over 0.3 s from `times_s[k]` on, and holds there until the next move.
+pub(super) fn pusher(
+    start: Vec3,
+    n: Vec3,
+    depths_m: &[f64],
+    times_s: &[f64],
+    k_hand: f64,
+) -> VirtualOperator {
+    let mut waypoints = vec![Waypoint {
+        time_s: 0.0,
+        target_m: start,
+    }];
+    let mut held = start;
+    for (&d, &t) in depths_m.iter().zip(times_s) {
+        waypoints.push(Waypoint {
+            time_s: t,
+            target_m: held,
+        });
+        held = start - n * (SURFACE_GAP_M + d);
+        waypoints.push(Waypoint {
+            time_s: t + 0.3,
+            target_m: held,
+        });
+    }
+    VirtualOperator::new(waypoints, k_hand, 4.0)
+}
 
 /// The wall of `region` ([`Region::wall_normal`]) rendered by P2 with stiffness `k` and
 /// damping `b` on `base`'s parts: the configuration, where the thimble starts, the wall's
@@ -58,4 +96,25 @@ pub(super) fn hold_stats(trace: &Trace, surface: &Plane, from_s: f64, to_s: f64)
         contact_lost: lost,
         periods,
     }
+}
+
+/// Mean normal force, mean penetration and the penetration's spread over a window.
+pub type Equilibrium = (f64, f64, f64);
+
+/// Mean normal force and penetration over `[from, to)`, and the spread of the penetration.
+pub(super) fn equilibrium(trace: &Trace, plane: &Plane, from_s: f64, to_s: f64) -> Equilibrium {
+    let n = plane.normal();
+    let (mut f, mut p, mut lo, mut hi, mut count) = (0.0, 0.0, f64::MAX, f64::MIN, 0.0);
+    for s in trace.window(from_s, to_s) {
+        let depth = -plane.signed_distance_m(&s.position_m);
+        f += s.wire_force_n.dot(&n);
+        p += depth;
+        lo = lo.min(depth);
+        hi = hi.max(depth);
+        count += 1.0;
+    }
+    if count == 0.0 {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    (f / count, p / count, hi - lo)
 }

@@ -4,15 +4,20 @@
 //! seconds, a wall that kicks the finger off or catches it again on release) and measures what
 //! the finger feels of the rendering: how late the force rises when the finger touches, and how
 //! much of the energy the finger put into the wall comes back when it leaves.
+//!
+//! The bench measures the feel at several stiffnesses, before and with the configured rendering,
+//! each beside the stiffness rendered along the frame's axis.
 
 use serde::Serialize;
 use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
+use super::region::Region;
 use super::rig::{run, Experiment, Parts, Trace};
-use super::wall::{hold_stats, region_wall};
-use super::Region;
+use super::settings::{renderings_compared, BenchPlan, Rendering};
+use super::stiffness::secant_stiffness;
+use super::wall::{hold_stats, region_wall, SURFACE_GAP_M};
 use videt_control::surface::Plane;
 
 /// How long the operator holds the push, seconds.
@@ -128,7 +133,7 @@ pub fn feel_wall_in(
     let trace = run(&Experiment {
         config: config.clone(),
         surface,
-        operator: push_hold_release(script, start, n, super::SURFACE_GAP_M),
+        operator: push_hold_release(script, start, n, SURFACE_GAP_M),
         duration_s: script.release_at_s + AFTER_RELEASE_S,
         parts,
     })?;
@@ -255,4 +260,48 @@ fn onset_delay_s(trace: &Trace, surface: &Plane, k: f64, b: f64) -> Option<f64> 
         _ => 0.0,
     };
     Some((best as f64 + fraction).max(0.0) * period)
+}
+
+/// The wall as the finger feels it at one stiffness and integral gate.
+#[derive(Debug, Clone, Serialize)]
+pub struct FeelRow {
+    /// The rendering (before, or as configured).
+    pub rendering: Rendering,
+    /// The push, hold and release (onset delay, energy returned, the hold's stability).
+    pub feel: WallFeel,
+    /// Rendered / programmed stiffness along the frame's axis (P2, region A; the secant of the
+    /// stiffness sweep).
+    pub stiffness_ratio: f64,
+}
+
+/// The wall's feel at the plan's stiffnesses and the configured one, before and with the
+/// configured rendering, at the configured damping.
+pub fn feel_sweep(base: &Config, plan: &BenchPlan) -> Result<Vec<FeelRow>, String> {
+    let mut stiffnesses = plan.feel_stiffness_n_per_m.to_vec();
+    stiffnesses.push(base.control.stiffness_n_per_m);
+    stiffnesses.sort_by(f64::total_cmp);
+    stiffnesses.dedup();
+    let axis = Vec3::new(0.0, 0.0, -1.0);
+    let mut rows = Vec::new();
+    for rendering in renderings_compared(base) {
+        for &k in &stiffnesses {
+            let mut config = base.clone();
+            rendering.apply(&mut config);
+            config.control.stiffness_n_per_m = k;
+            config.control.algorithm = "P2".into();
+            let feel = feel_wall(
+                &config,
+                k,
+                config.control.damping_n_s_per_m,
+                Parts::Faithful,
+            )?;
+            let (rendered, ..) = secant_stiffness(&config, axis)?;
+            rows.push(FeelRow {
+                rendering,
+                feel,
+                stiffness_ratio: rendered / k,
+            });
+        }
+    }
+    Ok(rows)
 }

@@ -7,10 +7,11 @@ use videt_config::Config;
 use videt_control::safety::SafetyState;
 use videt_control::FeltTally;
 
+use super::region::Region;
 use super::rig::{run, Experiment, Parts};
-use super::wall::{hold_stats, region_wall};
+use super::settings::{renderings_compared, BenchPlan, Rendering, SensorSetup};
+use super::wall::{hold_stats, pusher, region_wall};
 use super::wall_feel::{feel_wall_in, WallFeel};
-use super::{pusher, renderings_compared, BenchPlan, Region, Rendering, SensorSetup};
 
 /// How a wall of given stiffness behaved while the operator held a push on it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
