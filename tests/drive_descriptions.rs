@@ -5,6 +5,7 @@
 
 use std::path::Path;
 use std::time::Duration;
+use videt_assembly::hardware::DriveReports;
 
 use videt_assembly::can_twin::{drive_config, CanTwin};
 use videt_assembly::WiremanTwin;

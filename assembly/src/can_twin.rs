@@ -381,18 +381,6 @@ impl<const N: usize, T: TwinDevice<N>> CanTwin<N, T> {
         }
     }
 
-    /// The queue of each error that puts the drives into their safe state, as it happens
-    /// ([`Cia402DriveSet::fault_reports`]).
-    pub fn fault_reports(&mut self) -> rtrb::Consumer<DriveError> {
-        self.drives.fault_reports()
-    }
-
-    /// The drives' identities and missing optional objects as of their last configuration
-    /// ([`Cia402DriveSet::startup_report`]).
-    pub fn startup_report(&self) -> videt_drivers::cia402::SharedStartupReport {
-        self.drives.startup_report()
-    }
-
     /// The error that put the drives into their safe state, if any.
     pub fn drive_error(&self) -> Option<DriveError> {
         self.drives.latched_error()
@@ -527,5 +515,15 @@ impl<const N: usize, T: TwinDevice<N>> Clock for CanTwin<N, T> {
         let now = self.twin.now();
         self.twin.model_mut().advance_to(now);
         self.publish_encoders();
+    }
+}
+
+/// The simulated drives report through the real driver, as the device's do.
+impl<const N: usize, T: TwinDevice<N>> crate::hardware::DriveReports for CanTwin<N, T> {
+    fn fault_reports(&mut self) -> rtrb::Consumer<DriveError> {
+        self.drives.fault_reports()
+    }
+    fn startup_report(&self) -> videt_drivers::cia402::SharedStartupReport {
+        self.drives.startup_report()
     }
 }

@@ -54,6 +54,26 @@ impl<D, T, E> DeviceHardware<D, T, E> {
     }
 }
 
+/// Hardware whose CiA 402 drives say what they do beside the HAL's readings: each error that
+/// puts them into their safe state, and how they started.
+pub trait DriveReports {
+    /// The queue of each error that puts the drives into their safe state, as it happens.
+    fn fault_reports(&mut self) -> rtrb::Consumer<videt_drivers::cia402::DriveError>;
+    /// The drives' identities and missing optional objects as of their last configuration.
+    fn startup_report(&self) -> videt_drivers::cia402::SharedStartupReport;
+}
+
+impl<P: videt_drivers::can::CanPort, const N: usize, T, E> DriveReports
+    for DeviceHardware<videt_drivers::cia402::Cia402DriveSet<P, N>, T, E>
+{
+    fn fault_reports(&mut self) -> rtrb::Consumer<videt_drivers::cia402::DriveError> {
+        self.drives.fault_reports()
+    }
+    fn startup_report(&self) -> videt_drivers::cia402::SharedStartupReport {
+        self.drives.startup_report()
+    }
+}
+
 /// Tells, once per call, one cause of a drive fault not yet told (`None`: nothing new): the
 /// supervisor logs it when the loop reports a fault.
 pub type FaultCauses = Box<dyn FnMut() -> Option<String> + Send>;

@@ -7,6 +7,7 @@
 //! threads that feed the control loop.
 #![warn(missing_docs)]
 
+pub mod camera_feed;
 pub mod camera_relief;
 pub mod cli;
 pub mod colour_thread;

@@ -165,11 +165,23 @@ impl std::fmt::Display for StartError {
 /// The hardware the service runs on.
 #[derive(Debug, Clone)]
 pub enum PlannedHardware {
-    /// The device's: the CiA 402 drives on SocketCAN, the strain-gauge converters and the e-stop
-    /// the configuration names.
-    Device,
-    /// A digital twin of the device.
-    Twin(PlannedTwin),
+    /// The WireMan itself (its configured guides; the calibration file's geometry replaces
+    /// them): the CiA 402 drives on SocketCAN, the strain-gauge converters and the e-stop the
+    /// configuration names.
+    Device(Rig3),
+    /// A digital twin of the configured device.
+    Twin(PlannedDevice, PlannedTwin),
+}
+
+impl PlannedHardware {
+    /// Whether it is the WireMan's (the device, or its twin): the hardware the procedures and
+    /// the tension correction are for.
+    pub fn is_wireman(&self) -> bool {
+        matches!(
+            self,
+            PlannedHardware::Device(_) | PlannedHardware::Twin(PlannedDevice::WireMan(_), _)
+        )
+    }
 }
 
 /// The twin the service runs on.
@@ -236,9 +248,7 @@ pub enum PlannedCalibration {
 /// the feed, the calibration), each chosen here once.
 #[derive(Clone)]
 pub struct ServicePlan {
-    /// The device.
-    pub device: PlannedDevice,
-    /// The hardware it runs on.
+    /// The hardware the service runs on: the device, or a twin of the configured device.
     pub hardware: PlannedHardware,
     /// What the control loop renders.
     pub feed: PlannedFeed,
@@ -328,7 +338,6 @@ impl ServicePlan {
             (None, Some(_)) => crate::init::daemon::sim_state_dir().join("calibration-sim.toml"),
             (None, None) => PathBuf::from(&config.files.calibration),
         };
-        let device = planned_device(&config, request)?;
         // One process at a time drives the motors (the `videt` tool takes the same lock). A
         // twin is private to its process, so with --sim the lock is taken only when --lock
         // asks for it.
@@ -344,14 +353,15 @@ impl ServicePlan {
                 request.scene
             )));
         }
-        let hardware = match request.sim {
-            None => PlannedHardware::Device,
-            Some(SimMode::Hal) => PlannedHardware::Twin(PlannedTwin::Hal),
-            Some(SimMode::Can) => PlannedHardware::Twin(PlannedTwin::Can(
+        let twin = match request.sim {
+            None => None,
+            Some(SimMode::Hal) => Some(PlannedTwin::Hal),
+            Some(SimMode::Can) => Some(PlannedTwin::Can(
                 videt_assembly::drive_dictionary::for_config(&config)
                     .map_err(|e| StartError::refused(format!("simulated CAN drives: {e}")))?,
             )),
         };
+        let hardware = planned_hardware(&config, request, twin)?;
         let feed = planned_feed(&config, request)?;
         let calibration = match request.sim {
             None => PlannedCalibration::File(Box::new(
@@ -364,10 +374,10 @@ impl ServicePlan {
                 SimCalibration::None => PlannedCalibration::None,
             },
         };
-        let tension_correction = match device {
-            PlannedDevice::WireMan(_) => tension_correction(&calibration_path),
-            PlannedDevice::Planar(_) | PlannedDevice::Polar(_) => None,
-        };
+        let tension_correction = hardware
+            .is_wireman()
+            .then(|| tension_correction(&calibration_path))
+            .flatten();
         let mut settings = ServiceSettings::from_config(config);
         settings.duration_s = request.duration_s;
         settings.calibration_path = Some(calibration_path);
@@ -382,7 +392,6 @@ impl ServicePlan {
             settings.telemetry_dir = Some(d.clone());
         }
         Ok(ServicePlan {
-            device,
             hardware,
             feed,
             calibration,
@@ -469,21 +478,27 @@ fn planned_feed(config: &Config, request: &ServiceRequest) -> Result<PlannedFeed
     })
 }
 
-/// The configured device (`rig.device`), refused with the reason where the request asks what
-/// only the WireMan has (the bas-relief scenes, the device mode, auto-initialization).
-fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDevice, StartError> {
+/// The hardware `request` runs on: the WireMan itself, or `twin`, the twin of the configured
+/// device (`rig.device`); refused with the reason where the request asks what only the WireMan
+/// has (the device mode, auto-initialization).
+fn planned_hardware(
+    config: &Config,
+    request: &ServiceRequest,
+    twin: Option<PlannedTwin>,
+) -> Result<PlannedHardware, StartError> {
     let rig = setup::rig(config).map_err(|e| StartError::refused(format!("rig geometry: {e}")))?;
     let name = config.rig.device.as_str();
-    if name == "wireman3" {
-        return Ok(PlannedDevice::WireMan(rig));
-    }
-    if request.sim.is_none() {
+    let Some(twin) = twin else {
+        if name == "wireman3" {
+            return Ok(PlannedHardware::Device(rig));
+        }
         return Err(StartError::refused(format!(
             "rig.device = {name:?}: runs on the digital twin (--sim or --sim can); the device \
              mode drives the three-wire WireMan"
         )));
-    }
+    };
     let device = match name {
+        "wireman3" => return Ok(PlannedHardware::Twin(PlannedDevice::WireMan(rig), twin)),
         "planar2" => setup::planar_device(config)
             .map(PlannedDevice::Planar)
             .map_err(|e| StartError::refused(format!("rig.planar_guides_x_m: {e}")))?,
@@ -501,7 +516,7 @@ fn planned_device(config: &Config, request: &ServiceRequest) -> Result<PlannedDe
     if request.sim_calibration == SimCalibration::Init {
         return Err(StartError::refused(init_refused(name)));
     }
-    Ok(device)
+    Ok(PlannedHardware::Twin(device, twin))
 }
 
 /// Why `--sim-calibration init` is refused on a device other than the WireMan (`name`).
@@ -586,7 +601,10 @@ mod tests {
         let mut request = twin_request();
         request.sim_guides = Some("0,0;0.4,0;0.2,0.3".into());
         let plan = ServicePlan::new(Config::default(), &request).unwrap();
-        assert!(matches!(plan.device, PlannedDevice::WireMan(_)));
+        assert!(matches!(
+            plan.hardware,
+            PlannedHardware::Twin(PlannedDevice::WireMan(_), PlannedTwin::Hal)
+        ));
         assert_eq!(plan.settings.config.rig.guides_m[1], [0.4, 0.0]);
         assert_eq!(plan.lock_path, None);
         assert_eq!(plan.settings.socket_path, None);
@@ -622,7 +640,10 @@ mod tests {
         for scene in [SimScene::Wall, SimScene::Box, SimScene::Stereo(None)] {
             request.scene = scene;
             let plan = ServicePlan::new(config.clone(), &request).unwrap();
-            assert!(matches!(plan.device, PlannedDevice::Planar(_)));
+            assert!(matches!(
+                plan.hardware,
+                PlannedHardware::Twin(PlannedDevice::Planar(_), _)
+            ));
         }
     }
 
@@ -635,7 +656,7 @@ mod tests {
             let plan = ServicePlan::new(Config::default(), &request).unwrap();
             assert!(matches!(
                 plan.hardware,
-                PlannedHardware::Twin(PlannedTwin::Can(None))
+                PlannedHardware::Twin(PlannedDevice::WireMan(_), PlannedTwin::Can(None))
             ));
             assert!(
                 matches!(

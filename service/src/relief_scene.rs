@@ -3,6 +3,9 @@
 //! onto the box top, slides off its edge down onto the base and climbs back; and, for any relief
 //! (the one of a real stereo pair), an operator who presses into it and sweeps across it.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
 use videt_config::Config;
 use videt_control::blend::BlendParams;
 use videt_control::proxy::ProxyParams;
@@ -10,6 +13,7 @@ use videt_relief::{
     build_from_device, BuildError, BuildReport, DeviceSegment, ReliefLayout, ReliefModel,
     ReliefShape,
 };
+use videt_runtime::snapshot::SnapshotWriter;
 use videt_sim::{Vec3, VirtualOperator, Waypoint};
 
 /// How the sweeping operator explores a relief.
@@ -58,6 +62,35 @@ impl Default for SweepPath {
             max_slope: 1.0,
         }
     }
+}
+
+/// The box's vision thread: the box over `layout` rebuilt every second and published to
+/// `writer`, nothing while `stall` is set (`sim-fault vision-stall`, a stalled camera), at the
+/// vision thread's `priority`. It runs as long as the process.
+pub fn spawn_box_rebuilds(
+    layout: ReliefLayout,
+    mut writer: SnapshotWriter<ReliefModel>,
+    stall: Arc<AtomicBool>,
+    priority: Option<u8>,
+) -> std::io::Result<()> {
+    std::thread::Builder::new()
+        .name("videt-vision".into())
+        .spawn(move || {
+            videt_runtime::rt::enter_vision_priority(priority);
+            loop {
+                std::thread::sleep(std::time::Duration::from_secs(1));
+                if stall.load(Ordering::Relaxed) {
+                    continue;
+                }
+                match box_relief(&layout, 0.0) {
+                    Ok((model, _)) => {
+                        writer.publish(model);
+                    }
+                    Err(e) => tracing::warn!("surface rebuild failed: {e}"),
+                }
+            }
+        })
+        .map(|_| ())
 }
 
 /// The demo box's segments (device coordinates), centred on the area: a 5 x 5 cm top at

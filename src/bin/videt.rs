@@ -9,9 +9,9 @@ use videt_tools::cli::Cli;
 
 /// What `videt --version` says it was built with.
 #[cfg(feature = "v4l")]
-const FEATURES: &str = "tool, v4l";
+const FEATURES: &str = "v4l; with V4L2 capture";
 #[cfg(not(feature = "v4l"))]
-const FEATURES: &str = "tool";
+const FEATURES: &str = "none; without V4L2 capture";
 
 fn main() -> ExitCode {
     let matches = Cli::command()

@@ -9,7 +9,6 @@ use videt_runtime::cycle::WireZero;
 use videt_runtime::runtime_device::RuntimeDevice;
 use videt_sim::Twin;
 
-use super::LaunchError;
 use crate::plan::PlannedCalibration;
 
 /// A device whose twin may be auto-initialized at start-up (the WireMan's base triangle).
@@ -57,7 +56,7 @@ pub fn resolve<const N: usize, D: TwinInit<N>>(
     configured: D,
     calibration: &PlannedCalibration,
     twin: Option<&mut Twin<N, D>>,
-) -> Result<(D, WireZero, bool), LaunchError> {
+) -> (D, WireZero, bool) {
     let uncalibrated = |why: &str| {
         warn!("forces will not be rendered (not calibrated): {why}");
         (configured, WireZero::default(), false)
@@ -66,7 +65,7 @@ pub fn resolve<const N: usize, D: TwinInit<N>>(
         Some(device) => (device, wire_zero, true),
         None => (configured, WireZero::default(), false),
     };
-    Ok(match calibration {
+    match calibration {
         PlannedCalibration::File(state) => match &state.reason {
             Some(reason) => uncalibrated(reason),
             None => measured(state.rig, state.wire_zero),
@@ -81,17 +80,13 @@ pub fn resolve<const N: usize, D: TwinInit<N>>(
         PlannedCalibration::AutoInit => {
             let initialized = twin.and_then(|twin| D::auto_initialize(config, twin));
             match initialized {
-                // The plan refuses it for a device without one.
-                None => {
-                    return Err(LaunchError::refused(crate::plan::init_refused(
-                        D::KIND.name(),
-                    )))
-                }
+                // (The plan refuses it for a device without one.)
+                None => uncalibrated(&crate::plan::init_refused(D::KIND.name())),
                 Some(Ok((rig, wire_zero))) => measured(rig, wire_zero),
                 Some(Err(e)) => uncalibrated(&format!("twin auto-initialization failed: {e}")),
             }
         }
-    })
+    }
 }
 
 /// Auto-initialize the WireMan's `twin` at start-up: the measured rig and encoder zeros.

@@ -10,23 +10,21 @@ use tracing::info;
 use videt_control::Rig3;
 use videt_runtime::setup;
 
-use super::{start::start, LaunchError};
+use super::{start::Starter, LaunchError};
 use crate::colour_thread::ColourOutputs;
-use crate::plan::ServicePlan;
+use crate::plan::{PlannedCalibration, PlannedFeed};
 use crate::run::HardwareReports;
 
-/// Open the device and run the plan on it.
-pub fn run(plan: ServicePlan, rig: Rig3) -> Result<ExitCode, LaunchError> {
-    let ServicePlan {
-        feed,
-        calibration,
-        tension_correction,
-        settings,
-        ..
-    } = plan;
-    let config = &settings.config;
-    let (rig, wire_zero, calibrated) =
-        super::calibration::resolve(config, rig, &calibration, None)?;
+/// Open the WireMan (its configured geometry `rig`) and run the service on it, rendering `feed`
+/// with the geometry `calibration` gives.
+pub fn run(
+    starter: &Starter,
+    feed: PlannedFeed,
+    calibration: &PlannedCalibration,
+    rig: Rig3,
+) -> Result<ExitCode, LaunchError> {
+    let config = &starter.settings.config;
+    let (rig, wire_zero, calibrated) = super::calibration::resolve(config, rig, calibration, None);
     let cycle = setup::control_cycle(config, rig, wire_zero, calibrated);
     let description = format!(
         "device: drives on {}, tension sensors {:?}",
@@ -40,12 +38,7 @@ pub fn run(plan: ServicePlan, rig: Rig3) -> Result<ExitCode, LaunchError> {
         adc = ?config.sensors.adc,
         "device opened"
     );
-    let reports = HardwareReports {
-        fault_causes: Some(videt_assembly::hardware::drive_fault_causes(
-            hw.drives_mut().fault_reports(),
-        )),
-        drives_report: Some(hw.drives_mut().startup_report()),
-    };
+    let reports = HardwareReports::of_drives(&mut hw);
     // The relief lies in front of the configured frame; the colour goes to the vibrotactors.
     let outputs = ColourOutputs::Gpio {
         chip: config.sensors.gpio_chip.clone(),
@@ -58,13 +51,5 @@ pub fn run(plan: ServicePlan, rig: Rig3) -> Result<ExitCode, LaunchError> {
         outputs,
         &|what| what.to_string(),
     )?;
-    Ok(start(
-        hw,
-        scene,
-        cycle,
-        &settings,
-        description,
-        tension_correction,
-        reports,
-    ))
+    Ok(starter.start(hw, scene, cycle, description, reports))
 }

@@ -4,7 +4,7 @@
 //! - the **hardware**: the device's ([`device`]), or the twin of any device on the HAL or
 //!   behind simulated drives on a CAN bus ([`twin`]);
 //! - the **feed**: a wall, the box, a stereo pair, a folder of camera pairs or the device's
-//!   cameras, with the vision thread behind a relief ([`scene`], [`camera`]);
+//!   cameras, with the vision thread behind a relief ([`scene`]);
 //! - the **calibration**: the calibration file, the configured geometry, none, or the WireMan's
 //!   auto-initialization at start-up ([`calibration`]).
 //!
@@ -14,7 +14,6 @@
 //! `videtd` to end with.
 
 pub mod calibration;
-pub mod camera;
 pub mod device;
 pub mod scene;
 pub mod start;
@@ -42,18 +41,28 @@ pub fn launch(plan: ServicePlan) -> Result<ExitCode, LaunchError> {
             message: e.to_string(),
             exit_code: EXIT_MOTORS_LOCKED,
         })?;
-    match (plan.device, plan.hardware.clone()) {
-        (PlannedDevice::WireMan(rig), PlannedHardware::Device) => device::run(plan, rig),
-        // The plan refuses it.
-        (device, PlannedHardware::Device) => Err(LaunchError::refused(format!(
-            "{device:?}: the device mode drives the three-wire WireMan"
-        ))),
-        (PlannedDevice::WireMan(rig), PlannedHardware::Twin(twin)) => twin::run(plan, rig, twin),
-        (PlannedDevice::Planar(device), PlannedHardware::Twin(twin)) => {
-            twin::run(plan, device, twin)
+    let ServicePlan {
+        hardware,
+        feed,
+        calibration,
+        tension_correction,
+        settings,
+        ..
+    } = plan;
+    let starter = start::Starter {
+        settings,
+        tension_correction,
+    };
+    match hardware {
+        PlannedHardware::Device(rig) => device::run(&starter, feed, &calibration, rig),
+        PlannedHardware::Twin(PlannedDevice::WireMan(rig), twin) => {
+            twin::run(&starter, feed, &calibration, rig, twin)
         }
-        (PlannedDevice::Polar(device), PlannedHardware::Twin(twin)) => {
-            twin::run(plan, device, twin)
+        PlannedHardware::Twin(PlannedDevice::Planar(device), twin) => {
+            twin::run(&starter, feed, &calibration, device, twin)
+        }
+        PlannedHardware::Twin(PlannedDevice::Polar(device), twin) => {
+            twin::run(&starter, feed, &calibration, device, twin)
         }
     }
 }

@@ -13,11 +13,13 @@ use videt_runtime::setup;
 use videt_runtime::snapshot::FixedSurface;
 use videt_sim::{Vec3, VirtualOperator};
 
-use super::camera::start_camera_feed;
 use super::LaunchError;
+use crate::camera_feed::start_camera_feed;
 use crate::colour_thread::{ColourOutputs, ColourSource};
 use crate::plan::PlannedFeed;
-use crate::relief_scene::{box_operator, box_relief, sweep_operator, SweepPath};
+use crate::relief_scene::{
+    box_operator, box_relief, spawn_box_rebuilds, sweep_operator, SweepPath,
+};
 use crate::run::SceneLinks;
 use crate::scene_feed::SceneFeed;
 
@@ -101,16 +103,18 @@ pub fn build(
             ));
             Ok(feed.into_scene(layout, Some(what)))
         }
-        PlannedFeed::Cameras(rig) => match super::camera::device_cameras(config, rig, layout) {
-            Ok(feed) => Ok(feed.into_scene(layout, None)),
-            Err(why) => {
-                warn!(
-                    wall_z_m = setup::CHECK_WALL_Z_M,
-                    "the check wall is rendered instead of the scene: {why}"
-                );
-                Ok(wall())
+        PlannedFeed::Cameras(rig) => {
+            match crate::camera_feed::device_cameras(config, rig, layout) {
+                Ok(feed) => Ok(feed.into_scene(layout, None)),
+                Err(why) => {
+                    warn!(
+                        wall_z_m = setup::CHECK_WALL_Z_M,
+                        "the check wall is rendered instead of the scene: {why}"
+                    );
+                    Ok(wall())
+                }
             }
-        },
+        }
     }
 }
 
@@ -148,29 +152,16 @@ fn box_scene(
             .as_micros() as u64,
         "{what}"
     );
-    let (mut writer, feed) = crate::relief_feed::relief_channel_for(config, model)
+    let (writer, feed) = crate::relief_feed::relief_channel_for(config, model)
         .map_err(|e| LaunchError::failed(e.to_string()))?;
-    let priority = videt_runtime::rt::vision_fifo_priority(&config.realtime);
     let stall = Arc::new(AtomicBool::new(false));
-    let stalled = Arc::clone(&stall);
-    std::thread::Builder::new()
-        .name("videt-vision".into())
-        .spawn(move || {
-            videt_runtime::rt::enter_vision_priority(priority);
-            loop {
-                std::thread::sleep(std::time::Duration::from_secs(1));
-                if stalled.load(std::sync::atomic::Ordering::Relaxed) {
-                    continue;
-                }
-                match box_relief(&layout, 0.0) {
-                    Ok((model, _)) => {
-                        writer.publish(model);
-                    }
-                    Err(e) => warn!("surface rebuild failed: {e}"),
-                }
-            }
-        })
-        .map_err(|e| LaunchError::failed(format!("cannot start the vision thread: {e}")))?;
+    spawn_box_rebuilds(
+        layout,
+        writer,
+        Arc::clone(&stall),
+        videt_runtime::rt::vision_fifo_priority(&config.realtime),
+    )
+    .map_err(|e| LaunchError::failed(format!("cannot start the vision thread: {e}")))?;
     Ok(Scene {
         feed: SceneFeed::Relief(Box::new(feed)),
         description: Some(what),
@@ -216,15 +207,16 @@ fn stereo_scene(
     );
     let (writer, feed) = crate::relief_feed::relief_channel_for(config, model.clone())
         .map_err(|e| LaunchError::failed(e.to_string()))?;
-    let (thimble_publisher, thimble_reader) = videt_runtime::thimble::thimble_channel();
     let stats = Arc::new(LiveStats::default());
+    let status = Arc::clone(&stats);
+    let (links, thimble_reader) = SceneLinks::following_the_finger(move || status.status_text());
     let keepalive_s = (config.vision.surface_max_age_s / 4.0).max(0.05);
     spawn_live_updates(
         relief,
         model.clone(),
         writer,
         thimble_reader,
-        Arc::clone(&stats),
+        stats,
         keepalive_s,
         videt_runtime::rt::vision_fifo_priority(&config.realtime),
     )
@@ -234,17 +226,13 @@ fn stereo_scene(
         description: Some(describe(&format!(
             "digital twin: a virtual operator sweeping across the bas-relief of the stereo pair {name}"
         ))),
-        links: SceneLinks {
-            thimble: Some(thimble_publisher),
-            status_suffix: Some(Box::new(move || stats.status_text())),
-            ..SceneLinks::default()
-        },
+        links,
         colour: None,
         explored: Explored::Relief(layout, Box::new(model)),
     })
 }
 
-impl super::camera::CameraFeed {
+impl crate::camera_feed::CameraFeed {
     /// The scene of a camera's relief over `layout`, described as `description`.
     fn into_scene(self, layout: ReliefLayout, description: Option<String>) -> Scene {
         Scene {

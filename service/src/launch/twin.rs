@@ -17,17 +17,20 @@ use videt_runtime::setup;
 use videt_sim::Twin;
 
 use super::calibration::TwinInit;
-use super::{start::start, LaunchError};
+use super::{start::Starter, LaunchError};
 use crate::colour_thread::ColourOutputs;
 use crate::init::corrected::CorrectedTensions;
-use crate::plan::{PlannedTwin, ServicePlan, SimMode};
+use crate::plan::{PlannedCalibration, PlannedFeed, PlannedTwin, SimMode};
 use crate::relief_scene::SweepPath;
 use crate::run::HardwareReports;
 use crate::service_hardware::ServiceHardware;
 
-/// Run the plan on `hardware`, the twin of `device`.
+/// Run the service on `hardware`, the twin of `device` (its configured geometry), rendering
+/// `feed` with the geometry `calibration` gives.
 pub fn run<const N: usize, D>(
-    plan: ServicePlan,
+    starter: &Starter,
+    feed: PlannedFeed,
+    calibration: &PlannedCalibration,
     device: D,
     hardware: PlannedTwin,
 ) -> Result<ExitCode, LaunchError>
@@ -36,19 +39,12 @@ where
     CorrectedTensions<RealTimeTwin<N, D>>: ServiceHardware<N>,
     CorrectedTensions<CanTwin<N, RealTimeTwin<N, D>>>: ServiceHardware<N>,
 {
-    let ServicePlan {
-        feed,
-        calibration,
-        tension_correction,
-        settings,
-        ..
-    } = plan;
-    let config = &settings.config;
+    let config = &starter.settings.config;
     let sim = hardware.mode();
     let wall = wall_scene(config, device, thimble_start(&device), 1);
     let mut twin = wall.twin;
     let (device, wire_zero, calibrated) =
-        super::calibration::resolve(config, device, &calibration, Some(&mut twin))?;
+        super::calibration::resolve(config, device, calibration, Some(&mut twin));
     let cycle = setup::control_cycle_for(config, device, wire_zero, calibrated);
     let layout = layout_in_front_of(config, &device.logged_guides_m()[..N]);
     let describe = |what: &str| describe::<N, D>(what, sim);
@@ -72,13 +68,11 @@ where
     }
     wire_as_configured(&mut twin, config, sim);
     let PlannedTwin::Can(dictionary) = hardware else {
-        return Ok(start(
+        return Ok(starter.start(
             RealTimeTwin::new(twin),
             scene,
             cycle,
-            &settings,
             description,
-            tension_correction,
             HardwareReports::default(),
         ));
     };
@@ -92,21 +86,8 @@ where
     )
     .map_err(|e| LaunchError::failed(format!("simulated CAN drives: {e}")))?;
     let bus = hw.bus_stats();
-    let reports = HardwareReports {
-        fault_causes: Some(videt_assembly::hardware::drive_fault_causes(
-            hw.fault_reports(),
-        )),
-        drives_report: Some(hw.startup_report()),
-    };
-    let code = start(
-        hw,
-        scene,
-        cycle,
-        &settings,
-        description,
-        tension_correction,
-        reports,
-    );
+    let reports = HardwareReports::of_drives(&mut hw);
+    let code = starter.start(hw, scene, cycle, description, reports);
     if let Some(s) = bus.map(|b| b.snapshot()) {
         info!(
             bitrate = s.bitrate,

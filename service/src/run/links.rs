@@ -8,6 +8,9 @@ use std::sync::Arc;
 use tracing::warn;
 
 pub use videt_assembly::hardware::FaultCauses;
+use videt_assembly::hardware::{drive_fault_causes, DriveReports};
+use videt_runtime::snapshot::SnapshotReader;
+use videt_runtime::thimble::ThimbleState;
 
 /// What a scene adds to the service: a second reader of the thimble state (a vision thread that
 /// looks where the finger is), a suffix for the status line, the twin's vision stall and the
@@ -35,6 +38,34 @@ pub struct HardwareReports {
     /// The drives' start-up report (identities, missing optional objects): logged once per
     /// configuration and carried in the status reply.
     pub drives_report: Option<videt_drivers::cia402::SharedStartupReport>,
+}
+
+impl SceneLinks {
+    /// The links of a vision thread that looks where the finger is: the thimble state the
+    /// control thread publishes every period (the reader returned, for the thread), and
+    /// `status` after each status line.
+    pub fn following_the_finger(
+        status: impl Fn() -> String + Send + 'static,
+    ) -> (SceneLinks, SnapshotReader<ThimbleState>) {
+        let (publisher, reader) = videt_runtime::thimble::thimble_channel();
+        let links = SceneLinks {
+            thimble: Some(publisher),
+            status_suffix: Some(Box::new(status)),
+            ..SceneLinks::default()
+        };
+        (links, reader)
+    }
+}
+
+impl HardwareReports {
+    /// What the CiA 402 drives of `hw` report: the cause of each safe state they enter, and their
+    /// start-up report.
+    pub fn of_drives<H: DriveReports>(hw: &mut H) -> HardwareReports {
+        HardwareReports {
+            fault_causes: Some(drive_fault_causes(hw.fault_reports())),
+            drives_report: Some(hw.startup_report()),
+        }
+    }
 }
 
 /// Log each hardware fault cause not yet told ([`HardwareReports::fault_causes`]); the latest

@@ -1,6 +1,7 @@
-//! The relief from cameras: the device's V4L2 stereo pair, or a folder of raw pairs played as
-//! one on the twin. The first relief is built before the service starts; a vision thread keeps
-//! it up to date, and the colour under the finger comes from the same left frames.
+//! A relief feed from cameras: the device's V4L2 stereo pair, or a folder of raw pairs played as
+//! one on the twin. The first relief is built before the service starts; a vision thread
+//! ([`crate::camera_relief`]) keeps it up to date, and the colour under the finger comes from
+//! the same left frames.
 
 use tracing::{info, warn};
 use videt_config::Config;
@@ -143,7 +144,10 @@ where
     let (writer, feed) =
         crate::relief_feed::relief_channel_for(config, model.clone()).map_err(|e| e.to_string())?;
     let stats = Arc::new(CameraStats::default());
-    let (thimble_publisher, thimble_reader) = videt_runtime::thimble::thimble_channel();
+    let status = Arc::clone(&stats);
+    let (mut links, thimble_reader) =
+        SceneLinks::following_the_finger(move || status.status_text());
+    links.live_image = live_image;
     // The thread runs as long as the process: the service ends by exiting.
     let stop = Arc::new(AtomicBool::new(false));
     spawn_camera_updates(
@@ -154,17 +158,11 @@ where
             full_refresh: std::time::Duration::from_secs_f64(config.vision.full_refresh_s),
         },
         Some(thimble_reader),
-        Arc::clone(&stats),
+        stats,
         stop,
         videt_runtime::rt::vision_fifo_priority(&config.realtime),
     )
     .map_err(|e| format!("cannot start the vision thread: {e}"))?;
-    let links = SceneLinks {
-        thimble: Some(thimble_publisher),
-        status_suffix: Some(Box::new(move || stats.status_text())),
-        live_image,
-        ..SceneLinks::default()
-    };
     Ok(CameraFeed {
         feed,
         links,
