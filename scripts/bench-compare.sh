@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # The control path's and the vision path's benchmarks of two revisions in one run, on this
-# machine, one after the other: BASE (a commit, checked out in a temporary worktree) saves
-# criterion baselines, then the working tree is measured against them (criterion prints each
-# change with its confidence interval), then BASE again against the working tree's (a drift of
-# the machine between the two shows as a change in both directions). Timings on a shared VM are
-# noisy: read the medians and compare the ratios of one run, never absolutes.
+# machine, one after the other: per benchmark BASE (a commit, checked out in a temporary
+# worktree), then the working tree, then BASE again, each saved as a criterion baseline. Printed:
+# the working tree against BASE (criterion's change with its confidence interval), and BASE
+# against itself a run later (the machine's drift over the same time: a change smaller than
+# that is noise). Timings on a shared VM are noisy: read the medians and compare the ratios of
+# one run, never absolutes.
 #
 #   scripts/bench-compare.sh BASE [SECONDS]   SECONDS of measurement per benchmark (default 3)
 #
@@ -21,6 +22,9 @@ BASE=${1:?usage: $0 BASE [SECONDS]}
 SECONDS_EACH=${2:-3}
 HERE=$(pwd)
 WORK=$(mktemp -d /tmp/videt-bench-compare.XXXXXX)
+# BASE's builds are kept between runs (its dependencies take long to build with the bench
+# profile's LTO).
+BASE_TARGET=$HERE/target/bench-base
 trap 'git -C "$HERE" worktree remove --force "$WORK/base" >/dev/null 2>&1 || true; rm -rf "$WORK"' EXIT
 git worktree add --detach "$WORK/base" "$BASE" >/dev/null
 # Both revisions' criterion data in one place, so that each compares with the other's baseline.
@@ -43,26 +47,35 @@ benches=(
   "videt frame_to_force"
 )
 criterion_args=(--warm-up-time 1 --measurement-time "$SECONDS_EACH" --noplot)
+# Where a revision's benches are built.
+target_of() {
+  if [ "$1" = "$HERE" ]; then echo "$HERE/target"; else echo "$BASE_TARGET"; fi
+}
 run() {
   local dir=$1 package=$2 bench=$3
   shift 3
-  (cd "$dir" && CARGO_TARGET_DIR=$dir/target cargo bench --quiet -p "$package" --bench "$bench" -- \
+  (cd "$dir" && CARGO_TARGET_DIR=$(target_of "$dir") cargo bench --quiet -p "$package" --bench "$bench" -- \
     "${criterion_args[@]}" "$@")
 }
 echo "== building both revisions' benches" >&2
 for entry in "${benches[@]}"; do
   read -r package bench <<<"$entry"
-  (cd "$WORK/base" && CARGO_TARGET_DIR=$WORK/base/target cargo bench --quiet --no-run \
+  (cd "$WORK/base" && CARGO_TARGET_DIR=$BASE_TARGET cargo bench --quiet --no-run \
     -p "$(base_package "$package" "$bench")" --bench "$bench") >&2
   (cd "$HERE" && CARGO_TARGET_DIR=$HERE/target cargo bench --quiet --no-run -p "$package" \
     --bench "$bench") >&2
 done
 for entry in "${benches[@]}"; do
   read -r package bench <<<"$entry"
-  echo "== $bench: $BASE (baseline)"
-  run "$WORK/base" "$(base_package "$package" "$bench")" "$bench" --save-baseline base >/dev/null
+  base_pkg=$(base_package "$package" "$bench")
+  echo "== $bench: $BASE, measured (baseline base)" >&2
+  run "$WORK/base" "$base_pkg" "$bench" --save-baseline base >/dev/null
+  echo "== $bench: the working tree, measured (baseline head)" >&2
+  run "$HERE" "$package" "$bench" --save-baseline head >/dev/null
+  echo "== $bench: $BASE measured again (baseline base2)" >&2
+  run "$WORK/base" "$base_pkg" "$bench" --save-baseline base2 >/dev/null
   echo "== $bench: the working tree against $BASE"
-  run "$HERE" "$package" "$bench" --save-baseline head --baseline base
-  echo "== $bench: $BASE again, against the working tree"
-  run "$WORK/base" "$(base_package "$package" "$bench")" "$bench" --baseline head
+  run "$HERE" "$package" "$bench" --load-baseline head --baseline base
+  echo "== $bench: $BASE against itself a run later (the machine's drift)"
+  run "$WORK/base" "$base_pkg" "$bench" --load-baseline base2 --baseline base
 done
