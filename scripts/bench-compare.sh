@@ -7,7 +7,11 @@
 # that is noise). Timings on a shared VM are noisy: read the medians and compare the ratios of
 # one run, never absolutes.
 #
-#   scripts/bench-compare.sh BASE [SECONDS]   SECONDS of measurement per benchmark (default 3)
+#   scripts/bench-compare.sh BASE [SECONDS] [BENCH...]   SECONDS of measurement per benchmark
+#                                                        (default 3); only the BENCHes named
+#
+# The shared data is taken from VIDET_DATA_DIR, else beside this checkout (both revisions must
+# measure the same pairs).
 #
 # The benchmarks (package in BASE, package here, bench, filter):
 # - the control path: one control step per device and algorithm (videt-control control_step),
@@ -18,9 +22,12 @@
 #   a camera frame to the control thread's relief feed (videt frame_to_force).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-BASE=${1:?usage: $0 BASE [SECONDS]}
+BASE=${1:?usage: $0 BASE [SECONDS] [BENCH...]}
 SECONDS_EACH=${2:-3}
+ONLY=("${@:3}")
 HERE=$(pwd)
+export VIDET_DATA_DIR=${VIDET_DATA_DIR:-$(cd "$HERE/.." && pwd)/shared/data}
+[ -d "$VIDET_DATA_DIR" ] || { echo "bench-compare: no shared data at $VIDET_DATA_DIR (VIDET_DATA_DIR)" >&2; exit 2; }
 WORK=$(mktemp -d /tmp/videt-bench-compare.XXXXXX)
 # BASE's builds are kept between runs (its dependencies take long to build with the bench
 # profile's LTO).
@@ -46,6 +53,15 @@ benches=(
   "videt-relief surface_queries"
   "videt frame_to_force"
 )
+if [ ${#ONLY[@]} -gt 0 ]; then
+  chosen=()
+  for entry in "${benches[@]}"; do
+    for name in "${ONLY[@]}"; do
+      [ "${entry#* }" = "$name" ] && chosen+=("$entry")
+    done
+  done
+  benches=("${chosen[@]}")
+fi
 criterion_args=(--warm-up-time 1 --measurement-time "$SECONDS_EACH" --noplot)
 # Where a revision's benches are built.
 target_of() {
