@@ -14,11 +14,13 @@ use crate::plan::PlannedCalibration;
 /// A device whose twin may be auto-initialized at start-up (the WireMan's base triangle).
 pub trait TwinInit<const N: usize>: RuntimeDevice<N> {
     /// Auto-initialize `twin` as a technician would: the measured rig and encoder zeros; `None`
-    /// for a device without auto-initialization.
+    /// (the default) for a device without auto-initialization.
     fn auto_initialize(
-        config: &Config,
-        twin: &mut Twin<N, Self>,
-    ) -> Option<Result<(Rig3, WireZero), String>>;
+        _config: &Config,
+        _twin: &mut Twin<N, Self>,
+    ) -> Option<Result<(Rig3, WireZero), String>> {
+        None
+    }
 }
 
 impl TwinInit<3> for Rig3 {
@@ -30,23 +32,11 @@ impl TwinInit<3> for Rig3 {
     }
 }
 
-impl TwinInit<2> for PlanarDevice {
-    fn auto_initialize(
-        _: &Config,
-        _: &mut Twin<2, Self>,
-    ) -> Option<Result<(Rig3, WireZero), String>> {
-        None
-    }
-}
+/// The planar device has no base triangle to measure.
+impl TwinInit<2> for PlanarDevice {}
 
-impl TwinInit<1> for PolarDevice {
-    fn auto_initialize(
-        _: &Config,
-        _: &mut Twin<1, Self>,
-    ) -> Option<Result<(Rig3, WireZero), String>> {
-        None
-    }
-}
+/// The one-wire device has no base triangle to measure.
+impl TwinInit<1> for PolarDevice {}
 
 /// The device forces are rendered with, its encoder zeros and whether forces are rendered at
 /// all, from `calibration` (`configured`: the configuration's device; `twin`: the twin to
