@@ -6,7 +6,8 @@
 //!
 //! `cargo bench --bench scene_feed`
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use std::hint::black_box;
 use videt_control::{Surface, Vec3};
 use videt_hal::TensionSensors;
@@ -29,43 +30,49 @@ fn period<F: SurfaceFeed>(feed: &mut F, p: &Vec3) -> Option<f64> {
     view.surface.contact(p).map(|c| c.depth_m)
 }
 
+/// Bench `name`: one period of `feed` per iteration, the finger moving along `points`.
+fn bench_periods<F: SurfaceFeed>(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    mut feed: F,
+    points: &[Vec3],
+) {
+    let mut k = 0;
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            k = (k + 1) % points.len();
+            black_box(period(&mut feed, black_box(&points[k])))
+        })
+    });
+}
+
+/// Bench `name`: one reading of `sensors`' fresh tensions per iteration.
+fn bench_readings(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    mut sensors: impl TensionSensors<3>,
+) {
+    let mut out = [0.0; 3];
+    group.bench_function(name, |b| {
+        b.iter(|| black_box(sensors.read_fresh_tensions(black_box(&mut out))).ok())
+    });
+}
+
 fn bench_feeds(c: &mut Criterion) {
     let config = videt_config::Config::default();
     let layout = videt_runtime::setup::relief_layout(&config);
     let (model, _) = box_relief(&layout, 0.0).unwrap();
     let points = sweep(layout.centre_m, layout.back_plane_z_m - 0.02);
     let mut group = c.benchmark_group("scene_feed");
-    let (_writer, mut direct) = relief_channel_for(&config, model.clone()).unwrap();
-    let mut k = 0;
-    group.bench_function("relief_feed", |b| {
-        b.iter(|| {
-            k = (k + 1) % points.len();
-            black_box(period(&mut direct, black_box(&points[k])))
-        })
-    });
+    let (_writer, direct) = relief_channel_for(&config, model.clone()).unwrap();
+    bench_periods(&mut group, "relief_feed", direct, &points);
     let (_writer, relief) = relief_channel_for(&config, model).unwrap();
-    let mut scene = SceneFeed::Relief(Box::new(relief));
-    group.bench_function("relief_in_scene_feed", |b| {
-        b.iter(|| {
-            k = (k + 1) % points.len();
-            black_box(period(&mut scene, black_box(&points[k])))
-        })
-    });
+    let relief = SceneFeed::Relief(Box::new(relief));
+    bench_periods(&mut group, "relief_in_scene_feed", relief, &points);
     let wall = videt_runtime::setup::check_wall();
-    let mut fixed = FixedSurface(wall);
-    group.bench_function("wall", |b| {
-        b.iter(|| {
-            k = (k + 1) % points.len();
-            black_box(period(&mut fixed, black_box(&points[k])))
-        })
-    });
-    let mut scene = SceneFeed::Wall(FixedSurface(wall));
-    group.bench_function("wall_in_scene_feed", |b| {
-        b.iter(|| {
-            k = (k + 1) % points.len();
-            black_box(period(&mut scene, black_box(&points[k])))
-        })
-    });
+    bench_periods(&mut group, "wall", FixedSurface(wall), &points);
+    let wall = SceneFeed::Wall(FixedSurface(wall));
+    bench_periods(&mut group, "wall_in_scene_feed", wall, &points);
     group.finish();
 }
 
@@ -73,22 +80,12 @@ fn bench_tensions(c: &mut Criterion) {
     let config = videt_config::Config::default();
     let twin = || videt_assembly::twin_scene::wireman_wall_scene(&config, 1).twin;
     let mut group = c.benchmark_group("tension_readings");
-    let mut out = [0.0; 3];
-    let mut raw = twin();
-    group.bench_function("twin", |b| {
-        b.iter(|| black_box(raw.read_fresh_tensions(black_box(&mut out))).ok())
-    });
-    let mut passing = CorrectedTensions::new(twin(), None);
-    group.bench_function("corrected_without_calibration", |b| {
-        b.iter(|| black_box(passing.read_fresh_tensions(black_box(&mut out))).ok())
-    });
-    let mut corrected = CorrectedTensions::new(
-        twin(),
-        Some(videt_config::calibration::TensionCalibration::default()),
-    );
-    group.bench_function("corrected", |b| {
-        b.iter(|| black_box(corrected.read_fresh_tensions(black_box(&mut out))).ok())
-    });
+    bench_readings(&mut group, "twin", twin());
+    let passing = CorrectedTensions::new(twin(), None);
+    bench_readings(&mut group, "corrected_without_calibration", passing);
+    let calibration = videt_config::calibration::TensionCalibration::default();
+    let corrected = CorrectedTensions::new(twin(), Some(calibration));
+    bench_readings(&mut group, "corrected", corrected);
     group.finish();
 }
 

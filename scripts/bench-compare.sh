@@ -28,6 +28,28 @@ ONLY=("${@:3}")
 HERE=$(pwd)
 export VIDET_DATA_DIR=${VIDET_DATA_DIR:-$(cd "$HERE/.." && pwd)/shared/data}
 [ -d "$VIDET_DATA_DIR" ] || { echo "bench-compare: no shared data at $VIDET_DATA_DIR (VIDET_DATA_DIR)" >&2; exit 2; }
+benches=(
+  "videt-control control_step"
+  "videt-drivers cia402_cycle_exchange"
+  "videt-vision stereo_pipeline_stages"
+  "videt-relief surface_build"
+  "videt-relief surface_queries"
+  "videt frame_to_force"
+)
+if [ ${#ONLY[@]} -gt 0 ]; then
+  chosen=()
+  for name in "${ONLY[@]}"; do
+    found=
+    for entry in "${benches[@]}"; do
+      [ "${entry#* }" = "$name" ] && chosen+=("$entry") && found=1
+    done
+    [ -n "$found" ] || {
+      echo "bench-compare: no bench $name; the benches: $(printf '%s ' "${benches[@]#* }")" >&2
+      exit 2
+    }
+  done
+  benches=("${chosen[@]}")
+fi
 WORK=$(mktemp -d /tmp/videt-bench-compare.XXXXXX)
 # BASE's builds are kept between runs (its dependencies take long to build with the bench
 # profile's LTO).
@@ -45,23 +67,6 @@ base_package() {
     echo "$package"
   fi
 }
-benches=(
-  "videt-control control_step"
-  "videt-drivers cia402_cycle_exchange"
-  "videt-vision stereo_pipeline_stages"
-  "videt-relief surface_build"
-  "videt-relief surface_queries"
-  "videt frame_to_force"
-)
-if [ ${#ONLY[@]} -gt 0 ]; then
-  chosen=()
-  for entry in "${benches[@]}"; do
-    for name in "${ONLY[@]}"; do
-      [ "${entry#* }" = "$name" ] && chosen+=("$entry")
-    done
-  done
-  benches=("${chosen[@]}")
-fi
 criterion_args=(--warm-up-time 1 --measurement-time "$SECONDS_EACH" --noplot)
 # Where a revision's benches are built.
 target_of() {
@@ -73,13 +78,16 @@ run() {
   (cd "$dir" && CARGO_TARGET_DIR=$(target_of "$dir") cargo bench --quiet -p "$package" --bench "$bench" -- \
     "${criterion_args[@]}" "$@")
 }
+build() {
+  local dir=$1 package=$2 bench=$3
+  (cd "$dir" && CARGO_TARGET_DIR=$(target_of "$dir") cargo bench --quiet --no-run -p "$package" \
+    --bench "$bench") >&2
+}
 echo "== building both revisions' benches" >&2
 for entry in "${benches[@]}"; do
   read -r package bench <<<"$entry"
-  (cd "$WORK/base" && CARGO_TARGET_DIR=$BASE_TARGET cargo bench --quiet --no-run \
-    -p "$(base_package "$package" "$bench")" --bench "$bench") >&2
-  (cd "$HERE" && CARGO_TARGET_DIR=$HERE/target cargo bench --quiet --no-run -p "$package" \
-    --bench "$bench") >&2
+  build "$WORK/base" "$(base_package "$package" "$bench")" "$bench"
+  build "$HERE" "$package" "$bench"
 done
 for entry in "${benches[@]}"; do
   read -r package bench <<<"$entry"
